@@ -1,0 +1,17 @@
+//! The crate-level error: one variant per stage, each wrapping that stage's own enum.
+
+use thiserror::Error;
+
+/// Any error softsense can return. Each stage has its own enum; this gathers them.
+#[derive(Debug, Error)]
+pub enum Error {
+    /// Reading or writing files (clouds, images, intrinsics).
+    #[error(transparent)]
+    Io(#[from] crate::io::IoError),
+    /// A point-cloud operation was given inconsistent data.
+    #[error(transparent)]
+    Cloud(#[from] crate::cloud::CloudError),
+}
+
+/// `Result` with the crate-level [`Error`].
+pub type Result<T, E = Error> = std::result::Result<T, E>;
