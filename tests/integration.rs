@@ -1,1 +1,2 @@
-//! integration tests.
+//! Integration tests: whole stages and the CLI on files.
+mod common;

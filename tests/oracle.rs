@@ -1,1 +1,2 @@
-//! oracle tests.
+//! Live comparisons against PCL and Open3D (programs in `tools/oracle/`).
+mod common;

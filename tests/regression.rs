@@ -1,1 +1,2 @@
-//! regression tests.
+//! Regression tests: one test per bug, named after it.
+mod common;

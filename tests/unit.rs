@@ -1,1 +1,5 @@
-//! unit tests.
+//! Unit tests, one module per library module (mirrors `src/`).
+mod common;
+
+#[path = "unit/cloud.rs"]
+mod cloud;

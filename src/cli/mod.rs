@@ -1,0 +1,1 @@
+//! Subcommand implementations: each parses nothing itself (clap did) and calls the library.

@@ -1,0 +1,61 @@
+//! Shared helpers for the test binaries: real-data location and skip policy.
+#![allow(dead_code)]
+
+use std::path::PathBuf;
+
+/// The real third-party data folder from `SOFTSENSE_DATA`.
+///
+/// - unset: prints why the calling test is skipped and returns `None`;
+/// - set but missing (or not a directory): panics, because CI asked for the data.
+pub fn data_dir(test: &str) -> Option<PathBuf> {
+    match std::env::var_os("SOFTSENSE_DATA") {
+        None => {
+            eprintln!("SKIPPED {test}: SOFTSENSE_DATA is not set (see ../shared/data/README.md)");
+            None
+        }
+        Some(dir) => {
+            let dir = PathBuf::from(dir);
+            assert!(
+                dir.is_dir(),
+                "SOFTSENSE_DATA={} is set but is not a directory",
+                dir.display()
+            );
+            Some(dir)
+        }
+    }
+}
+
+/// A file under `SOFTSENSE_DATA`; `None` (with a skip message) when the variable is
+/// unset, a panic when it is set and the file is missing.
+pub fn data_file(test: &str, rel: &str) -> Option<PathBuf> {
+    let path = data_dir(test)?.join(rel);
+    assert!(
+        path.exists(),
+        "SOFTSENSE_DATA is set but {} is missing",
+        path.display()
+    );
+    Some(path)
+}
+
+/// Every `.pcd` file below `dir` (recursively), sorted.
+pub fn pcd_files_under(dir: &std::path::Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for entry in std::fs::read_dir(&d).expect("readable data dir") {
+            let p = entry.expect("dir entry").path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.extension().is_some_and(|e| e == "pcd") {
+                out.push(p);
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+/// The project root (for fixtures under `tests/`, `clouds/`, `meshes/`).
+pub fn project_root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
