@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 /// Arguments of `softsense info`.
 #[derive(Debug, Args)]
 #[command(
+    about = "Summarise a cloud file: points, fields, encoding, bounds, viewpoint",
     long_about = "Print what a cloud file holds: number of points and of finite points, \
 organized size (width x height), the file's fields, its encoding, the bounding box of the \
 finite points and the sensor viewpoint.\n\n\

@@ -12,6 +12,8 @@ pub enum CliError {
     Usage(String),
     /// The library refused (bad file, bad intrinsics, ...); the message names the file.
     Lib(softsense::Error),
+    /// The command ran but its result is unusable (e.g. no valid point); exit code 1.
+    Result(String),
 }
 
 impl CliError {
@@ -19,7 +21,7 @@ impl CliError {
     pub fn exit_code(&self) -> u8 {
         match self {
             CliError::Usage(_) => 2,
-            CliError::Lib(_) => 1,
+            CliError::Lib(_) | CliError::Result(_) => 1,
         }
     }
 }
@@ -27,7 +29,7 @@ impl CliError {
 impl fmt::Display for CliError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            CliError::Usage(m) => write!(f, "{m}"),
+            CliError::Usage(m) | CliError::Result(m) => write!(f, "{m}"),
             CliError::Lib(e) => write!(f, "{e}"),
         }
     }

@@ -239,6 +239,13 @@ fn bad_rgbd_inputs_are_typed_errors_naming_the_file() {
     .unwrap();
     let o = convert_rgbd(&fixture("depth.png"), vga.to_str().unwrap(), &[out]);
     assert_fails(&o, 1, &["depth.png", "(640, 480)", "(320, 240)"]);
+    // Truncation so tight that nothing is left: an error, not an all-NaN file.
+    let o = convert_rgbd(
+        &fixture("depth.png"),
+        &fixture("intrinsics.json"),
+        &["--depth-trunc", "0.01", out],
+    );
+    assert_fails(&o, 1, &["depth.png", "no pixel gives a valid point"]);
     assert!(!Path::new(out).exists());
 }
 
