@@ -3,3 +3,6 @@ mod common;
 
 #[path = "unit/cloud.rs"]
 mod cloud;
+
+#[path = "unit/io_pcd.rs"]
+mod io_pcd;
