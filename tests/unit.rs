@@ -6,3 +6,6 @@ mod cloud;
 
 #[path = "unit/io_pcd.rs"]
 mod io_pcd;
+
+#[path = "unit/io_ply.rs"]
+mod io_ply;
