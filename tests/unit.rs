@@ -4,5 +4,14 @@ mod common;
 #[path = "unit/cloud.rs"]
 mod cloud;
 
+#[path = "unit/io_pcd.rs"]
+mod io_pcd;
+
+#[path = "unit/io_ply.rs"]
+mod io_ply;
+
+#[path = "unit/io_malformed.rs"]
+mod io_malformed;
+
 #[path = "unit/io_rgbd.rs"]
 mod io_rgbd;

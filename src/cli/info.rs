@@ -39,10 +39,10 @@ fn header_facts(path: &Path, cloud: &softsense::PointCloud) -> Result<HeaderFact
     let from_cloud = || cloud.field_names().iter().map(|f| f.to_string()).collect();
     Ok(match CloudFormat::from_path(path) {
         Some(CloudFormat::Pcd) => {
-            // TODO(merge io): io::pcd::read_pcd_header(path)? -> fields, encoding.keyword()
+            let header = io::pcd::read_pcd_header(path)?;
             HeaderFacts {
-                fields: from_cloud(),
-                encoding: "unknown".into(),
+                fields: header.fields.iter().map(|f| f.name.clone()).collect(),
+                encoding: header.encoding.keyword().to_string(),
             }
         }
         Some(CloudFormat::Ply) => HeaderFacts {

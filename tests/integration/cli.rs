@@ -127,6 +127,12 @@ fn convert_round_trips_through_every_format_and_encoding() {
         ]);
         assert!(o.status.success(), "{name}: {}", stderr(&o));
         let back = read_cloud(&out).unwrap();
+        let v = json_of(&softsense(&["info", out.to_str().unwrap(), "--json"]));
+        let want = match (name.ends_with(".ply"), enc) {
+            (true, "binary") => "binary_little_endian",
+            (_, e) => e,
+        };
+        assert_eq!(v["encoding"], want, "{name}");
         if name.ends_with(".pcd") {
             assert_same_cloud(&original, &back);
         } else {
