@@ -281,3 +281,24 @@ fn argument_misuse_exits_with_code_2() {
     assert_fails(&o, 2, &["depth_scale"]);
     assert_fails(&softsense(&["frobnicate"]), 2, &[]);
 }
+
+/// The CLI on a real Kinect frame (TIFF depth + TIFF colour + PCL XML) writes the same
+/// cloud PCL's grabber wrote for it.
+#[test]
+fn rgbd_convert_of_a_real_frame_equals_pcls_pcd() {
+    let Some(dir) = crate::common::data_dir("rgbd_convert_of_a_real_frame_equals_pcls_pcd") else {
+        return;
+    };
+    let stem = dir.join("pcl/grabber_sequence/frame_20121214T142256.068683");
+    let s = stem.to_str().unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("frame.pcd");
+    let o = convert_rgbd(
+        &format!("{s}_depth.tiff"),
+        &format!("{s}.xml"),
+        &["--color", &format!("{s}_rgb.tiff"), out.to_str().unwrap()],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let pcl = read_cloud(format!("{s}.pcd")).unwrap();
+    assert_same_cloud(&read_cloud(&out).unwrap(), &pcl);
+}

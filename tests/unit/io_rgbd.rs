@@ -601,3 +601,91 @@ fn grabber_frames_match_pcls_own_pcd() {
     assert_eq!(max_pcl, 0.0);
     assert!(max_o3d <= 1e-6, "{max_o3d}");
 }
+
+// ---------------------------------------------------------------- committed bad-input corpus
+
+/// What a corpus file must fail with: the variant's name and a fragment of its message.
+const MALFORMED: &[(&str, &str, &str)] = &[
+    ("depth_grey8.png", "UnsupportedDepthType", "8-bit grey"),
+    ("depth_rgb8.png", "UnsupportedDepthType", "8-bit RGB"),
+    ("depth_rgb16.png", "UnsupportedDepthType", "16-bit RGB"),
+    ("depth_float32.tiff", "UnsupportedDepthType", "cannot read"),
+    ("depth_truncated.png", "Image", "decode"),
+    ("depth_not_an_image.png", "Image", "decode"),
+    ("depth_huge_dims.png", "Image", "limit"),
+    ("depth_small.png", "SizeMismatch", "(320, 240)"),
+    ("color_grey8.png", "UnsupportedColorType", "8-bit grey"),
+    ("color_grey16.png", "UnsupportedColorType", "16-bit grey"),
+    ("color_small.png", "SizeMismatch", "(8, 6)"),
+    (
+        "intrinsics_missing_height.json",
+        "BadIntrinsics",
+        "`height`",
+    ),
+    (
+        "intrinsics_skew.json",
+        "BadIntrinsics",
+        "`intrinsic_matrix[3]`",
+    ),
+    ("intrinsics_short_matrix.json", "BadIntrinsics", "9 numbers"),
+    ("intrinsics_huge_width.json", "BadIntrinsics", "`width`"),
+    ("intrinsics_syntax.json", "IntrinsicsSyntax", "malformed"),
+    (
+        "intrinsics_missing_fy.xml",
+        "BadIntrinsics",
+        "`focal_length_y`",
+    ),
+    (
+        "intrinsics_bad_factor.xml",
+        "BadIntrinsics",
+        "`z_multiplication_factor`",
+    ),
+    (
+        "intrinsics_unclosed.xml",
+        "IntrinsicsSyntax",
+        "never closed",
+    ),
+    (
+        "intrinsics.yaml",
+        "UnknownIntrinsicsFormat",
+        "unknown intrinsics format",
+    ),
+];
+
+/// Each file in `tests/fixtures/rgbd/malformed` is tried in the role its name says
+/// (`depth_*` as the depth image of the demo frame, `color_*` as its colour image,
+/// `intrinsics*` as its camera) and must give the listed typed error naming the file.
+#[test]
+fn committed_malformed_rgbd_inputs_give_typed_errors_naming_the_file() {
+    let fixtures = common::project_root().join("tests/fixtures/rgbd");
+    let dir = fixtures.join("malformed");
+    let mut on_disk: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    on_disk.sort();
+    let mut listed: Vec<String> = MALFORMED.iter().map(|m| m.0.to_string()).collect();
+    listed.sort();
+    assert_eq!(on_disk, listed, "corpus and table disagree");
+    let camera = read_camera_model(fixtures.join("intrinsics.json")).unwrap();
+    let (depth, color) = (fixtures.join("depth.png"), fixtures.join("color.png"));
+    for &(name, variant, fragment) in MALFORMED {
+        let bad = dir.join(name);
+        let result = if name.starts_with("depth") {
+            read_frame(&bad, Some(color.as_path()), &camera)
+        } else if name.starts_with("color") {
+            read_frame(&depth, Some(bad.as_path()), &camera)
+        } else {
+            read_camera_model(&bad).map(|_| Default::default())
+        };
+        let err = result.expect_err(name);
+        let message = err.to_string();
+        let (path, source) = rgbd_err(err);
+        assert_eq!(path, bad, "{name}");
+        assert!(
+            format!("{source:?}").starts_with(variant),
+            "{name}: {source:?}"
+        );
+        assert!(message.contains(fragment), "{name}: {message}");
+    }
+}
