@@ -120,7 +120,7 @@ pub fn run(args: &ConvertArgs) -> CliResult {
             "width": cloud.width,
             "height": cloud.height,
             "fields": cloud.field_names(),
-        }));
+        }))?;
     }
     eprintln!(
         "wrote {}: {} points ({} finite), {} x {}",

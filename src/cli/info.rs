@@ -95,7 +95,7 @@ pub fn run(args: &InfoArgs) -> CliResult {
             "encoding": facts.encoding,
             "bounds": bounds.map(|(lo, hi)| json!({"min": lo, "max": hi})),
             "viewpoint": {"origin": vp.origin, "orientation_wxyz": vp.orientation},
-        }));
+        }))?;
     } else {
         eprintln!("{}", args.file.display());
         eprintln!("  points:        {} ({} finite)", cloud.len(), finite);

@@ -50,7 +50,14 @@ impl From<softsense::io::IoError> for CliError {
 /// The result every subcommand returns.
 pub type CliResult = Result<(), CliError>;
 
-/// Prints a JSON value on stdout, one document per line.
-pub fn print_json(value: &serde_json::Value) {
-    println!("{value}");
+/// Prints a JSON value on stdout, one document per line. A closed pipe (`| head`) is not
+/// an error; any other write failure is.
+pub fn print_json(value: &serde_json::Value) -> CliResult {
+    use std::io::Write;
+    match writeln!(std::io::stdout().lock(), "{value}") {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
+            Err(CliError::Result(format!("cannot write to stdout: {e}")))
+        }
+        _ => Ok(()),
+    }
 }
