@@ -130,8 +130,12 @@ pub fn run(args: &ConvertArgs) -> CliResult {
         cloud.width,
         cloud.height
     );
-    if CloudFormat::from_path(output) == Some(CloudFormat::Xyz) && cloud.field_names().len() > 3 {
+    let format = CloudFormat::from_path(output);
+    if format == Some(CloudFormat::Xyz) && cloud.field_names().len() > 3 {
         eprintln!("note: XYZ keeps positions only; other fields were dropped");
+    }
+    if format != Some(CloudFormat::Pcd) && cloud.is_organized() {
+        eprintln!("note: only PCD stores the organized shape; the file holds a flat list");
     }
     Ok(())
 }
