@@ -401,6 +401,14 @@ fn open3d_json_is_column_major() {
         }
     );
     assert_eq!(cam.params, DepthParams::default());
+    // Byte for byte what Open3D 0.20's write_pinhole_camera_intrinsic writes.
+    let written =
+        "{\n\t\"height\" : 480,\n\t\"intrinsic_matrix\" : [ 525.0, 0.0, 0.0, 0.0, 525.0, \
+                   0.0, 319.5, 239.5, 1.0 ],\n\t\"width\" : 640\n}";
+    assert_eq!(
+        parse_open3d_json(written).unwrap().intrinsics,
+        PinholeIntrinsics::prime_sense_default()
+    );
 }
 
 fn field_of(e: RgbdError) -> String {
