@@ -264,7 +264,9 @@ pub fn depth_to_cloud(
                 let dv = v as f32 - cy;
                 for (u, &raw) in row.iter().enumerate() {
                     let z = f32::from(raw) * factor;
-                    positions.push(if raw == 0 || f64::from(z) >= trunc {
+                    // z == 0: no measurement (raw 0), or a scale so large the product
+                    // underflows; either way never a point at the origin.
+                    positions.push(if z <= 0.0 || f64::from(z) >= trunc {
                         nan
                     } else {
                         [(u as f32 - cx) * z * kx, dv * z * ky, z]

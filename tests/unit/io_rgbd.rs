@@ -222,6 +222,28 @@ proptest! {
     }
 }
 
+proptest! {
+    #[test]
+    fn every_point_is_either_valid_in_front_of_the_camera_or_all_nan(
+        raw in proptest::collection::vec(any::<u16>(), 6),
+        log_scale in -3.0f64..45.0,
+        trunc in prop_oneof![Just(f64::INFINITY), 0.001f64..100.0],
+        open3d in any::<bool>(),
+    ) {
+        let params = DepthParams {
+            depth_scale: 10f64.powf(log_scale),
+            depth_trunc: trunc,
+            arithmetic: if open3d { Arithmetic::Open3d } else { Arithmetic::Pcl },
+        };
+        let cloud = depth_to_cloud(&raw, None, &intr(3, 2), &params).unwrap();
+        for p in &cloud.positions {
+            let all_nan = p.iter().all(|c| c.is_nan());
+            let valid = p.iter().all(|c| c.is_finite()) && p[2] > 0.0 && f64::from(p[2]) < trunc;
+            prop_assert!(all_nan || valid, "{:?} with {:?}", p, params);
+        }
+    }
+}
+
 // ---------------------------------------------------------------- image files
 
 #[test]
