@@ -277,6 +277,17 @@ fn crc32(bytes: &[u8]) -> u32 {
     !crc
 }
 
+/// A copy of a PNG whose IHDR (after the 8-byte signature and the chunk's length and
+/// type) claims `w x h`, with the chunk CRC fixed so only the size is wrong.
+fn with_size(png: &[u8], w: u32, h: u32) -> Vec<u8> {
+    let mut out = png.to_vec();
+    out[16..20].copy_from_slice(&w.to_be_bytes());
+    out[20..24].copy_from_slice(&h.to_be_bytes());
+    let crc = crc32(&out[12..29]);
+    out[29..33].copy_from_slice(&crc.to_be_bytes());
+    out
+}
+
 /// Writes the malformed RGB-D corpus.
 fn write_malformed(dir: &Path) -> Result<(), Box<dyn Error>> {
     use image::{ImageBuffer, Luma, Rgb};
@@ -301,13 +312,15 @@ fn write_malformed(dir: &Path) -> Result<(), Box<dyn Error>> {
         dir.join("depth_not_an_image.png"),
         b"P5 this is not a PNG\n",
     )?;
-    // IHDR (bytes 16..24 after the 8-byte signature and chunk header) claims 100000 x 100000.
-    let mut huge = png.clone();
-    huge[16..20].copy_from_slice(&100_000u32.to_be_bytes());
-    huge[20..24].copy_from_slice(&100_000u32.to_be_bytes());
-    let crc = crc32(&huge[12..29]);
-    huge[29..33].copy_from_slice(&crc.to_be_bytes());
-    std::fs::write(dir.join("depth_huge_dims.png"), huge)?;
+    std::fs::write(
+        dir.join("depth_huge_dims.png"),
+        with_size(&png, 100_000, 100_000),
+    )?;
+    // Within the side limit, but 128 MB of pixels from a file of a few hundred bytes.
+    std::fs::write(
+        dir.join("depth_implausible_dims.png"),
+        with_size(&png, 8000, 8000),
+    )?;
     let m = "[262.5, 0, 0, 0, 262.5, 0, 159.5, 119.5, 1]";
     for (name, text) in [
         ("intrinsics_missing_height.json", format!(r#"{{"width": 320, "intrinsic_matrix": {m}}}"#)),

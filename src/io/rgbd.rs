@@ -63,6 +63,17 @@ pub enum RgbdError {
         /// The decoder's message.
         message: String,
     },
+    /// The image declares more pixels than its file size can hold (hostile or corrupt
+    /// header); refused before allocating.
+    #[error("image declares {width}x{height} pixels, more than a {file_len}-byte file can hold")]
+    ImplausibleSize {
+        /// Declared width.
+        width: u32,
+        /// Declared height.
+        height: u32,
+        /// The file's size in bytes.
+        file_len: u64,
+    },
     /// The depth image is not 16-bit single-channel.
     #[error("depth image must be 16-bit single-channel (grey), found {found}")]
     UnsupportedDepthType {
@@ -86,6 +97,9 @@ pub enum RgbdError {
         found: (u32, u32),
     },
 }
+
+/// The most decoded bytes per file byte we believe a PNG or TIFF can hold.
+const MAX_EXPANSION: u64 = 4096;
 
 /// A decoded 16-bit depth image, row-major.
 #[derive(Debug, Clone, PartialEq)]
@@ -159,6 +173,7 @@ fn decode_checked(
         })
     };
     let file = std::fs::File::open(path).map_err(os)?;
+    let file_len = file.metadata().map_err(os)?.len();
     let mut reader = ImageReader::new(std::io::BufReader::new(file))
         .with_guessed_format()
         .map_err(os)?;
@@ -167,6 +182,17 @@ fn decode_checked(
     limits.max_image_height = Some(MAX_IMAGE_SIDE);
     reader.limits(limits);
     let decoder = reader.into_decoder().map_err(image_err)?;
+    // No allocation beyond what the file can justify: no PNG/TIFF codec expands data by
+    // more than MAX_EXPANSION (LZW's worst case is about 2730:1, deflate's 1032:1).
+    let (width, height) = decoder.dimensions();
+    let needed = decoder.total_bytes();
+    if needed > file_len.saturating_mul(MAX_EXPANSION) + (1 << 20) {
+        return Err(rgbd(RgbdError::ImplausibleSize {
+            width,
+            height,
+            file_len,
+        }));
+    }
     let color_type = decoder.color_type();
     if !accept(color_type) {
         return Err(rgbd(wrong(describe(color_type))));

@@ -643,6 +643,7 @@ const MALFORMED: &[(&str, &str, &str)] = &[
     ("depth_truncated.png", "Image", "decode"),
     ("depth_not_an_image.png", "Image", "decode"),
     ("depth_huge_dims.png", "Image", "limit"),
+    ("depth_implausible_dims.png", "ImplausibleSize", "8000x8000"),
     ("depth_small.png", "SizeMismatch", "(320, 240)"),
     ("color_grey8.png", "UnsupportedColorType", "8-bit grey"),
     ("color_grey16.png", "UnsupportedColorType", "16-bit grey"),
