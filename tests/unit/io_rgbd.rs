@@ -720,3 +720,55 @@ fn committed_malformed_rgbd_inputs_give_typed_errors_naming_the_file() {
         assert!(message.contains(fragment), "{name}: {message}");
     }
 }
+
+// ---------------------------------------------------------------- fuzzing
+
+/// Applies `edits` (position, byte) to a copy of `bytes`, and cuts it to `keep` of its length.
+fn mutate(bytes: &[u8], edits: &[(usize, u8)], keep: f64) -> Vec<u8> {
+    let mut out = bytes.to_vec();
+    for &(i, b) in edits {
+        if !out.is_empty() {
+            let n = out.len();
+            out[i % n] = b;
+        }
+    }
+    out.truncate((out.len() as f64 * keep).ceil() as usize);
+    out
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(128))]
+
+    #[test]
+    fn intrinsics_parsers_never_panic_on_random_or_mutated_text(
+        random in ".{0,200}",
+        edits in proptest::collection::vec((any::<usize>(), any::<u8>()), 0..6),
+        keep in 0.0f64..=1.0,
+    ) {
+        let _ = parse_open3d_json(&random);
+        let _ = parse_pcl_xml(&random);
+        let json = br#"{"width": 640, "height": 480, "intrinsic_matrix": [525, 0, 0, 0, 525, 0, 319.5, 239.5, 1]}"#;
+        let _ = parse_open3d_json(&String::from_utf8_lossy(&mutate(json, &edits, keep)));
+        let _ = parse_pcl_xml(&String::from_utf8_lossy(&mutate(PCL_XML.as_bytes(), &edits, keep)));
+    }
+
+    #[test]
+    fn image_readers_never_panic_on_mutated_files(
+        edits in proptest::collection::vec((any::<usize>(), any::<u8>()), 1..8),
+        keep in 0.0f64..=1.0,
+        tiff in any::<bool>(),
+    ) {
+        let dir = tempfile::tempdir().unwrap();
+        let name = if tiff { "d.tiff" } else { "d.png" };
+        let good = dir.path().join(name);
+        ImageBuffer::<Luma<u16>, _>::from_fn(7, 5, |u, v| Luma([(u * 300 + v * 7) as u16]))
+            .save(&good)
+            .unwrap();
+        let bad = dir.path().join(format!("bad_{name}"));
+        std::fs::write(&bad, mutate(&std::fs::read(&good).unwrap(), &edits, keep)).unwrap();
+        if let Ok(img) = read_depth_image(&bad) {
+            prop_assert_eq!(img.data.len(), img.width as usize * img.height as usize);
+        }
+        let _ = read_color_image(&bad);
+    }
+}
