@@ -500,11 +500,14 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PointCloud, PlyError> {
                 let big = header.format == PlyFormat::BinaryBigEndian;
                 let mut off = 0;
                 for (p, &target) in element.props.iter().zip(&targets) {
-                    if target != Target::Skip {
-                        for (i, r) in records.chunks_exact(record).enumerate() {
-                            out.set(i, target, binary_value(&r[off..], p.ty, big), p.ty);
-                        }
-                    }
+                    let column = Column {
+                        records,
+                        record,
+                        offset: off,
+                        ty: p.ty,
+                        big_endian: big,
+                    };
+                    out.fill(target, &column);
                     off += p.ty.size();
                 }
             }
@@ -547,6 +550,37 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PointCloud, PlyError> {
         }
     }
     Ok(out.into_cloud())
+}
+
+/// One property of fixed-size binary records.
+struct Column<'a> {
+    records: &'a [u8],
+    record: usize,
+    offset: usize,
+    ty: Scalar,
+    big_endian: bool,
+}
+
+impl Column<'_> {
+    /// Calls `store(i, value)` for every record. PERF: the type is matched once per
+    /// column, with fast paths for the common little-endian `float` and `uchar`.
+    fn for_each(&self, mut store: impl FnMut(usize, f64)) {
+        let rows = self
+            .records
+            .chunks_exact(self.record)
+            .map(|r| &r[self.offset..]);
+        match (self.ty, self.big_endian) {
+            (Scalar::F32, false) => rows.enumerate().for_each(|(i, b)| {
+                store(i, f64::from(f32::from_le_bytes([b[0], b[1], b[2], b[3]])))
+            }),
+            (Scalar::U8, _) => rows
+                .enumerate()
+                .for_each(|(i, b)| store(i, f64::from(b[0]))),
+            (ty, big) => rows
+                .enumerate()
+                .for_each(|(i, b)| store(i, binary_value(b, ty, big))),
+        }
+    }
 }
 
 /// The vertex attributes being filled; a column exists when its properties do.
@@ -601,6 +635,43 @@ impl VertexColumns {
             Target::Label => {
                 if let Some(l) = &mut self.labels {
                     l[i] = v as u32;
+                }
+            }
+            Target::Skip => {}
+        }
+    }
+
+    /// Stores a whole column of fixed-size binary records where `target` says.
+    fn fill(&mut self, target: Target, col: &Column<'_>) {
+        let ty = col.ty;
+        match target {
+            Target::Pos(a) => {
+                let pos = &mut self.cloud.positions;
+                col.for_each(|i, v| pos[i][a] = v as f32);
+            }
+            Target::Normal(a) => {
+                if let Some(nm) = &mut self.normals {
+                    col.for_each(|i, v| nm[i][a] = v as f32);
+                }
+            }
+            Target::Color(a) => {
+                if let Some(c) = &mut self.colors {
+                    col.for_each(|i, v| c[i][a] = channel(v, ty));
+                }
+            }
+            Target::Alpha => {
+                if let Some(al) = &mut self.alpha {
+                    col.for_each(|i, v| al[i] = channel(v, ty));
+                }
+            }
+            Target::Curvature => {
+                if let Some(c) = &mut self.curvature {
+                    col.for_each(|i, v| c[i] = v as f32);
+                }
+            }
+            Target::Label => {
+                if let Some(l) = &mut self.labels {
+                    col.for_each(|i, v| l[i] = v as u32);
                 }
             }
             Target::Skip => {}
