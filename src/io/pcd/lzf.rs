@@ -69,9 +69,19 @@ pub enum LzfError {
 /// Decompresses `input`, which must decode to exactly `expected` bytes. The output is
 /// allocated once; callers bound `expected` (see [`MAX_RATIO`]) before calling.
 pub fn decompress(input: &[u8], expected: usize) -> Result<Vec<u8>, LzfError> {
-    // PERF: a zeroed buffer (calloc) written by index is several times faster than
-    // pushing, and the overlapping copies below move whole periods at a time.
-    let mut out = vec![0u8; expected];
+    let mut out = Vec::new();
+    decompress_into(input, expected, &mut out)?;
+    Ok(out)
+}
+
+/// Like [`decompress`], but into `out` (resized to `expected`), so that a caller
+/// decoding frame after frame reuses one buffer instead of faulting in fresh pages.
+pub fn decompress_into(input: &[u8], expected: usize, out: &mut Vec<u8>) -> Result<(), LzfError> {
+    // PERF: writing a pre-sized buffer by index is several times faster than pushing,
+    // and the overlapping copies below move whole periods at a time.
+    out.clear();
+    out.resize(expected, 0);
+    let out = &mut out[..];
     let mut op = 0;
     let mut ip = 0;
     while ip < input.len() {
@@ -138,7 +148,7 @@ pub fn decompress(input: &[u8], expected: usize) -> Result<Vec<u8>, LzfError> {
     if op != expected {
         return Err(LzfError::Short { got: op, expected });
     }
-    Ok(out)
+    Ok(())
 }
 
 fn hash(b: &[u8]) -> usize {
