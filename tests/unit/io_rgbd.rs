@@ -90,6 +90,40 @@ fn back_projection_follows_the_pinhole_model() {
     }
 }
 
+/// Six pixels of a real Kinect frame (`frame_20121214T142256.068683`, fx = fy = 525,
+/// c = (320, 240), millimetres) with the exact bits PCL's grabber wrote for them. They were
+/// chosen where both the other f32 order, (u − cx)·(1/fx)·z, and the f64 formula give a
+/// different float, so only PCL's own order passes. (u, v, raw depth, [x, y, z] bits.)
+const PCL_PIXELS: [(u32, u32, u16, [u32; 3]); 6] = [
+    (397, 353, 833, [0x3dfa3605, 0x3e3798ac, 0x3f553f7e]),
+    (408, 247, 880, [0x3e170b7d, 0x3c403d2b, 0x3f6147af]),
+    (447, 446, 734, [0x3e35d1ca, 0x3e9375bd, 0x3f3be76d]),
+    (138, 222, 781, [0xbe8a9f4e, 0xbcdb5bbe, 0x3f47ef9e]),
+    (167, 75, 1381, [0xbece0f9c, 0xbede38fe, 0x3fb0c49c]),
+    (131, 31, 1536, [0xbf0d8eca, 0xbf1c8995, 0x3fc49ba6]),
+];
+
+#[test]
+fn pcl_arithmetic_reproduces_pcls_bits_where_other_orders_differ() {
+    let k = PinholeIntrinsics {
+        width: 640,
+        height: 480,
+        fx: 525.0,
+        fy: 525.0,
+        cx: 320.0,
+        cy: 240.0,
+    };
+    let mut depth = vec![0u16; 640 * 480];
+    for &(u, v, raw, _) in &PCL_PIXELS {
+        depth[(v * 640 + u) as usize] = raw;
+    }
+    let cloud = depth_to_cloud(&depth, None, &k, &DepthParams::default()).unwrap();
+    for &(u, v, _, bits) in &PCL_PIXELS {
+        let p = cloud.positions[(v * 640 + u) as usize];
+        assert_eq!(p.map(f32::to_bits), bits, "pixel ({u}, {v}): {p:?}");
+    }
+}
+
 #[test]
 fn depth_at_or_beyond_trunc_is_invalid() {
     // 2999 mm stays, 3000 mm (= trunc) and beyond go, as in Open3D.
