@@ -14,6 +14,8 @@ pub enum CliError {
     Lib(softsense::Error),
     /// The command ran but its result is unusable (e.g. no valid point); exit code 1.
     Result(String),
+    /// Any other error from a subcommand that returns `Box<dyn Error>`; exit code 1.
+    Other(Box<dyn std::error::Error>),
 }
 
 impl CliError {
@@ -21,7 +23,7 @@ impl CliError {
     pub fn exit_code(&self) -> u8 {
         match self {
             CliError::Usage(_) => 2,
-            CliError::Lib(_) | CliError::Result(_) => 1,
+            CliError::Lib(_) | CliError::Result(_) | CliError::Other(_) => 1,
         }
     }
 }
@@ -31,6 +33,7 @@ impl fmt::Display for CliError {
         match self {
             CliError::Usage(m) | CliError::Result(m) => write!(f, "{m}"),
             CliError::Lib(e) => write!(f, "{e}"),
+            CliError::Other(e) => write!(f, "{e}"),
         }
     }
 }
@@ -38,6 +41,12 @@ impl fmt::Display for CliError {
 impl From<softsense::Error> for CliError {
     fn from(e: softsense::Error) -> Self {
         CliError::Lib(e)
+    }
+}
+
+impl From<Box<dyn std::error::Error>> for CliError {
+    fn from(e: Box<dyn std::error::Error>) -> Self {
+        CliError::Other(e)
     }
 }
 
