@@ -8,7 +8,14 @@
 //!
 //! Every size is checked against the bytes actually present before anything is
 //! allocated, so a hostile header (`POINTS 4000000000` with a ten-byte body) is an error,
-//! not an out-of-memory abort.
+//! not an out-of-memory abort. A `binary_compressed` body may expand at most
+//! [`lzf::MAX_RATIO`] times, LZF's own limit. Each thread keeps its last decompression
+//! buffer (up to 64 MB) for the next read, so frame-after-frame reading does not fault
+//! in fresh pages.
+//!
+//! Where PCL is lenient we report an error instead: `COUNT 0` (PCL drops the field),
+//! malformed ASCII rows (PCL skips them but counts them as points) and unknown header
+//! keywords. An `rgb` field gives colours without an alpha column; `rgba` keeps alpha.
 //!
 //! Writing ([`to_pcd_bytes`]) emits the fields of [`PointCloud::field_names`], all 4 bytes:
 //! floats as `TYPE F`, colour as `TYPE U` (`rgb`, or `rgba` when the cloud has an alpha
@@ -308,10 +315,12 @@ impl<'a> Body<'a> {
         let mut at = 0;
         for f in &header.fields {
             offsets.push(at);
-            at += if columnar {
-                f.byte_len() * n
-            } else {
+            at += if !columnar {
                 f.byte_len()
+            } else if f.is_padding() {
+                0 // PCL stores no column for `_` padding in compressed bodies
+            } else {
+                f.byte_len() * n
             };
         }
         Body {
@@ -475,7 +484,10 @@ pub fn parse_pcd(bytes: &[u8]) -> Result<PointCloud, PcdError> {
                 Ok(buf) => &mut **buf,
                 Err(_) => &mut fresh,
             };
-            decompress_body(body, total, data)?;
+            let columns = points
+                .checked_mul(header.columnar_record_size() as u64)
+                .ok_or(PcdError::TooManyPoints { points })?;
+            decompress_body(body, columns, data)?;
             let cloud = decode(&header, &Body::new(&header, data, n, true));
             if data.capacity() > MAX_SCRATCH_BYTES {
                 *data = Vec::new();
