@@ -19,11 +19,15 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     // Subcommands are added here, one line each, implemented in src/cli/<name>.rs.
+    /// Finite-element model: static solve, compliance.
+    Fem(cli::fem::FemArgs),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let result: anyhow_like::Result = match cli.command {};
+    let result: anyhow_like::Result = match cli.command {
+        Command::Fem(a) => cli::fem::run(a),
+    };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

@@ -71,14 +71,22 @@ pub struct Pattern {
 }
 
 impl Pattern {
-    /// Builds the pattern for `mesh` with free DOFs `dofs`.
-    pub fn new(mesh: &TetMesh, dofs: &DofMap) -> FemResult<Self> {
+    /// Builds the pattern for `mesh` with free DOFs `dofs`; each of `groups` (e.g. the
+    /// nodes along one cable) is coupled fully as well.
+    pub fn new(mesh: &TetMesh, dofs: &DofMap, groups: &[Vec<usize>]) -> FemResult<Self> {
         let n = mesh.num_nodes();
         let mut adj: Vec<Vec<usize>> = vec![Vec::new(); n];
-        for t in &mesh.tets {
+        for t in mesh
+            .tets
+            .iter()
+            .map(|t| t.as_slice())
+            .chain(groups.iter().map(|g| g.as_slice()))
+        {
             for &a in t {
                 for &b in t {
-                    adj[b].push(a);
+                    if a < n && b < n {
+                        adj[b].push(a);
+                    }
                 }
             }
         }
@@ -143,6 +151,31 @@ impl Pattern {
     /// Number of stored entries.
     pub fn nnz(&self) -> usize {
         self.row_idx.len()
+    }
+
+    /// Adds the 3x3 block `k` at (node rows `a`, node columns `b`) into `values`
+    /// (upper-triangle entries only; pairs outside the pattern are ignored).
+    pub fn add_block(
+        &self,
+        dofs: &DofMap,
+        a: usize,
+        b: usize,
+        k: &[[f64; 3]; 3],
+        values: &mut [f64],
+    ) {
+        for i in 0..3 {
+            let Some(r) = dofs.dof(a, i) else { continue };
+            for j in 0..3 {
+                let Some(c) = dofs.dof(b, j) else { continue };
+                if r > c {
+                    continue;
+                }
+                let col = &self.row_idx[self.col_ptr[c]..self.col_ptr[c + 1]];
+                if let Ok(s) = col.binary_search(&r) {
+                    values[self.col_ptr[c] + s] += k[i][j];
+                }
+            }
+        }
     }
 
     /// Adds element `e`'s tangent into `values`.

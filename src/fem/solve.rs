@@ -374,7 +374,12 @@ impl<'p> Solver<'p> {
             .collect::<FemResult<Vec<_>>>()?;
         problem.mesh.quality()?;
         let dofs = DofMap::new(problem.mesh.num_nodes(), &problem.fixed);
-        let pattern = Pattern::new(&problem.mesh, &dofs)?;
+        let groups: Vec<Vec<usize>> = problem
+            .cables
+            .iter()
+            .map(|c| c.attach.iter().flat_map(|a| a.nodes).collect())
+            .collect();
+        let pattern = Pattern::new(&problem.mesh, &dofs, &groups)?;
         let sym = SymbolicSparseColMatRef::new_checked(
             dofs.ndof,
             dofs.ndof,
@@ -483,6 +488,49 @@ impl<'p> Solver<'p> {
         }
     }
 
+    /// Adds the geometric stiffness of a cable under tension `t` at positions `x`:
+    /// t d2L/dx2, with (I - u u^T) / l for each straight segment of length l.
+    pub fn add_cable_stiffness(&mut self, cable: &Cable, t: f64, x: &[[f64; 3]]) {
+        if t == 0.0 {
+            return;
+        }
+        let pts: Vec<[f64; 3]> = cable.attach.iter().map(|a| a.position(x)).collect();
+        for i in 0..pts.len() {
+            let prev = if i == 0 { cable.pull } else { pts[i - 1] };
+            let d = sub(pts[i], prev);
+            let l = norm(d);
+            if !(l > 0.0) {
+                continue;
+            }
+            let u = d.map(|c| c / l);
+            let mut blk = [[0.0; 3]; 3];
+            for (r, row) in blk.iter_mut().enumerate() {
+                for (c, v) in row.iter_mut().enumerate() {
+                    *v = t * ((if r == c { 1.0 } else { 0.0 }) - u[r] * u[c]) / l;
+                }
+            }
+            // Segment between attach i-1 (if any) and attach i: [[A, -A], [-A, A]].
+            let mut ends: Vec<(&MappedPoint, f64)> = vec![(&cable.attach[i], 1.0)];
+            if i > 0 {
+                ends.push((&cable.attach[i - 1], -1.0));
+            }
+            for (pa, sa) in &ends {
+                for (pb, sb) in &ends {
+                    for (na, wa) in pa.nodes.iter().zip(pa.weights) {
+                        for (nb, wb) in pb.nodes.iter().zip(pb.weights) {
+                            let f = sa * sb * wa * wb;
+                            if f != 0.0 {
+                                let k = blk.map(|r| r.map(|v| v * f));
+                                self.pattern
+                                    .add_block(&self.dofs, *na, *nb, &k, &mut self.values);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+
     /// Scatters a (node, 3-vector) row into a free-DOF column.
     pub fn row_to_dofs(&self, row: &[(usize, [f64; 3])], out: &mut [f64]) {
         for (n, v) in row {
@@ -577,12 +625,18 @@ impl<'p> Solver<'p> {
                     break;
                 }
                 iterations += 1;
+                for (ci, c) in p.cables.iter().enumerate() {
+                    self.add_cable_stiffness(c, tension[ci], &x);
+                }
                 match self.factorize() {
                     Err(FemError::Singular(_))
                         if params.tangent == Tangent::Consistent
                             && p.formulation == Formulation::Corotational =>
                     {
                         self.assemble(&x, Tangent::Rotated)?;
+                        for (ci, c) in p.cables.iter().enumerate() {
+                            self.add_cable_stiffness(c, tension[ci], &x);
+                        }
                         self.factorize()?;
                     }
                     other => other?,
