@@ -3,3 +3,10 @@ mod common;
 
 #[path = "unit/cloud.rs"]
 mod cloud;
+
+#[path = "unit/fem_compliance.rs"]
+mod fem_compliance;
+#[path = "unit/fem_element.rs"]
+mod fem_element;
+#[path = "unit/fem_mesh.rs"]
+mod fem_mesh;

@@ -127,8 +127,6 @@ impl Solver<'_> {
                 .sum();
             delta_free.push(rows[i].value(x) + du);
         }
-        // Symmetrise the round-off.
-        let w = (&w + w.transpose()) * 0.5;
         Ok(Compliance {
             w,
             delta_free,

@@ -348,6 +348,55 @@ impl TetMesh {
         Ok((best.0, best.1))
     }
 
+    /// A structured mesh of the box [lo, hi] with n cells per axis, each cube split into
+    /// the six Kuhn tetrahedra (conforming). Nodes are numbered x fastest, then y, then z.
+    pub fn structured_box(lo: [f64; 3], hi: [f64; 3], n: [usize; 3]) -> FemResult<Self> {
+        if n.iter().any(|&k| k == 0 || k > 1000) || (0..3).any(|k| !(hi[k] > lo[k])) {
+            return Err(FemError::InvalidMesh(format!(
+                "box {lo:?}..{hi:?} with {n:?} cells"
+            )));
+        }
+        let id = |i: usize, j: usize, k: usize| i + (n[0] + 1) * (j + (n[1] + 1) * k);
+        let mut nodes = Vec::with_capacity((n[0] + 1) * (n[1] + 1) * (n[2] + 1));
+        for k in 0..=n[2] {
+            for j in 0..=n[1] {
+                for i in 0..=n[0] {
+                    let f = |a: usize, m: usize, d: usize| {
+                        lo[d] + (hi[d] - lo[d]) * a as f64 / m as f64
+                    };
+                    nodes.push([f(i, n[0], 0), f(j, n[1], 1), f(k, n[2], 2)]);
+                }
+            }
+        }
+        const PERMS: [[usize; 3]; 6] = [
+            [0, 1, 2],
+            [0, 2, 1],
+            [1, 0, 2],
+            [1, 2, 0],
+            [2, 0, 1],
+            [2, 1, 0],
+        ];
+        let mut tets = Vec::with_capacity(6 * n[0] * n[1] * n[2]);
+        for k in 0..n[2] {
+            for j in 0..n[1] {
+                for i in 0..n[0] {
+                    for perm in PERMS {
+                        let mut c = [i, j, k];
+                        let mut t = [id(i, j, k); 4];
+                        for (s, ax) in perm.iter().enumerate() {
+                            c[*ax] += 1;
+                            t[s + 1] = id(c[0], c[1], c[2]);
+                        }
+                        tets.push(t);
+                    }
+                }
+            }
+        }
+        let mut mesh = Self::new(nodes, tets)?;
+        mesh.orient_positive();
+        Ok(mesh)
+    }
+
     /// Nodes inside the axis-aligned box [lo, hi] (inclusive).
     pub fn nodes_in_box(&self, lo: [f64; 3], hi: [f64; 3]) -> Vec<usize> {
         (0..self.num_nodes())

@@ -178,6 +178,8 @@ pub struct Problem {
     pub formulation: Formulation,
     /// Fixed nodes (removed from the system).
     pub fixed: Vec<usize>,
+    /// Nodes held at a prescribed displacement (removed from the system as well).
+    pub prescribed: Vec<(usize, [f64; 3])>,
     /// Mass density (kg/m^3) for gravity.
     pub density: f64,
     /// Gravity acceleration (m/s^2).
@@ -219,6 +221,7 @@ impl Problem {
             material,
             formulation,
             fixed: Vec::new(),
+            prescribed: Vec::new(),
             density: 0.0,
             gravity: [0.0; 3],
             loads: Vec::new(),
@@ -226,15 +229,40 @@ impl Problem {
         }
     }
 
+    /// Fixed and prescribed nodes, sorted, without repeats.
+    pub fn held_nodes(&self) -> Vec<usize> {
+        let mut v: Vec<usize> = self
+            .fixed
+            .iter()
+            .copied()
+            .chain(self.prescribed.iter().map(|p| p.0))
+            .collect();
+        v.sort_unstable();
+        v.dedup();
+        v
+    }
+
+    /// Node positions at rest, with prescribed nodes moved to their prescribed place.
+    pub fn initial_positions(&self) -> Vec<[f64; 3]> {
+        let mut x = self.mesh.nodes_in_rest.clone();
+        for (v, u) in &self.prescribed {
+            if let Some(p) = x.get_mut(*v) {
+                *p = [p[0] + u[0], p[1] + u[1], p[2] + u[2]];
+            }
+        }
+        x
+    }
+
     /// Checks that every connected component has fixed nodes spanning a plane (no rigid motion).
     pub fn check_supports(&self) -> FemResult<()> {
         let n = self.mesh.num_nodes();
-        if self.fixed.is_empty() {
+        let held = self.held_nodes();
+        if held.is_empty() {
             return Err(FemError::Singular(
                 "no fixed nodes: rigid motions are free".into(),
             ));
         }
-        if let Some(&v) = self.fixed.iter().find(|&&v| v >= n) {
+        if let Some(&v) = held.iter().find(|&&v| v >= n) {
             return Err(FemError::Model(format!(
                 "fixed node {v} does not exist ({n} nodes)"
             )));
@@ -257,7 +285,7 @@ impl Problem {
         }
         let mut fixed_by_root: std::collections::BTreeMap<usize, Vec<[f64; 3]>> =
             Default::default();
-        for &v in &self.fixed {
+        for &v in &held {
             let r = find(&mut parent, v);
             fixed_by_root
                 .entry(r)
@@ -373,7 +401,7 @@ impl<'p> Solver<'p> {
             .map(|t| TetRest::new(t, problem.mesh.corners(t)))
             .collect::<FemResult<Vec<_>>>()?;
         problem.mesh.quality()?;
-        let dofs = DofMap::new(problem.mesh.num_nodes(), &problem.fixed);
+        let dofs = DofMap::new(problem.mesh.num_nodes(), &problem.held_nodes());
         let groups: Vec<Vec<usize>> = problem
             .cables
             .iter()
@@ -546,7 +574,7 @@ impl<'p> Solver<'p> {
     pub fn solve_static(&mut self, params: &NewtonParams) -> FemResult<Solution> {
         let p = self.problem;
         let nn = p.mesh.num_nodes();
-        let mut x = p.mesh.nodes_in_rest.clone();
+        let mut x = p.initial_positions();
         let f_ext_full = p.external_forces();
         let l0: Vec<f64> = p
             .cables
@@ -589,8 +617,8 @@ impl<'p> Solver<'p> {
                         }
                     }
                 }
-                let scale = norm_vec(&self.dofs.gather(&full))
-                    + norm_vec(&self.dofs.gather(&self.internal_force));
+                // Force scale: applied and internal forces, including reactions at held nodes.
+                let scale = norm_vec(&full) + norm_vec(&self.internal_force);
                 for (f, fi) in full.iter_mut().zip(&self.internal_force) {
                     *f -= fi;
                 }
