@@ -1,5 +1,7 @@
 //! Integration tests: whole stages and the CLI on files.
 mod common;
 
+#[path = "integration/fem_cantilever.rs"]
+mod fem_cantilever;
 #[path = "integration/fem_diamond.rs"]
 mod fem_diamond;

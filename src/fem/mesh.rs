@@ -351,6 +351,18 @@ impl TetMesh {
     /// A structured mesh of the box [lo, hi] with n cells per axis, each cube split into
     /// the six Kuhn tetrahedra (conforming). Nodes are numbered x fastest, then y, then z.
     pub fn structured_box(lo: [f64; 3], hi: [f64; 3], n: [usize; 3]) -> FemResult<Self> {
+        Self::structured_box_with(lo, hi, n, false)
+    }
+
+    /// As [`TetMesh::structured_box`]; with `mirrored`, every other cube along each axis is
+    /// the mirror image of its neighbour (still conforming), which removes the single
+    /// preferred diagonal direction of the plain Kuhn pattern.
+    pub fn structured_box_with(
+        lo: [f64; 3],
+        hi: [f64; 3],
+        n: [usize; 3],
+        mirrored: bool,
+    ) -> FemResult<Self> {
         if n.iter().any(|&k| k == 0 || k > 1000) || (0..3).any(|k| !(hi[k] > lo[k])) {
             return Err(FemError::InvalidMesh(format!(
                 "box {lo:?}..{hi:?} with {n:?} cells"
@@ -380,12 +392,22 @@ impl TetMesh {
         for k in 0..n[2] {
             for j in 0..n[1] {
                 for i in 0..n[0] {
+                    // Local corner offsets (0/1 per axis), mirrored per axis on odd cubes.
+                    let flip = [
+                        i % 2 == 1 && mirrored,
+                        j % 2 == 1 && mirrored,
+                        k % 2 == 1 && mirrored,
+                    ];
+                    let corner = |o: [usize; 3]| {
+                        let o = [0, 1, 2].map(|a| if flip[a] { 1 - o[a] } else { o[a] });
+                        id(i + o[0], j + o[1], k + o[2])
+                    };
                     for perm in PERMS {
-                        let mut c = [i, j, k];
-                        let mut t = [id(i, j, k); 4];
+                        let mut o = [0usize; 3];
+                        let mut t = [corner(o); 4];
                         for (s, ax) in perm.iter().enumerate() {
-                            c[*ax] += 1;
-                            t[s + 1] = id(c[0], c[1], c[2]);
+                            o[*ax] = 1;
+                            t[s + 1] = corner(o);
                         }
                         tets.push(t);
                     }

@@ -150,6 +150,8 @@ pub struct NewtonParams {
     pub abs_tol: f64,
     /// Equal load increments (1 = apply everything at once).
     pub load_steps: usize,
+    /// Converged when a correction is smaller than this times the displacement norm.
+    pub step_tol: f64,
     /// Corotational tangent (the rotated K0 is used as fallback if the consistent one is indefinite).
     #[serde(skip)]
     pub tangent: Tangent,
@@ -162,6 +164,7 @@ impl Default for NewtonParams {
             rel_tol: 1e-10,
             abs_tol: 1e-12,
             load_steps: 1,
+            step_tol: 1e-10,
             tangent: Tangent::Consistent,
         }
     }
@@ -599,6 +602,7 @@ impl<'p> Solver<'p> {
         for step in 1..=steps {
             let s = step as f64 / steps as f64;
             converged = false;
+            let mut last_step = f64::INFINITY;
             for _ in 0..params.max_iterations {
                 self.assemble(&x, params.tangent)?;
                 // residual r = s f_ext + sum H^T lambda - f_int on free DOFs
@@ -648,7 +652,11 @@ impl<'p> Solver<'p> {
                 let gaps_ok = gaps
                     .iter()
                     .all(|g| g.abs() <= gap_scale.max(1e-10 * g.abs()));
-                if rn <= params.abs_tol + params.rel_tol * scale && gaps_ok && iterations > 0 {
+                // Converged: residual small, or the last correction is at round-off level
+                // (ill-conditioned systems cannot reduce the residual further).
+                let small =
+                    rn <= params.abs_tol + params.rel_tol * scale || last_step <= params.step_tol;
+                if small && gaps_ok && iterations > 0 {
                     converged = true;
                     break;
                 }
@@ -712,6 +720,11 @@ impl<'p> Solver<'p> {
                         }
                     }
                 }
+                let un = (0..nn)
+                    .map(|v| norm(sub(x[v], p.mesh.nodes_in_rest[v])).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                last_step = norm_vec(&dx) / un.max(f64::MIN_POSITIVE);
             }
             if !converged {
                 return Err(FemError::NoConvergence {
