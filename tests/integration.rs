@@ -5,3 +5,5 @@ mod common;
 mod fem_cantilever;
 #[path = "integration/fem_diamond.rs"]
 mod fem_diamond;
+#[path = "integration/fem_skfem.rs"]
+mod fem_skfem;
