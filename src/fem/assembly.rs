@@ -163,16 +163,16 @@ impl Pattern {
         k: &[[f64; 3]; 3],
         values: &mut [f64],
     ) {
-        for i in 0..3 {
+        for (i, krow) in k.iter().enumerate() {
             let Some(r) = dofs.dof(a, i) else { continue };
-            for j in 0..3 {
+            for (j, kij) in krow.iter().enumerate() {
                 let Some(c) = dofs.dof(b, j) else { continue };
                 if r > c {
                     continue;
                 }
                 let col = &self.row_idx[self.col_ptr[c]..self.col_ptr[c + 1]];
                 if let Ok(s) = col.binary_search(&r) {
-                    values[self.col_ptr[c] + s] += k[i][j];
+                    values[self.col_ptr[c] + s] += kij;
                 }
             }
         }

@@ -18,6 +18,9 @@
 //! assert!(sol.displacement[3][2] < 0.0);
 //! ```
 
+// `!(x > 0.0)` is used on purpose: it also rejects NaN, which `x <= 0.0` would let through.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod assembly;
 pub mod constraint;
 pub mod material;

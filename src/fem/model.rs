@@ -391,8 +391,8 @@ impl Model {
                         .ok_or_else(|| FemError::Model("no surface".into()))?;
                     let mut n = [0.0; 3];
                     for (v, w) in at.nodes.iter().zip(at.weights) {
-                        for k in 0..3 {
-                            n[k] += w * s.vertex_normals[*v][k];
+                        for (nk, sk) in n.iter_mut().zip(s.vertex_normals[*v]) {
+                            *nk += w * sk;
                         }
                     }
                     vec![ConstraintRow::along(kind, &at, n)?]

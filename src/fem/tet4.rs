@@ -49,8 +49,8 @@ impl TetRest {
     /// Deformation gradient F = sum_a x_a g_a^T.
     pub fn deformation_gradient(&self, x: &[[f64; 3]; 4]) -> Matrix3<f64> {
         let mut f = Matrix3::zeros();
-        for a in 0..4 {
-            f += Vector3::from(x[a]) * self.grads[a].transpose();
+        for (xa, ga) in x.iter().zip(&self.grads) {
+            f += Vector3::from(*xa) * ga.transpose();
         }
         f
     }

@@ -36,8 +36,8 @@ fn setup() -> (Problem, Vec<ConstraintRow>) {
     let side = at([-0.02, 0.005, 0.06]);
     let mut normal = [0.0; 3];
     for (v, w) in side.nodes.iter().zip(side.weights) {
-        for k in 0..3 {
-            normal[k] += w * surface.vertex_normals[*v][k];
+        for (nk, sk) in normal.iter_mut().zip(surface.vertex_normals[*v]) {
+            *nk += w * sk;
         }
     }
     rows.push(ConstraintRow::along(RowKind::Effector, &side, normal).unwrap());
