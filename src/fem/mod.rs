@@ -5,7 +5,8 @@
 //! mm/kg/s units of SOFA scenes and are converted when loaded ([`model`]).
 //!
 //! ```
-//! use softsense::fem::{mesh::TetMesh, material::Material, solve::{Problem, Formulation}};
+//! use softsense::fem::{mesh::TetMesh, material::Material};
+//! use softsense::fem::solve::{Formulation, MappedPoint, PointLoad, Problem};
 //! // One unit tetrahedron, three nodes fixed, a force on the fourth.
 //! let mesh = TetMesh::new(
 //!     vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
@@ -13,7 +14,7 @@
 //! ).unwrap();
 //! let mut p = Problem::new(mesh, Material::new(1.0e4, 0.3).unwrap(), Formulation::SmallStrain);
 //! p.fixed = vec![0, 1, 2];
-//! p.point_loads.push((3, [0.0, 0.0, -1.0]));
+//! p.loads.push(PointLoad { at: MappedPoint::node(3), force: [0.0, 0.0, -1.0] });
 //! let sol = p.solve_static(&Default::default()).unwrap();
 //! assert!(sol.displacement[3][2] < 0.0);
 //! ```
