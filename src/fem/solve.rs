@@ -1,7 +1,7 @@
 //! The static problem and its Newton solver with faer's sparse Cholesky (symbolic analysis
 //! once per mesh and fixed set, numeric refactorization at every iteration).
 
-use super::assembly::{map_elements, DofMap, Pattern};
+use super::assembly::{eval_elements, DofMap, Pattern};
 use super::material::{von_mises, Material};
 use super::mesh::{norm, sub, TetMesh};
 use super::tet4::{ElementState, Tangent, TetRest};
@@ -402,6 +402,28 @@ impl<'p> Solver<'p> {
     /// Checks supports and mesh, builds the pattern and the symbolic factorization.
     pub fn new(problem: &'p Problem) -> FemResult<Self> {
         problem.check_supports()?;
+        let n = problem.mesh.num_nodes();
+        let points = problem
+            .loads
+            .iter()
+            .map(|l| &l.at)
+            .chain(problem.cables.iter().flat_map(|c| &c.attach));
+        for at in points {
+            if let Some(v) = at.nodes.iter().find(|&&v| v >= n) {
+                return Err(FemError::Model(format!(
+                    "a load or cable refers to node {v} ({n} nodes)"
+                )));
+            }
+        }
+        if let Some((v, _)) = problem
+            .prescribed
+            .iter()
+            .find(|(v, u)| *v >= n || u.iter().any(|c| !c.is_finite()))
+        {
+            return Err(FemError::Model(format!(
+                "prescribed displacement of node {v} is invalid"
+            )));
+        }
         let rest = (0..problem.mesh.tets.len())
             .map(|t| TetRest::new(t, problem.mesh.corners(t)))
             .collect::<FemResult<Vec<_>>>()?;
@@ -448,7 +470,8 @@ impl<'p> Solver<'p> {
         let rest_nodes = &p.mesh.nodes_in_rest;
         let m = &p.material;
         let form = p.formulation;
-        let states = map_elements(&self.rest, |e, r| {
+        let mut states = std::mem::take(&mut self.elements);
+        eval_elements(&self.rest, &mut states, |e, r| {
             let t = tets[e];
             match form {
                 Formulation::SmallStrain => {

@@ -207,7 +207,7 @@ pub fn polar_rotation(f: &Matrix3<f64>) -> Matrix3<f64> {
     for _ in 0..40 {
         let det = r.determinant();
         let Some(inv) = r.try_inverse() else { break };
-        let g = det.abs().powf(-1.0 / 3.0);
+        let g = 1.0 / det.abs().cbrt();
         let next = (r * g + inv.transpose() / g) * 0.5;
         let diff = (next - r).abs().max();
         r = next;
