@@ -56,6 +56,10 @@ fn rows(m: &Model, x: &[[f64; 3]]) -> Vec<ConstraintRow> {
 }
 
 fn bench(c: &mut Criterion) {
+    // SOFTSENSE_FAER_SEQ=1 runs faer single-threaded (to compare on a loaded machine).
+    if std::env::var_os("SOFTSENSE_FAER_SEQ").is_some() {
+        faer::set_global_parallelism(faer::Par::Seq);
+    }
     let (name, m) = load();
     let x = m
         .problem
