@@ -6,10 +6,14 @@ use super::material::{von_mises, Material};
 use super::mesh::{norm, sub, TetMesh};
 use super::tet4::{ElementState, Tangent, TetRest};
 use super::{FemError, FemResult};
-use faer::linalg::solvers::Solve;
-use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::sparse::linalg::cholesky::{
+    factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky,
+    SymbolicCholeskyRaw,
+};
+use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
-use faer::{Mat, Side};
+use faer::{Conj, Mat, Side};
 use serde::Serialize;
 
 /// Small-strain linear or corotational tetrahedra.
@@ -388,14 +392,18 @@ pub struct Solver<'p> {
     /// Sparsity pattern of K.
     pub pattern: Pattern,
     rest: Vec<TetRest>,
-    symbolic: SymbolicLlt<usize>,
+    /// Symbolic Cholesky (AMD ordering and supernodal structure), computed once.
+    pub(crate) symbolic: SymbolicCholesky<usize>,
+    /// Values of the supernodal factor L (reused between factorizations).
+    pub(crate) l_values: Vec<f64>,
     /// Values of K (upper triangle) after the last assembly.
     pub values: Vec<f64>,
     /// Internal forces (node-major 3n) after the last assembly.
     pub internal_force: Vec<f64>,
     /// Element states of the last assembly.
     pub elements: Vec<ElementState>,
-    llt: Option<Llt<usize, f64>>,
+    /// Whether `l_values` holds the factor of the current `values`.
+    factored: bool,
 }
 
 impl<'p> Solver<'p> {
@@ -442,8 +450,19 @@ impl<'p> Solver<'p> {
             None,
             &pattern.row_idx,
         );
-        let symbolic = SymbolicLlt::try_new(sym, Side::Upper)
-            .map_err(|e| FemError::Linalg(format!("{e:?}")))?;
+        // Always supernodal: the constraint-space forward solves (constraint.rs) walk the
+        // supernodes, and the diamond-sized systems are supernodal under AUTO anyway.
+        let symbolic = factorize_symbolic_cholesky(
+            sym,
+            Side::Upper,
+            Default::default(),
+            CholeskySymbolicParams {
+                supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+                ..Default::default()
+            },
+        )
+        .map_err(|e| FemError::Linalg(format!("{e:?}")))?;
+        let l_values = vec![0.0; symbolic.len_val()];
         let nnz = pattern.nnz();
         Ok(Self {
             problem,
@@ -451,10 +470,11 @@ impl<'p> Solver<'p> {
             pattern,
             rest,
             symbolic,
+            l_values,
             values: vec![0.0; nnz],
             internal_force: Vec::new(),
             elements: Vec::new(),
-            llt: None,
+            factored: false,
         })
     }
 
@@ -505,26 +525,61 @@ impl<'p> Solver<'p> {
             &self.pattern.row_idx,
         );
         let mat = SparseColMatRef::new(sym, &self.values);
-        self.llt = None;
-        match Llt::try_new_with_symbolic(self.symbolic.clone(), mat, Side::Upper) {
-            Ok(l) => {
-                self.llt = Some(l);
+        self.factored = false;
+        let par = faer::get_global_parallelism();
+        let mut mem = MemBuffer::try_new(
+            self.symbolic
+                .factorize_numeric_llt_scratch::<f64>(par, Default::default()),
+        )
+        .map_err(|e| FemError::Linalg(format!("{e:?}")))?;
+        match self.symbolic.factorize_numeric_llt(
+            &mut self.l_values,
+            mat,
+            Side::Upper,
+            Default::default(),
+            par,
+            MemStack::new(&mut mem),
+            Default::default(),
+        ) {
+            Ok(_) => {
+                self.factored = true;
                 Ok(())
             }
-            Err(faer::sparse::linalg::LltError::Numeric(e)) => Err(FemError::Singular(format!(
+            Err(e) => Err(FemError::Singular(format!(
                 "tangent stiffness is not positive definite ({e:?})"
             ))),
-            Err(e) => Err(FemError::Linalg(format!("{e:?}"))),
+        }
+    }
+
+    /// The current factor, or an error if the last factorization failed or none was done.
+    pub(crate) fn factor(&self) -> FemResult<LltRef<'_, usize, f64>> {
+        if !self.factored {
+            return Err(FemError::Linalg("no factorization".into()));
+        }
+        Ok(LltRef::new(&self.symbolic, &self.l_values))
+    }
+
+    /// The supernodal structure of the factor (always supernodal, see [`Solver::new`]).
+    pub(crate) fn supernodal(
+        &self,
+    ) -> FemResult<&faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky<usize>>
+    {
+        match self.symbolic.raw() {
+            SymbolicCholeskyRaw::Supernodal(s) => Ok(s),
+            SymbolicCholeskyRaw::Simplicial(_) => {
+                Err(FemError::Linalg("expected a supernodal factor".into()))
+            }
         }
     }
 
     /// Solves K X = B in place for free-DOF right-hand sides (columns of `b`).
     pub fn solve_in_place(&self, b: &mut Mat<f64>) -> FemResult<()> {
-        let llt = self
-            .llt
-            .as_ref()
-            .ok_or_else(|| FemError::Linalg("no factorization".into()))?;
-        llt.solve_in_place(b.as_mut());
+        let llt = self.factor()?;
+        let par = faer::get_global_parallelism();
+        let mut mem =
+            MemBuffer::try_new(self.symbolic.solve_in_place_scratch::<f64>(b.ncols(), par))
+                .map_err(|e| FemError::Linalg(format!("{e:?}")))?;
+        llt.solve_in_place_with_conj(Conj::No, b.as_mut(), par, MemStack::new(&mut mem));
         Ok(())
     }
 
