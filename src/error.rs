@@ -11,6 +11,9 @@ pub enum Error {
     /// A point-cloud operation was given inconsistent data.
     #[error(transparent)]
     Cloud(#[from] crate::cloud::CloudError),
+    /// The finite-element core: meshes, models, solves.
+    #[error(transparent)]
+    Fem(#[from] crate::fem::FemError),
 }
 
 /// `Result` with the crate-level [`Error`](enum@Error).

@@ -28,6 +28,7 @@
 
 pub mod cloud;
 pub mod error;
+pub mod fem;
 pub mod io;
 pub mod math;
 

@@ -36,13 +36,16 @@ enum Command {
     // Each variant's about/long_about lives on its Args struct, beside the options.
     Info(cli::info::InfoArgs),
     Convert(cli::convert::ConvertArgs),
+    /// Finite-element model: static solve, compliance.
+    Fem(cli::fem::FemArgs),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let result = match &cli.command {
-        Command::Info(args) => cli::info::run(args),
-        Command::Convert(args) => cli::convert::run(args),
+    let result = match cli.command {
+        Command::Info(args) => cli::info::run(&args),
+        Command::Convert(args) => cli::convert::run(&args),
+        Command::Fem(args) => cli::fem::run(args).map_err(cli::CliError::Other),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -3,3 +3,9 @@ mod common;
 
 #[path = "integration/cli.rs"]
 mod cli;
+#[path = "integration/fem_cantilever.rs"]
+mod fem_cantilever;
+#[path = "integration/fem_diamond.rs"]
+mod fem_diamond;
+#[path = "integration/fem_skfem.rs"]
+mod fem_skfem;

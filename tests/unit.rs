@@ -13,5 +13,13 @@ mod io_ply;
 #[path = "unit/io_malformed.rs"]
 mod io_malformed;
 
+#[path = "unit/fem_compliance.rs"]
+mod fem_compliance;
+#[path = "unit/fem_element.rs"]
+mod fem_element;
+#[path = "unit/fem_mesh.rs"]
+mod fem_mesh;
+#[path = "unit/fem_model.rs"]
+mod fem_model;
 #[path = "unit/io_rgbd.rs"]
 mod io_rgbd;

@@ -1,6 +1,7 @@
 //! Subcommand implementations: each parses nothing itself (clap did) and calls the library.
 
 pub mod convert;
+pub mod fem;
 pub mod info;
 
 use std::fmt;

@@ -1,0 +1,232 @@
+//! Sparse assembly on the free degrees of freedom: the upper-triangular CSC pattern of K,
+//! the per-element scatter slots, and the bitwise-deterministic assembly (element kernels in
+//! parallel, scatter serial in element order).
+
+use super::mesh::TetMesh;
+use super::tet4::{ElementState, TetRest};
+use super::FemResult;
+
+/// Marks a local entry that is not stored (fixed DOF or lower triangle).
+const SKIP: u32 = u32::MAX;
+
+/// Free-DOF numbering: fixed nodes are removed from the system.
+#[derive(Debug, Clone)]
+pub struct DofMap {
+    /// First free DOF of each node (3 consecutive), or `None` for a fixed node.
+    pub node_dof: Vec<Option<usize>>,
+    /// Number of free DOFs.
+    pub ndof: usize,
+}
+
+impl DofMap {
+    /// Numbers the free nodes in order, skipping `fixed`.
+    pub fn new(num_nodes: usize, fixed: &[usize]) -> Self {
+        let mut is_fixed = vec![false; num_nodes];
+        for &v in fixed {
+            if v < num_nodes {
+                is_fixed[v] = true;
+            }
+        }
+        let mut ndof = 0;
+        let node_dof = is_fixed
+            .iter()
+            .map(|&f| {
+                if f {
+                    None
+                } else {
+                    ndof += 3;
+                    Some(ndof - 3)
+                }
+            })
+            .collect();
+        Self { node_dof, ndof }
+    }
+
+    /// The free DOF of (node, component), if free.
+    pub fn dof(&self, node: usize, k: usize) -> Option<usize> {
+        self.node_dof.get(node).copied().flatten().map(|d| d + k)
+    }
+
+    /// Gathers a node-major 3n vector into free-DOF space.
+    pub fn gather(&self, full: &[f64]) -> Vec<f64> {
+        let mut out = vec![0.0; self.ndof];
+        for (v, d) in self.node_dof.iter().enumerate() {
+            if let Some(d) = d {
+                out[*d..*d + 3].copy_from_slice(&full[3 * v..3 * v + 3]);
+            }
+        }
+        out
+    }
+}
+
+/// The sparsity pattern (upper triangle, CSC) and scatter slots of one mesh and DOF map.
+#[derive(Debug, Clone)]
+pub struct Pattern {
+    /// Column pointers (ndof + 1).
+    pub col_ptr: Vec<usize>,
+    /// Row indices, ascending within each column.
+    pub row_idx: Vec<usize>,
+    /// For each element, the value slot of each local entry (row-major 12x12), or SKIP.
+    slots: Vec<[u32; 144]>,
+}
+
+impl Pattern {
+    /// Builds the pattern for `mesh` with free DOFs `dofs`; each of `groups` (e.g. the
+    /// nodes along one cable) is coupled fully as well.
+    pub fn new(mesh: &TetMesh, dofs: &DofMap, groups: &[Vec<usize>]) -> FemResult<Self> {
+        let n = mesh.num_nodes();
+        let mut adj: Vec<Vec<usize>> = vec![Vec::new(); n];
+        for t in mesh
+            .tets
+            .iter()
+            .map(|t| t.as_slice())
+            .chain(groups.iter().map(|g| g.as_slice()))
+        {
+            for &a in t {
+                for &b in t {
+                    if a < n && b < n {
+                        adj[b].push(a);
+                    }
+                }
+            }
+        }
+        let mut col_ptr = Vec::with_capacity(dofs.ndof + 1);
+        col_ptr.push(0);
+        let mut row_idx = Vec::new();
+        for (b, list) in adj.iter_mut().enumerate() {
+            let Some(db) = dofs.node_dof[b] else { continue };
+            list.sort_unstable();
+            list.dedup();
+            // Free neighbours' first DOFs, ascending (node order = DOF order).
+            let rows: Vec<usize> = list
+                .iter()
+                .filter_map(|&a| dofs.node_dof[a])
+                .filter(|&da| da <= db)
+                .collect();
+            for j in 0..3 {
+                for &da in &rows {
+                    for i in 0..3 {
+                        if da + i <= db + j {
+                            row_idx.push(da + i);
+                        }
+                    }
+                }
+                col_ptr.push(row_idx.len());
+            }
+        }
+        if row_idx.len() >= SKIP as usize {
+            return Err(super::FemError::Linalg(
+                "matrix too large for the slot index".into(),
+            ));
+        }
+        let mut slots = Vec::with_capacity(mesh.tets.len());
+        for t in &mesh.tets {
+            let mut s = [SKIP; 144];
+            for a in 0..4 {
+                for i in 0..3 {
+                    let Some(r) = dofs.dof(t[a], i) else { continue };
+                    for b in 0..4 {
+                        for j in 0..3 {
+                            let Some(c) = dofs.dof(t[b], j) else { continue };
+                            if r > c {
+                                continue;
+                            }
+                            let col = &row_idx[col_ptr[c]..col_ptr[c + 1]];
+                            if let Ok(k) = col.binary_search(&r) {
+                                s[(3 * a + i) * 12 + 3 * b + j] = (col_ptr[c] + k) as u32;
+                            }
+                        }
+                    }
+                }
+            }
+            slots.push(s);
+        }
+        Ok(Self {
+            col_ptr,
+            row_idx,
+            slots,
+        })
+    }
+
+    /// Number of stored entries.
+    pub fn nnz(&self) -> usize {
+        self.row_idx.len()
+    }
+
+    /// Adds the 3x3 block `k` at (node rows `a`, node columns `b`) into `values`
+    /// (upper-triangle entries only; pairs outside the pattern are ignored).
+    pub fn add_block(
+        &self,
+        dofs: &DofMap,
+        a: usize,
+        b: usize,
+        k: &[[f64; 3]; 3],
+        values: &mut [f64],
+    ) {
+        for (i, krow) in k.iter().enumerate() {
+            let Some(r) = dofs.dof(a, i) else { continue };
+            for (j, kij) in krow.iter().enumerate() {
+                let Some(c) = dofs.dof(b, j) else { continue };
+                if r > c {
+                    continue;
+                }
+                let col = &self.row_idx[self.col_ptr[c]..self.col_ptr[c + 1]];
+                if let Ok(s) = col.binary_search(&r) {
+                    values[self.col_ptr[c] + s] += kij;
+                }
+            }
+        }
+    }
+
+    /// Adds element `e`'s tangent into `values`.
+    pub fn scatter(&self, e: usize, k: &super::tet4::Mat12, values: &mut [f64]) {
+        let s = &self.slots[e];
+        for p in 0..12 {
+            for q in 0..12 {
+                let slot = s[p * 12 + q];
+                if slot != SKIP {
+                    values[slot as usize] += k[p][q];
+                }
+            }
+        }
+    }
+}
+
+/// Evaluates `kernel` on every element (in parallel with the `parallel` feature) into
+/// `out` (reused between calls, resized to the element count); an error if any element
+/// fails. The scatter that follows is serial in element order, so assembled values do not
+/// depend on the thread count.
+pub fn eval_elements<F>(rest: &[TetRest], out: &mut Vec<ElementState>, kernel: F) -> FemResult<()>
+where
+    F: Fn(usize, &TetRest) -> FemResult<ElementState> + Sync + Send,
+{
+    if out.len() != rest.len() {
+        out.clear();
+        out.resize(
+            rest.len(),
+            ElementState {
+                force: [0.0; 12],
+                tangent: [[0.0; 12]; 12],
+                stress: nalgebra::Matrix3::zeros(),
+            },
+        );
+    }
+    #[cfg(feature = "parallel")]
+    {
+        use rayon::prelude::*;
+        out.par_iter_mut()
+            .zip(rest.par_iter())
+            .enumerate()
+            .try_for_each(|(e, (o, r))| {
+                *o = kernel(e, r)?;
+                Ok(())
+            })
+    }
+    #[cfg(not(feature = "parallel"))]
+    {
+        for (e, (o, r)) in out.iter_mut().zip(rest).enumerate() {
+            *o = kernel(e, r)?;
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,300 @@
+//! Constraint space (thesis 2.4-2.6, 3.8): mapping rows H for effectors, actuators and
+//! external forces; compliance W = H K^-1 H^T from solves on the columns of H^T; the free
+//! motion delta^free; the Jacobian J = W_ea W_aa^-1.
+
+use super::solve::{Cable, MappedPoint, Solver};
+use super::{FemError, FemResult};
+use faer::reborrow::{Reborrow, ReborrowMut};
+use faer::sparse::linalg::cholesky::supernodal::SupernodalLltRef;
+use faer::Mat;
+use nalgebra::DMatrix;
+use serde::Serialize;
+
+/// What a constraint row stands for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum RowKind {
+    /// An effector (feature point) coordinate.
+    Effector,
+    /// An actuator (cable shortening).
+    Actuator,
+    /// An external force at a candidate location, along a direction.
+    Force,
+}
+
+/// One row of H: a linear functional of the node positions, as (node, coefficient) pairs.
+#[derive(Debug, Clone, Serialize)]
+pub struct ConstraintRow {
+    /// Kind of the row.
+    pub kind: RowKind,
+    /// Coefficients per node (3-vectors).
+    pub entries: Vec<(usize, [f64; 3])>,
+}
+
+impl ConstraintRow {
+    /// A row measuring the mapped point `at` along `direction` (normalised).
+    pub fn along(kind: RowKind, at: &MappedPoint, direction: [f64; 3]) -> FemResult<Self> {
+        let l = super::mesh::norm(direction);
+        if !(l > 0.0 && l.is_finite()) {
+            return Err(FemError::Model(format!(
+                "row direction {direction:?} has no length"
+            )));
+        }
+        let d = direction.map(|c| c / l);
+        let entries = at
+            .nodes
+            .iter()
+            .zip(at.weights)
+            .filter(|(_, w)| *w != 0.0)
+            .map(|(n, w)| (*n, d.map(|c| w * c)))
+            .collect();
+        Ok(Self { kind, entries })
+    }
+
+    /// Three rows (x, y, z) for a 3-D point.
+    pub fn point3(kind: RowKind, at: &MappedPoint) -> Vec<Self> {
+        [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+            .iter()
+            .filter_map(|d| Self::along(kind, at, *d).ok())
+            .collect()
+    }
+
+    /// The actuator row of a cable at node positions `x` (d shortening / dx).
+    pub fn cable(cable: &Cable, x: &[[f64; 3]]) -> Self {
+        Self {
+            kind: RowKind::Actuator,
+            entries: cable.row(x),
+        }
+    }
+
+    /// The row's value for node positions `x` (sum of coefficient . position).
+    pub fn value(&self, x: &[[f64; 3]]) -> f64 {
+        self.entries
+            .iter()
+            .map(|(n, c)| c[0] * x[*n][0] + c[1] * x[*n][1] + c[2] * x[*n][2])
+            .sum()
+    }
+}
+
+/// Compliance in constraint space.
+#[derive(Debug, Clone, Serialize)]
+pub struct Compliance {
+    /// W = H K^-1 H^T (rows x rows), m/N.
+    pub w: DMatrix<f64>,
+    /// Linearised row values after a free step (lambda = 0): H x + H K^-1 r(x).
+    pub delta_free: Vec<f64>,
+    /// Row kinds.
+    pub kinds: Vec<RowKind>,
+}
+
+impl Solver<'_> {
+    /// Compliance of `rows` with the current factorization, at positions `x` with free
+    /// residual `residual` (free-DOF space, e.g. f_ext - f_int), which gives delta^free.
+    ///
+    /// With K = Pᵀ L Lᵀ P, W = H K⁻¹ Hᵀ = Yᵀ Y for Y = L⁻¹ P Hᵀ: only forward solves, and
+    /// each column of Hᵀ (a few nonzeros) only reaches the supernodes on its paths to the
+    /// root of the elimination tree. Supernode rows are final right after their diagonal
+    /// solve, so Yᵀ Y is accumulated block by block on the way. The residual is carried
+    /// as one more column, H K⁻¹ r = Yᵀ (L⁻¹ P r).
+    pub fn compliance(
+        &self,
+        rows: &[ConstraintRow],
+        x: &[[f64; 3]],
+        residual: &[f64],
+    ) -> FemResult<Compliance> {
+        let nd = self.ndof();
+        let m = rows.len();
+        let k = m + 1;
+        if residual.len() != nd {
+            return Err(FemError::Model(format!(
+                "residual has {} entries, the system {nd}",
+                residual.len()
+            )));
+        }
+        let gram = self.forward_gram(
+            |add| {
+                let mut col = vec![0.0; nd];
+                for (j, row) in rows.iter().enumerate() {
+                    col.iter_mut().for_each(|v| *v = 0.0);
+                    self.row_to_dofs(&row.entries, &mut col);
+                    for (r, v) in col.iter().enumerate() {
+                        if *v != 0.0 {
+                            add(r, j, *v);
+                        }
+                    }
+                }
+                for (r, v) in residual.iter().enumerate() {
+                    if *v != 0.0 {
+                        add(r, m, *v);
+                    }
+                }
+            },
+            k,
+        )?;
+        // Upper triangle mirrored: W is symmetric to the last bit.
+        let w = DMatrix::from_fn(m, m, |i, j| gram[(i.min(j), i.max(j))]);
+        let delta_free = (0..m).map(|i| rows[i].value(x) + gram[(i, m)]).collect();
+        Ok(Compliance {
+            w,
+            delta_free,
+            kinds: rows.iter().map(|r| r.kind).collect(),
+        })
+    }
+
+    /// Yᵀ Y (upper triangle valid) for Y = L⁻¹ P B, B (ndof x `k`) given by `fill`, which
+    /// calls `add(dof, column, value)` for each nonzero of B.
+    fn forward_gram(
+        &self,
+        fill: impl FnOnce(&mut dyn FnMut(usize, usize, f64)),
+        k: usize,
+    ) -> FemResult<Mat<f64>> {
+        let nd = self.ndof();
+        let sn = self.supernodal()?;
+        let ns = sn.n_supernodes();
+        let (begin, end) = (sn.supernode_begin(), sn.supernode_end());
+        // Supernode of each (permuted) row.
+        let mut sup_of = vec![0usize; nd];
+        for s in 0..ns {
+            sup_of[begin[s]..end[s]].iter_mut().for_each(|v| *v = s);
+        }
+        let inv: Vec<usize> = match self.symbolic.perm() {
+            Some(p) => p.arrays().1.to_vec(),
+            None => (0..nd).collect(),
+        };
+        // Y (permuted rows), and per supernode a bitset of the columns that reach it.
+        let words = k.div_ceil(64);
+        let mut y = Mat::<f64>::zeros(nd, k);
+        let mut active = vec![0u64; ns * words];
+        fill(&mut |r, j, v| {
+            let pr = inv[r];
+            y[(pr, j)] += v;
+            active[sup_of[pr] * words + j / 64] |= 1 << (j % 64);
+        });
+        let llt = SupernodalLltRef::new(sn, &self.l_values);
+        let mut gram = Mat::<f64>::zeros(k, k);
+        let mut cols = Vec::with_capacity(k);
+        let mut buf = Vec::new();
+        let mut upd = Vec::new();
+        let mut g = Vec::new();
+        for s in 0..ns {
+            cols.clear();
+            for w in 0..words {
+                let mut bits = active[s * words + w];
+                while bits != 0 {
+                    cols.push(w * 64 + bits.trailing_zeros() as usize);
+                    bits &= bits - 1;
+                }
+            }
+            if cols.is_empty() {
+                continue;
+            }
+            let node = llt.supernode(s);
+            let (start, ls, pattern) = (node.start(), node.val(), node.pattern());
+            let size = ls.ncols();
+            let ka = cols.len();
+            let (ltop, lbot) = ls.split_at_row(size);
+            buf.clear();
+            buf.resize(size * ka, 0.0);
+            let mut xt = faer::MatMut::from_column_major_slice_mut(&mut buf, size, ka);
+            for (c, &j) in cols.iter().enumerate() {
+                for i in 0..size {
+                    xt[(i, c)] = y[(start + i, j)];
+                }
+            }
+            let par = if size * ka > 64 * 64 {
+                faer::get_global_parallelism()
+            } else {
+                faer::Par::Seq
+            };
+            faer::linalg::triangular_solve::solve_lower_triangular_in_place(ltop, xt.rb_mut(), par);
+            // These rows of Y are final: add their share of Yᵀ Y.
+            g.clear();
+            g.resize(ka * ka, 0.0);
+            let mut gm = faer::MatMut::from_column_major_slice_mut(&mut g, ka, ka);
+            faer::linalg::matmul::matmul(
+                gm.rb_mut(),
+                faer::Accum::Replace,
+                xt.rb().transpose(),
+                xt.rb(),
+                1.0,
+                par,
+            );
+            for (b, &jb) in cols.iter().enumerate() {
+                for (a, &ja) in cols.iter().enumerate().take(b + 1) {
+                    gram[(ja, jb)] += gm[(a, b)];
+                }
+            }
+            if pattern.is_empty() {
+                continue;
+            }
+            upd.clear();
+            upd.resize(pattern.len() * ka, 0.0);
+            let mut um = faer::MatMut::from_column_major_slice_mut(&mut upd, pattern.len(), ka);
+            faer::linalg::matmul::matmul(
+                um.rb_mut(),
+                faer::Accum::Replace,
+                lbot,
+                xt.rb(),
+                1.0,
+                par,
+            );
+            for (c, &j) in cols.iter().enumerate() {
+                for (idx, &r) in pattern.iter().enumerate() {
+                    y[(r, j)] -= um[(idx, c)];
+                }
+            }
+            // The updated rows belong to later supernodes: they are reached too.
+            let mut last = usize::MAX;
+            for &r in pattern {
+                let t = sup_of[r];
+                if t != last {
+                    for w in 0..words {
+                        active[t * words + w] |= active[s * words + w];
+                    }
+                    last = t;
+                }
+            }
+        }
+        Ok(gram)
+    }
+
+    /// Assembles and factorizes the tangent at `x` and returns the compliance of `rows`
+    /// together with delta^free for the problem's external forces (gravity, loads).
+    pub fn compliance_at(
+        &mut self,
+        x: &[[f64; 3]],
+        rows: &[ConstraintRow],
+    ) -> FemResult<Compliance> {
+        self.tangent_at(x, Default::default())?;
+        let mut full = self.problem.external_forces();
+        for (f, fi) in full.iter_mut().zip(&self.internal_force) {
+            *f -= fi;
+        }
+        let r = self.dofs.gather(&full);
+        self.compliance(rows, x, &r)
+    }
+}
+
+impl Compliance {
+    /// Indices of rows of a kind.
+    pub fn rows_of(&self, kind: RowKind) -> Vec<usize> {
+        (0..self.kinds.len())
+            .filter(|&i| self.kinds[i] == kind)
+            .collect()
+    }
+
+    /// The sub-block W[rows_a, rows_b].
+    pub fn block(&self, a: &[usize], b: &[usize]) -> DMatrix<f64> {
+        DMatrix::from_fn(a.len(), b.len(), |i, j| self.w[(a[i], b[j])])
+    }
+
+    /// J = W_ea W_aa^-1 (3.8): effector motion per actuator motion.
+    pub fn jacobian(&self) -> FemResult<DMatrix<f64>> {
+        let e = self.rows_of(RowKind::Effector);
+        let a = self.rows_of(RowKind::Actuator);
+        let waa = self.block(&a, &a);
+        let inv = waa
+            .try_inverse()
+            .ok_or_else(|| FemError::Singular("W_aa is singular (dependent actuators)".into()))?;
+        Ok(self.block(&e, &a) * inv)
+    }
+}

@@ -1,0 +1,121 @@
+//! The finite-element core: tetrahedral meshes, corotational linear tetrahedra, sparse
+//! Cholesky statics and constraint-space compliance (thesis 2.2, design section 3).
+//!
+//! Everything is `f64` and SI inside (m, kg, s, N, Pa); model files may be written in the
+//! mm/kg/s units of SOFA scenes and are converted when loaded ([`model`]).
+//!
+//! ```
+//! use softsense::fem::{mesh::TetMesh, material::Material};
+//! use softsense::fem::solve::{Formulation, MappedPoint, PointLoad, Problem};
+//! // One unit tetrahedron, three nodes fixed, a force on the fourth.
+//! let mesh = TetMesh::new(
+//!     vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+//!     vec![[0, 1, 2, 3]],
+//! ).unwrap();
+//! let mut p = Problem::new(mesh, Material::new(1.0e4, 0.3).unwrap(), Formulation::SmallStrain);
+//! p.fixed = vec![0, 1, 2];
+//! p.loads.push(PointLoad { at: MappedPoint::node(3), force: [0.0, 0.0, -1.0] });
+//! let sol = p.solve_static(&Default::default()).unwrap();
+//! assert!(sol.displacement[3][2] < 0.0);
+//! ```
+
+// `!(x > 0.0)` is used on purpose: it also rejects NaN, which `x <= 0.0` would let through.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+pub mod assembly;
+pub mod constraint;
+pub mod material;
+pub mod mesh;
+pub mod meshio;
+pub mod model;
+pub mod solve;
+pub mod tet4;
+
+use thiserror::Error;
+
+/// Errors of the FE core: bad meshes and files, bad models, singular or failing solves.
+#[derive(Debug, Error)]
+pub enum FemError {
+    /// A file could not be read or written.
+    #[error("{path}: {source}")]
+    File {
+        /// The file.
+        path: String,
+        /// The underlying I/O error.
+        source: std::io::Error,
+    },
+    /// A mesh file is malformed (truncated, inconsistent counts, bad numbers).
+    #[error("mesh parse error: {0}")]
+    Parse(String),
+    /// The mesh file format (or its encoding) is not supported.
+    #[error("unsupported mesh format: {0}")]
+    Unsupported(String),
+    /// A cell type other than the linear tetrahedron.
+    #[error("unsupported cell type {cell_type} in cell {cell} (only linear tetrahedra)")]
+    UnsupportedCell {
+        /// The 0-based cell index in the file.
+        cell: usize,
+        /// The VTK or Gmsh type code.
+        cell_type: i64,
+    },
+    /// A tetrahedron references a node that does not exist.
+    #[error("tetrahedron {tet} references node {node} but the mesh has {nodes} nodes")]
+    BadIndex {
+        /// The tetrahedron.
+        tet: usize,
+        /// The offending node index.
+        node: usize,
+        /// Number of nodes.
+        nodes: usize,
+    },
+    /// A mesh without nodes or tetrahedra, or with non-finite coordinates.
+    #[error("invalid mesh: {0}")]
+    InvalidMesh(String),
+    /// A tetrahedron with (near) zero volume.
+    #[error("degenerate tetrahedron {tet}: signed volume {volume:e}")]
+    DegenerateElement {
+        /// The tetrahedron.
+        tet: usize,
+        /// Its signed volume.
+        volume: f64,
+    },
+    /// A tetrahedron with negative volume (rest shape) or inverted by the deformation.
+    #[error("inverted tetrahedron {tet}: det F or signed volume {volume:e}")]
+    InvertedElement {
+        /// The tetrahedron.
+        tet: usize,
+        /// Its signed volume (rest) or det F (deformed).
+        volume: f64,
+    },
+    /// Invalid material parameters.
+    #[error("invalid material: {0}")]
+    Material(String),
+    /// The model does not fix enough nodes to remove rigid motions.
+    #[error("singular system: {0}")]
+    Singular(String),
+    /// The Newton iteration did not converge.
+    #[error("Newton did not converge in {iterations} iterations (residual {residual:e})")]
+    NoConvergence {
+        /// Iterations done.
+        iterations: usize,
+        /// Final residual norm (N).
+        residual: f64,
+    },
+    /// A point could not be located in the mesh.
+    #[error("point {point:?} is outside the mesh (distance {distance:e} m)")]
+    PointOutside {
+        /// The point.
+        point: [f64; 3],
+        /// Its distance to the nearest tetrahedron (approximate).
+        distance: f64,
+    },
+    /// The model file is invalid.
+    #[error("invalid model: {0}")]
+    Model(String),
+    /// The sparse factorization failed for a reason other than a bad pivot.
+    #[error("sparse linear algebra: {0}")]
+    Linalg(String),
+}
+
+/// `Result` with [`FemError`].
+pub type FemResult<T> = std::result::Result<T, FemError>;

@@ -1,0 +1,450 @@
+//! Model files (TOML): mesh, placement, units, material, mass, gravity, fixed nodes,
+//! cables, loads, effectors and force points. Values are written in the file's units
+//! (`units = "SI"` or `"mm-kg-s"` as SOFA scenes: mm, kg, s, hence mN and kPa) and
+//! converted to SI on load.
+//!
+//! ```
+//! let text = r#"
+//! units = "mm-kg-s"
+//! [mesh]
+//! path = "robot.vtu"
+//! [material]
+//! young = 180.0
+//! poisson = 0.45
+//! "#;
+//! let spec: softsense::fem::model::ModelSpec = toml::from_str(text).unwrap();
+//! assert_eq!(spec.material.young, 180.0);
+//! ```
+
+use super::constraint::{ConstraintRow, RowKind};
+use super::material::Material;
+use super::mesh::{Placement, TetMesh};
+use super::meshio::read_mesh;
+use super::solve::{
+    Cable, CableControl, Formulation, MappedPoint, NewtonParams, PointLoad, Problem,
+};
+use super::{FemError, FemResult};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// The model file as written.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelSpec {
+    /// `"SI"` (default) or `"mm-kg-s"`.
+    #[serde(default = "default_units")]
+    pub units: String,
+    /// `"corotational"` (default) or `"small-strain"`.
+    #[serde(default)]
+    pub formulation: Option<String>,
+    /// The mesh file.
+    pub mesh: MeshSpec,
+    /// Placement of the mesh (in file units, applied before unit conversion).
+    #[serde(default)]
+    pub placement: Placement,
+    /// Material (Young's modulus in the file's pressure unit).
+    pub material: MaterialSpec,
+    /// Mass (total or density) for gravity.
+    #[serde(default)]
+    pub mass: Option<MassSpec>,
+    /// Gravity acceleration (file units).
+    #[serde(default)]
+    pub gravity: Option<[f64; 3]>,
+    /// Fixed-node selections.
+    #[serde(default)]
+    pub fixed: Vec<FixedSpec>,
+    /// Cable actuators.
+    #[serde(default)]
+    pub cables: Vec<CableSpec>,
+    /// Point loads.
+    #[serde(default)]
+    pub loads: Vec<LoadSpec>,
+    /// Effectors (feature points).
+    #[serde(default)]
+    pub effectors: Vec<PointSpec>,
+    /// Candidate external-force points (compliance rows).
+    #[serde(default)]
+    pub force_points: Vec<PointSpec>,
+    /// Newton settings.
+    #[serde(default)]
+    pub newton: Option<NewtonSpec>,
+}
+
+fn default_units() -> String {
+    "SI".into()
+}
+
+/// Mesh file reference.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshSpec {
+    /// Path, relative to the model file; `${VAR}` expands environment variables.
+    pub path: String,
+}
+
+/// Material in file units.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialSpec {
+    /// Young's modulus (Pa for SI, kPa for mm-kg-s).
+    pub young: f64,
+    /// Poisson ratio.
+    pub poisson: f64,
+}
+
+/// Mass: total (kg, uniform) or density (kg per file unit volume).
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct MassSpec {
+    /// Total mass in kg, spread uniformly by volume.
+    pub total: Option<f64>,
+    /// Density (kg/m^3 for SI, kg/mm^3 for mm-kg-s).
+    pub density: Option<f64>,
+}
+
+/// A fixed-node selection.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct FixedSpec {
+    /// Axis-aligned box [min, max] (after placement, file units).
+    pub r#box: Option<[[f64; 3]; 2]>,
+    /// Explicit node indices.
+    pub nodes: Option<Vec<usize>>,
+}
+
+/// A cable actuator.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct CableSpec {
+    /// Name.
+    pub name: String,
+    /// Pull point (fixed in space).
+    pub pull: [f64; 3],
+    /// Attach points, from the pull point outward (mapped barycentrically).
+    pub attach: Vec<[f64; 3]>,
+    /// Displacement control: shortening (length unit).
+    pub shorten: Option<f64>,
+    /// Force control: tension (force unit).
+    pub force: Option<f64>,
+}
+
+/// A point load.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct LoadSpec {
+    /// Location (mapped barycentrically), or
+    pub at: Option<[f64; 3]>,
+    /// a node index.
+    pub node: Option<usize>,
+    /// Force vector (force unit).
+    pub force: [f64; 3],
+}
+
+/// An effector or force point.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct PointSpec {
+    /// Name.
+    #[serde(default)]
+    pub name: String,
+    /// Location.
+    pub at: [f64; 3],
+    /// One row along this direction (else three rows x, y, z).
+    pub direction: Option<[f64; 3]>,
+    /// One row along the interpolated outward surface normal.
+    #[serde(default)]
+    pub normal: bool,
+}
+
+/// Newton settings.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct NewtonSpec {
+    /// Maximum iterations per load step.
+    pub max_iterations: Option<usize>,
+    /// Load steps.
+    pub load_steps: Option<usize>,
+    /// Relative residual tolerance.
+    pub rel_tol: Option<f64>,
+}
+
+/// Unit scale factors from file units to SI.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Units {
+    /// Length.
+    pub length: f64,
+    /// Force.
+    pub force: f64,
+    /// Pressure.
+    pub pressure: f64,
+    /// Density.
+    pub density: f64,
+}
+
+impl Units {
+    /// Parses a unit system name.
+    pub fn parse(name: &str) -> FemResult<Self> {
+        match name {
+            "SI" | "si" | "m-kg-s" => Ok(Self {
+                length: 1.0,
+                force: 1.0,
+                pressure: 1.0,
+                density: 1.0,
+            }),
+            "mm-kg-s" | "mm" => Ok(Self {
+                length: 1e-3,
+                force: 1e-3,
+                pressure: 1e3,
+                density: 1e9,
+            }),
+            _ => Err(FemError::Model(format!(
+                "unknown units {name:?} (SI or mm-kg-s)"
+            ))),
+        }
+    }
+}
+
+/// A named effector with its constraint rows.
+#[derive(Debug, Clone, Serialize)]
+pub struct Effector {
+    /// Name.
+    pub name: String,
+    /// The mapped point.
+    pub point: MappedPoint,
+    /// Its rows (1 or 3).
+    pub rows: Vec<ConstraintRow>,
+}
+
+/// A loaded model, SI inside.
+#[derive(Debug, Clone)]
+pub struct Model {
+    /// The static problem.
+    pub problem: Problem,
+    /// Effectors.
+    pub effectors: Vec<Effector>,
+    /// Force-point rows.
+    pub force_rows: Vec<ConstraintRow>,
+    /// Newton settings.
+    pub newton: NewtonParams,
+    /// Units of the file.
+    pub units: Units,
+}
+
+/// Expands `${VAR}` from the environment; an unset variable is an error.
+pub fn expand_env(s: &str) -> FemResult<String> {
+    let mut out = String::new();
+    let mut rest = s;
+    while let Some(i) = rest.find("${") {
+        out.push_str(&rest[..i]);
+        let end = rest[i..]
+            .find('}')
+            .ok_or_else(|| FemError::Model(format!("unclosed ${{ in {s:?}")))?;
+        let var = &rest[i + 2..i + end];
+        let val = std::env::var(var).map_err(|_| {
+            FemError::Model(format!(
+                "environment variable {var} is not set (needed by {s:?})"
+            ))
+        })?;
+        out.push_str(&val);
+        rest = &rest[i + end + 1..];
+    }
+    out.push_str(rest);
+    Ok(out)
+}
+
+impl Model {
+    /// Loads a model file; `mesh_override` replaces the mesh path.
+    pub fn load(path: &Path, mesh_override: Option<&Path>) -> FemResult<Self> {
+        let text = std::fs::read_to_string(path).map_err(|source| FemError::File {
+            path: path.display().to_string(),
+            source,
+        })?;
+        let spec: ModelSpec = toml::from_str(&text)
+            .map_err(|e| FemError::Model(format!("{}: {e}", path.display())))?;
+        let mesh_path = match mesh_override {
+            Some(p) => p.to_path_buf(),
+            None => {
+                let p = PathBuf::from(expand_env(&spec.mesh.path)?);
+                if p.is_relative() {
+                    path.parent().unwrap_or(Path::new(".")).join(p)
+                } else {
+                    p
+                }
+            }
+        };
+        let mesh = read_mesh(&mesh_path)?;
+        Self::from_spec(&spec, mesh)
+    }
+
+    /// Builds a model from a spec and its (unplaced, file-unit) mesh.
+    pub fn from_spec(spec: &ModelSpec, mut mesh: TetMesh) -> FemResult<Self> {
+        let u = Units::parse(&spec.units)?;
+        mesh.place(&spec.placement);
+        mesh.orient_positive();
+        mesh.place(&Placement {
+            scale: Some(u.length),
+            rotate_deg: None,
+            translate: None,
+        });
+        let quality = mesh.quality()?;
+        let diag = super::mesh::norm(super::mesh::sub(quality.bbox[1], quality.bbox[0]));
+        let tol = 0.05 * diag;
+        let l = |p: [f64; 3]| p.map(|c| c * u.length);
+        let formulation = match spec.formulation.as_deref() {
+            None | Some("corotational") | Some("large") => Formulation::Corotational,
+            Some("small-strain") | Some("linear") => Formulation::SmallStrain,
+            Some(f) => return Err(FemError::Model(format!("unknown formulation {f:?}"))),
+        };
+        let material = Material::new(spec.material.young * u.pressure, spec.material.poisson)?;
+        let mut p = Problem::new(mesh, material, formulation);
+        for f in &spec.fixed {
+            if let Some([lo, hi]) = f.r#box {
+                p.fixed.extend(p.mesh.nodes_in_box(l(lo), l(hi)));
+            }
+            if let Some(n) = &f.nodes {
+                p.fixed.extend(n.iter().copied());
+            }
+        }
+        p.fixed.sort_unstable();
+        p.fixed.dedup();
+        if let Some(m) = &spec.mass {
+            p.density = match (m.total, m.density) {
+                (Some(t), None) => t / quality.volume,
+                (None, Some(d)) => d * u.density,
+                _ => {
+                    return Err(FemError::Model(
+                        "mass needs exactly one of total or density".into(),
+                    ))
+                }
+            };
+            if !(p.density >= 0.0 && p.density.is_finite()) {
+                return Err(FemError::Model(format!(
+                    "mass density {} is invalid",
+                    p.density
+                )));
+            }
+        }
+        if let Some(g) = spec.gravity {
+            p.gravity = l(g);
+        }
+        for c in &spec.cables {
+            let control = match (c.shorten, c.force) {
+                (Some(d), None) => CableControl::Displacement(d * u.length),
+                (None, Some(f)) => CableControl::Force(f * u.force),
+                (None, None) => CableControl::Force(0.0),
+                _ => {
+                    return Err(FemError::Model(format!(
+                        "cable {}: give shorten or force, not both",
+                        c.name
+                    )))
+                }
+            };
+            if c.attach.is_empty() {
+                return Err(FemError::Model(format!(
+                    "cable {} has no attach point",
+                    c.name
+                )));
+            }
+            let attach = c
+                .attach
+                .iter()
+                .map(|a| MappedPoint::locate(&p.mesh, l(*a), tol))
+                .collect::<FemResult<Vec<_>>>()?;
+            p.cables.push(Cable {
+                name: c.name.clone(),
+                pull: l(c.pull),
+                attach,
+                control,
+            });
+        }
+        for ld in &spec.loads {
+            let at = match (ld.at, ld.node) {
+                (Some(a), None) => MappedPoint::locate(&p.mesh, l(a), tol)?,
+                (None, Some(n)) if n < p.mesh.num_nodes() => MappedPoint::node(n),
+                _ => {
+                    return Err(FemError::Model(
+                        "a load needs `at` or a valid `node`".into(),
+                    ))
+                }
+            };
+            p.loads.push(PointLoad {
+                at,
+                force: ld.force.map(|f| f * u.force),
+            });
+        }
+        let surface = if spec
+            .effectors
+            .iter()
+            .chain(&spec.force_points)
+            .any(|e| e.normal)
+        {
+            Some(p.mesh.surface())
+        } else {
+            None
+        };
+        let rows_for =
+            |kind: RowKind, e: &PointSpec| -> FemResult<(MappedPoint, Vec<ConstraintRow>)> {
+                let at = MappedPoint::locate(&p.mesh, l(e.at), tol)?;
+                let rows = if e.normal {
+                    let s = surface
+                        .as_ref()
+                        .ok_or_else(|| FemError::Model("no surface".into()))?;
+                    let mut n = [0.0; 3];
+                    for (v, w) in at.nodes.iter().zip(at.weights) {
+                        for (nk, sk) in n.iter_mut().zip(s.vertex_normals[*v]) {
+                            *nk += w * sk;
+                        }
+                    }
+                    vec![ConstraintRow::along(kind, &at, n)?]
+                } else if let Some(d) = e.direction {
+                    vec![ConstraintRow::along(kind, &at, d)?]
+                } else {
+                    ConstraintRow::point3(kind, &at)
+                };
+                Ok((at, rows))
+            };
+        let mut effectors = Vec::new();
+        for e in &spec.effectors {
+            let (point, rows) = rows_for(RowKind::Effector, e)?;
+            effectors.push(Effector {
+                name: e.name.clone(),
+                point,
+                rows,
+            });
+        }
+        let mut force_rows = Vec::new();
+        for e in &spec.force_points {
+            force_rows.extend(rows_for(RowKind::Force, e)?.1);
+        }
+        let mut newton = NewtonParams::default();
+        if let Some(n) = &spec.newton {
+            newton.max_iterations = n.max_iterations.unwrap_or(newton.max_iterations);
+            newton.load_steps = n.load_steps.unwrap_or(newton.load_steps);
+            newton.rel_tol = n.rel_tol.unwrap_or(newton.rel_tol);
+        }
+        Ok(Self {
+            problem: p,
+            effectors,
+            force_rows,
+            newton,
+            units: u,
+        })
+    }
+
+    /// All constraint rows at positions `x`: effectors, then actuators (cables), then forces.
+    pub fn rows(&self, x: &[[f64; 3]]) -> Vec<ConstraintRow> {
+        let mut rows: Vec<ConstraintRow> = self
+            .effectors
+            .iter()
+            .flat_map(|e| e.rows.iter().cloned())
+            .collect();
+        rows.extend(
+            self.problem
+                .cables
+                .iter()
+                .map(|c| ConstraintRow::cable(c, x)),
+        );
+        rows.extend(self.force_rows.iter().cloned());
+        rows
+    }
+}

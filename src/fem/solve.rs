@@ -1,0 +1,865 @@
+//! The static problem and its Newton solver with faer's sparse Cholesky (symbolic analysis
+//! once per mesh and fixed set, numeric refactorization at every iteration).
+
+use super::assembly::{eval_elements, DofMap, Pattern};
+use super::material::{von_mises, Material};
+use super::mesh::{norm, sub, TetMesh};
+use super::tet4::{ElementState, Tangent, TetRest};
+use super::{FemError, FemResult};
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::sparse::linalg::cholesky::{
+    factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky,
+    SymbolicCholeskyRaw,
+};
+use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use faer::{Conj, Mat, Side};
+use serde::Serialize;
+
+/// Small-strain linear or corotational tetrahedra.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+pub enum Formulation {
+    /// Linear elasticity about the rest shape (K constant).
+    SmallStrain,
+    /// Corotational (large displacement, small strain), rotation by polar decomposition.
+    #[default]
+    Corotational,
+}
+
+/// A point attached to the mesh: a weighted sum of (up to) four nodes.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct MappedPoint {
+    /// Node indices.
+    pub nodes: [usize; 4],
+    /// Barycentric weights (sum 1).
+    pub weights: [f64; 4],
+}
+
+impl MappedPoint {
+    /// A point on node `v`.
+    pub fn node(v: usize) -> Self {
+        Self {
+            nodes: [v; 4],
+            weights: [1.0, 0.0, 0.0, 0.0],
+        }
+    }
+
+    /// Locates `p` in the rest mesh (see [`TetMesh::locate`]).
+    pub fn locate(mesh: &TetMesh, p: [f64; 3], max_distance: f64) -> FemResult<Self> {
+        let (t, w) = mesh.locate(p, max_distance)?;
+        Ok(Self {
+            nodes: mesh.tets[t],
+            weights: w,
+        })
+    }
+
+    /// Position for node positions `x`.
+    pub fn position(&self, x: &[[f64; 3]]) -> [f64; 3] {
+        let mut p = [0.0; 3];
+        for (n, w) in self.nodes.iter().zip(self.weights) {
+            for k in 0..3 {
+                p[k] += w * x[*n][k];
+            }
+        }
+        p
+    }
+}
+
+/// A force on a mapped point (N).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PointLoad {
+    /// Where it acts.
+    pub at: MappedPoint,
+    /// Force vector (N).
+    pub force: [f64; 3],
+}
+
+/// How a cable is driven.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub enum CableControl {
+    /// Given tension (N, >= 0 pulls).
+    Force(f64),
+    /// Given shortening of the cable length from rest (m).
+    Displacement(f64),
+}
+
+/// A cable actuator: from a fixed pull point through attach points on the mesh.
+/// Its length is |p1 - pull| + sum |p(i+1) - p(i)|; the actuator value is the shortening
+/// L0 - L(x) and the tension lambda >= 0 pulls the attach points along the cable.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Cable {
+    /// Name (for reports).
+    pub name: String,
+    /// Fixed pull point in space.
+    pub pull: [f64; 3],
+    /// Attach points along the cable, from the pull point outward.
+    pub attach: Vec<MappedPoint>,
+    /// Force or displacement control.
+    pub control: CableControl,
+}
+
+impl Cable {
+    /// Cable length for node positions `x`.
+    pub fn length(&self, x: &[[f64; 3]]) -> f64 {
+        let mut prev = self.pull;
+        let mut l = 0.0;
+        for a in &self.attach {
+            let p = a.position(x);
+            l += norm(sub(p, prev));
+            prev = p;
+        }
+        l
+    }
+
+    /// d(shortening)/dx as (node, 3-vector) pairs: minus the length gradient.
+    pub fn row(&self, x: &[[f64; 3]]) -> Vec<(usize, [f64; 3])> {
+        let pts: Vec<[f64; 3]> = self.attach.iter().map(|a| a.position(x)).collect();
+        let unit = |a: [f64; 3], b: [f64; 3]| {
+            let d = sub(a, b);
+            let l = norm(d);
+            if l > 0.0 {
+                d.map(|c| c / l)
+            } else {
+                [0.0; 3]
+            }
+        };
+        let mut out = Vec::new();
+        for (i, a) in self.attach.iter().enumerate() {
+            let prev = if i == 0 { self.pull } else { pts[i - 1] };
+            let mut g = unit(pts[i], prev);
+            if i + 1 < pts.len() {
+                let u = unit(pts[i + 1], pts[i]);
+                for k in 0..3 {
+                    g[k] -= u[k];
+                }
+            }
+            for (n, w) in a.nodes.iter().zip(a.weights) {
+                if w != 0.0 {
+                    out.push((*n, g.map(|c| -w * c)));
+                }
+            }
+        }
+        out
+    }
+}
+
+/// Newton options.
+#[derive(Debug, Clone, Serialize)]
+pub struct NewtonParams {
+    /// Maximum iterations.
+    pub max_iterations: usize,
+    /// Relative residual tolerance (against the applied force scale).
+    pub rel_tol: f64,
+    /// Absolute residual tolerance (N).
+    pub abs_tol: f64,
+    /// Equal load increments (1 = apply everything at once).
+    pub load_steps: usize,
+    /// Converged when a correction is smaller than this times the displacement norm.
+    pub step_tol: f64,
+    /// Corotational tangent (the rotated K0 is used as fallback if the consistent one is indefinite).
+    #[serde(skip)]
+    pub tangent: Tangent,
+}
+
+impl Default for NewtonParams {
+    fn default() -> Self {
+        Self {
+            max_iterations: 50,
+            rel_tol: 1e-10,
+            abs_tol: 1e-12,
+            load_steps: 1,
+            step_tol: 1e-10,
+            tangent: Tangent::Consistent,
+        }
+    }
+}
+
+/// The static FE problem: mesh, material, boundary conditions, loads and cables. SI units.
+#[derive(Debug, Clone)]
+pub struct Problem {
+    /// The rest mesh.
+    pub mesh: TetMesh,
+    /// Material.
+    pub material: Material,
+    /// Small-strain or corotational.
+    pub formulation: Formulation,
+    /// Fixed nodes (removed from the system).
+    pub fixed: Vec<usize>,
+    /// Nodes held at a prescribed displacement (removed from the system as well).
+    pub prescribed: Vec<(usize, [f64; 3])>,
+    /// Mass density (kg/m^3) for gravity.
+    pub density: f64,
+    /// Gravity acceleration (m/s^2).
+    pub gravity: [f64; 3],
+    /// Point loads (N).
+    pub loads: Vec<PointLoad>,
+    /// Cable actuators.
+    pub cables: Vec<Cable>,
+}
+
+/// The result of a static solve.
+#[derive(Debug, Clone, Serialize)]
+pub struct Solution {
+    /// Node positions.
+    pub positions: Vec<[f64; 3]>,
+    /// Node displacements from rest.
+    pub displacement: Vec<[f64; 3]>,
+    /// External nodal forces at equilibrium (loads, gravity, cables; reactions at fixed nodes excluded).
+    pub external_force: Vec<[f64; 3]>,
+    /// Cable tensions (N), in model order.
+    pub cable_tension: Vec<f64>,
+    /// Displacement-controlled cables that went slack (they would have had to push).
+    pub cable_slack: Vec<bool>,
+    /// Cable shortenings (m), in model order.
+    pub cable_shortening: Vec<f64>,
+    /// Von Mises stress per tetrahedron (Pa).
+    pub von_mises: Vec<f64>,
+    /// Newton iterations done.
+    pub iterations: usize,
+    /// Residual norm per iteration (N).
+    pub residuals: Vec<f64>,
+    /// Whether Newton converged.
+    pub converged: bool,
+}
+
+impl Problem {
+    /// A problem with no fixed nodes, loads or gravity yet.
+    pub fn new(mesh: TetMesh, material: Material, formulation: Formulation) -> Self {
+        Self {
+            mesh,
+            material,
+            formulation,
+            fixed: Vec::new(),
+            prescribed: Vec::new(),
+            density: 0.0,
+            gravity: [0.0; 3],
+            loads: Vec::new(),
+            cables: Vec::new(),
+        }
+    }
+
+    /// Fixed and prescribed nodes, sorted, without repeats.
+    pub fn held_nodes(&self) -> Vec<usize> {
+        let mut v: Vec<usize> = self
+            .fixed
+            .iter()
+            .copied()
+            .chain(self.prescribed.iter().map(|p| p.0))
+            .collect();
+        v.sort_unstable();
+        v.dedup();
+        v
+    }
+
+    /// Node positions at rest, with prescribed nodes moved to their prescribed place.
+    pub fn initial_positions(&self) -> Vec<[f64; 3]> {
+        let mut x = self.mesh.nodes_in_rest.clone();
+        for (v, u) in &self.prescribed {
+            if let Some(p) = x.get_mut(*v) {
+                *p = [p[0] + u[0], p[1] + u[1], p[2] + u[2]];
+            }
+        }
+        x
+    }
+
+    /// Checks that every connected component has fixed nodes spanning a plane (no rigid motion).
+    pub fn check_supports(&self) -> FemResult<()> {
+        let n = self.mesh.num_nodes();
+        let held = self.held_nodes();
+        if held.is_empty() {
+            return Err(FemError::Singular(
+                "no fixed nodes: rigid motions are free".into(),
+            ));
+        }
+        if let Some(&v) = held.iter().find(|&&v| v >= n) {
+            return Err(FemError::Model(format!(
+                "fixed node {v} does not exist ({n} nodes)"
+            )));
+        }
+        let mut parent: Vec<usize> = (0..n).collect();
+        fn find(p: &mut [usize], mut v: usize) -> usize {
+            while p[v] != v {
+                p[v] = p[p[v]];
+                v = p[v];
+            }
+            v
+        }
+        for t in &self.mesh.tets {
+            for k in 1..4 {
+                let (a, b) = (find(&mut parent, t[0]), find(&mut parent, t[k]));
+                if a != b {
+                    parent[a.max(b)] = a.min(b);
+                }
+            }
+        }
+        let mut fixed_by_root: std::collections::BTreeMap<usize, Vec<[f64; 3]>> =
+            Default::default();
+        for &v in &held {
+            let r = find(&mut parent, v);
+            fixed_by_root
+                .entry(r)
+                .or_default()
+                .push(self.mesh.nodes_in_rest[v]);
+        }
+        let scale = {
+            let [lo, hi] = self.mesh.bbox();
+            norm(sub(hi, lo))
+        };
+        let mut seen = vec![false; n];
+        for t in &self.mesh.tets {
+            let r = find(&mut parent, t[0]);
+            if seen[r] {
+                continue;
+            }
+            seen[r] = true;
+            let pts = fixed_by_root.get(&r).map(|v| v.as_slice()).unwrap_or(&[]);
+            if !spans_plane(pts, scale) {
+                return Err(FemError::Singular(format!(
+                    "the part containing node {r} has {} fixed node(s), not enough to stop rigid rotation",
+                    pts.len()
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// Lumped nodal masses (kg): a quarter of each element's mass to each node.
+    pub fn lumped_masses(&self) -> Vec<f64> {
+        let mut m = vec![0.0; self.mesh.num_nodes()];
+        for (t, v) in self.mesh.tets.iter().zip(self.mesh.signed_volumes()) {
+            for &a in t {
+                m[a] += 0.25 * self.density * v;
+            }
+        }
+        m
+    }
+
+    /// External forces from gravity and point loads (node-major 3n).
+    pub fn external_forces(&self) -> Vec<f64> {
+        let mut f = vec![0.0; 3 * self.mesh.num_nodes()];
+        if self.density != 0.0 && self.gravity != [0.0; 3] {
+            for (v, m) in self.lumped_masses().iter().enumerate() {
+                for k in 0..3 {
+                    f[3 * v + k] += m * self.gravity[k];
+                }
+            }
+        }
+        for l in &self.loads {
+            for (n, w) in l.at.nodes.iter().zip(l.at.weights) {
+                for k in 0..3 {
+                    f[3 * n + k] += w * l.force[k];
+                }
+            }
+        }
+        f
+    }
+
+    /// Prepares a solver (checks, rest data, pattern, symbolic factorization).
+    pub fn solver(&self) -> FemResult<Solver<'_>> {
+        Solver::new(self)
+    }
+
+    /// Static equilibrium under the loads and cable actuation.
+    pub fn solve_static(&self, params: &NewtonParams) -> FemResult<Solution> {
+        self.solver()?.solve_static(params)
+    }
+}
+
+fn spans_plane(pts: &[[f64; 3]], scale: f64) -> bool {
+    let tol = 1e-9 * scale;
+    let Some(&a) = pts.first() else { return false };
+    let Some(&b) = pts
+        .iter()
+        .max_by(|p, q| norm(sub(**p, a)).total_cmp(&norm(sub(**q, a))))
+    else {
+        return false;
+    };
+    let ab = sub(b, a);
+    let lab = norm(ab);
+    if lab <= tol {
+        return false;
+    }
+    pts.iter()
+        .any(|p| norm(super::mesh::cross(ab, sub(*p, a))) / lab > tol)
+}
+
+/// A prepared solver: free-DOF map, pattern, symbolic Cholesky, current tangent and factor.
+pub struct Solver<'p> {
+    /// The problem.
+    pub problem: &'p Problem,
+    /// Free-DOF numbering.
+    pub dofs: DofMap,
+    /// Sparsity pattern of K.
+    pub pattern: Pattern,
+    rest: Vec<TetRest>,
+    /// Symbolic Cholesky (AMD ordering and supernodal structure), computed once.
+    pub(crate) symbolic: SymbolicCholesky<usize>,
+    /// Values of the supernodal factor L (reused between factorizations).
+    pub(crate) l_values: Vec<f64>,
+    /// Values of K (upper triangle) after the last assembly.
+    pub values: Vec<f64>,
+    /// Internal forces (node-major 3n) after the last assembly.
+    pub internal_force: Vec<f64>,
+    /// Element states of the last assembly.
+    pub elements: Vec<ElementState>,
+    /// Whether `l_values` holds the factor of the current `values`.
+    factored: bool,
+}
+
+impl<'p> Solver<'p> {
+    /// Checks supports and mesh, builds the pattern and the symbolic factorization.
+    pub fn new(problem: &'p Problem) -> FemResult<Self> {
+        problem.check_supports()?;
+        let n = problem.mesh.num_nodes();
+        let points = problem
+            .loads
+            .iter()
+            .map(|l| &l.at)
+            .chain(problem.cables.iter().flat_map(|c| &c.attach));
+        for at in points {
+            if let Some(v) = at.nodes.iter().find(|&&v| v >= n) {
+                return Err(FemError::Model(format!(
+                    "a load or cable refers to node {v} ({n} nodes)"
+                )));
+            }
+        }
+        if let Some((v, _)) = problem
+            .prescribed
+            .iter()
+            .find(|(v, u)| *v >= n || u.iter().any(|c| !c.is_finite()))
+        {
+            return Err(FemError::Model(format!(
+                "prescribed displacement of node {v} is invalid"
+            )));
+        }
+        let rest = (0..problem.mesh.tets.len())
+            .map(|t| TetRest::new(t, problem.mesh.corners(t)))
+            .collect::<FemResult<Vec<_>>>()?;
+        problem.mesh.quality()?;
+        let dofs = DofMap::new(problem.mesh.num_nodes(), &problem.held_nodes());
+        let groups: Vec<Vec<usize>> = problem
+            .cables
+            .iter()
+            .map(|c| c.attach.iter().flat_map(|a| a.nodes).collect())
+            .collect();
+        let pattern = Pattern::new(&problem.mesh, &dofs, &groups)?;
+        let sym = SymbolicSparseColMatRef::new_checked(
+            dofs.ndof,
+            dofs.ndof,
+            &pattern.col_ptr,
+            None,
+            &pattern.row_idx,
+        );
+        // Always supernodal: the constraint-space forward solves (constraint.rs) walk the
+        // supernodes, and the diamond-sized systems are supernodal under AUTO anyway.
+        let symbolic = factorize_symbolic_cholesky(
+            sym,
+            Side::Upper,
+            Default::default(),
+            CholeskySymbolicParams {
+                supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+                ..Default::default()
+            },
+        )
+        .map_err(|e| FemError::Linalg(format!("{e:?}")))?;
+        let l_values = vec![0.0; symbolic.len_val()];
+        let nnz = pattern.nnz();
+        Ok(Self {
+            problem,
+            dofs,
+            pattern,
+            rest,
+            symbolic,
+            l_values,
+            values: vec![0.0; nnz],
+            internal_force: Vec::new(),
+            elements: Vec::new(),
+            factored: false,
+        })
+    }
+
+    /// Number of free DOFs.
+    pub fn ndof(&self) -> usize {
+        self.dofs.ndof
+    }
+
+    /// Assembles internal forces and the tangent at node positions `x`.
+    pub fn assemble(&mut self, x: &[[f64; 3]], tangent: Tangent) -> FemResult<()> {
+        let p = self.problem;
+        let tets = &p.mesh.tets;
+        let rest_nodes = &p.mesh.nodes_in_rest;
+        let m = &p.material;
+        let form = p.formulation;
+        let mut states = std::mem::take(&mut self.elements);
+        eval_elements(&self.rest, &mut states, |e, r| {
+            let t = tets[e];
+            match form {
+                Formulation::SmallStrain => {
+                    let u = [0, 1, 2, 3].map(|a| sub(x[t[a]], rest_nodes[t[a]]));
+                    Ok(r.small_strain(m, &u))
+                }
+                Formulation::Corotational => r.corotational(e, m, &t.map(|a| x[a]), tangent),
+            }
+        })?;
+        self.values.iter_mut().for_each(|v| *v = 0.0);
+        self.internal_force = vec![0.0; 3 * p.mesh.num_nodes()];
+        for (e, s) in states.iter().enumerate() {
+            self.pattern.scatter(e, &s.tangent, &mut self.values);
+            for (a, &v) in tets[e].iter().enumerate() {
+                for k in 0..3 {
+                    self.internal_force[3 * v + k] += s.force[3 * a + k];
+                }
+            }
+        }
+        self.elements = states;
+        Ok(())
+    }
+
+    /// Numeric Cholesky of the assembled tangent (reusing the symbolic analysis).
+    pub fn factorize(&mut self) -> FemResult<()> {
+        let sym = SymbolicSparseColMatRef::new_checked(
+            self.dofs.ndof,
+            self.dofs.ndof,
+            &self.pattern.col_ptr,
+            None,
+            &self.pattern.row_idx,
+        );
+        let mat = SparseColMatRef::new(sym, &self.values);
+        self.factored = false;
+        let par = faer::get_global_parallelism();
+        let mut mem = MemBuffer::try_new(
+            self.symbolic
+                .factorize_numeric_llt_scratch::<f64>(par, Default::default()),
+        )
+        .map_err(|e| FemError::Linalg(format!("{e:?}")))?;
+        match self.symbolic.factorize_numeric_llt(
+            &mut self.l_values,
+            mat,
+            Side::Upper,
+            Default::default(),
+            par,
+            MemStack::new(&mut mem),
+            Default::default(),
+        ) {
+            Ok(_) => {
+                self.factored = true;
+                Ok(())
+            }
+            Err(e) => Err(FemError::Singular(format!(
+                "tangent stiffness is not positive definite ({e:?})"
+            ))),
+        }
+    }
+
+    /// The current factor, or an error if the last factorization failed or none was done.
+    pub(crate) fn factor(&self) -> FemResult<LltRef<'_, usize, f64>> {
+        if !self.factored {
+            return Err(FemError::Linalg("no factorization".into()));
+        }
+        Ok(LltRef::new(&self.symbolic, &self.l_values))
+    }
+
+    /// The supernodal structure of the factor (always supernodal, see [`Solver::new`]).
+    pub(crate) fn supernodal(
+        &self,
+    ) -> FemResult<&faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky<usize>>
+    {
+        match self.symbolic.raw() {
+            SymbolicCholeskyRaw::Supernodal(s) => Ok(s),
+            SymbolicCholeskyRaw::Simplicial(_) => {
+                Err(FemError::Linalg("expected a supernodal factor".into()))
+            }
+        }
+    }
+
+    /// Solves K X = B in place for free-DOF right-hand sides (columns of `b`).
+    pub fn solve_in_place(&self, b: &mut Mat<f64>) -> FemResult<()> {
+        let llt = self.factor()?;
+        let par = faer::get_global_parallelism();
+        let mut mem =
+            MemBuffer::try_new(self.symbolic.solve_in_place_scratch::<f64>(b.ncols(), par))
+                .map_err(|e| FemError::Linalg(format!("{e:?}")))?;
+        llt.solve_in_place_with_conj(Conj::No, b.as_mut(), par, MemStack::new(&mut mem));
+        Ok(())
+    }
+
+    /// Assembles and factorizes at `x`, falling back to the rotated tangent when the
+    /// consistent one is not positive definite.
+    pub fn tangent_at(&mut self, x: &[[f64; 3]], tangent: Tangent) -> FemResult<()> {
+        self.assemble(x, tangent)?;
+        match self.factorize() {
+            Err(FemError::Singular(_))
+                if tangent == Tangent::Consistent
+                    && self.problem.formulation == Formulation::Corotational =>
+            {
+                self.assemble(x, Tangent::Rotated)?;
+                self.factorize()
+            }
+            r => r,
+        }
+    }
+
+    /// Adds the geometric stiffness of a cable under tension `t` at positions `x`:
+    /// t d2L/dx2, with (I - u u^T) / l for each straight segment of length l.
+    pub fn add_cable_stiffness(&mut self, cable: &Cable, t: f64, x: &[[f64; 3]]) {
+        if t == 0.0 {
+            return;
+        }
+        let pts: Vec<[f64; 3]> = cable.attach.iter().map(|a| a.position(x)).collect();
+        for i in 0..pts.len() {
+            let prev = if i == 0 { cable.pull } else { pts[i - 1] };
+            let d = sub(pts[i], prev);
+            let l = norm(d);
+            if !(l > 0.0) {
+                continue;
+            }
+            let u = d.map(|c| c / l);
+            let mut blk = [[0.0; 3]; 3];
+            for (r, row) in blk.iter_mut().enumerate() {
+                for (c, v) in row.iter_mut().enumerate() {
+                    *v = t * ((if r == c { 1.0 } else { 0.0 }) - u[r] * u[c]) / l;
+                }
+            }
+            // Segment between attach i-1 (if any) and attach i: [[A, -A], [-A, A]].
+            let mut ends: Vec<(&MappedPoint, f64)> = vec![(&cable.attach[i], 1.0)];
+            if i > 0 {
+                ends.push((&cable.attach[i - 1], -1.0));
+            }
+            for (pa, sa) in &ends {
+                for (pb, sb) in &ends {
+                    for (na, wa) in pa.nodes.iter().zip(pa.weights) {
+                        for (nb, wb) in pb.nodes.iter().zip(pb.weights) {
+                            let f = sa * sb * wa * wb;
+                            if f != 0.0 {
+                                let k = blk.map(|r| r.map(|v| v * f));
+                                self.pattern
+                                    .add_block(&self.dofs, *na, *nb, &k, &mut self.values);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Scatters a (node, 3-vector) row into a free-DOF column.
+    pub fn row_to_dofs(&self, row: &[(usize, [f64; 3])], out: &mut [f64]) {
+        for (n, v) in row {
+            if let Some(d) = self.dofs.node_dof.get(*n).copied().flatten() {
+                for k in 0..3 {
+                    out[d + k] += v[k];
+                }
+            }
+        }
+    }
+
+    /// Static equilibrium by Newton iterations (with optional load stepping).
+    pub fn solve_static(&mut self, params: &NewtonParams) -> FemResult<Solution> {
+        let p = self.problem;
+        let nn = p.mesh.num_nodes();
+        let mut x = p.initial_positions();
+        let f_ext_full = p.external_forces();
+        let l0: Vec<f64> = p
+            .cables
+            .iter()
+            .map(|c| c.length(&p.mesh.nodes_in_rest))
+            .collect();
+        let mut tension: Vec<f64> = p
+            .cables
+            .iter()
+            .map(|c| match c.control {
+                CableControl::Force(f) => f,
+                CableControl::Displacement(_) => 0.0,
+            })
+            .collect();
+        let mut slack = vec![false; p.cables.len()];
+        let mut disp_cables: Vec<usize> = (0..p.cables.len())
+            .filter(|&i| matches!(p.cables[i].control, CableControl::Displacement(_)))
+            .collect();
+        let steps = params.load_steps.max(1);
+        let mut residuals = Vec::new();
+        let mut iterations = 0;
+        let mut converged = false;
+        for step in 1..=steps {
+            let s = step as f64 / steps as f64;
+            converged = false;
+            let mut last_step = f64::INFINITY;
+            for _ in 0..params.max_iterations {
+                self.assemble(&x, params.tangent)?;
+                // residual r = s f_ext + sum H^T lambda - f_int on free DOFs
+                let mut full: Vec<f64> = f_ext_full.iter().map(|f| s * f).collect();
+                let rows: Vec<Vec<(usize, [f64; 3])>> =
+                    p.cables.iter().map(|c| c.row(&x)).collect();
+                for (ci, row) in rows.iter().enumerate() {
+                    let lam = match p.cables[ci].control {
+                        CableControl::Force(f) => s * f,
+                        CableControl::Displacement(_) => tension[ci],
+                    };
+                    tension[ci] = lam;
+                    for (n, v) in row {
+                        for k in 0..3 {
+                            full[3 * n + k] += lam * v[k];
+                        }
+                    }
+                }
+                // Force scale: applied and internal forces, including reactions at held nodes.
+                let scale = norm_vec(&full) + norm_vec(&self.internal_force);
+                for (f, fi) in full.iter_mut().zip(&self.internal_force) {
+                    *f -= fi;
+                }
+                let r = self.dofs.gather(&full);
+                let rn = norm_vec(&r);
+                if !rn.is_finite() {
+                    return Err(FemError::NoConvergence {
+                        iterations,
+                        residual: rn,
+                    });
+                }
+                let gaps: Vec<f64> = disp_cables
+                    .iter()
+                    .map(|&ci| match p.cables[ci].control {
+                        CableControl::Displacement(d) => s * d - (l0[ci] - p.cables[ci].length(&x)),
+                        CableControl::Force(_) => 0.0,
+                    })
+                    .collect();
+                let gap_scale = 1e-12
+                    * p.mesh
+                        .bbox()
+                        .iter()
+                        .flatten()
+                        .fold(0.0f64, |m, c| m.max(c.abs()))
+                        .max(1e-300);
+                residuals.push(rn);
+                let gaps_ok = gaps
+                    .iter()
+                    .all(|g| g.abs() <= gap_scale.max(1e-10 * g.abs()));
+                // Converged: residual small, or the last correction is at round-off level
+                // (ill-conditioned systems cannot reduce the residual further).
+                let small =
+                    rn <= params.abs_tol + params.rel_tol * scale || last_step <= params.step_tol;
+                if small && gaps_ok && iterations > 0 {
+                    // A cable can only pull (lambda >= 0): a displacement-controlled cable
+                    // that would have to push goes slack (zero tension) and Newton goes on.
+                    if let Some(pos) = disp_cables.iter().position(|&ci| tension[ci] < 0.0) {
+                        let ci = disp_cables.remove(pos);
+                        tension[ci] = 0.0;
+                        slack[ci] = true;
+                        last_step = f64::INFINITY;
+                        continue;
+                    }
+                    converged = true;
+                    break;
+                }
+                iterations += 1;
+                for (ci, c) in p.cables.iter().enumerate() {
+                    self.add_cable_stiffness(c, tension[ci], &x);
+                }
+                match self.factorize() {
+                    Err(FemError::Singular(_))
+                        if params.tangent == Tangent::Consistent
+                            && p.formulation == Formulation::Corotational =>
+                    {
+                        self.assemble(&x, Tangent::Rotated)?;
+                        for (ci, c) in p.cables.iter().enumerate() {
+                            self.add_cable_stiffness(c, tension[ci], &x);
+                        }
+                        self.factorize()?;
+                    }
+                    other => other?,
+                }
+                let nd = self.dofs.ndof;
+                let nc = disp_cables.len();
+                let mut b = Mat::<f64>::zeros(nd, 1 + nc);
+                for (i, v) in r.iter().enumerate() {
+                    b[(i, 0)] = *v;
+                }
+                for (j, &ci) in disp_cables.iter().enumerate() {
+                    let mut col = vec![0.0; nd];
+                    self.row_to_dofs(&rows[ci], &mut col);
+                    for (i, v) in col.iter().enumerate() {
+                        b[(i, 1 + j)] = *v;
+                    }
+                }
+                let hd: Vec<Vec<f64>> = (0..nc)
+                    .map(|j| (0..nd).map(|i| b[(i, 1 + j)]).collect())
+                    .collect();
+                self.solve_in_place(&mut b)?;
+                let mut dx: Vec<f64> = (0..nd).map(|i| b[(i, 0)]).collect();
+                if nc > 0 {
+                    // W dlambda = gap - H u0
+                    let w = nalgebra::DMatrix::from_fn(nc, nc, |i, j| {
+                        (0..nd).map(|k| hd[i][k] * b[(k, 1 + j)]).sum::<f64>()
+                    });
+                    let rhs = nalgebra::DVector::from_fn(nc, |i, _| {
+                        gaps[i] - (0..nd).map(|k| hd[i][k] * dx[k]).sum::<f64>()
+                    });
+                    let dl = w.lu().solve(&rhs).ok_or_else(|| {
+                        FemError::Singular("cable compliance matrix is singular".into())
+                    })?;
+                    for (j, &ci) in disp_cables.iter().enumerate() {
+                        tension[ci] += dl[j];
+                        for (k, d) in dx.iter_mut().enumerate() {
+                            *d += dl[j] * b[(k, 1 + j)];
+                        }
+                    }
+                }
+                for (v, d) in self.dofs.node_dof.iter().enumerate() {
+                    if let Some(d) = d {
+                        for k in 0..3 {
+                            x[v][k] += dx[d + k];
+                        }
+                    }
+                }
+                let un = (0..nn)
+                    .map(|v| norm(sub(x[v], p.mesh.nodes_in_rest[v])).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                last_step = norm_vec(&dx) / un.max(f64::MIN_POSITIVE);
+            }
+            if !converged {
+                return Err(FemError::NoConvergence {
+                    iterations,
+                    residual: residuals.last().copied().unwrap_or(f64::NAN),
+                });
+            }
+        }
+        let mut external_force = vec![[0.0; 3]; nn];
+        for v in 0..nn {
+            for k in 0..3 {
+                external_force[v][k] = f_ext_full[3 * v + k];
+            }
+        }
+        for (ci, c) in p.cables.iter().enumerate() {
+            for (n, v) in c.row(&x) {
+                for k in 0..3 {
+                    external_force[n][k] += tension[ci] * v[k];
+                }
+            }
+        }
+        let displacement = (0..nn)
+            .map(|v| sub(x[v], p.mesh.nodes_in_rest[v]))
+            .collect();
+        Ok(Solution {
+            cable_shortening: p
+                .cables
+                .iter()
+                .zip(&l0)
+                .map(|(c, l)| l - c.length(&x))
+                .collect(),
+            positions: x,
+            displacement,
+            external_force,
+            cable_tension: tension,
+            cable_slack: slack,
+            von_mises: self.elements.iter().map(|e| von_mises(&e.stress)).collect(),
+            iterations,
+            residuals,
+            converged,
+        })
+    }
+}
+
+/// Euclidean norm of a slice.
+pub fn norm_vec(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}

@@ -1,0 +1,219 @@
+//! The linear tetrahedron: rest gradients, small-strain stiffness, and the corotational
+//! force with its consistent tangent (rotation by polar decomposition of F).
+//!
+//! Corotational: with F = R S (polar), the strain is eps = sym(S) - I, the stress
+//! sigma = C : eps, and the nodal force f_a = V R sigma g_a (g_a the rest shape-function
+//! gradients). This is the gradient of E = 1/2 (R^T x - X)^T K0 (R^T x - X), so its exact
+//! derivative (the consistent tangent) is symmetric; it includes dR from
+//! (tr(S) I - S) w = axial(R^T dF - dF^T R), dR = R [w]x.
+
+use super::material::Material;
+use super::mesh::signed_volume;
+use super::{FemError, FemResult};
+use nalgebra::{Matrix3, Vector3};
+
+/// Precomputed rest data of one tetrahedron.
+#[derive(Debug, Clone, Copy)]
+pub struct TetRest {
+    /// Gradients of the four shape functions in the rest configuration.
+    pub grads: [Vector3<f64>; 4],
+    /// Rest volume (positive).
+    pub volume: f64,
+}
+
+/// An element's 12x12 matrix (node-major: row 3a+i).
+pub type Mat12 = [[f64; 12]; 12];
+
+impl TetRest {
+    /// Rest data from the four corners; `tet` names the element in errors.
+    pub fn new(tet: usize, c: [[f64; 3]; 4]) -> FemResult<Self> {
+        let v = signed_volume(c[0], c[1], c[2], c[3]);
+        if v < 0.0 {
+            return Err(FemError::InvertedElement { tet, volume: v });
+        }
+        let col = |i: usize| Vector3::new(c[i][0] - c[0][0], c[i][1] - c[0][1], c[i][2] - c[0][2]);
+        let dm = Matrix3::from_columns(&[col(1), col(2), col(3)]);
+        let inv = dm
+            .try_inverse()
+            .filter(|_| v > 0.0)
+            .ok_or(FemError::DegenerateElement { tet, volume: v })?;
+        let g1 = inv.row(0).transpose();
+        let g2 = inv.row(1).transpose();
+        let g3 = inv.row(2).transpose();
+        Ok(Self {
+            grads: [-(g1 + g2 + g3), g1, g2, g3],
+            volume: v,
+        })
+    }
+
+    /// Deformation gradient F = sum_a x_a g_a^T.
+    pub fn deformation_gradient(&self, x: &[[f64; 3]; 4]) -> Matrix3<f64> {
+        let mut f = Matrix3::zeros();
+        for (xa, ga) in x.iter().zip(&self.grads) {
+            f += Vector3::from(*xa) * ga.transpose();
+        }
+        f
+    }
+
+    /// Small-strain stiffness K0 (12x12).
+    pub fn stiffness(&self, m: &Material) -> Mat12 {
+        let mut k = [[0.0; 12]; 12];
+        for a in 0..4 {
+            for b in 0..4 {
+                let ga = &self.grads[a];
+                let gb = &self.grads[b];
+                let gab = ga.dot(gb);
+                for i in 0..3 {
+                    for j in 0..3 {
+                        let mut v = m.lambda * ga[i] * gb[j] + m.mu * ga[j] * gb[i];
+                        if i == j {
+                            v += m.mu * gab;
+                        }
+                        k[3 * a + i][3 * b + j] = self.volume * v;
+                    }
+                }
+            }
+        }
+        k
+    }
+
+    /// Nodal forces V P g_a for a first-Piola-like stress P.
+    fn forces(&self, p: &Matrix3<f64>) -> [f64; 12] {
+        let mut f = [0.0; 12];
+        for a in 0..4 {
+            let fa = p * self.grads[a] * self.volume;
+            f[3 * a..3 * a + 3].copy_from_slice(fa.as_slice());
+        }
+        f
+    }
+
+    /// Small-strain internal force, stress, tangent (K0) for displacements `u`.
+    pub fn small_strain(&self, m: &Material, u: &[[f64; 3]; 4]) -> ElementState {
+        let grad_u = self.deformation_gradient(u);
+        let eps = (grad_u + grad_u.transpose()) * 0.5;
+        let sigma = m.stress(&eps);
+        ElementState {
+            force: self.forces(&sigma),
+            tangent: self.stiffness(m),
+            stress: sigma,
+        }
+    }
+
+    /// Corotational internal force, Cauchy-like stress (rotated) and tangent at positions `x`.
+    /// `tet` names the element if it is inverted (det F <= 0).
+    pub fn corotational(
+        &self,
+        tet: usize,
+        m: &Material,
+        x: &[[f64; 3]; 4],
+        tangent: Tangent,
+    ) -> FemResult<ElementState> {
+        let f = self.deformation_gradient(x);
+        let det = f.determinant();
+        if !(det > 0.0) {
+            return Err(FemError::InvertedElement { tet, volume: det });
+        }
+        let r = polar_rotation(&f);
+        let s = r.transpose() * f;
+        let s = (s + s.transpose()) * 0.5;
+        let eps = s - Matrix3::identity();
+        let sigma = m.stress(&eps);
+        let force = self.forces(&(r * sigma));
+        let mut k = [[0.0; 12]; 12];
+        match tangent {
+            Tangent::Consistent => {
+                let a_inv = (Matrix3::identity() * s.trace() - s)
+                    .try_inverse()
+                    .ok_or(FemError::InvertedElement { tet, volume: det })?;
+                for b in 0..4 {
+                    for j in 0..3 {
+                        // dF = e_j g_b^T
+                        let mut df = Matrix3::zeros();
+                        df.set_row(j, &self.grads[b].transpose());
+                        let mm = r.transpose() * df;
+                        let ax = Vector3::new(
+                            mm[(2, 1)] - mm[(1, 2)],
+                            mm[(0, 2)] - mm[(2, 0)],
+                            mm[(1, 0)] - mm[(0, 1)],
+                        );
+                        let w = a_inv * ax;
+                        let wx = w.cross_matrix();
+                        let dr = r * wx;
+                        let de = mm - wx * s;
+                        let de = (de + de.transpose()) * 0.5;
+                        let dp = dr * sigma + r * m.stress(&de);
+                        let col = 3 * b + j;
+                        for a in 0..4 {
+                            let dfa = dp * self.grads[a] * self.volume;
+                            for i in 0..3 {
+                                k[3 * a + i][col] = dfa[i];
+                            }
+                        }
+                    }
+                }
+            }
+            Tangent::Rotated => {
+                let k0 = self.stiffness(m);
+                for a in 0..4 {
+                    for b in 0..4 {
+                        let mut blk = Matrix3::zeros();
+                        for i in 0..3 {
+                            for j in 0..3 {
+                                blk[(i, j)] = k0[3 * a + i][3 * b + j];
+                            }
+                        }
+                        let rb = r * blk * r.transpose();
+                        for i in 0..3 {
+                            for j in 0..3 {
+                                k[3 * a + i][3 * b + j] = rb[(i, j)];
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        Ok(ElementState {
+            force,
+            tangent: k,
+            stress: r * sigma * r.transpose(),
+        })
+    }
+}
+
+/// Which tangent the corotational element returns.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Tangent {
+    /// The exact derivative of the force (includes the rotation derivative).
+    #[default]
+    Consistent,
+    /// R K0 R^T, as SOFA's "large" method (always positive semi-definite).
+    Rotated,
+}
+
+/// Force, stress and tangent of one element.
+#[derive(Debug, Clone)]
+pub struct ElementState {
+    /// Internal nodal forces (node-major).
+    pub force: [f64; 12],
+    /// Tangent stiffness d force / d x.
+    pub tangent: Mat12,
+    /// Cauchy stress in world axes (Pa).
+    pub stress: Matrix3<f64>,
+}
+
+/// Rotation of the polar decomposition F = R S (det F > 0), by scaled Newton iteration.
+pub fn polar_rotation(f: &Matrix3<f64>) -> Matrix3<f64> {
+    let mut r = *f;
+    for _ in 0..40 {
+        let det = r.determinant();
+        let Some(inv) = r.try_inverse() else { break };
+        let g = 1.0 / det.abs().cbrt();
+        let next = (r * g + inv.transpose() / g) * 0.5;
+        let diff = (next - r).abs().max();
+        r = next;
+        if diff < 1e-14 {
+            break;
+        }
+    }
+    r
+}
