@@ -3,3 +3,9 @@ mod common;
 
 #[path = "unit/cloud.rs"]
 mod cloud;
+
+#[path = "unit/io_pcd.rs"]
+mod io_pcd;
+
+#[path = "unit/io_ply.rs"]
+mod io_ply;
