@@ -9,3 +9,6 @@ mod io_pcd;
 
 #[path = "unit/io_ply.rs"]
 mod io_ply;
+
+#[path = "unit/io_rgbd.rs"]
+mod io_rgbd;
