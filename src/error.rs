@@ -13,5 +13,5 @@ pub enum Error {
     Cloud(#[from] crate::cloud::CloudError),
 }
 
-/// `Result` with the crate-level [`Error`].
+/// `Result` with the crate-level [`Error`](enum@Error).
 pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -10,5 +10,8 @@ mod io_pcd;
 #[path = "unit/io_ply.rs"]
 mod io_ply;
 
+#[path = "unit/io_malformed.rs"]
+mod io_malformed;
+
 #[path = "unit/io_rgbd.rs"]
 mod io_rgbd;
