@@ -1,2 +1,9 @@
 //! Live comparisons against PCL and Open3D (programs in `tools/oracle/`).
 mod common;
+
+#[path = "oracle/harness.rs"]
+mod harness;
+#[path = "oracle/io.rs"]
+mod io;
+#[path = "oracle/rgbd.rs"]
+mod rgbd;
