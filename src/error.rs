@@ -11,6 +11,15 @@ pub enum Error {
     /// A point-cloud operation was given inconsistent data.
     #[error(transparent)]
     Cloud(#[from] crate::cloud::CloudError),
+    /// A filter was given invalid parameters.
+    #[error(transparent)]
+    Filter(#[from] crate::filter::FilterError),
+    /// Normal estimation was given invalid parameters.
+    #[error(transparent)]
+    Features(#[from] crate::features::FeatureError),
+    /// The filter chain could not run (bad configuration, unreadable sequence).
+    #[error(transparent)]
+    Pipeline(#[from] crate::pipeline::PipelineError),
 }
 
 /// `Result` with the crate-level [`Error`].

@@ -3,3 +3,12 @@ mod common;
 
 #[path = "unit/cloud.rs"]
 mod cloud;
+
+#[path = "unit/search.rs"]
+mod search;
+
+#[path = "unit/filter.rs"]
+mod filter;
+
+#[path = "unit/features.rs"]
+mod features;
