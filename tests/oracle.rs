@@ -1,2 +1,7 @@
 //! Live comparisons against PCL and Open3D (programs in `tools/oracle/`).
 mod common;
+
+#[path = "oracle/harness.rs"]
+mod harness;
+#[path = "oracle/io.rs"]
+mod io;

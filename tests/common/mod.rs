@@ -1,6 +1,8 @@
 //! Shared helpers for the test binaries: real-data location and skip policy.
 #![allow(dead_code)]
 
+pub mod oracle;
+
 use std::path::PathBuf;
 
 /// The real third-party data folder from `SOFTSENSE_DATA`.
