@@ -12,3 +12,6 @@ mod filter;
 
 #[path = "unit/features.rs"]
 mod features;
+
+#[path = "unit/io_pcd.rs"]
+mod io_pcd;
