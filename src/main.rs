@@ -19,11 +19,15 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     // Subcommands are added here, one line each, implemented in src/cli/<name>.rs.
+    /// Crop, voxel-filter, remove outliers and estimate normals (PCL/Open3D semantics).
+    Filter(cli::filter::FilterArgs),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let result: anyhow_like::Result = match cli.command {};
+    let result: anyhow_like::Result = match cli.command {
+        Command::Filter(args) => cli::filter::run(args),
+    };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

@@ -1,1 +1,3 @@
 //! Subcommand implementations: each parses nothing itself (clap did) and calls the library.
+
+pub mod filter;
