@@ -7,3 +7,5 @@ mod filter;
 mod harness;
 #[path = "oracle/io.rs"]
 mod io;
+#[path = "oracle/rgbd.rs"]
+mod rgbd;

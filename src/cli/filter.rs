@@ -1,5 +1,6 @@
 //! `softsense filter`: crop, voxel, outlier removal and normals on one cloud or a sequence.
 
+use super::{print_json, CliError, CliResult};
 use clap::{Args, ValueEnum};
 use softsense::features::{Neighbourhood, NormalParams};
 use softsense::filter::{
@@ -8,7 +9,6 @@ use softsense::filter::{
 };
 use softsense::io::{read_cloud, write_cloud, Encoding};
 use softsense::pipeline::{list_frames, run_sequence, ChainParams, Pipeline};
-use std::error::Error;
 use std::io::IsTerminal;
 use std::path::PathBuf;
 
@@ -125,7 +125,7 @@ fn parse_statistical(s: &str) -> Result<(usize, f64), String> {
 }
 
 /// The chain the arguments describe.
-fn chain(args: &FilterArgs) -> Result<ChainParams, Box<dyn Error>> {
+fn chain(args: &FilterArgs) -> Result<ChainParams, CliError> {
     let mut p = match &args.config {
         Some(path) => ChainParams::from_toml_file(path)?,
         None => ChainParams {
@@ -176,8 +176,8 @@ fn chain(args: &FilterArgs) -> Result<ChainParams, Box<dyn Error>> {
 }
 
 /// Runs `softsense filter`.
-pub fn run(args: FilterArgs) -> Result<(), Box<dyn Error>> {
-    let params = chain(&args)?;
+pub fn run(args: &FilterArgs) -> CliResult {
+    let params = chain(args)?;
     let mut pipeline = Pipeline::new(params);
     let input_str = args.input.to_string_lossy();
     let is_sequence = args.input.is_dir() || input_str.contains('*') || input_str.contains('?');
@@ -186,7 +186,7 @@ pub fn run(args: FilterArgs) -> Result<(), Box<dyn Error>> {
         let progress = std::io::stderr().is_terminal();
         let summary = run_sequence(&mut pipeline, &frames, &args.output, 4, progress)?;
         if args.json {
-            println!("{}", serde_json::to_string_pretty(&summary)?);
+            print_json(&serde_json::to_value(&summary).unwrap_or_default());
         } else {
             let total_ms: f64 = summary
                 .iter()
@@ -215,7 +215,7 @@ pub fn run(args: FilterArgs) -> Result<(), Box<dyn Error>> {
     if args.json {
         let j = serde_json::json!({"input": args.input, "output": args.output,
             "points_in": cloud.len(), "points_out": out.cloud.len(), "stages": stages});
-        println!("{}", serde_json::to_string_pretty(&j)?);
+        print_json(&j);
     } else {
         for t in &out.timings {
             eprintln!(
