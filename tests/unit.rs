@@ -21,3 +21,6 @@ mod io_ply;
 
 #[path = "unit/io_rgbd.rs"]
 mod io_rgbd;
+
+#[path = "unit/pipeline.rs"]
+mod pipeline;
