@@ -24,3 +24,6 @@ mod io_rgbd;
 
 #[path = "unit/pipeline.rs"]
 mod pipeline;
+
+#[path = "unit/filter_golden.rs"]
+mod filter_golden;

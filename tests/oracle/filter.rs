@@ -429,3 +429,109 @@ fn normals_agree_with_pcl_within_one_degree_for_999_per_mille() {
     }
     finish("normals", fails);
 }
+
+#[path = "../unit/filter_golden_data.rs"]
+mod golden;
+
+/// Writes `tests/fixtures/filter/golden.json` from the oracles when
+/// `SOFTSENSE_REGEN_GOLDEN=1`; otherwise checks that the stored answers are still the
+/// oracles' (when they are installed), so a stale fixture cannot hide.
+#[test]
+fn golden_fixtures_are_the_oracles_answers() {
+    use golden::*;
+    let dir = tempfile::tempdir().expect("temp dir");
+    let mut cases = Vec::new();
+    for &(seed, n) in &CASES {
+        let cloud = synthetic_cloud(seed, n);
+        let path = dir.path().join(format!("synthetic_{seed}.pcd"));
+        softsense::io::write_cloud(&path, &cloud, softsense::io::Encoding::Binary).expect("write");
+        let Some(pt) = oracle::run(
+            Lib::Pcl,
+            "passthrough",
+            &path,
+            json!({"field": "z", "min": PASS_Z.0 as f64, "max": PASS_Z.1 as f64}),
+        ) else {
+            return;
+        };
+        let ror = |lib| {
+            oracle::run(
+                lib,
+                "radius_outlier",
+                &path,
+                json!({"radius": ROR.0, "min_neighbors": ROR.1, "dense": true}),
+            )
+            .expect("oracle")
+        };
+        let sor_pcl = oracle::run(
+            Lib::Pcl,
+            "statistical_outlier",
+            &path,
+            json!({"mean_k": SOR.0, "stddev_mul": SOR.1}),
+        )
+        .expect("oracle");
+        let sor_o3d = oracle::run(
+            Lib::Open3d,
+            "statistical_outlier",
+            &path,
+            json!({"nb_neighbors": SOR.0 + 1, "std_ratio": SOR.1}),
+        )
+        .expect("oracle");
+        let vp = oracle::run(Lib::Pcl, "voxel", &path, json!({"leaf": LEAF}))
+            .expect("oracle")
+            .raw_cloud();
+        let vo = oracle::run(Lib::Open3d, "voxel", &path, json!({"leaf": LEAF}))
+            .expect("oracle")
+            .raw_cloud();
+        let nr = oracle::run(Lib::Pcl, "normals", &path, json!({"k": NORMALS_K}))
+            .expect("oracle")
+            .raw_cloud();
+        let flat = |v: Vec<[f32; 3]>| v.into_iter().flatten().map(q).collect::<Vec<f64>>();
+        let mut o3d = vo.positions();
+        o3d.sort_by(|a, b| {
+            (a[2], a[1], a[0])
+                .partial_cmp(&(b[2], b[1], b[0]))
+                .expect("finite")
+        });
+        let rgb: Vec<f32> = vp
+            .rgba()
+            .expect("rgb")
+            .iter()
+            .flat_map(|c| [c[0] as f32, c[1] as f32, c[2] as f32])
+            .collect();
+        let (nn, nc) = (
+            nr.normals().expect("normals"),
+            nr.f32s("curvature").expect("curvature"),
+        );
+        let normals: Vec<f64> = (0..NORMALS_STORED)
+            .flat_map(|i| [q(nn[i][0]), q(nn[i][1]), q(nn[i][2]), q(nc[i])])
+            .collect();
+        cases.push(json!({
+            "seed": seed, "points": n,
+            "passthrough_pcl": mask_hex(&pt.indices(), n),
+            "ror_pcl": mask_hex(&ror(Lib::Pcl).indices(), n),
+            "ror_open3d": mask_hex(&ror(Lib::Open3d).indices(), n),
+            "sor_pcl": mask_hex(&sor_pcl.indices(), n),
+            "sor_open3d": mask_hex(&sor_o3d.indices(), n),
+            "voxel_pcl": {"xyz": flat(vp.positions()), "rgb": rgb},
+            "voxel_open3d": {"xyz_sorted": flat(o3d)},
+            "normals_pcl": normals,
+        }));
+    }
+    let doc = json!({
+        "about": "PCL 1.13 / Open3D 0.20 answers on tests/unit/filter_golden.rs synthetic clouds; regenerate with SOFTSENSE_REGEN_GOLDEN=1 cargo test --test oracle golden",
+        "cases": cases,
+    });
+    let path = common::project_root().join("tests/fixtures/filter/golden.json");
+    if std::env::var_os("SOFTSENSE_REGEN_GOLDEN").is_some_and(|v| v == "1") {
+        std::fs::write(&path, doc.to_string()).expect("write golden.json");
+        eprintln!("wrote {}", path.display());
+    } else {
+        let stored: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&path).expect("golden.json"))
+                .expect("JSON");
+        assert_eq!(
+            stored["cases"], doc["cases"],
+            "golden.json is stale: regenerate it"
+        );
+    }
+}
