@@ -27,3 +27,6 @@ mod pipeline;
 
 #[path = "unit/filter_golden.rs"]
 mod filter_golden;
+
+#[path = "unit/io_malformed.rs"]
+mod io_malformed;

@@ -299,6 +299,27 @@ fn parse_header(bytes: &[u8]) -> Result<Header, PlyError> {
     })
 }
 
+/// The value of `ty` at the start of `b` (which holds at least `ty.size()` bytes).
+fn binary_value(b: &[u8], ty: Scalar, big_endian: bool) -> f64 {
+    let size = ty.size();
+    let mut a = [0u8; 8];
+    a[..size].copy_from_slice(&b[..size]);
+    if big_endian {
+        a[..size].reverse();
+    }
+    use Scalar::*;
+    match ty {
+        I8 => f64::from(a[0] as i8),
+        U8 => f64::from(a[0]),
+        I16 => f64::from(i16::from_le_bytes([a[0], a[1]])),
+        U16 => f64::from(u16::from_le_bytes([a[0], a[1]])),
+        I32 => f64::from(i32::from_le_bytes([a[0], a[1], a[2], a[3]])),
+        U32 => f64::from(u32::from_le_bytes([a[0], a[1], a[2], a[3]])),
+        F32 => f64::from(f32::from_le_bytes([a[0], a[1], a[2], a[3]])),
+        F64 => f64::from_le_bytes(a),
+    }
+}
+
 /// Why a value could not be read.
 enum ReadFail {
     Eof,
@@ -323,22 +344,11 @@ impl Source<'_> {
             .get(self.pos..self.pos + size)
             .ok_or(ReadFail::Eof)?;
         self.pos += size;
-        let mut a = [0u8; 8];
-        a[..size].copy_from_slice(b);
-        if self.format == PlyFormat::BinaryBigEndian {
-            a[..size].reverse();
-        }
-        use Scalar::*;
-        Ok(match ty {
-            I8 => f64::from(a[0] as i8),
-            U8 => f64::from(a[0]),
-            I16 => f64::from(i16::from_le_bytes([a[0], a[1]])),
-            U16 => f64::from(u16::from_le_bytes([a[0], a[1]])),
-            I32 => f64::from(i32::from_le_bytes([a[0], a[1], a[2], a[3]])),
-            U32 => f64::from(u32::from_le_bytes([a[0], a[1], a[2], a[3]])),
-            F32 => f64::from(f32::from_le_bytes([a[0], a[1], a[2], a[3]])),
-            F64 => f64::from_le_bytes(a),
-        })
+        Ok(binary_value(
+            b,
+            ty,
+            self.format == PlyFormat::BinaryBigEndian,
+        ))
     }
 
     fn read_text(&mut self, ty: Scalar) -> Result<f64, ReadFail> {
@@ -462,15 +472,7 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PointCloud, PlyError> {
         });
     }
     let n = vertex.count as usize; // bounded by the body length above
-    let mut cloud = PointCloud::from_positions(vec![[0.0; 3]; n]);
-    let normals_present = (0..3).all(|a| has(Target::Normal(a)));
-    let colors_present = (0..3).all(|a| has(Target::Color(a)));
-    let mut normals = vec![[0f32; 3]; if normals_present { n } else { 0 }];
-    let mut colors = vec![[0u8; 3]; if colors_present { n } else { 0 }];
-    let mut alpha = vec![0u8; if has(Target::Alpha) { n } else { 0 }];
-    let mut curvature = vec![0f32; if has(Target::Curvature) { n } else { 0 }];
-    let mut labels = vec![0u32; if has(Target::Label) { n } else { 0 }];
-
+    let mut out = VertexColumns::new(n, &targets);
     let mut src = Source {
         data: body,
         pos: 0,
@@ -479,6 +481,37 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PointCloud, PlyError> {
     for (e_at, element) in header.elements.iter().enumerate() {
         if element.props.is_empty() {
             continue; // nothing to read, whatever the count
+        }
+        let is_vertex = e_at == vertex_at;
+        if header.format != PlyFormat::Ascii && element.props.iter().all(|p| p.list.is_none()) {
+            // PERF: fixed-size records: check the length once, then decode column by column.
+            let record: usize = element.props.iter().map(|p| p.ty.size()).sum();
+            let whole = ((body.len() - src.pos) / record) as u64;
+            if element.count > whole {
+                return Err(PlyError::Truncated {
+                    element: element.name.clone(),
+                    index: whole,
+                });
+            }
+            let len = element.count as usize * record;
+            let records = &body[src.pos..src.pos + len];
+            src.pos += len;
+            if is_vertex {
+                let big = header.format == PlyFormat::BinaryBigEndian;
+                let mut off = 0;
+                for (p, &target) in element.props.iter().zip(&targets) {
+                    let column = Column {
+                        records,
+                        record,
+                        offset: off,
+                        ty: p.ty,
+                        big_endian: big,
+                    };
+                    out.fill(target, &column);
+                    off += p.ty.size();
+                }
+            }
+            continue;
         }
         for index in 0..element.count {
             let fail = |f: ReadFail, ty: Scalar| match f {
@@ -510,28 +543,151 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PointCloud, PlyError> {
                     continue;
                 }
                 let v = src.read(p.ty).map_err(|f| fail(f, p.ty))?;
-                if e_at != vertex_at {
-                    continue;
-                }
-                let i = index as usize;
-                match targets[k] {
-                    Target::Pos(a) => cloud.positions[i][a] = v as f32,
-                    Target::Normal(a) if normals_present => normals[i][a] = v as f32,
-                    Target::Color(a) if colors_present => colors[i][a] = channel(v, p.ty),
-                    Target::Alpha => alpha[i] = channel(v, p.ty),
-                    Target::Curvature => curvature[i] = v as f32,
-                    Target::Label => labels[i] = v as u32,
-                    _ => {}
+                if is_vertex {
+                    out.set(index as usize, targets[k], v, p.ty);
                 }
             }
         }
     }
-    cloud.normals = normals_present.then_some(normals);
-    cloud.colors = colors_present.then_some(colors);
-    cloud.alpha = has(Target::Alpha).then_some(alpha);
-    cloud.curvature = has(Target::Curvature).then_some(curvature);
-    cloud.labels = has(Target::Label).then_some(labels);
-    Ok(cloud)
+    Ok(out.into_cloud())
+}
+
+/// One property of fixed-size binary records.
+struct Column<'a> {
+    records: &'a [u8],
+    record: usize,
+    offset: usize,
+    ty: Scalar,
+    big_endian: bool,
+}
+
+impl Column<'_> {
+    /// Calls `store(i, value)` for every record. PERF: the type is matched once per
+    /// column, with fast paths for the common little-endian `float` and `uchar`.
+    fn for_each(&self, mut store: impl FnMut(usize, f64)) {
+        let rows = self
+            .records
+            .chunks_exact(self.record)
+            .map(|r| &r[self.offset..]);
+        match (self.ty, self.big_endian) {
+            (Scalar::F32, false) => rows.enumerate().for_each(|(i, b)| {
+                store(i, f64::from(f32::from_le_bytes([b[0], b[1], b[2], b[3]])))
+            }),
+            (Scalar::U8, _) => rows
+                .enumerate()
+                .for_each(|(i, b)| store(i, f64::from(b[0]))),
+            (ty, big) => rows
+                .enumerate()
+                .for_each(|(i, b)| store(i, binary_value(b, ty, big))),
+        }
+    }
+}
+
+/// The vertex attributes being filled; a column exists when its properties do.
+struct VertexColumns {
+    cloud: PointCloud,
+    normals: Option<Vec<[f32; 3]>>,
+    colors: Option<Vec<[u8; 3]>>,
+    alpha: Option<Vec<u8>>,
+    curvature: Option<Vec<f32>>,
+    labels: Option<Vec<u32>>,
+}
+
+impl VertexColumns {
+    fn new(n: usize, targets: &[Target]) -> VertexColumns {
+        let has = |t: Target| targets.contains(&t);
+        let all3 = |f: fn(usize) -> Target| (0..3).all(|a| has(f(a)));
+        VertexColumns {
+            cloud: PointCloud::from_positions(vec![[0.0; 3]; n]),
+            normals: all3(Target::Normal).then(|| vec![[0.0; 3]; n]),
+            colors: all3(Target::Color).then(|| vec![[0; 3]; n]),
+            alpha: has(Target::Alpha).then(|| vec![0; n]),
+            curvature: has(Target::Curvature).then(|| vec![0.0; n]),
+            labels: has(Target::Label).then(|| vec![0; n]),
+        }
+    }
+
+    /// Stores value `v` (of PLY type `ty`) of vertex `i` where `target` says.
+    #[inline]
+    fn set(&mut self, i: usize, target: Target, v: f64, ty: Scalar) {
+        match target {
+            Target::Pos(a) => self.cloud.positions[i][a] = v as f32,
+            Target::Normal(a) => {
+                if let Some(nm) = &mut self.normals {
+                    nm[i][a] = v as f32;
+                }
+            }
+            Target::Color(a) => {
+                if let Some(c) = &mut self.colors {
+                    c[i][a] = channel(v, ty);
+                }
+            }
+            Target::Alpha => {
+                if let Some(al) = &mut self.alpha {
+                    al[i] = channel(v, ty);
+                }
+            }
+            Target::Curvature => {
+                if let Some(c) = &mut self.curvature {
+                    c[i] = v as f32;
+                }
+            }
+            Target::Label => {
+                if let Some(l) = &mut self.labels {
+                    l[i] = v as u32;
+                }
+            }
+            Target::Skip => {}
+        }
+    }
+
+    /// Stores a whole column of fixed-size binary records where `target` says.
+    fn fill(&mut self, target: Target, col: &Column<'_>) {
+        let ty = col.ty;
+        match target {
+            Target::Pos(a) => {
+                let pos = &mut self.cloud.positions;
+                col.for_each(|i, v| pos[i][a] = v as f32);
+            }
+            Target::Normal(a) => {
+                if let Some(nm) = &mut self.normals {
+                    col.for_each(|i, v| nm[i][a] = v as f32);
+                }
+            }
+            Target::Color(a) => {
+                if let Some(c) = &mut self.colors {
+                    col.for_each(|i, v| c[i][a] = channel(v, ty));
+                }
+            }
+            Target::Alpha => {
+                if let Some(al) = &mut self.alpha {
+                    col.for_each(|i, v| al[i] = channel(v, ty));
+                }
+            }
+            Target::Curvature => {
+                if let Some(c) = &mut self.curvature {
+                    col.for_each(|i, v| c[i] = v as f32);
+                }
+            }
+            Target::Label => {
+                if let Some(l) = &mut self.labels {
+                    col.for_each(|i, v| l[i] = v as u32);
+                }
+            }
+            Target::Skip => {}
+        }
+    }
+
+    fn into_cloud(self) -> PointCloud {
+        PointCloud {
+            normals: self.normals,
+            colors: self.colors,
+            alpha: self.alpha,
+            curvature: self.curvature,
+            labels: self.labels,
+            ..self.cloud
+        }
+    }
 }
 
 /// Reads a PLY file.

@@ -398,3 +398,39 @@ fn milk_cartoon_has_pcl_shape_and_colours() {
     let colours = c.colors.as_ref().unwrap();
     assert!(colours.iter().any(|rgb| rgb != &[0, 0, 0]));
 }
+
+#[test]
+fn descriptor_fields_with_large_counts_are_skipped_in_compressed_bodies() {
+    // FIELDS x y z fpfh(F4 x 33) intensity(F8) normal_x(only one normal axis: skipped)
+    let n = 3usize;
+    let mut cols = Vec::new();
+    for axis in 0..3 {
+        cols.extend(le_bytes_f32(
+            &(0..n).map(|i| (i * 3 + axis) as f32).collect::<Vec<_>>(),
+        ));
+    }
+    cols.extend(le_bytes_f32(&vec![7.0; 33 * n]));
+    cols.extend((0..n).flat_map(|i| (i as f64).to_le_bytes()));
+    cols.extend(le_bytes_f32(&vec![0.5; n]));
+    let stream = lzf::compress(&cols);
+    let mut file = header(
+        "x y z fpfh intensity normal_x",
+        "4 4 4 4 8 4",
+        "F F F F F F",
+        "1 1 1 33 1 1",
+        3,
+        1,
+        "binary_compressed",
+    )
+    .into_bytes();
+    file.extend((stream.len() as u32).to_le_bytes());
+    file.extend((cols.len() as u32).to_le_bytes());
+    file.extend(stream);
+    let c = pcd::parse_pcd(&file).unwrap();
+    assert_eq!(
+        c.positions,
+        vec![[0.0, 1.0, 2.0], [3.0, 4.0, 5.0], [6.0, 7.0, 8.0]]
+    );
+    assert!(c.normals.is_none(), "one normal axis alone is not a normal");
+    assert_eq!(c.field_names(), ["x", "y", "z"]);
+}

@@ -168,3 +168,32 @@ fn real_clouds_round_trip_through_ply_and_xyz() {
     let back = xyz::parse_xyz(&xyz::to_xyz_bytes(&c)).unwrap();
     assert_eq!(back.positions, c.positions);
 }
+
+#[test]
+fn binary_vertex_with_a_list_property_reads_value_by_value() {
+    let mut file = b"ply\nformat binary_little_endian 1.0\nelement vertex 2\nproperty uchar red\n\
+property list uchar short tags\nproperty float x\nproperty float y\nproperty float z\n\
+property uchar green\nproperty uchar blue\nend_header\n"
+        .to_vec();
+    for (r, tags, p) in [
+        (1u8, vec![5i16, 6], [1.0f32, 2.0, 3.0]),
+        (2, vec![], [4.0, 5.0, 6.0]),
+    ] {
+        file.push(r);
+        file.push(tags.len() as u8);
+        for t in tags {
+            file.extend(t.to_le_bytes());
+        }
+        for v in p {
+            file.extend(v.to_le_bytes());
+        }
+        file.extend([r * 10, r * 20]);
+    }
+    let c = ply::parse_ply(&file).unwrap();
+    assert_eq!(c.positions, vec![[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]]);
+    assert_eq!(c.colors.unwrap(), vec![[1, 10, 20], [2, 20, 40]]);
+    assert!(matches!(
+        ply::parse_ply(&file[..file.len() - 1]),
+        Err(PlyError::Truncated { index: 1, .. })
+    ));
+}

@@ -27,6 +27,7 @@ const HASH_LOG: u32 = 14;
 const MAX_LITERAL: usize = 32;
 const MAX_OFFSET: usize = 1 << 13;
 const MAX_MATCH: usize = 264;
+const SHORT_COPY: usize = 16;
 
 /// What is wrong with an LZF stream.
 #[derive(Debug, Error, PartialEq, Eq, Clone)]
@@ -68,7 +69,20 @@ pub enum LzfError {
 /// Decompresses `input`, which must decode to exactly `expected` bytes. The output is
 /// allocated once; callers bound `expected` (see [`MAX_RATIO`]) before calling.
 pub fn decompress(input: &[u8], expected: usize) -> Result<Vec<u8>, LzfError> {
-    let mut out = Vec::with_capacity(expected);
+    let mut out = Vec::new();
+    decompress_into(input, expected, &mut out)?;
+    Ok(out)
+}
+
+/// Like [`decompress`], but into `out` (resized to `expected`), so that a caller
+/// decoding frame after frame reuses one buffer instead of faulting in fresh pages.
+pub fn decompress_into(input: &[u8], expected: usize, out: &mut Vec<u8>) -> Result<(), LzfError> {
+    // PERF: writing a pre-sized buffer by index is several times faster than pushing,
+    // and the overlapping copies below move whole periods at a time.
+    out.clear();
+    out.resize(expected, 0);
+    let out = &mut out[..];
+    let mut op = 0;
     let mut ip = 0;
     while ip < input.len() {
         let at = ip;
@@ -76,11 +90,20 @@ pub fn decompress(input: &[u8], expected: usize) -> Result<Vec<u8>, LzfError> {
         ip += 1;
         if ctrl < 32 {
             let len = ctrl + 1;
-            let lit = input.get(ip..ip + len).ok_or(LzfError::Truncated { at })?;
-            if out.len() + len > expected {
+            if ip + len > input.len() {
+                return Err(LzfError::Truncated { at });
+            }
+            if op + len > expected {
                 return Err(LzfError::Overflow { at, expected });
             }
-            out.extend_from_slice(lit);
+            if ip + MAX_LITERAL <= input.len() && op + MAX_LITERAL <= expected {
+                // PERF: a fixed-size copy compiles to a few vector moves; the bytes past
+                // `len` are overwritten by the chunks that follow.
+                out[op..op + MAX_LITERAL].copy_from_slice(&input[ip..ip + MAX_LITERAL]);
+            } else {
+                out[op..op + len].copy_from_slice(&input[ip..ip + len]);
+            }
+            op += len;
             ip += len;
         } else {
             let mut len = ctrl >> 5;
@@ -92,35 +115,40 @@ pub fn decompress(input: &[u8], expected: usize) -> Result<Vec<u8>, LzfError> {
             let low = *input.get(ip).ok_or(LzfError::Truncated { at })? as usize;
             ip += 1;
             let distance = ((ctrl & 0x1f) << 8) + low + 1;
-            if distance > out.len() {
+            if distance > op {
                 return Err(LzfError::BadBackReference {
                     at,
                     distance,
-                    available: out.len(),
+                    available: op,
                 });
             }
-            if out.len() + len > expected {
+            if op + len > expected {
                 return Err(LzfError::Overflow { at, expected });
             }
-            let start = out.len() - distance;
-            if distance >= len {
-                out.extend_from_within(start..start + len);
+            let start = op - distance;
+            if distance >= SHORT_COPY && len <= SHORT_COPY && op + SHORT_COPY <= expected {
+                // PERF: fixed-size copy; the source lies wholly before `op`.
+                out.copy_within(start..start + SHORT_COPY, op);
+            } else if distance >= len {
+                out.copy_within(start..start + len, op);
             } else {
-                // Overlapping copy: each byte may be one this copy just produced.
-                for k in 0..len {
-                    let b = out[start + k];
-                    out.push(b);
+                // Overlapping (run-length) copy. The bytes from `start` to the write
+                // position repeat with period `distance`, so each piece can copy all of
+                // them: pieces double in size.
+                let mut copied = 0;
+                while copied < len {
+                    let c = (copied + distance).min(len - copied);
+                    out.copy_within(start..start + c, op + copied);
+                    copied += c;
                 }
             }
+            op += len;
         }
     }
-    if out.len() != expected {
-        return Err(LzfError::Short {
-            got: out.len(),
-            expected,
-        });
+    if op != expected {
+        return Err(LzfError::Short { got: op, expected });
     }
-    Ok(out)
+    Ok(())
 }
 
 fn hash(b: &[u8]) -> usize {

@@ -8,7 +8,14 @@
 //!
 //! Every size is checked against the bytes actually present before anything is
 //! allocated, so a hostile header (`POINTS 4000000000` with a ten-byte body) is an error,
-//! not an out-of-memory abort.
+//! not an out-of-memory abort. A `binary_compressed` body may expand at most
+//! [`lzf::MAX_RATIO`] times, LZF's own limit. Each thread keeps its last decompression
+//! buffer (up to 64 MB) for the next read, so frame-after-frame reading does not fault
+//! in fresh pages.
+//!
+//! Where PCL is lenient we report an error instead: `COUNT 0` (PCL drops the field),
+//! malformed ASCII rows (PCL skips them but counts them as points) and unknown header
+//! keywords. An `rgb` field gives colours without an alpha column; `rgba` keeps alpha.
 //!
 //! Writing ([`to_pcd_bytes`]) emits the fields of [`PointCloud::field_names`], all 4 bytes:
 //! floats as `TYPE F`, colour as `TYPE U` (`rgb`, or `rgba` when the cloud has an alpha
@@ -466,10 +473,22 @@ pub fn parse_pcd(bytes: &[u8]) -> Result<PointCloud, PcdError> {
             }
             decode(&header, &Body::new(&header, body, n, false))
         }
-        DataEncoding::BinaryCompressed => {
-            let data = decompress_body(body, total)?;
-            decode(&header, &Body::new(&header, &data, n, true))
-        }
+        DataEncoding::BinaryCompressed => SCRATCH.with(|scratch| {
+            // A re-entrant call (none exists today) would find the buffer borrowed and
+            // simply use a fresh one.
+            let mut fresh = Vec::new();
+            let mut guard = scratch.try_borrow_mut();
+            let data = match guard.as_mut() {
+                Ok(buf) => &mut **buf,
+                Err(_) => &mut fresh,
+            };
+            decompress_body(body, total, data)?;
+            let cloud = decode(&header, &Body::new(&header, data, n, true));
+            if data.capacity() > MAX_SCRATCH_BYTES {
+                *data = Vec::new();
+            }
+            cloud
+        }),
         DataEncoding::Ascii => {
             let records = ascii_records(&header, bytes, n)?;
             decode(&header, &Body::new(&header, &records, n, false))
@@ -477,8 +496,18 @@ pub fn parse_pcd(bytes: &[u8]) -> Result<PointCloud, PcdError> {
     }
 }
 
-/// Checks the two size words of a `binary_compressed` body and decompresses it.
-fn decompress_body(body: &[u8], expected: u64) -> Result<Vec<u8>, PcdError> {
+thread_local! {
+    /// PERF: the decompressed body of the last `binary_compressed` file read on this
+    /// thread, reused so that reading frame after frame does not fault in ~5 MB of
+    /// fresh pages each time. Dropped when larger than [`MAX_SCRATCH_BYTES`].
+    static SCRATCH: std::cell::RefCell<Vec<u8>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// Largest decompression buffer kept between reads (a 640x480 XYZRGBA body is 4.9 MB).
+const MAX_SCRATCH_BYTES: usize = 64 << 20;
+
+/// Checks the two size words of a `binary_compressed` body and decompresses it into `out`.
+fn decompress_body(body: &[u8], expected: u64, out: &mut Vec<u8>) -> Result<(), PcdError> {
     let available = body.len() as u64;
     if body.len() < 8 {
         return Err(PcdError::Truncated {
@@ -508,9 +537,10 @@ fn decompress_body(body: &[u8], expected: u64) -> Result<Vec<u8>, PcdError> {
         });
     }
     // Both sizes fit in u32 and are bounded by the file size, so these casts hold.
-    Ok(lzf::decompress(
+    Ok(lzf::decompress_into(
         &stream[..compressed as usize],
         uncompressed as usize,
+        out,
     )?)
 }
 
