@@ -6,6 +6,12 @@
 //! both, the covariance is de-meaned in `f64` (two passes), so normals stay right far
 //! from the origin, where PCL's one-pass `f32` covariance breaks down.
 //!
+//! Agreement with PCL (measured on the PCL test clouds and mOSD scenes): normals within
+//! 1° and curvature within 1e-4 for every point whose neighbourhood is well defined.
+//! Two cases are not: a k-NN neighbourhood whose k-th and (k+1)-th distances tie exactly
+//! (common on quantised Kinect depth; FLANN and kiddo keep different points), and a
+//! plane through the viewpoint, where the orientation test is the sign of rounding noise.
+//!
 //! ```
 //! use softsense::cloud::PointCloud;
 //! use softsense::features::{estimate_normals, NormalParams};
