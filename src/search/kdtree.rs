@@ -213,17 +213,10 @@ impl KdTree {
             return 0;
         }
         let r2 = squared_radius_f32(radius);
-        let mut count = 0;
-        for t in self.candidates(query, r2 as f64) {
-            let d = squared_distance(query, &self.points[t as usize]);
-            if (inclusive && d <= r2) || d < r2 {
-                count += 1;
-                if count >= stop_at {
-                    break;
-                }
-            }
-        }
-        count
+        self.count_inside(query, r2 as f64, stop_at, |p| {
+            let d = squared_distance(query, p);
+            (inclusive && d <= r2) || d < r2
+        })
     }
 
     /// Number of points with `d² < r²` in `f64` arithmetic (Open3D), stopping at `stop_at`.
@@ -232,9 +225,44 @@ impl KdTree {
             return 0;
         }
         let r2 = radius * radius;
+        self.count_inside(query, r2, stop_at, |p| squared_distance_f64(query, p) < r2)
+    }
+
+    /// Counts the points for which `inside` holds among the candidates within
+    /// `squared_radius` (widened), up to `stop_at`.
+    ///
+    /// PERF: for a small `stop_at`, first asks kiddo for only the `stop_at` closest
+    /// candidates, which prunes the traversal. The answer stays exact whatever kiddo's
+    /// rounding: fewer than `stop_at` candidates means that is all of them; `stop_at`
+    /// candidates all inside means the count reached `stop_at`; anything else falls back
+    /// to the full count.
+    fn count_inside(
+        &self,
+        query: &[f32; 3],
+        squared_radius: f64,
+        stop_at: usize,
+        inside: impl Fn(&[f32; 3]) -> bool,
+    ) -> usize {
+        if stop_at == 0 || self.points.is_empty() || !query.iter().all(|c| c.is_finite()) {
+            return 0;
+        }
+        if stop_at <= 64 {
+            let widened = (squared_radius * (1.0 + 1e-4) + 1e-30).min(f32::MAX as f64) as f32;
+            let cap = NonZero::new(stop_at).expect("stop_at > 0");
+            let best = self
+                .tree
+                .nearest_n_within::<SquaredEuclidean>(query, widened, cap, false);
+            let n_inside = best
+                .iter()
+                .filter(|n| inside(&self.points[n.item as usize]))
+                .count();
+            if best.len() < stop_at || n_inside == stop_at {
+                return n_inside;
+            }
+        }
         let mut count = 0;
-        for t in self.candidates(query, r2) {
-            if squared_distance_f64(query, &self.points[t as usize]) < r2 {
+        for t in self.candidates(query, squared_radius) {
+            if inside(&self.points[t as usize]) {
                 count += 1;
                 if count >= stop_at {
                     break;

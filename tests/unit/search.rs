@@ -58,6 +58,12 @@ proptest! {
         prop_assert_eq!(unsorted, want_set);
         // Count agrees.
         prop_assert_eq!(tree.count_within_radius(&q, r, inclusive, usize::MAX), got.len());
+        for stop in 1..12 {
+            prop_assert_eq!(tree.count_within_radius(&q, r, inclusive, stop), got.len().min(stop));
+            let n64 = points.iter().filter(|p| p.iter().all(|c| c.is_finite()) && squared_distance_f64(&q, p) < r * r).count();
+            let n64 = if q.iter().all(|c| c.is_finite()) { n64 } else { 0 };
+            prop_assert_eq!(tree.count_within_radius_f64(&q, r, stop), n64.min(stop));
+        }
     }
 
     #[test]
