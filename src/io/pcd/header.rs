@@ -101,6 +101,11 @@ impl PcdField {
     pub fn byte_len(&self) -> usize {
         self.ty.size() * self.count
     }
+
+    /// True for PCL's `_` padding fields.
+    pub fn is_padding(&self) -> bool {
+        self.name == "_"
+    }
 }
 
 /// The body encoding named by the `DATA` line.
@@ -150,6 +155,16 @@ impl PcdHeader {
     /// Bytes per point record (sum of the fields' sizes times counts).
     pub fn record_size(&self) -> usize {
         self.fields.iter().map(PcdField::byte_len).sum()
+    }
+
+    /// Bytes per point in a `binary_compressed` body, which (as PCL reads and writes
+    /// it) has no columns for `_` padding fields.
+    pub fn columnar_record_size(&self) -> usize {
+        self.fields
+            .iter()
+            .filter(|f| !f.is_padding())
+            .map(PcdField::byte_len)
+            .sum()
     }
 
     /// Index of the field named `name`.

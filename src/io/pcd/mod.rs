@@ -315,10 +315,12 @@ impl<'a> Body<'a> {
         let mut at = 0;
         for f in &header.fields {
             offsets.push(at);
-            at += if columnar {
-                f.byte_len() * n
-            } else {
+            at += if !columnar {
                 f.byte_len()
+            } else if f.is_padding() {
+                0 // PCL stores no column for `_` padding in compressed bodies
+            } else {
+                f.byte_len() * n
             };
         }
         Body {
@@ -482,7 +484,10 @@ pub fn parse_pcd(bytes: &[u8]) -> Result<PointCloud, PcdError> {
                 Ok(buf) => &mut **buf,
                 Err(_) => &mut fresh,
             };
-            decompress_body(body, total, data)?;
+            let columns = points
+                .checked_mul(header.columnar_record_size() as u64)
+                .ok_or(PcdError::TooManyPoints { points })?;
+            decompress_body(body, columns, data)?;
             let cloud = decode(&header, &Body::new(&header, data, n, true));
             if data.capacity() > MAX_SCRATCH_BYTES {
                 *data = Vec::new();
