@@ -4,7 +4,10 @@
 //!   `tests/fixtures/rgbd/color.png` (8-bit RGB), `tests/fixtures/rgbd/intrinsics.json`
 //!   (Open3D `PinholeCameraIntrinsic`);
 //! - `clouds/demo_scene.pcd`: those images converted by `softsense::io::rgbd::read_frame`
-//!   and written `binary_compressed`.
+//!   and written `binary_compressed`;
+//! - `tests/fixtures/rgbd/malformed/`: a small corpus of bad RGB-D inputs (wrong bit depth,
+//!   float TIFF, truncated or absurdly sized PNGs, size mismatches, broken intrinsics),
+//!   whose expected typed errors are listed in `tests/unit/io_rgbd.rs`.
 //!
 //! The scene, ray-cast from a 320x240 camera 0.55 m above a table and pitched 45° down:
 //! a table top (a wood-coloured checkerboard, 5 cm squares), a blue box, and an orange
@@ -216,11 +219,136 @@ fn main() -> Result<(), Box<dyn Error>> {
     )?;
     let out = root.join("clouds/demo_scene.pcd");
     write_cloud(&out, &cloud, Encoding::BinaryCompressed)?;
+    write_malformed(&fixtures.join("malformed"))?;
     eprintln!(
         "wrote {} ({} points, {} finite) and tests/fixtures/rgbd/{{depth,color}}.png, intrinsics.json",
         out.display(),
         cloud.len(),
         cloud.count_finite()
     );
+    Ok(())
+}
+
+/// A minimal little-endian TIFF of 32-bit float grey pixels (one strip, uncompressed).
+fn float_tiff(w: u16, h: u16, pixels: &[f32]) -> Vec<u8> {
+    // (tag, type, value): type 3 = SHORT, 4 = LONG; tags ascending as TIFF requires.
+    let data_offset = 8 + 2 + 10 * 12 + 4;
+    let entries: [(u16, u16, u32); 10] = [
+        (256, 3, w.into()),                        // ImageWidth
+        (257, 3, h.into()),                        // ImageLength
+        (258, 3, 32),                              // BitsPerSample
+        (259, 3, 1),                               // Compression: none
+        (262, 3, 1),                               // Photometric: BlackIsZero
+        (273, 4, data_offset),                     // StripOffsets
+        (277, 3, 1),                               // SamplesPerPixel
+        (278, 3, h.into()),                        // RowsPerStrip
+        (279, 4, u32::from(w) * u32::from(h) * 4), // StripByteCounts
+        (339, 3, 3),                               // SampleFormat: IEEE float
+    ];
+    let mut out = b"II*\0".to_vec();
+    out.extend_from_slice(&8u32.to_le_bytes());
+    out.extend_from_slice(&(entries.len() as u16).to_le_bytes());
+    for (tag, ty, value) in entries {
+        out.extend_from_slice(&tag.to_le_bytes());
+        out.extend_from_slice(&ty.to_le_bytes());
+        out.extend_from_slice(&1u32.to_le_bytes());
+        out.extend_from_slice(&value.to_le_bytes());
+    }
+    out.extend_from_slice(&0u32.to_le_bytes());
+    for p in pixels {
+        out.extend_from_slice(&p.to_le_bytes());
+    }
+    out
+}
+
+/// CRC-32 (IEEE), as PNG chunks use it.
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut crc = !0u32;
+    for &b in bytes {
+        crc ^= u32::from(b);
+        for _ in 0..8 {
+            crc = if crc & 1 != 0 {
+                (crc >> 1) ^ 0xEDB8_8320
+            } else {
+                crc >> 1
+            };
+        }
+    }
+    !crc
+}
+
+/// A copy of a PNG whose IHDR (after the 8-byte signature and the chunk's length and
+/// type) claims `w x h`, with the chunk CRC fixed so only the size is wrong.
+fn with_size(png: &[u8], w: u32, h: u32) -> Vec<u8> {
+    let mut out = png.to_vec();
+    out[16..20].copy_from_slice(&w.to_be_bytes());
+    out[20..24].copy_from_slice(&h.to_be_bytes());
+    let crc = crc32(&out[12..29]);
+    out[29..33].copy_from_slice(&crc.to_be_bytes());
+    out
+}
+
+/// Writes the malformed RGB-D corpus.
+fn write_malformed(dir: &Path) -> Result<(), Box<dyn Error>> {
+    use image::{ImageBuffer, Luma, Rgb};
+    std::fs::create_dir_all(dir)?;
+    let grey16 = ImageBuffer::<Luma<u16>, _>::from_fn(8, 6, |u, v| Luma([(u * 100 + v) as u16]));
+    grey16.save(dir.join("color_grey16.png"))?;
+    grey16.save(dir.join("depth_small.png"))?;
+    ImageBuffer::<Luma<u8>, _>::from_pixel(8, 6, Luma([9])).save(dir.join("depth_grey8.png"))?;
+    ImageBuffer::<Luma<u8>, _>::from_pixel(8, 6, Luma([9])).save(dir.join("color_grey8.png"))?;
+    let rgb = ImageBuffer::<Rgb<u8>, _>::from_pixel(8, 6, Rgb([1, 2, 3]));
+    rgb.save(dir.join("depth_rgb8.png"))?;
+    rgb.save(dir.join("color_small.png"))?;
+    ImageBuffer::<Rgb<u16>, _>::from_pixel(8, 6, Rgb([1, 2, 3]))
+        .save(dir.join("depth_rgb16.png"))?;
+    std::fs::write(
+        dir.join("depth_float32.tiff"),
+        float_tiff(2, 2, &[0.5, 1.0, 1.5, 0.0]),
+    )?;
+    let png = std::fs::read(dir.join("depth_small.png"))?;
+    std::fs::write(dir.join("depth_truncated.png"), &png[..png.len() / 2])?;
+    std::fs::write(
+        dir.join("depth_not_an_image.png"),
+        b"P5 this is not a PNG\n",
+    )?;
+    std::fs::write(
+        dir.join("depth_huge_dims.png"),
+        with_size(&png, 100_000, 100_000),
+    )?;
+    // Within the side limit, but 128 MB of pixels from a file of a few hundred bytes.
+    std::fs::write(
+        dir.join("depth_implausible_dims.png"),
+        with_size(&png, 8000, 8000),
+    )?;
+    let m = "[262.5, 0, 0, 0, 262.5, 0, 159.5, 119.5, 1]";
+    for (name, text) in [
+        ("intrinsics_missing_height.json", format!(r#"{{"width": 320, "intrinsic_matrix": {m}}}"#)),
+        (
+            "intrinsics_skew.json",
+            r#"{"width": 320, "height": 240, "intrinsic_matrix": [262.5, 0, 0, 1.5, 262.5, 0, 159.5, 119.5, 1]}"#.into(),
+        ),
+        (
+            "intrinsics_short_matrix.json",
+            r#"{"width": 320, "height": 240, "intrinsic_matrix": [262.5, 0, 0, 0, 262.5]}"#.into(),
+        ),
+        ("intrinsics_huge_width.json", format!(r#"{{"width": 1000000000000, "height": 240, "intrinsic_matrix": {m}}}"#)),
+        ("intrinsics_syntax.json", r#"{"width": 320, "height": 240, "intrinsic_matrix": [262.5"#.into()),
+        (
+            "intrinsics_missing_fy.xml",
+            "<depth><focal_length_x>525</focal_length_x><principal_point_x>320</principal_point_x>\
+             <principal_point_y>240</principal_point_y></depth>\n".into(),
+        ),
+        (
+            "intrinsics_bad_factor.xml",
+            "<depth><focal_length_x>525</focal_length_x><focal_length_y>525</focal_length_y>\
+             <principal_point_x>320</principal_point_x><principal_point_y>240</principal_point_y>\
+             <z_multiplication_factor>zero</z_multiplication_factor></depth>\n".into(),
+        ),
+        ("intrinsics_unclosed.xml", "<depth><focal_length_x>525</focal_length_x>\n".into()),
+        ("intrinsics.yaml", "fx: 525\n".into()),
+    ] {
+        std::fs::write(dir.join(name), text)?;
+    }
     Ok(())
 }

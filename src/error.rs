@@ -22,5 +22,5 @@ pub enum Error {
     Pipeline(#[from] crate::pipeline::PipelineError),
 }
 
-/// `Result` with the crate-level [`Error`].
+/// `Result` with the crate-level [`Error`](enum@Error).
 pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -33,9 +33,8 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Summarise a cloud file: points, fields, encoding, bounds, viewpoint.
+    // Each variant's about/long_about lives on its Args struct, beside the options.
     Info(cli::info::InfoArgs),
-    /// Convert PCD/PLY/XYZ, or RGB-D images (+ intrinsics) to a cloud.
     Convert(cli::convert::ConvertArgs),
     /// Crop, voxel-filter, remove outliers and estimate normals (PCL/Open3D semantics).
     Filter(cli::filter::FilterArgs),

@@ -16,6 +16,7 @@ pub enum EncodingArg {
     /// Raw binary (PCD binary, PLY binary_little_endian).
     Binary,
     /// PCD binary_compressed (LZF); PLY writes binary.
+    #[value(name = "binary_compressed", alias = "binary-compressed")]
     BinaryCompressed,
 }
 
@@ -41,6 +42,7 @@ pub enum ArithmeticArg {
 /// Arguments of `softsense convert`.
 #[derive(Debug, Args)]
 #[command(
+    about = "Convert PCD/PLY/XYZ, or RGB-D images (+ intrinsics) to a cloud",
     long_about = "Convert a cloud between formats, or turn an RGB-D image pair into an organized cloud.\n\n\
 Cloud to cloud: `convert IN OUT`. Formats are chosen by extension (.pcd, .ply, .xyz/.txt). \
 All fields that both formats can hold are kept; XYZ keeps positions only.\n\n\
@@ -118,7 +120,7 @@ pub fn run(args: &ConvertArgs) -> CliResult {
             "width": cloud.width,
             "height": cloud.height,
             "fields": cloud.field_names(),
-        }));
+        }))?;
     }
     eprintln!(
         "wrote {}: {} points ({} finite), {} x {}",
@@ -128,8 +130,12 @@ pub fn run(args: &ConvertArgs) -> CliResult {
         cloud.width,
         cloud.height
     );
-    if CloudFormat::from_path(output) == Some(CloudFormat::Xyz) && cloud.field_names().len() > 3 {
+    let format = CloudFormat::from_path(output);
+    if format == Some(CloudFormat::Xyz) && cloud.field_names().len() > 3 {
         eprintln!("note: XYZ keeps positions only; other fields were dropped");
+    }
+    if format != Some(CloudFormat::Pcd) && cloud.is_organized() {
+        eprintln!("note: only PCD stores the organized shape; the file holds a flat list");
     }
     Ok(())
 }
@@ -167,5 +173,16 @@ fn rgbd_cloud(args: &ConvertArgs, depth: &std::path::Path) -> Result<PointCloud,
         .params
         .validate()
         .map_err(|e| CliError::Usage(format!("--depth-scale/--depth-trunc: {e}")))?;
-    Ok(rgbd::read_frame(depth, args.color.as_deref(), &camera)?)
+    let cloud = rgbd::read_frame(depth, args.color.as_deref(), &camera)?;
+    if cloud.count_finite() == 0 {
+        // Almost always a unit mistake; refuse rather than write an all-NaN cloud.
+        return Err(CliError::Result(format!(
+            "{}: no pixel gives a valid point (depth_scale {} units/m, depth_trunc {} m); \
+             check --depth-scale and --depth-trunc",
+            depth.display(),
+            camera.params.depth_scale,
+            camera.params.depth_trunc
+        )));
+    }
+    Ok(cloud)
 }

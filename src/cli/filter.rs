@@ -186,7 +186,7 @@ pub fn run(args: &FilterArgs) -> CliResult {
         let progress = std::io::stderr().is_terminal();
         let summary = run_sequence(&mut pipeline, &frames, &args.output, 4, progress)?;
         if args.json {
-            print_json(&serde_json::to_value(&summary).unwrap_or_default());
+            print_json(&serde_json::to_value(&summary).unwrap_or_default())?;
         } else {
             let total_ms: f64 = summary
                 .iter()
@@ -215,7 +215,7 @@ pub fn run(args: &FilterArgs) -> CliResult {
     if args.json {
         let j = serde_json::json!({"input": args.input, "output": args.output,
             "points_in": cloud.len(), "points_out": out.cloud.len(), "stages": stages});
-        print_json(&j);
+        print_json(&j)?;
     } else {
         for t in &out.timings {
             eprintln!(

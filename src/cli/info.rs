@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 /// Arguments of `softsense info`.
 #[derive(Debug, Args)]
 #[command(
+    about = "Summarise a cloud file: points, fields, encoding, bounds, viewpoint",
     long_about = "Print what a cloud file holds: number of points and of finite points, \
 organized size (width x height), the file's fields, its encoding, the bounding box of the \
 finite points and the sensor viewpoint.\n\n\
@@ -38,10 +39,10 @@ fn header_facts(path: &Path, cloud: &softsense::PointCloud) -> Result<HeaderFact
     let from_cloud = || cloud.field_names().iter().map(|f| f.to_string()).collect();
     Ok(match CloudFormat::from_path(path) {
         Some(CloudFormat::Pcd) => {
-            // TODO(merge io): io::pcd::read_pcd_header(path)? -> fields, encoding.keyword()
+            let header = io::pcd::read_pcd_header(path)?;
             HeaderFacts {
-                fields: from_cloud(),
-                encoding: "unknown".into(),
+                fields: header.fields.iter().map(|f| f.name.clone()).collect(),
+                encoding: header.encoding.keyword().to_string(),
             }
         }
         Some(CloudFormat::Ply) => HeaderFacts {
@@ -94,7 +95,7 @@ pub fn run(args: &InfoArgs) -> CliResult {
             "encoding": facts.encoding,
             "bounds": bounds.map(|(lo, hi)| json!({"min": lo, "max": hi})),
             "viewpoint": {"origin": vp.origin, "orientation_wxyz": vp.orientation},
-        }));
+        }))?;
     } else {
         eprintln!("{}", args.file.display());
         eprintln!("  points:        {} ({} finite)", cloud.len(), finite);

@@ -13,6 +13,10 @@ pub enum CliError {
     Usage(String),
     /// The library refused (bad file, bad intrinsics, ...); the message names the file.
     Lib(softsense::Error),
+    /// The command ran but its result is unusable (e.g. no valid point); exit code 1.
+    Result(String),
+    /// Any other error from a subcommand that returns `Box<dyn Error>`; exit code 1.
+    Other(Box<dyn std::error::Error>),
 }
 
 impl CliError {
@@ -20,7 +24,7 @@ impl CliError {
     pub fn exit_code(&self) -> u8 {
         match self {
             CliError::Usage(_) => 2,
-            CliError::Lib(_) => 1,
+            CliError::Lib(_) | CliError::Result(_) | CliError::Other(_) => 1,
         }
     }
 }
@@ -28,8 +32,9 @@ impl CliError {
 impl fmt::Display for CliError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            CliError::Usage(m) => write!(f, "{m}"),
+            CliError::Usage(m) | CliError::Result(m) => write!(f, "{m}"),
             CliError::Lib(e) => write!(f, "{e}"),
+            CliError::Other(e) => write!(f, "{e}"),
         }
     }
 }
@@ -46,6 +51,12 @@ impl From<softsense::pipeline::PipelineError> for CliError {
     }
 }
 
+impl From<Box<dyn std::error::Error>> for CliError {
+    fn from(e: Box<dyn std::error::Error>) -> Self {
+        CliError::Other(e)
+    }
+}
+
 impl From<softsense::io::IoError> for CliError {
     fn from(e: softsense::io::IoError) -> Self {
         CliError::Lib(e.into())
@@ -55,7 +66,14 @@ impl From<softsense::io::IoError> for CliError {
 /// The result every subcommand returns.
 pub type CliResult = Result<(), CliError>;
 
-/// Prints a JSON value on stdout, one document per line.
-pub fn print_json(value: &serde_json::Value) {
-    println!("{value}");
+/// Prints a JSON value on stdout, one document per line. A closed pipe (`| head`) is not
+/// an error; any other write failure is.
+pub fn print_json(value: &serde_json::Value) -> CliResult {
+    use std::io::Write;
+    match writeln!(std::io::stdout().lock(), "{value}") {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
+            Err(CliError::Result(format!("cannot write to stdout: {e}")))
+        }
+        _ => Ok(()),
+    }
 }

@@ -150,6 +150,7 @@ pub struct CameraModel {
 }
 
 impl Default for PinholeIntrinsics {
+    /// [`PinholeIntrinsics::prime_sense_default`], as Open3D's default camera.
     fn default() -> Self {
         Self::prime_sense_default()
     }

@@ -63,6 +63,17 @@ pub enum RgbdError {
         /// The decoder's message.
         message: String,
     },
+    /// The image declares more pixels than its file size can hold (hostile or corrupt
+    /// header); refused before allocating.
+    #[error("image declares {width}x{height} pixels, more than a {file_len}-byte file can hold")]
+    ImplausibleSize {
+        /// Declared width.
+        width: u32,
+        /// Declared height.
+        height: u32,
+        /// The file's size in bytes.
+        file_len: u64,
+    },
     /// The depth image is not 16-bit single-channel.
     #[error("depth image must be 16-bit single-channel (grey), found {found}")]
     UnsupportedDepthType {
@@ -86,6 +97,9 @@ pub enum RgbdError {
         found: (u32, u32),
     },
 }
+
+/// The most decoded bytes per file byte we believe a PNG or TIFF can hold.
+const MAX_EXPANSION: u64 = 4096;
 
 /// A decoded 16-bit depth image, row-major.
 #[derive(Debug, Clone, PartialEq)]
@@ -127,54 +141,70 @@ fn describe(c: ColorType) -> String {
 }
 
 /// Opens an image and checks its pixel type with `accept` before decoding any pixels,
-/// so that a wrong type is reported without allocating the image.
+/// so that a wrong type is reported (as `wrong(description)`) without allocating the image.
 fn decode_checked(
     path: &Path,
-    accept: impl Fn(ColorType) -> Result<(), RgbdError>,
+    accept: impl Fn(ColorType) -> bool,
+    wrong: impl Fn(String) -> RgbdError,
 ) -> Result<DynamicImage, IoError> {
     let rgbd = |source| IoError::Rgbd {
         path: path.to_path_buf(),
         source,
     };
+    let os = |source| IoError::Os {
+        path: path.to_path_buf(),
+        source,
+    };
     let image_err = |e: image::ImageError| {
         rgbd(match e {
-            // A float or odd-bit-depth TIFF: the decoder refuses it before we see a type.
-            image::ImageError::Unsupported(u) => RgbdError::Image {
-                message: format!("unsupported pixel format: {u}"),
+            // E.g. a 32-bit float grey TIFF: the decoder refuses its pixel type before we
+            // can see it, reporting "Unknown(bits per pixel)".
+            image::ImageError::Unsupported(u) => match u.kind() {
+                image::error::UnsupportedErrorKind::Color(c) => {
+                    wrong(format!("a pixel type the decoder cannot read ({c:?})"))
+                }
+                _ => RgbdError::Image {
+                    message: u.to_string(),
+                },
             },
             other => RgbdError::Image {
                 message: other.to_string(),
             },
         })
     };
-    let file = std::fs::File::open(path).map_err(|source| IoError::Os {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let file = std::fs::File::open(path).map_err(os)?;
+    let file_len = file.metadata().map_err(os)?.len();
     let mut reader = ImageReader::new(std::io::BufReader::new(file))
         .with_guessed_format()
-        .map_err(|source| IoError::Os {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        .map_err(os)?;
     let mut limits = image::Limits::default();
     limits.max_image_width = Some(MAX_IMAGE_SIDE);
     limits.max_image_height = Some(MAX_IMAGE_SIDE);
     reader.limits(limits);
     let decoder = reader.into_decoder().map_err(image_err)?;
-    accept(decoder.color_type()).map_err(rgbd)?;
+    // No allocation beyond what the file can justify: no PNG/TIFF codec expands data by
+    // more than MAX_EXPANSION (LZW's worst case is about 2730:1, deflate's 1032:1).
+    let (width, height) = decoder.dimensions();
+    let needed = decoder.total_bytes();
+    if needed > file_len.saturating_mul(MAX_EXPANSION) + (1 << 20) {
+        return Err(rgbd(RgbdError::ImplausibleSize {
+            width,
+            height,
+            file_len,
+        }));
+    }
+    let color_type = decoder.color_type();
+    if !accept(color_type) {
+        return Err(rgbd(wrong(describe(color_type))));
+    }
     DynamicImage::from_decoder(decoder).map_err(image_err)
 }
 
 /// Reads a 16-bit single-channel depth image (PNG or TIFF).
 pub fn read_depth_image(path: impl AsRef<Path>) -> Result<DepthImage, IoError> {
     let path = path.as_ref();
-    let img = decode_checked(path, |c| match c {
-        ColorType::L16 => Ok(()),
-        other => Err(RgbdError::UnsupportedDepthType {
-            found: describe(other),
-        }),
-    })?;
+    let wrong = |found| RgbdError::UnsupportedDepthType { found };
+    let img = decode_checked(path, |c| c == ColorType::L16, wrong)?;
     let (width, height) = (img.width(), img.height());
     match img {
         DynamicImage::ImageLuma16(buf) => Ok(DepthImage {
@@ -184,9 +214,7 @@ pub fn read_depth_image(path: impl AsRef<Path>) -> Result<DepthImage, IoError> {
         }),
         other => Err(IoError::Rgbd {
             path: path.to_path_buf(),
-            source: RgbdError::UnsupportedDepthType {
-                found: describe(other.color()),
-            },
+            source: wrong(describe(other.color())),
         }),
     }
 }
@@ -194,12 +222,9 @@ pub fn read_depth_image(path: impl AsRef<Path>) -> Result<DepthImage, IoError> {
 /// Reads an 8-bit RGB or RGBA colour image (PNG or TIFF); RGBA keeps R, G, B.
 pub fn read_color_image(path: impl AsRef<Path>) -> Result<ColorImage, IoError> {
     let path = path.as_ref();
-    let img = decode_checked(path, |c| match c {
-        ColorType::Rgb8 | ColorType::Rgba8 => Ok(()),
-        other => Err(RgbdError::UnsupportedColorType {
-            found: describe(other),
-        }),
-    })?;
+    let wrong = |found| RgbdError::UnsupportedColorType { found };
+    let accept = |c| matches!(c, ColorType::Rgb8 | ColorType::Rgba8);
+    let img = decode_checked(path, accept, wrong)?;
     let (width, height) = (img.width(), img.height());
     let data = match img {
         DynamicImage::ImageRgb8(buf) => buf.pixels().map(|p| p.0).collect(),
@@ -208,9 +233,7 @@ pub fn read_color_image(path: impl AsRef<Path>) -> Result<ColorImage, IoError> {
         other => {
             return Err(IoError::Rgbd {
                 path: path.to_path_buf(),
-                source: RgbdError::UnsupportedColorType {
-                    found: describe(other.color()),
-                },
+                source: wrong(describe(other.color())),
             })
         }
     };
@@ -267,7 +290,9 @@ pub fn depth_to_cloud(
                 let dv = v as f32 - cy;
                 for (u, &raw) in row.iter().enumerate() {
                     let z = f32::from(raw) * factor;
-                    positions.push(if raw == 0 || f64::from(z) >= trunc {
+                    // z == 0: no measurement (raw 0), or a scale so large the product
+                    // underflows; either way never a point at the origin.
+                    positions.push(if z <= 0.0 || f64::from(z) >= trunc {
                         nan
                     } else {
                         [(u as f32 - cx) * z * kx, dv * z * ky, z]

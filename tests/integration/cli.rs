@@ -45,11 +45,15 @@ fn json_of(o: &Output) -> serde_json::Value {
     serde_json::from_slice(&o.stdout).expect("stdout is one JSON document")
 }
 
+/// A position's bit pattern, with every NaN mapped to one value.
+fn bits(p: &[f32; 3]) -> [u32; 3] {
+    p.map(|c| if c.is_nan() { u32::MAX } else { c.to_bits() })
+}
+
 /// Positions equal bit for bit (NaN == NaN), colours equal, same organization.
 fn assert_same_cloud(a: &PointCloud, b: &PointCloud) {
     assert_eq!((a.width, a.height, a.len()), (b.width, b.height, b.len()));
     for (i, (p, q)) in a.positions.iter().zip(&b.positions).enumerate() {
-        let bits = |v: &[f32; 3]| v.map(|c| if c.is_nan() { u32::MAX } else { c.to_bits() });
         assert_eq!(bits(p), bits(q), "point {i}: {p:?} vs {q:?}");
     }
     assert_eq!(a.colors, b.colors);
@@ -127,11 +131,23 @@ fn convert_round_trips_through_every_format_and_encoding() {
         ]);
         assert!(o.status.success(), "{name}: {}", stderr(&o));
         let back = read_cloud(&out).unwrap();
+        let v = json_of(&softsense(&["info", out.to_str().unwrap(), "--json"]));
+        let want = match (name.ends_with(".ply"), enc) {
+            (true, "binary") => "binary_little_endian",
+            (_, e) => e,
+        };
+        assert_eq!(v["encoding"], want, "{name}");
         if name.ends_with(".pcd") {
             assert_same_cloud(&original, &back);
         } else {
-            // PLY has no organized shape; compare the points.
+            // PLY has no organized shape (and says so); compare the points.
+            assert!(stderr(&o).contains("organized shape"), "{name}");
             assert_eq!(back.len(), original.len(), "{name}");
+            assert!(back
+                .positions
+                .iter()
+                .map(bits)
+                .eq(original.positions.iter().map(bits)));
             assert_eq!(back.colors, original.colors, "{name}");
         }
     }
@@ -239,6 +255,13 @@ fn bad_rgbd_inputs_are_typed_errors_naming_the_file() {
     .unwrap();
     let o = convert_rgbd(&fixture("depth.png"), vga.to_str().unwrap(), &[out]);
     assert_fails(&o, 1, &["depth.png", "(640, 480)", "(320, 240)"]);
+    // Truncation so tight that nothing is left: an error, not an all-NaN file.
+    let o = convert_rgbd(
+        &fixture("depth.png"),
+        &fixture("intrinsics.json"),
+        &["--depth-trunc", "0.01", out],
+    );
+    assert_fails(&o, 1, &["depth.png", "no pixel gives a valid point"]);
     assert!(!Path::new(out).exists());
 }
 
@@ -267,4 +290,25 @@ fn argument_misuse_exits_with_code_2() {
     );
     assert_fails(&o, 2, &["depth_scale"]);
     assert_fails(&softsense(&["frobnicate"]), 2, &[]);
+}
+
+/// The CLI on a real Kinect frame (TIFF depth + TIFF colour + PCL XML) writes the same
+/// cloud PCL's grabber wrote for it.
+#[test]
+fn rgbd_convert_of_a_real_frame_equals_pcls_pcd() {
+    let Some(dir) = crate::common::data_dir("rgbd_convert_of_a_real_frame_equals_pcls_pcd") else {
+        return;
+    };
+    let stem = dir.join("pcl/grabber_sequence/frame_20121214T142256.068683");
+    let s = stem.to_str().unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("frame.pcd");
+    let o = convert_rgbd(
+        &format!("{s}_depth.tiff"),
+        &format!("{s}.xml"),
+        &["--color", &format!("{s}_rgb.tiff"), out.to_str().unwrap()],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let pcl = read_cloud(format!("{s}.pcd")).unwrap();
+    assert_same_cloud(&read_cloud(&out).unwrap(), &pcl);
 }

@@ -90,6 +90,40 @@ fn back_projection_follows_the_pinhole_model() {
     }
 }
 
+/// Six pixels of a real Kinect frame (`frame_20121214T142256.068683`, fx = fy = 525,
+/// c = (320, 240), millimetres) with the exact bits PCL's grabber wrote for them. They were
+/// chosen where both the other f32 order, (u − cx)·(1/fx)·z, and the f64 formula give a
+/// different float, so only PCL's own order passes. (u, v, raw depth, [x, y, z] bits.)
+const PCL_PIXELS: [(u32, u32, u16, [u32; 3]); 6] = [
+    (397, 353, 833, [0x3dfa3605, 0x3e3798ac, 0x3f553f7e]),
+    (408, 247, 880, [0x3e170b7d, 0x3c403d2b, 0x3f6147af]),
+    (447, 446, 734, [0x3e35d1ca, 0x3e9375bd, 0x3f3be76d]),
+    (138, 222, 781, [0xbe8a9f4e, 0xbcdb5bbe, 0x3f47ef9e]),
+    (167, 75, 1381, [0xbece0f9c, 0xbede38fe, 0x3fb0c49c]),
+    (131, 31, 1536, [0xbf0d8eca, 0xbf1c8995, 0x3fc49ba6]),
+];
+
+#[test]
+fn pcl_arithmetic_reproduces_pcls_bits_where_other_orders_differ() {
+    let k = PinholeIntrinsics {
+        width: 640,
+        height: 480,
+        fx: 525.0,
+        fy: 525.0,
+        cx: 320.0,
+        cy: 240.0,
+    };
+    let mut depth = vec![0u16; 640 * 480];
+    for &(u, v, raw, _) in &PCL_PIXELS {
+        depth[(v * 640 + u) as usize] = raw;
+    }
+    let cloud = depth_to_cloud(&depth, None, &k, &DepthParams::default()).unwrap();
+    for &(u, v, _, bits) in &PCL_PIXELS {
+        let p = cloud.positions[(v * 640 + u) as usize];
+        assert_eq!(p.map(f32::to_bits), bits, "pixel ({u}, {v}): {p:?}");
+    }
+}
+
 #[test]
 fn depth_at_or_beyond_trunc_is_invalid() {
     // 2999 mm stays, 3000 mm (= trunc) and beyond go, as in Open3D.
@@ -218,6 +252,28 @@ proptest! {
             prop_assert!((z - depth[i] as f64 / 1000.0).abs() <= 1e-6 * z.max(1.0));
             prop_assert!((fx * p[0] as f64 / z + k.cx - u).abs() < 1e-3, "u {} {:?}", u, p);
             prop_assert!((fy * p[1] as f64 / z + k.cy - v).abs() < 1e-3, "v {} {:?}", v, p);
+        }
+    }
+}
+
+proptest! {
+    #[test]
+    fn every_point_is_either_valid_in_front_of_the_camera_or_all_nan(
+        raw in proptest::collection::vec(any::<u16>(), 6),
+        log_scale in -3.0f64..45.0,
+        trunc in prop_oneof![Just(f64::INFINITY), 0.001f64..100.0],
+        open3d in any::<bool>(),
+    ) {
+        let params = DepthParams {
+            depth_scale: 10f64.powf(log_scale),
+            depth_trunc: trunc,
+            arithmetic: if open3d { Arithmetic::Open3d } else { Arithmetic::Pcl },
+        };
+        let cloud = depth_to_cloud(&raw, None, &intr(3, 2), &params).unwrap();
+        for p in &cloud.positions {
+            let all_nan = p.iter().all(|c| c.is_nan());
+            let valid = p.iter().all(|c| c.is_finite()) && p[2] > 0.0 && f64::from(p[2]) < trunc;
+            prop_assert!(all_nan || valid, "{:?} with {:?}", p, params);
         }
     }
 }
@@ -401,6 +457,14 @@ fn open3d_json_is_column_major() {
         }
     );
     assert_eq!(cam.params, DepthParams::default());
+    // Byte for byte what Open3D 0.20's write_pinhole_camera_intrinsic writes.
+    let written =
+        "{\n\t\"height\" : 480,\n\t\"intrinsic_matrix\" : [ 525.0, 0.0, 0.0, 0.0, 525.0, \
+                   0.0, 319.5, 239.5, 1.0 ],\n\t\"width\" : 640\n}";
+    assert_eq!(
+        parse_open3d_json(written).unwrap().intrinsics,
+        PinholeIntrinsics::prime_sense_default()
+    );
 }
 
 fn field_of(e: RgbdError) -> String {
@@ -597,6 +661,148 @@ fn grabber_frames_match_pcls_own_pcd() {
     eprintln!(
         "max |ours - PCL| = {max_pcl:e} m (PCL arithmetic), {max_o3d:e} m (Open3D arithmetic)"
     );
-    assert!(max_pcl <= 1e-6, "{max_pcl}");
+    // PCL's arithmetic is reproduced exactly, not just within the 1e-6 m acceptance bound.
+    assert_eq!(max_pcl, 0.0);
     assert!(max_o3d <= 1e-6, "{max_o3d}");
+}
+
+// ---------------------------------------------------------------- committed bad-input corpus
+
+/// What a corpus file must fail with: the variant's name and a fragment of its message.
+const MALFORMED: &[(&str, &str, &str)] = &[
+    ("depth_grey8.png", "UnsupportedDepthType", "8-bit grey"),
+    ("depth_rgb8.png", "UnsupportedDepthType", "8-bit RGB"),
+    ("depth_rgb16.png", "UnsupportedDepthType", "16-bit RGB"),
+    ("depth_float32.tiff", "UnsupportedDepthType", "cannot read"),
+    ("depth_truncated.png", "Image", "decode"),
+    ("depth_not_an_image.png", "Image", "decode"),
+    ("depth_huge_dims.png", "Image", "limit"),
+    ("depth_implausible_dims.png", "ImplausibleSize", "8000x8000"),
+    ("depth_small.png", "SizeMismatch", "(320, 240)"),
+    ("color_grey8.png", "UnsupportedColorType", "8-bit grey"),
+    ("color_grey16.png", "UnsupportedColorType", "16-bit grey"),
+    ("color_small.png", "SizeMismatch", "(8, 6)"),
+    (
+        "intrinsics_missing_height.json",
+        "BadIntrinsics",
+        "`height`",
+    ),
+    (
+        "intrinsics_skew.json",
+        "BadIntrinsics",
+        "`intrinsic_matrix[3]`",
+    ),
+    ("intrinsics_short_matrix.json", "BadIntrinsics", "9 numbers"),
+    ("intrinsics_huge_width.json", "BadIntrinsics", "`width`"),
+    ("intrinsics_syntax.json", "IntrinsicsSyntax", "malformed"),
+    (
+        "intrinsics_missing_fy.xml",
+        "BadIntrinsics",
+        "`focal_length_y`",
+    ),
+    (
+        "intrinsics_bad_factor.xml",
+        "BadIntrinsics",
+        "`z_multiplication_factor`",
+    ),
+    (
+        "intrinsics_unclosed.xml",
+        "IntrinsicsSyntax",
+        "never closed",
+    ),
+    (
+        "intrinsics.yaml",
+        "UnknownIntrinsicsFormat",
+        "unknown intrinsics format",
+    ),
+];
+
+/// Each file in `tests/fixtures/rgbd/malformed` is tried in the role its name says
+/// (`depth_*` as the depth image of the demo frame, `color_*` as its colour image,
+/// `intrinsics*` as its camera) and must give the listed typed error naming the file.
+#[test]
+fn committed_malformed_rgbd_inputs_give_typed_errors_naming_the_file() {
+    let fixtures = common::project_root().join("tests/fixtures/rgbd");
+    let dir = fixtures.join("malformed");
+    let mut on_disk: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    on_disk.sort();
+    let mut listed: Vec<String> = MALFORMED.iter().map(|m| m.0.to_string()).collect();
+    listed.sort();
+    assert_eq!(on_disk, listed, "corpus and table disagree");
+    let camera = read_camera_model(fixtures.join("intrinsics.json")).unwrap();
+    let (depth, color) = (fixtures.join("depth.png"), fixtures.join("color.png"));
+    for &(name, variant, fragment) in MALFORMED {
+        let bad = dir.join(name);
+        let result = if name.starts_with("depth") {
+            read_frame(&bad, Some(color.as_path()), &camera)
+        } else if name.starts_with("color") {
+            read_frame(&depth, Some(bad.as_path()), &camera)
+        } else {
+            read_camera_model(&bad).map(|_| Default::default())
+        };
+        let err = result.expect_err(name);
+        let message = err.to_string();
+        let (path, source) = rgbd_err(err);
+        assert_eq!(path, bad, "{name}");
+        assert!(
+            format!("{source:?}").starts_with(variant),
+            "{name}: {source:?}"
+        );
+        assert!(message.contains(fragment), "{name}: {message}");
+    }
+}
+
+// ---------------------------------------------------------------- fuzzing
+
+/// Applies `edits` (position, byte) to a copy of `bytes`, and cuts it to `keep` of its length.
+fn mutate(bytes: &[u8], edits: &[(usize, u8)], keep: f64) -> Vec<u8> {
+    let mut out = bytes.to_vec();
+    for &(i, b) in edits {
+        if !out.is_empty() {
+            let n = out.len();
+            out[i % n] = b;
+        }
+    }
+    out.truncate((out.len() as f64 * keep).ceil() as usize);
+    out
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(128))]
+
+    #[test]
+    fn intrinsics_parsers_never_panic_on_random_or_mutated_text(
+        random in ".{0,200}",
+        edits in proptest::collection::vec((any::<usize>(), any::<u8>()), 0..6),
+        keep in 0.0f64..=1.0,
+    ) {
+        let _ = parse_open3d_json(&random);
+        let _ = parse_pcl_xml(&random);
+        let json = br#"{"width": 640, "height": 480, "intrinsic_matrix": [525, 0, 0, 0, 525, 0, 319.5, 239.5, 1]}"#;
+        let _ = parse_open3d_json(&String::from_utf8_lossy(&mutate(json, &edits, keep)));
+        let _ = parse_pcl_xml(&String::from_utf8_lossy(&mutate(PCL_XML.as_bytes(), &edits, keep)));
+    }
+
+    #[test]
+    fn image_readers_never_panic_on_mutated_files(
+        edits in proptest::collection::vec((any::<usize>(), any::<u8>()), 1..8),
+        keep in 0.0f64..=1.0,
+        tiff in any::<bool>(),
+    ) {
+        let dir = tempfile::tempdir().unwrap();
+        let name = if tiff { "d.tiff" } else { "d.png" };
+        let good = dir.path().join(name);
+        ImageBuffer::<Luma<u16>, _>::from_fn(7, 5, |u, v| Luma([(u * 300 + v * 7) as u16]))
+            .save(&good)
+            .unwrap();
+        let bad = dir.path().join(format!("bad_{name}"));
+        std::fs::write(&bad, mutate(&std::fs::read(&good).unwrap(), &edits, keep)).unwrap();
+        if let Ok(img) = read_depth_image(&bad) {
+            prop_assert_eq!(img.data.len(), img.width as usize * img.height as usize);
+        }
+        let _ = read_color_image(&bad);
+    }
 }
