@@ -19,13 +19,125 @@ use std::time::Instant;
 fn run_stage(
     stage: &str,
     input: &Path,
-    _cloud: &PointCloud,
-    _params: &Value,
+    cloud: &PointCloud,
+    params: &Value,
 ) -> Result<usize, String> {
+    use softsense::features::{estimate_normals, Neighbourhood, NormalMode, NormalParams};
+    use softsense::filter::*;
+    let f = |k: &str, d: f64| params.get(k).and_then(Value::as_f64).unwrap_or(d);
+    let u = |k: &str, d: usize| {
+        params
+            .get(k)
+            .and_then(Value::as_u64)
+            .map_or(d, |v| v as usize)
+    };
+    let open3d = params.get("mode").and_then(Value::as_str) == Some("open3d");
+    let (vmode, omode) = if open3d {
+        (VoxelMode::Open3d, OutlierMode::Open3d)
+    } else {
+        (VoxelMode::Pcl, OutlierMode::Pcl)
+    };
+    let err = |e: FilterError| e.to_string();
     match stage {
         "load" => softsense::io::pcd::read_pcd(input)
             .map(|c| c.len())
             .map_err(|e| e.to_string()),
+        "passthrough" => {
+            let field: Field = params
+                .get("field")
+                .and_then(Value::as_str)
+                .unwrap_or("z")
+                .parse()
+                .map_err(err)?;
+            let p = PassThroughParams::new(field, f("min", 0.0) as f32, f("max", 1.0) as f32);
+            pass_through(cloud, &p).map(|o| o.cloud.len()).map_err(err)
+        }
+        "crop_box" => {
+            let corner = |k: &str| -> [f64; 3] {
+                let v = params.get(k).and_then(Value::as_array);
+                std::array::from_fn(|a| {
+                    v.and_then(|v| v.get(a))
+                        .and_then(Value::as_f64)
+                        .unwrap_or(0.0)
+                })
+            };
+            let p = CropBoxParams {
+                min: corner("min"),
+                max: corner("max"),
+                invert: false,
+            };
+            crop_box(cloud, &p).map(|o| o.cloud.len()).map_err(err)
+        }
+        "voxel" => {
+            let p = VoxelGridParams {
+                mode: vmode,
+                ..VoxelGridParams::new(f("leaf", 0.005))
+            };
+            voxel_grid(cloud, &p).map(|o| o.cloud.len()).map_err(err)
+        }
+        "radius_outlier" => {
+            let p = RadiusOutlierParams {
+                radius: f("radius", 0.005),
+                min_neighbors: u("min_neighbors", 5),
+                mode: omode,
+                ..Default::default()
+            };
+            radius_outlier_removal(cloud, &p)
+                .map(|o| o.cloud.len())
+                .map_err(err)
+        }
+        "statistical_outlier" => {
+            let p = StatisticalOutlierParams {
+                k: u("k", 20),
+                std_ratio: f("std_ratio", 2.0),
+                mode: omode,
+                ..Default::default()
+            };
+            statistical_outlier_removal(cloud, &p)
+                .map(|o| o.cloud.len())
+                .map_err(err)
+        }
+        "normals" => {
+            let neighbourhood = match params.get("radius").and_then(Value::as_f64) {
+                Some(r) => Neighbourhood::Radius(r),
+                None => Neighbourhood::Knn(u("k", 10)),
+            };
+            let mode = if open3d {
+                NormalMode::Open3d
+            } else {
+                NormalMode::Pcl
+            };
+            let p = NormalParams {
+                neighbourhood,
+                mode,
+                ..NormalParams::knn(1)
+            };
+            estimate_normals(cloud, &p)
+                .map(|n| n.normals.len())
+                .map_err(|e| e.to_string())
+        }
+        "chain" => {
+            // crop z to [min, max], PCL voxel grid, PCL radius outlier removal.
+            let mut chain = softsense::pipeline::Pipeline::new(softsense::pipeline::ChainParams {
+                crop: vec![PassThroughParams::new(
+                    Field::Z,
+                    f("min", 0.0) as f32,
+                    f("max", 1.5) as f32,
+                )],
+                voxel: Some(VoxelGridParams::new(f("leaf", 0.005))),
+                radius_outlier: Some(RadiusOutlierParams {
+                    radius: f("radius", 0.01),
+                    min_neighbors: u("min_neighbors", 5),
+                    ..Default::default()
+                }),
+                statistical_outlier: None,
+                normals: None,
+            });
+            chain
+                .step(cloud)
+                .map(|o| o.cloud.len())
+                .map_err(|e| e.to_string())
+        }
         other => Err(format!("softsense has no bench stage `{other}` yet")),
     }
 }

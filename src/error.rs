@@ -14,6 +14,12 @@ pub enum Error {
     /// The finite-element core: meshes, models, solves.
     #[error(transparent)]
     Fem(#[from] crate::fem::FemError),
+    /// A filter was given invalid parameters.
+    Filter(#[from] crate::filter::FilterError),
+    /// Normal estimation was given invalid parameters.
+    Features(#[from] crate::features::FeatureError),
+    /// The filter chain could not run (bad configuration, unreadable sequence).
+    Pipeline(#[from] crate::pipeline::PipelineError),
 }
 
 /// `Result` with the crate-level [`Error`](enum@Error).

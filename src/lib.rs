@@ -29,8 +29,12 @@
 pub mod cloud;
 pub mod error;
 pub mod fem;
+pub mod features;
+pub mod filter;
 pub mod io;
 pub mod math;
+pub mod pipeline;
+pub mod search;
 
 pub use cloud::PointCloud;
 pub use error::{Error, Result};

@@ -38,6 +38,8 @@ enum Command {
     Convert(cli::convert::ConvertArgs),
     /// Finite-element model: static solve, compliance.
     Fem(cli::fem::FemArgs),
+    /// Crop, voxel-filter, remove outliers and estimate normals (PCL/Open3D semantics).
+    Filter(cli::filter::FilterArgs),
 }
 
 fn main() -> ExitCode {
@@ -46,6 +48,7 @@ fn main() -> ExitCode {
         Command::Info(args) => cli::info::run(&args),
         Command::Convert(args) => cli::convert::run(&args),
         Command::Fem(args) => cli::fem::run(args).map_err(cli::CliError::Other),
+        Command::Filter(args) => cli::filter::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

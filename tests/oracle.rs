@@ -1,6 +1,8 @@
 //! Live comparisons against PCL and Open3D (programs in `tools/oracle/`).
 mod common;
 
+#[path = "oracle/filter.rs"]
+mod filter;
 #[path = "oracle/harness.rs"]
 mod harness;
 #[path = "oracle/io.rs"]

@@ -4,6 +4,15 @@ mod common;
 #[path = "unit/cloud.rs"]
 mod cloud;
 
+#[path = "unit/search.rs"]
+mod search;
+
+#[path = "unit/filter.rs"]
+mod filter;
+
+#[path = "unit/features.rs"]
+mod features;
+
 #[path = "unit/io_pcd.rs"]
 mod io_pcd;
 
@@ -23,3 +32,12 @@ mod fem_mesh;
 mod fem_model;
 #[path = "unit/io_rgbd.rs"]
 mod io_rgbd;
+
+#[path = "unit/pipeline.rs"]
+mod pipeline;
+
+#[path = "unit/filter_golden.rs"]
+mod filter_golden;
+
+#[path = "unit/io_malformed.rs"]
+mod io_malformed;

@@ -2,6 +2,7 @@
 
 pub mod convert;
 pub mod fem;
+pub mod filter;
 pub mod info;
 
 use std::fmt;
@@ -42,6 +43,12 @@ impl fmt::Display for CliError {
 impl From<softsense::Error> for CliError {
     fn from(e: softsense::Error) -> Self {
         CliError::Lib(e)
+    }
+}
+
+impl From<softsense::pipeline::PipelineError> for CliError {
+    fn from(e: softsense::pipeline::PipelineError) -> Self {
+        CliError::Lib(e.into())
     }
 }
 

@@ -1,0 +1,196 @@
+//! Normal estimation by PCA (PCL `NormalEstimation`, Open3D `estimate_normals`).
+
+use super::FeatureError;
+use crate::cloud::PointCloud;
+use crate::search::{map_indices, KdTree, Parallelism, RadiusQuery};
+use nalgebra::{Matrix3, Vector3};
+use serde::{Deserialize, Serialize};
+
+/// The neighbourhood of a point.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Neighbourhood {
+    /// The `k` nearest points, the point itself included.
+    Knn(usize),
+    /// All points strictly within the radius (metres), the point itself included.
+    Radius(f64),
+}
+
+/// Which library's conventions to follow.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum NormalMode {
+    /// PCL: flip towards the viewpoint; fewer than 3 neighbours or a non-finite point
+    /// give NaN normal and curvature, collinear neighbours a NaN normal (curvature
+    /// still computed); `f32` search distances.
+    #[default]
+    Pcl,
+    /// Open3D: no orientation; fewer than 3 neighbours give `(0,0,1)` (curvature NaN);
+    /// `f64` radius test.
+    Open3d,
+}
+
+/// Parameters of [`estimate_normals`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct NormalParams {
+    /// Neighbourhood used for the covariance.
+    pub neighbourhood: Neighbourhood,
+    /// Conventions.
+    pub mode: NormalMode,
+    /// Point to orient normals towards (PCL mode); `None`: the cloud's viewpoint origin.
+    pub viewpoint: Option<[f32; 3]>,
+    /// Threads.
+    #[serde(skip)]
+    pub parallelism: Parallelism,
+}
+
+impl Default for NormalParams {
+    fn default() -> Self {
+        NormalParams::knn(10)
+    }
+}
+
+impl NormalParams {
+    /// k-NN neighbourhood, PCL mode.
+    pub fn knn(k: usize) -> Self {
+        NormalParams {
+            neighbourhood: Neighbourhood::Knn(k),
+            mode: NormalMode::Pcl,
+            viewpoint: None,
+            parallelism: Parallelism::default(),
+        }
+    }
+}
+
+/// Estimated normals and curvature, one per input point.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Normals {
+    /// Unit normals (NaN where undefined in PCL mode).
+    pub normals: Vec<[f32; 3]>,
+    /// Curvature `λ0 / (λ0 + λ1 + λ2)` (0 when the trace is 0; NaN where undefined).
+    pub curvature: Vec<f32>,
+}
+
+impl Normals {
+    /// Stores the result in the cloud's `normals` and `curvature` columns.
+    pub fn apply_to(self, cloud: &mut PointCloud) {
+        cloud.normals = Some(self.normals);
+        cloud.curvature = Some(self.curvature);
+    }
+}
+
+/// Estimates a normal and curvature for every point of `cloud`: the eigenvector of the
+/// smallest eigenvalue of the neighbourhood's population covariance (de-meaned, `f64`).
+pub fn estimate_normals(
+    cloud: &PointCloud,
+    params: &NormalParams,
+) -> Result<Normals, FeatureError> {
+    cloud.validate()?;
+    match params.neighbourhood {
+        Neighbourhood::Knn(0) => return Err(FeatureError::ZeroK),
+        Neighbourhood::Radius(r) if !(r.is_finite() && r > 0.0) => {
+            return Err(FeatureError::InvalidRadius(r))
+        }
+        _ => {}
+    }
+    let tree = KdTree::build(&cloud.positions);
+    let vp = params.viewpoint.unwrap_or(cloud.viewpoint.origin);
+    let pcl = params.mode == NormalMode::Pcl;
+    let res: Vec<([f32; 3], f32)> = map_indices(cloud.len(), params.parallelism, |i| {
+        let p = &cloud.positions[i];
+        let invalid = if pcl {
+            ([f32::NAN; 3], f32::NAN)
+        } else {
+            ([0.0, 0.0, 1.0], f32::NAN)
+        };
+        if !PointCloud::is_finite_point(p) {
+            return invalid;
+        }
+        let nbrs: Vec<usize> = match (params.neighbourhood, pcl) {
+            (Neighbourhood::Knn(k), _) => tree.nearest_n(p, k).iter().map(|n| n.index).collect(),
+            (Neighbourhood::Radius(r), true) => tree
+                .within_radius(p, r, RadiusQuery::unsorted())
+                .iter()
+                .map(|n| n.index)
+                .collect(),
+            (Neighbourhood::Radius(r), false) => tree
+                .within_radius_f64(p, r, RadiusQuery::unsorted())
+                .iter()
+                .map(|n| n.index)
+                .collect(),
+        };
+        if nbrs.len() < 3 {
+            return invalid;
+        }
+        let Some((n, curv, degenerate)) = pca_normal(&cloud.positions, &nbrs) else {
+            return invalid;
+        };
+        if pcl && degenerate {
+            // Collinear (or coincident) neighbours: the plane is undefined. PCL's eigen33
+            // gives a NaN vector here (its cross products vanish) with a finite curvature.
+            return ([f32::NAN; 3], curv);
+        }
+        let mut n = n;
+        if pcl {
+            let v = [vp[0] - p[0], vp[1] - p[1], vp[2] - p[2]];
+            if v[0] * n[0] + v[1] * n[1] + v[2] * n[2] < 0.0 {
+                n = n.map(|c| -c);
+            }
+        }
+        (n, curv)
+    });
+    Ok(Normals {
+        normals: res.iter().map(|r| r.0).collect(),
+        curvature: res.iter().map(|r| r.1).collect(),
+    })
+}
+
+/// Normal (unit eigenvector of the smallest eigenvalue), curvature, and whether the
+/// neighbourhood is degenerate (rank ≤ 1: the middle eigenvalue is below 1e-12 of the
+/// largest), for the points at `idx`, with the covariance de-meaned in `f64`. `None` if
+/// the covariance is not finite.
+pub(crate) fn pca_normal(points: &[[f32; 3]], idx: &[usize]) -> Option<([f32; 3], f32, bool)> {
+    let n = idx.len() as f64;
+    let mut mean = Vector3::<f64>::zeros();
+    for &i in idx {
+        let p = points[i];
+        mean += Vector3::new(p[0] as f64, p[1] as f64, p[2] as f64);
+    }
+    mean /= n;
+    let mut cov = Matrix3::<f64>::zeros();
+    for &i in idx {
+        let p = points[i];
+        let d = Vector3::new(p[0] as f64, p[1] as f64, p[2] as f64) - mean;
+        cov += d * d.transpose();
+    }
+    cov /= n;
+    if !cov.iter().all(|c| c.is_finite()) {
+        return None;
+    }
+    let eig = cov.symmetric_eigen();
+    let (mut imin, mut lmin) = (0, eig.eigenvalues[0]);
+    for a in 1..3 {
+        if eig.eigenvalues[a] < lmin {
+            imin = a;
+            lmin = eig.eigenvalues[a];
+        }
+    }
+    let v = eig.eigenvectors.column(imin);
+    let norm = v.norm();
+    let normal = [
+        (v[0] / norm) as f32,
+        (v[1] / norm) as f32,
+        (v[2] / norm) as f32,
+    ];
+    let trace = cov[(0, 0)] + cov[(1, 1)] + cov[(2, 2)];
+    let curvature = if trace != 0.0 {
+        (lmin.abs() / trace) as f32
+    } else {
+        0.0
+    };
+    let mut ev = [eig.eigenvalues[0], eig.eigenvalues[1], eig.eigenvalues[2]];
+    ev.sort_by(f64::total_cmp);
+    let degenerate = ev[1] <= 1e-12 * ev[2].abs();
+    Some((normal, curvature, degenerate))
+}

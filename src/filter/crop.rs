@@ -1,0 +1,247 @@
+//! Pass-through (PCL `PassThrough`) and the axis-aligned crop box (Open3D `crop`).
+
+use super::{FilterError, FilterOutput};
+use crate::cloud::PointCloud;
+use serde::{Deserialize, Serialize};
+
+/// A per-point scalar a pass-through can test.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Field {
+    /// Position x, metres.
+    X,
+    /// Position y, metres.
+    Y,
+    /// Position z, metres.
+    Z,
+    /// Normal x component.
+    NormalX,
+    /// Normal y component.
+    NormalY,
+    /// Normal z component.
+    NormalZ,
+    /// Curvature.
+    Curvature,
+    /// Integer label, compared as `f32` (an extension: PCL refuses non-float fields).
+    Label,
+    /// Red channel 0..=255 (an extension: PCL only filters the packed float).
+    R,
+    /// Green channel 0..=255.
+    G,
+    /// Blue channel 0..=255.
+    B,
+}
+
+impl Field {
+    /// The PCD field name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Field::X => "x",
+            Field::Y => "y",
+            Field::Z => "z",
+            Field::NormalX => "normal_x",
+            Field::NormalY => "normal_y",
+            Field::NormalZ => "normal_z",
+            Field::Curvature => "curvature",
+            Field::Label => "label",
+            Field::R => "r",
+            Field::G => "g",
+            Field::B => "b",
+        }
+    }
+
+    /// The field's values as `f32`, or an error if the cloud lacks the field.
+    fn values(self, cloud: &PointCloud) -> Result<Vec<f32>, FilterError> {
+        let missing = || FilterError::MissingField { field: self.name() };
+        let n = |a: usize| -> Result<Vec<f32>, FilterError> {
+            let v = cloud.normals.as_ref().ok_or_else(missing)?;
+            Ok(v.iter().map(|p| p[a]).collect())
+        };
+        let c = |a: usize| -> Result<Vec<f32>, FilterError> {
+            let v = cloud.colors.as_ref().ok_or_else(missing)?;
+            Ok(v.iter().map(|p| p[a] as f32).collect())
+        };
+        match self {
+            Field::X | Field::Y | Field::Z => {
+                let a = self as usize;
+                Ok(cloud.positions.iter().map(|p| p[a]).collect())
+            }
+            Field::NormalX => n(0),
+            Field::NormalY => n(1),
+            Field::NormalZ => n(2),
+            Field::Curvature => Ok(cloud.curvature.as_ref().ok_or_else(missing)?.clone()),
+            Field::Label => Ok(cloud
+                .labels
+                .as_ref()
+                .ok_or_else(missing)?
+                .iter()
+                .map(|&l| l as f32)
+                .collect()),
+            Field::R => c(0),
+            Field::G => c(1),
+            Field::B => c(2),
+        }
+    }
+}
+
+impl std::str::FromStr for Field {
+    type Err = FilterError;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Ok(match s.to_ascii_lowercase().as_str() {
+            "x" => Field::X,
+            "y" => Field::Y,
+            "z" => Field::Z,
+            "normal_x" | "nx" => Field::NormalX,
+            "normal_y" | "ny" => Field::NormalY,
+            "normal_z" | "nz" => Field::NormalZ,
+            "curvature" => Field::Curvature,
+            "label" => Field::Label,
+            "r" | "red" => Field::R,
+            "g" | "green" => Field::G,
+            "b" | "blue" => Field::B,
+            _ => return Err(FilterError::UnknownField(s.to_string())),
+        })
+    }
+}
+
+/// Parameters of [`pass_through`] (PCL `PassThrough`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct PassThroughParams {
+    /// Field to test; `None` only removes points with a non-finite coordinate.
+    pub field: Option<Field>,
+    /// Lower bound, inclusive, compared in `f32`.
+    pub min: f32,
+    /// Upper bound, inclusive, compared in `f32`.
+    pub max: f32,
+    /// Keep the points outside `[min, max]` instead (bounds themselves are removed).
+    pub negative: bool,
+    /// Return the whole cloud with removed points' xyz set to `user_filter_value`.
+    pub keep_organized: bool,
+    /// Value written into removed points' xyz when `keep_organized` (NaN by default).
+    pub user_filter_value: f32,
+}
+
+impl Default for PassThroughParams {
+    fn default() -> Self {
+        PassThroughParams {
+            field: None,
+            min: -f32::MAX,
+            max: f32::MAX,
+            negative: false,
+            keep_organized: false,
+            user_filter_value: f32::NAN,
+        }
+    }
+}
+
+impl PassThroughParams {
+    /// Keep `min ≤ field ≤ max`.
+    pub fn new(field: Field, min: f32, max: f32) -> Self {
+        PassThroughParams {
+            field: Some(field),
+            min,
+            max,
+            ..Default::default()
+        }
+    }
+}
+
+/// PCL `PassThrough`: keeps points with `min ≤ v ≤ max` (or, in negative mode, `v < min`
+/// or `v > max`), compared in `f32`. A point with a non-finite x, y or z or a
+/// non-finite field value is removed in both modes. Output is in input order; if every
+/// point survives, the output is the input unchanged (organization kept), otherwise it
+/// is unorganized, unless `keep_organized`, which returns the whole cloud with removed
+/// points' xyz set to `user_filter_value` (the indices still list the kept points).
+pub fn pass_through(
+    cloud: &PointCloud,
+    params: &PassThroughParams,
+) -> Result<FilterOutput, FilterError> {
+    cloud.validate()?;
+    let finite = |i: usize| PointCloud::is_finite_point(&cloud.positions[i]);
+    let indices: Vec<usize> = match params.field {
+        None => (0..cloud.len()).filter(|&i| finite(i)).collect(),
+        Some(field) => {
+            let values = field.values(cloud)?;
+            let (lo, hi) = (params.min, params.max);
+            (0..cloud.len())
+                .filter(|&i| {
+                    let v = values[i];
+                    if !finite(i) || !v.is_finite() {
+                        return false;
+                    }
+                    let inside = lo <= v && v <= hi;
+                    inside != params.negative
+                })
+                .collect()
+        }
+    };
+    let out = if params.keep_organized {
+        let mut out = cloud.clone();
+        let mut keep = vec![false; cloud.len()];
+        indices.iter().for_each(|&i| keep[i] = true);
+        let v = params.user_filter_value;
+        for (p, k) in out.positions.iter_mut().zip(&keep) {
+            if !k {
+                *p = [v, v, v];
+            }
+        }
+        out
+    } else if indices.len() == cloud.len() {
+        cloud.clone()
+    } else {
+        cloud.select(&indices)
+    };
+    Ok(FilterOutput {
+        cloud: out,
+        indices,
+    })
+}
+
+/// Parameters of [`crop_box`] (Open3D `crop` with an axis-aligned box).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct CropBoxParams {
+    /// Lower corner, metres, inclusive (infinite values are allowed).
+    pub min: [f64; 3],
+    /// Upper corner, metres, inclusive.
+    pub max: [f64; 3],
+    /// Keep the points outside the box instead (and the non-finite ones, as Open3D does).
+    pub invert: bool,
+}
+
+impl Default for CropBoxParams {
+    fn default() -> Self {
+        CropBoxParams {
+            min: [f64::NEG_INFINITY; 3],
+            max: [f64::INFINITY; 3],
+            invert: false,
+        }
+    }
+}
+
+/// Open3D's axis-aligned crop: keeps points with `min ≤ p ≤ max` on all three axes,
+/// compared in `f64`. Non-finite points fail the test, so they are removed, and kept
+/// when `invert`. Output is unorganized, in input order. Unlike Open3D, a zero-thickness
+/// box is allowed; `min > max` or a NaN bound is an error (Open3D swaps silently).
+pub fn crop_box(cloud: &PointCloud, params: &CropBoxParams) -> Result<FilterOutput, FilterError> {
+    cloud.validate()?;
+    let (lo, hi) = (params.min, params.max);
+    if (0..3).any(|a| lo[a].is_nan() || hi[a].is_nan() || lo[a] > hi[a]) {
+        return Err(FilterError::InvalidBox { min: lo, max: hi });
+    }
+    let indices: Vec<usize> = cloud
+        .positions
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| {
+            let inside = (0..3).all(|a| lo[a] <= p[a] as f64 && p[a] as f64 <= hi[a]);
+            inside != params.invert
+        })
+        .map(|(i, _)| i)
+        .collect();
+    Ok(FilterOutput {
+        cloud: cloud.select(&indices),
+        indices,
+    })
+}

@@ -1,0 +1,156 @@
+//! KD-tree searches against brute force.
+
+use proptest::prelude::*;
+use softsense::search::{squared_distance, squared_distance_f64, KdTree, RadiusQuery};
+
+/// Random clouds on a coarse lattice (many exact duplicates and exact boundary
+/// distances), with some NaN points.
+fn cloud_strategy() -> impl Strategy<Value = Vec<[f32; 3]>> {
+    prop::collection::vec(
+        prop_oneof![
+            8 => (0i32..6, 0i32..6, 0i32..6).prop_map(|(x, y, z)| [x as f32 * 0.25, y as f32 * 0.25, z as f32 * 0.25]),
+            4 => (-1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0).prop_map(|(x, y, z)| [x, y, z]),
+            1 => Just([f32::NAN, 0.0, 0.0]),
+        ],
+        0..200,
+    )
+}
+
+fn brute_radius(points: &[[f32; 3]], q: &[f32; 3], r: f64, inclusive: bool) -> Vec<(usize, f32)> {
+    let r2 = (r * r) as f32;
+    let mut v: Vec<(usize, f32)> = points
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| p.iter().all(|c| c.is_finite()))
+        .map(|(i, p)| (i, squared_distance(q, p)))
+        .filter(|&(_, d)| if inclusive { d <= r2 } else { d < r2 })
+        .collect();
+    v.sort_by(|a, b| a.1.partial_cmp(&b.1).unwrap().then(a.0.cmp(&b.0)));
+    v
+}
+
+proptest! {
+    #[test]
+    fn radius_search_matches_brute_force_at_exact_boundaries(
+        points in cloud_strategy(),
+        qi in 0usize..200,
+        r in prop_oneof![Just(0.25f64), Just(0.5), Just(0.3535533905932738), 0.01f64..1.5],
+        inclusive in any::<bool>(),
+    ) {
+        let tree = KdTree::build(&points);
+        let q = if points.is_empty() { [0.0; 3] } else { points[qi % points.len()] };
+        let want = brute_radius(&points, &q, r, inclusive);
+        let got = tree.within_radius(&q, r, RadiusQuery { sorted: true, max_results: None, inclusive });
+        let got: Vec<(usize, f32)> = got.iter().map(|n| (n.index, n.squared_distance)).collect();
+        if q.iter().all(|c| c.is_finite()) {
+            prop_assert_eq!(&got, &want);
+        } else {
+            prop_assert!(got.is_empty());
+        }
+        // Unsorted: same set, index order.
+        let mut unsorted: Vec<usize> = tree
+            .within_radius(&q, r, RadiusQuery { inclusive, ..RadiusQuery::unsorted() })
+            .iter().map(|n| n.index).collect();
+        let mut want_set: Vec<usize> = got.iter().map(|x| x.0).collect();
+        want_set.sort_unstable();
+        prop_assert!(unsorted.windows(2).all(|w| w[0] < w[1]));
+        unsorted.sort_unstable();
+        prop_assert_eq!(unsorted, want_set);
+        // Count agrees.
+        prop_assert_eq!(tree.count_within_radius(&q, r, inclusive, usize::MAX), got.len());
+        for stop in 1..12 {
+            prop_assert_eq!(tree.count_within_radius(&q, r, inclusive, stop), got.len().min(stop));
+            let n64 = points.iter().filter(|p| p.iter().all(|c| c.is_finite()) && squared_distance_f64(&q, p) < r * r).count();
+            let n64 = if q.iter().all(|c| c.is_finite()) { n64 } else { 0 };
+            prop_assert_eq!(tree.count_within_radius_f64(&q, r, stop), n64.min(stop));
+        }
+    }
+
+    #[test]
+    fn capped_radius_search_returns_the_closest(points in cloud_strategy(), qi in 0usize..200, cap in 1usize..10) {
+        let tree = KdTree::build(&points);
+        let q = if points.is_empty() { [0.0; 3] } else { points[qi % points.len()] };
+        let want = brute_radius(&points, &q, 0.6, false);
+        let got = tree.within_radius(&q, 0.6, RadiusQuery { sorted: true, max_results: Some(cap), inclusive: false });
+        let got: Vec<(usize, f32)> = got.iter().map(|n| (n.index, n.squared_distance)).collect();
+        if q.iter().all(|c| c.is_finite()) {
+            prop_assert_eq!(got, want.into_iter().take(cap).collect::<Vec<_>>());
+        }
+    }
+
+    #[test]
+    fn f64_radius_search_matches_brute_force(points in cloud_strategy(), qi in 0usize..200, r in 0.01f64..1.5) {
+        let tree = KdTree::build(&points);
+        let q = if points.is_empty() { [0.0; 3] } else { points[qi % points.len()] };
+        prop_assume!(q.iter().all(|c| c.is_finite()));
+        let mut want: Vec<usize> = points.iter().enumerate()
+            .filter(|(_, p)| p.iter().all(|c| c.is_finite()) && squared_distance_f64(&q, p) < r * r)
+            .map(|(i, _)| i).collect();
+        want.sort_unstable();
+        let got: Vec<usize> = tree.within_radius_f64(&q, r, RadiusQuery::unsorted()).iter().map(|n| n.index).collect();
+        prop_assert_eq!(got, want);
+    }
+
+    #[test]
+    fn knn_distances_match_brute_force(points in cloud_strategy(), k in 1usize..20, q in (-1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0)) {
+        let q = [q.0, q.1, q.2];
+        let tree = KdTree::build(&points);
+        let mut all: Vec<f32> = points.iter().filter(|p| p.iter().all(|c| c.is_finite()))
+            .map(|p| squared_distance(&q, p)).collect();
+        all.sort_by(|a, b| a.partial_cmp(b).unwrap());
+        all.truncate(k);
+        let got = tree.nearest_n(&q, k);
+        let d: Vec<f32> = got.iter().map(|n| n.squared_distance).collect();
+        // Tied points may be exchanged, so compare the distance multiset and check
+        // each index really is at its reported distance.
+        prop_assert_eq!(d, all);
+        for n in &got {
+            prop_assert_eq!(squared_distance(&q, &points[n.index]), n.squared_distance);
+        }
+    }
+}
+
+#[test]
+fn the_query_point_is_its_own_neighbour_and_nan_points_are_not_in_the_tree() {
+    let pts = vec![[1.0f32, 2.0, 3.0], [f32::NAN, 0.0, 0.0], [1.0, 2.0, 3.5]];
+    let tree = KdTree::build(&pts);
+    assert_eq!(tree.len(), 2);
+    assert_eq!(tree.source_len(), 3);
+    let knn = tree.nearest_n(&pts[0], 3);
+    assert_eq!(knn.iter().map(|n| n.index).collect::<Vec<_>>(), vec![0, 2]);
+    assert_eq!(knn[0].squared_distance, 0.0);
+    assert!(tree.nearest_n(&pts[1], 2).is_empty());
+    assert!(tree
+        .within_radius(&pts[1], 10.0, RadiusQuery::sorted())
+        .is_empty());
+}
+
+#[test]
+fn empty_tree_answers_nothing() {
+    let tree = KdTree::build(&[]);
+    assert!(tree.is_empty());
+    assert!(tree.nearest_n(&[0.0; 3], 3).is_empty());
+    assert!(tree
+        .within_radius(&[0.0; 3], 1.0, RadiusQuery::sorted())
+        .is_empty());
+    assert_eq!(tree.count_within_radius(&[0.0; 3], 1.0, true, 5), 0);
+}
+
+#[test]
+fn radius_boundary_is_strict_by_default_and_inclusive_on_request() {
+    let pts = vec![[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0]];
+    let tree = KdTree::build(&pts);
+    assert_eq!(
+        tree.within_radius(&pts[0], 1.0, RadiusQuery::sorted())
+            .len(),
+        1
+    );
+    let q = RadiusQuery {
+        inclusive: true,
+        ..RadiusQuery::sorted()
+    };
+    assert_eq!(tree.within_radius(&pts[0], 1.0, q).len(), 2);
+    assert!(tree
+        .within_radius(&pts[0], 0.0, RadiusQuery::sorted())
+        .is_empty());
+}
