@@ -201,7 +201,7 @@ impl Solver<'_> {
                 }
             }
             let par = if size * ka > 64 * 64 {
-                faer::get_global_parallelism()
+                self.linalg_par()
             } else {
                 faer::Par::Seq
             };
