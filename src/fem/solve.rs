@@ -522,7 +522,8 @@ impl<'p> Solver<'p> {
             }
         })?;
         self.values.iter_mut().for_each(|v| *v = 0.0);
-        self.internal_force = vec![0.0; 3 * p.mesh.num_nodes()];
+        self.internal_force.clear();
+        self.internal_force.resize(3 * p.mesh.num_nodes(), 0.0);
         for (e, s) in states.iter().enumerate() {
             self.pattern.scatter(e, &s.tangent, &mut self.values);
             for (a, &v) in tets[e].iter().enumerate() {
