@@ -409,3 +409,32 @@ fn closed_form_tangents_equal_the_column_by_column_derivation() {
         }
     }
 }
+
+#[test]
+fn polar_rotation_is_orthonormal_and_leaves_a_symmetric_positive_stretch() {
+    let mut seed = 5;
+    for i in 0..200 {
+        // Rotations times stretches up to 10:1, some near-rigid.
+        let q = Rotation3::new(Vector3::new(lcg(&mut seed), lcg(&mut seed), lcg(&mut seed)) * 3.0)
+            .into_inner();
+        let amount = if i % 2 == 0 { 1e-6 } else { 0.9 };
+        let u = Matrix3::from_fn(|_, _| amount * lcg(&mut seed));
+        let stretch = Matrix3::identity() + (u + u.transpose()) * 0.5;
+        if stretch.symmetric_eigen().eigenvalues.min() < 0.1 {
+            continue;
+        }
+        let f = q * stretch;
+        let r = softsense::fem::tet4::polar_rotation(&f);
+        assert!(
+            (r.transpose() * r - Matrix3::identity()).amax() < 1e-12,
+            "R^T R at {i}"
+        );
+        assert!((r.determinant() - 1.0).abs() < 1e-12, "det R at {i}");
+        assert!((r - q).amax() < 1e-10, "R recovers the rotation at {i}");
+        let s = r.transpose() * f;
+        assert!(
+            (s - s.transpose()).amax() < 1e-10 * s.amax(),
+            "S symmetric at {i}"
+        );
+    }
+}
