@@ -77,6 +77,11 @@ fn bench(c: &mut Criterion) {
         solver.pattern.nnz(),
         solver.factor_len()
     );
+    solver.assemble(&x, Tangent::Consistent).expect("assemble");
+    eprintln!(
+        "consistent tangent positive definite at the benchmark state: {}",
+        solver.factorize().is_ok()
+    );
     let mut g = c.benchmark_group(format!("fem_{name}"));
     g.bench_function("newton_step_plus_compliance_61_rows", |b| {
         b.iter(|| {
