@@ -71,10 +71,16 @@ fn bench(c: &mut Criterion) {
     let mut solver = m.problem.solver().expect("solver");
     let residual = vec![0.0; solver.ndof()];
     eprintln!(
-        "{name}: {} tets, {} free DOFs, {} nnz(K upper)",
+        "{name}: {} tets, {} free DOFs, {} nnz(K upper), {} values in L",
         m.problem.mesh.tets.len(),
         solver.ndof(),
-        solver.pattern.nnz()
+        solver.pattern.nnz(),
+        solver.factor_len()
+    );
+    solver.assemble(&x, Tangent::Consistent).expect("assemble");
+    eprintln!(
+        "consistent tangent positive definite at the benchmark state: {}",
+        solver.factorize().is_ok()
     );
     let mut g = c.benchmark_group(format!("fem_{name}"));
     g.bench_function("newton_step_plus_compliance_61_rows", |b| {

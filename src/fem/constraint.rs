@@ -112,13 +112,14 @@ impl Solver<'_> {
         }
         let gram = self.forward_gram(
             |add| {
-                let mut col = vec![0.0; nd];
                 for (j, row) in rows.iter().enumerate() {
-                    col.iter_mut().for_each(|v| *v = 0.0);
-                    self.row_to_dofs(&row.entries, &mut col);
-                    for (r, v) in col.iter().enumerate() {
-                        if *v != 0.0 {
-                            add(r, j, *v);
+                    for (n, v) in &row.entries {
+                        if let Some(d) = self.dofs.node_dof.get(*n).copied().flatten() {
+                            for (c, vc) in v.iter().enumerate() {
+                                if *vc != 0.0 {
+                                    add(d + c, j, *vc);
+                                }
+                            }
                         }
                     }
                 }
@@ -201,7 +202,7 @@ impl Solver<'_> {
                 }
             }
             let par = if size * ka > 64 * 64 {
-                faer::get_global_parallelism()
+                self.linalg_par()
             } else {
                 faer::Par::Seq
             };
