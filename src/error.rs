@@ -14,6 +14,9 @@ pub enum Error {
     /// The finite-element core: meshes, models, solves.
     #[error(transparent)]
     Fem(#[from] crate::fem::FemError),
+    /// The inverse model: QPs and force intensities.
+    #[error(transparent)]
+    Inverse(#[from] crate::inverse::InverseError),
 }
 
 /// `Result` with the crate-level [`Error`].

@@ -29,6 +29,7 @@
 pub mod cloud;
 pub mod error;
 pub mod fem;
+pub mod inverse;
 pub mod io;
 pub mod math;
 

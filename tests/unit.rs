@@ -10,3 +10,5 @@ mod fem_compliance;
 mod fem_element;
 #[path = "unit/fem_mesh.rs"]
 mod fem_mesh;
+#[path = "unit/inverse.rs"]
+mod inverse;
