@@ -93,7 +93,7 @@ pub fn run(args: FemArgs) -> Result<(), Box<dyn std::error::Error>> {
                 .cables
                 .iter()
                 .enumerate()
-                .map(|(i, c)| serde_json::json!({"name": c.name, "tension": sol.cable_tension[i], "shortening": sol.cable_shortening[i]}))
+                .map(|(i, c)| serde_json::json!({"name": c.name, "tension": sol.cable_tension[i], "shortening": sol.cable_shortening[i], "slack": sol.cable_slack[i]}))
                 .collect();
             if json {
                 let v = serde_json::json!({

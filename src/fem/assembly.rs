@@ -193,7 +193,8 @@ impl Pattern {
 }
 
 /// Evaluates `kernel` on every element (in parallel with the `parallel` feature) and
-/// returns the states in element order, or the first error by element index.
+/// returns the states in element order (an error if any element fails). The scatter that
+/// follows is serial in element order, so assembled values do not depend on thread count.
 pub fn map_elements<F>(rest: &[TetRest], kernel: F) -> FemResult<Vec<ElementState>>
 where
     F: Fn(usize, &TetRest) -> FemResult<ElementState> + Sync + Send,

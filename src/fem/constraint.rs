@@ -107,24 +107,18 @@ impl Solver<'_> {
             ht[(i, m)] = *v;
         }
         self.solve_in_place(&mut ht)?;
+        // Sparse rows: (dof, coefficient) pairs, so W costs rows x rows x (row length).
+        let sparse: Vec<Vec<(usize, f64)>> = cols
+            .iter()
+            .map(|c| c.iter().enumerate().filter(|(_, v)| **v != 0.0).map(|(k, v)| (k, *v)).collect())
+            .collect();
         let mut w = DMatrix::zeros(m, m);
         let mut delta_free = Vec::with_capacity(m);
-        for i in 0..m {
-            let hi = &cols[i];
+        for (i, hi) in sparse.iter().enumerate() {
             for j in 0..m {
-                w[(i, j)] = hi
-                    .iter()
-                    .enumerate()
-                    .filter(|(_, v)| **v != 0.0)
-                    .map(|(k, v)| v * ht[(k, j)])
-                    .sum();
+                w[(i, j)] = hi.iter().map(|(k, v)| v * ht[(*k, j)]).sum();
             }
-            let du: f64 = hi
-                .iter()
-                .enumerate()
-                .filter(|(_, v)| **v != 0.0)
-                .map(|(k, v)| v * ht[(k, m)])
-                .sum();
+            let du: f64 = hi.iter().map(|(k, v)| v * ht[(*k, m)]).sum();
             delta_free.push(rows[i].value(x) + du);
         }
         Ok(Compliance {

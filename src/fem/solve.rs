@@ -204,6 +204,8 @@ pub struct Solution {
     pub external_force: Vec<[f64; 3]>,
     /// Cable tensions (N), in model order.
     pub cable_tension: Vec<f64>,
+    /// Displacement-controlled cables that went slack (they would have had to push).
+    pub cable_slack: Vec<bool>,
     /// Cable shortenings (m), in model order.
     pub cable_shortening: Vec<f64>,
     /// Von Mises stress per tetrahedron (Pa).
@@ -592,7 +594,8 @@ impl<'p> Solver<'p> {
                 CableControl::Displacement(_) => 0.0,
             })
             .collect();
-        let disp_cables: Vec<usize> = (0..p.cables.len())
+        let mut slack = vec![false; p.cables.len()];
+        let mut disp_cables: Vec<usize> = (0..p.cables.len())
             .filter(|&i| matches!(p.cables[i].control, CableControl::Displacement(_)))
             .collect();
         let steps = params.load_steps.max(1);
@@ -657,6 +660,15 @@ impl<'p> Solver<'p> {
                 let small =
                     rn <= params.abs_tol + params.rel_tol * scale || last_step <= params.step_tol;
                 if small && gaps_ok && iterations > 0 {
+                    // A cable can only pull (lambda >= 0): a displacement-controlled cable
+                    // that would have to push goes slack (zero tension) and Newton goes on.
+                    if let Some(pos) = disp_cables.iter().position(|&ci| tension[ci] < 0.0) {
+                        let ci = disp_cables.remove(pos);
+                        tension[ci] = 0.0;
+                        slack[ci] = true;
+                        last_step = f64::INFINITY;
+                        continue;
+                    }
                     converged = true;
                     break;
                 }
@@ -760,6 +772,7 @@ impl<'p> Solver<'p> {
             displacement,
             external_force,
             cable_tension: tension,
+            cable_slack: slack,
             von_mises: self.elements.iter().map(|e| von_mises(&e.stress)).collect(),
             iterations,
             residuals,

@@ -139,3 +139,15 @@ fn displacement_controlled_cable_reaches_its_shortening() {
     assert_eq!(sol.cable_tension[1], 0.05);
     assert!(sol.residuals.last().unwrap() < &1e-9);
 }
+
+#[test]
+fn a_cable_asked_to_push_goes_slack_with_zero_tension() {
+    let (mut p, _) = setup();
+    p.formulation = Formulation::Corotational;
+    p.cables[0].control = CableControl::Displacement(-0.004);
+    let sol = p.solve_static(&NewtonParams::default()).unwrap();
+    assert!(sol.converged);
+    assert_eq!(sol.cable_slack, vec![true, false]);
+    assert_eq!(sol.cable_tension[0], 0.0);
+    assert!(sol.cable_shortening[0] > -0.004, "the slack cable is longer than its attach path");
+}
