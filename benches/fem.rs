@@ -13,23 +13,39 @@ fn load() -> (String, Model) {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     if let Some(data) = std::env::var_os("SOFTSENSE_DATA") {
         let mesh = PathBuf::from(data).join("sofa/diamond.vtu");
-        let m = Model::load(&root.join("meshes/models/diamond.toml"), Some(&mesh)).expect("diamond model");
+        let m = Model::load(&root.join("meshes/models/diamond.toml"), Some(&mesh))
+            .expect("diamond model");
         ("diamond".into(), m)
     } else {
-        eprintln!("SOFTSENSE_DATA unset: benchmarking the project's robot mesh instead of the diamond");
-        ("robot".into(), Model::load(&root.join("meshes/models/robot.toml"), None).expect("robot model"))
+        eprintln!(
+            "SOFTSENSE_DATA unset: benchmarking the project's robot mesh instead of the diamond"
+        );
+        (
+            "robot".into(),
+            Model::load(&root.join("meshes/models/robot.toml"), None).expect("robot model"),
+        )
     }
 }
 
 fn rows(m: &Model, x: &[[f64; 3]]) -> Vec<ConstraintRow> {
     let mesh = &m.problem.mesh;
     let s = mesh.surface();
-    let free: Vec<usize> = s.nodes.iter().copied().filter(|v| !m.problem.fixed.contains(v)).collect();
+    let free: Vec<usize> = s
+        .nodes
+        .iter()
+        .copied()
+        .filter(|v| !m.problem.fixed.contains(v))
+        .collect();
     let step = free.len() / 51;
     let mut rows: Vec<ConstraintRow> = (0..51)
         .map(|i| {
             let v = free[i * step];
-            ConstraintRow::along(RowKind::Effector, &MappedPoint::node(v), s.vertex_normals[v]).expect("normal row")
+            ConstraintRow::along(
+                RowKind::Effector,
+                &MappedPoint::node(v),
+                s.vertex_normals[v],
+            )
+            .expect("normal row")
         })
         .collect();
     rows.extend(m.problem.cables.iter().map(|c| ConstraintRow::cable(c, x)));
@@ -41,12 +57,21 @@ fn rows(m: &Model, x: &[[f64; 3]]) -> Vec<ConstraintRow> {
 
 fn bench(c: &mut Criterion) {
     let (name, m) = load();
-    let x = m.problem.solve_static(&m.newton).expect("static solve").positions;
+    let x = m
+        .problem
+        .solve_static(&m.newton)
+        .expect("static solve")
+        .positions;
     let rows = rows(&m, &x);
     assert_eq!(rows.len(), 61);
     let mut solver = m.problem.solver().expect("solver");
     let residual = vec![0.0; solver.ndof()];
-    eprintln!("{name}: {} tets, {} free DOFs, {} nnz(K upper)", m.problem.mesh.tets.len(), solver.ndof(), solver.pattern.nnz());
+    eprintln!(
+        "{name}: {} tets, {} free DOFs, {} nnz(K upper)",
+        m.problem.mesh.tets.len(),
+        solver.ndof(),
+        solver.pattern.nnz()
+    );
     let mut g = c.benchmark_group(format!("fem_{name}"));
     g.bench_function("newton_step_plus_compliance_61_rows", |b| {
         b.iter(|| {
@@ -55,9 +80,15 @@ fn bench(c: &mut Criterion) {
             solver.compliance(&rows, &x, &residual).expect("compliance")
         })
     });
-    g.bench_function("assembly", |b| b.iter(|| solver.assemble(&x, Tangent::Consistent).expect("assemble")));
-    g.bench_function("numeric_cholesky", |b| b.iter(|| solver.factorize().expect("factorize")));
-    g.bench_function("compliance_61_rows", |b| b.iter(|| solver.compliance(&rows, &x, &residual).expect("compliance")));
+    g.bench_function("assembly", |b| {
+        b.iter(|| solver.assemble(&x, Tangent::Consistent).expect("assemble"))
+    });
+    g.bench_function("numeric_cholesky", |b| {
+        b.iter(|| solver.factorize().expect("factorize"))
+    });
+    g.bench_function("compliance_61_rows", |b| {
+        b.iter(|| solver.compliance(&rows, &x, &residual).expect("compliance"))
+    });
     g.finish();
 }
 

@@ -17,6 +17,9 @@ pub enum Error {
     /// The inverse model: QPs and force intensities.
     #[error(transparent)]
     Inverse(#[from] crate::inverse::InverseError),
+    /// Synthetic scenes: scene files, direct model, rendering.
+    #[error(transparent)]
+    Scene(#[from] crate::scene::SceneError),
 }
 
 /// `Result` with the crate-level [`Error`].

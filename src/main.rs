@@ -21,12 +21,15 @@ enum Command {
     // Subcommands are added here, one line each, implemented in src/cli/<name>.rs.
     /// Finite-element model: static solve, compliance.
     Fem(cli::fem::FemArgs),
+    /// Synthetic RGB-D scenes from the FE model (the direct model).
+    Scene(cli::scene::SceneArgs),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result: anyhow_like::Result = match cli.command {
         Command::Fem(a) => cli::fem::run(a),
+        Command::Scene(a) => cli::scene::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

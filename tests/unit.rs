@@ -12,3 +12,5 @@ mod fem_element;
 mod fem_mesh;
 #[path = "unit/inverse.rs"]
 mod inverse;
+#[path = "unit/scene.rs"]
+mod scene;

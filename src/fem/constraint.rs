@@ -110,7 +110,13 @@ impl Solver<'_> {
         // Sparse rows: (dof, coefficient) pairs, so W costs rows x rows x (row length).
         let sparse: Vec<Vec<(usize, f64)>> = cols
             .iter()
-            .map(|c| c.iter().enumerate().filter(|(_, v)| **v != 0.0).map(|(k, v)| (k, *v)).collect())
+            .map(|c| {
+                c.iter()
+                    .enumerate()
+                    .filter(|(_, v)| **v != 0.0)
+                    .map(|(k, v)| (k, *v))
+                    .collect()
+            })
             .collect();
         let mut w = DMatrix::zeros(m, m);
         let mut delta_free = Vec::with_capacity(m);

@@ -149,5 +149,8 @@ fn a_cable_asked_to_push_goes_slack_with_zero_tension() {
     assert!(sol.converged);
     assert_eq!(sol.cable_slack, vec![true, false]);
     assert_eq!(sol.cable_tension[0], 0.0);
-    assert!(sol.cable_shortening[0] > -0.004, "the slack cable is longer than its attach path");
+    assert!(
+        sol.cable_shortening[0] > -0.004,
+        "the slack cable is longer than its attach path"
+    );
 }

@@ -297,11 +297,22 @@ fn no_fixed_nodes_or_collinear_supports_are_singular_errors() {
 #[test]
 fn assembly_is_bitwise_identical_for_any_thread_count() {
     let mesh = distorted_box(4, 0.3, 5);
-    let mut p = Problem::new(mesh.clone(), Material::new(1e5, 0.4).unwrap(), Formulation::Corotational);
+    let mut p = Problem::new(
+        mesh.clone(),
+        Material::new(1e5, 0.4).unwrap(),
+        Formulation::Corotational,
+    );
     p.fixed = mesh.nodes_in_box([-1.0; 3], [1.0, 1.0, 1e-9]);
-    let x: Vec<[f64; 3]> = mesh.nodes_in_rest.iter().map(|q| [q[0] + 0.1 * q[2] * q[2], q[1], q[2] * 1.05]).collect();
+    let x: Vec<[f64; 3]> = mesh
+        .nodes_in_rest
+        .iter()
+        .map(|q| [q[0] + 0.1 * q[2] * q[2], q[1], q[2] * 1.05])
+        .collect();
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
         pool.install(|| {
             let mut s = p.solver().unwrap();
             s.assemble(&x, Tangent::Consistent).unwrap();
