@@ -32,6 +32,7 @@ pub mod fem;
 pub mod inverse;
 pub mod io;
 pub mod math;
+pub mod register;
 pub mod scene;
 
 pub use cloud::PointCloud;

@@ -12,5 +12,7 @@ mod fem_element;
 mod fem_mesh;
 #[path = "unit/inverse.rs"]
 mod inverse;
+#[path = "unit/register.rs"]
+mod register;
 #[path = "unit/scene.rs"]
 mod scene;
