@@ -13,6 +13,7 @@
 //! assert!((s.x[0] - 2.0).abs() < 1e-6);
 //! ```
 
+pub mod frame;
 pub mod intensity;
 pub mod qp;
 
