@@ -8,8 +8,9 @@
 //! let cam = Camera::new(CameraSpec::default()).unwrap();
 //! // The optical axis passes through the principal point and hits the target.
 //! let s = &cam.spec;
-//! let p = cam.backproject(s.cx, s.cy, 0.5);
-//! assert!((p[2] - s.target[2]).abs() < 1e-9);
+//! let dist = (0..3).map(|k| (s.target[k] - s.eye[k]).powi(2)).sum::<f64>().sqrt();
+//! let p = cam.backproject(s.cx, s.cy, dist);
+//! assert!((0..3).all(|k| (p[k] - s.target[k]).abs() < 1e-12));
 //! ```
 
 pub mod camera;
