@@ -10,6 +10,8 @@ mod fem_compliance;
 mod fem_element;
 #[path = "unit/fem_mesh.rs"]
 mod fem_mesh;
+#[path = "unit/fem_model.rs"]
+mod fem_model;
 #[path = "unit/inverse.rs"]
 mod inverse;
 #[path = "unit/register.rs"]

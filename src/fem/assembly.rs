@@ -192,23 +192,41 @@ impl Pattern {
     }
 }
 
-/// Evaluates `kernel` on every element (in parallel with the `parallel` feature) and
-/// returns the states in element order (an error if any element fails). The scatter that
-/// follows is serial in element order, so assembled values do not depend on thread count.
-pub fn map_elements<F>(rest: &[TetRest], kernel: F) -> FemResult<Vec<ElementState>>
+/// Evaluates `kernel` on every element (in parallel with the `parallel` feature) into
+/// `out` (reused between calls, resized to the element count); an error if any element
+/// fails. The scatter that follows is serial in element order, so assembled values do not
+/// depend on the thread count.
+pub fn eval_elements<F>(rest: &[TetRest], out: &mut Vec<ElementState>, kernel: F) -> FemResult<()>
 where
     F: Fn(usize, &TetRest) -> FemResult<ElementState> + Sync + Send,
 {
+    if out.len() != rest.len() {
+        out.clear();
+        out.resize(
+            rest.len(),
+            ElementState {
+                force: [0.0; 12],
+                tangent: [[0.0; 12]; 12],
+                stress: nalgebra::Matrix3::zeros(),
+            },
+        );
+    }
     #[cfg(feature = "parallel")]
     {
         use rayon::prelude::*;
-        rest.par_iter()
+        out.par_iter_mut()
+            .zip(rest.par_iter())
             .enumerate()
-            .map(|(e, r)| kernel(e, r))
-            .collect()
+            .try_for_each(|(e, (o, r))| {
+                *o = kernel(e, r)?;
+                Ok(())
+            })
     }
     #[cfg(not(feature = "parallel"))]
     {
-        rest.iter().enumerate().map(|(e, r)| kernel(e, r)).collect()
+        for (e, (o, r)) in out.iter_mut().zip(rest).enumerate() {
+            *o = kernel(e, r)?;
+        }
+        Ok(())
     }
 }

@@ -4,6 +4,8 @@
 
 use super::solve::{Cable, MappedPoint, Solver};
 use super::{FemError, FemResult};
+use faer::reborrow::{Reborrow, ReborrowMut};
+use faer::sparse::linalg::cholesky::supernodal::SupernodalLltRef;
 use faer::Mat;
 use nalgebra::DMatrix;
 use serde::Serialize;
@@ -87,6 +89,12 @@ pub struct Compliance {
 impl Solver<'_> {
     /// Compliance of `rows` with the current factorization, at positions `x` with free
     /// residual `residual` (free-DOF space, e.g. f_ext - f_int), which gives delta^free.
+    ///
+    /// With K = Pᵀ L Lᵀ P, W = H K⁻¹ Hᵀ = Yᵀ Y for Y = L⁻¹ P Hᵀ: only forward solves, and
+    /// each column of Hᵀ (a few nonzeros) only reaches the supernodes on its paths to the
+    /// root of the elimination tree. Supernode rows are final right after their diagonal
+    /// solve, so Yᵀ Y is accumulated block by block on the way. The residual is carried
+    /// as one more column, H K⁻¹ r = Yᵀ (L⁻¹ P r).
     pub fn compliance(
         &self,
         rows: &[ConstraintRow],
@@ -95,43 +103,159 @@ impl Solver<'_> {
     ) -> FemResult<Compliance> {
         let nd = self.ndof();
         let m = rows.len();
-        let mut ht = Mat::<f64>::zeros(nd, m + 1);
-        let mut cols = vec![vec![0.0; nd]; m];
-        for (j, row) in rows.iter().enumerate() {
-            self.row_to_dofs(&row.entries, &mut cols[j]);
-            for (i, v) in cols[j].iter().enumerate() {
-                ht[(i, j)] = *v;
-            }
+        let k = m + 1;
+        if residual.len() != nd {
+            return Err(FemError::Model(format!(
+                "residual has {} entries, the system {nd}",
+                residual.len()
+            )));
         }
-        for (i, v) in residual.iter().enumerate().take(nd) {
-            ht[(i, m)] = *v;
-        }
-        self.solve_in_place(&mut ht)?;
-        // Sparse rows: (dof, coefficient) pairs, so W costs rows x rows x (row length).
-        let sparse: Vec<Vec<(usize, f64)>> = cols
-            .iter()
-            .map(|c| {
-                c.iter()
-                    .enumerate()
-                    .filter(|(_, v)| **v != 0.0)
-                    .map(|(k, v)| (k, *v))
-                    .collect()
-            })
-            .collect();
-        let mut w = DMatrix::zeros(m, m);
-        let mut delta_free = Vec::with_capacity(m);
-        for (i, hi) in sparse.iter().enumerate() {
-            for j in 0..m {
-                w[(i, j)] = hi.iter().map(|(k, v)| v * ht[(*k, j)]).sum();
-            }
-            let du: f64 = hi.iter().map(|(k, v)| v * ht[(*k, m)]).sum();
-            delta_free.push(rows[i].value(x) + du);
-        }
+        let gram = self.forward_gram(
+            |add| {
+                for (j, row) in rows.iter().enumerate() {
+                    for (n, v) in &row.entries {
+                        if let Some(d) = self.dofs.node_dof.get(*n).copied().flatten() {
+                            for (c, vc) in v.iter().enumerate() {
+                                if *vc != 0.0 {
+                                    add(d + c, j, *vc);
+                                }
+                            }
+                        }
+                    }
+                }
+                for (r, v) in residual.iter().enumerate() {
+                    if *v != 0.0 {
+                        add(r, m, *v);
+                    }
+                }
+            },
+            k,
+        )?;
+        // Upper triangle mirrored: W is symmetric to the last bit.
+        let w = DMatrix::from_fn(m, m, |i, j| gram[(i.min(j), i.max(j))]);
+        let delta_free = (0..m).map(|i| rows[i].value(x) + gram[(i, m)]).collect();
         Ok(Compliance {
             w,
             delta_free,
             kinds: rows.iter().map(|r| r.kind).collect(),
         })
+    }
+
+    /// Yᵀ Y (upper triangle valid) for Y = L⁻¹ P B, B (ndof x `k`) given by `fill`, which
+    /// calls `add(dof, column, value)` for each nonzero of B.
+    fn forward_gram(
+        &self,
+        fill: impl FnOnce(&mut dyn FnMut(usize, usize, f64)),
+        k: usize,
+    ) -> FemResult<Mat<f64>> {
+        let nd = self.ndof();
+        let sn = self.supernodal()?;
+        let ns = sn.n_supernodes();
+        let (begin, end) = (sn.supernode_begin(), sn.supernode_end());
+        // Supernode of each (permuted) row.
+        let mut sup_of = vec![0usize; nd];
+        for s in 0..ns {
+            sup_of[begin[s]..end[s]].iter_mut().for_each(|v| *v = s);
+        }
+        let inv: Vec<usize> = match self.symbolic.perm() {
+            Some(p) => p.arrays().1.to_vec(),
+            None => (0..nd).collect(),
+        };
+        // Y (permuted rows), and per supernode a bitset of the columns that reach it.
+        let words = k.div_ceil(64);
+        let mut y = Mat::<f64>::zeros(nd, k);
+        let mut active = vec![0u64; ns * words];
+        fill(&mut |r, j, v| {
+            let pr = inv[r];
+            y[(pr, j)] += v;
+            active[sup_of[pr] * words + j / 64] |= 1 << (j % 64);
+        });
+        let llt = SupernodalLltRef::new(sn, &self.l_values);
+        let mut gram = Mat::<f64>::zeros(k, k);
+        let mut cols = Vec::with_capacity(k);
+        let mut buf = Vec::new();
+        let mut upd = Vec::new();
+        let mut g = Vec::new();
+        for s in 0..ns {
+            cols.clear();
+            for w in 0..words {
+                let mut bits = active[s * words + w];
+                while bits != 0 {
+                    cols.push(w * 64 + bits.trailing_zeros() as usize);
+                    bits &= bits - 1;
+                }
+            }
+            if cols.is_empty() {
+                continue;
+            }
+            let node = llt.supernode(s);
+            let (start, ls, pattern) = (node.start(), node.val(), node.pattern());
+            let size = ls.ncols();
+            let ka = cols.len();
+            let (ltop, lbot) = ls.split_at_row(size);
+            buf.clear();
+            buf.resize(size * ka, 0.0);
+            let mut xt = faer::MatMut::from_column_major_slice_mut(&mut buf, size, ka);
+            for (c, &j) in cols.iter().enumerate() {
+                for i in 0..size {
+                    xt[(i, c)] = y[(start + i, j)];
+                }
+            }
+            let par = if size * ka > 64 * 64 {
+                self.linalg_par()
+            } else {
+                faer::Par::Seq
+            };
+            faer::linalg::triangular_solve::solve_lower_triangular_in_place(ltop, xt.rb_mut(), par);
+            // These rows of Y are final: add their share of Yᵀ Y.
+            g.clear();
+            g.resize(ka * ka, 0.0);
+            let mut gm = faer::MatMut::from_column_major_slice_mut(&mut g, ka, ka);
+            faer::linalg::matmul::matmul(
+                gm.rb_mut(),
+                faer::Accum::Replace,
+                xt.rb().transpose(),
+                xt.rb(),
+                1.0,
+                par,
+            );
+            for (b, &jb) in cols.iter().enumerate() {
+                for (a, &ja) in cols.iter().enumerate().take(b + 1) {
+                    gram[(ja, jb)] += gm[(a, b)];
+                }
+            }
+            if pattern.is_empty() {
+                continue;
+            }
+            upd.clear();
+            upd.resize(pattern.len() * ka, 0.0);
+            let mut um = faer::MatMut::from_column_major_slice_mut(&mut upd, pattern.len(), ka);
+            faer::linalg::matmul::matmul(
+                um.rb_mut(),
+                faer::Accum::Replace,
+                lbot,
+                xt.rb(),
+                1.0,
+                par,
+            );
+            for (c, &j) in cols.iter().enumerate() {
+                for (idx, &r) in pattern.iter().enumerate() {
+                    y[(r, j)] -= um[(idx, c)];
+                }
+            }
+            // The updated rows belong to later supernodes: they are reached too.
+            let mut last = usize::MAX;
+            for &r in pattern {
+                let t = sup_of[r];
+                if t != last {
+                    for w in 0..words {
+                        active[t * words + w] |= active[s * words + w];
+                    }
+                    last = t;
+                }
+            }
+        }
+        Ok(gram)
     }
 
     /// Assembles and factorizes the tangent at `x` and returns the compliance of `rows`

@@ -119,55 +119,41 @@ impl TetRest {
         let eps = s - Matrix3::identity();
         let sigma = m.stress(&eps);
         let force = self.forces(&(r * sigma));
-        let mut k = [[0.0; 12]; 12];
-        match tangent {
+        // Both tangents in closed form per 3x3 block (a, b), with h_a = R g_a:
+        //   R K0_ab R^T = V (lambda h_a h_b^T + mu h_b h_a^T + mu (g_a . g_b) I),
+        // and the consistent one adds the rotation derivative V (R M_a) (A^-1 [g_b]x R^T),
+        // M_a = -[sigma g_a]x + mu [S g_a]x - mu S [g_a]x, A = tr(S) I - S. This is the
+        // column-by-column derivative dF = e_j g_b^T (see the module docs) gathered
+        // into products: dR = R [w]x with w = A^-1 (g_b x R^T e_j).
+        let h = self.grads.map(|g| r * g);
+        let rot = match tangent {
             Tangent::Consistent => {
                 let a_inv = (Matrix3::identity() * s.trace() - s)
                     .try_inverse()
                     .ok_or(FemError::InvertedElement { tet, volume: det })?;
-                for b in 0..4 {
-                    for j in 0..3 {
-                        // dF = e_j g_b^T
-                        let mut df = Matrix3::zeros();
-                        df.set_row(j, &self.grads[b].transpose());
-                        let mm = r.transpose() * df;
-                        let ax = Vector3::new(
-                            mm[(2, 1)] - mm[(1, 2)],
-                            mm[(0, 2)] - mm[(2, 0)],
-                            mm[(1, 0)] - mm[(0, 1)],
-                        );
-                        let w = a_inv * ax;
-                        let wx = w.cross_matrix();
-                        let dr = r * wx;
-                        let de = mm - wx * s;
-                        let de = (de + de.transpose()) * 0.5;
-                        let dp = dr * sigma + r * m.stress(&de);
-                        let col = 3 * b + j;
-                        for a in 0..4 {
-                            let dfa = dp * self.grads[a] * self.volume;
-                            for i in 0..3 {
-                                k[3 * a + i][col] = dfa[i];
-                            }
-                        }
-                    }
-                }
+                let rt = r.transpose();
+                let p = self.grads.map(|g| {
+                    let ma =
+                        -(sigma * g - s * g * m.mu).cross_matrix() - s * g.cross_matrix() * m.mu;
+                    r * ma * self.volume
+                });
+                let q = self.grads.map(|g| a_inv * g.cross_matrix() * rt);
+                Some((p, q))
             }
-            Tangent::Rotated => {
-                let k0 = self.stiffness(m);
-                for a in 0..4 {
-                    for b in 0..4 {
-                        let mut blk = Matrix3::zeros();
-                        for i in 0..3 {
-                            for j in 0..3 {
-                                blk[(i, j)] = k0[3 * a + i][3 * b + j];
-                            }
-                        }
-                        let rb = r * blk * r.transpose();
-                        for i in 0..3 {
-                            for j in 0..3 {
-                                k[3 * a + i][3 * b + j] = rb[(i, j)];
-                            }
-                        }
+            Tangent::Rotated => None,
+        };
+        let mut k = [[0.0; 12]; 12];
+        let (vl, vm) = (self.volume * m.lambda, self.volume * m.mu);
+        for a in 0..4 {
+            for b in 0..4 {
+                let gab = vm * self.grads[a].dot(&self.grads[b]);
+                let mut blk = h[a] * h[b].transpose() * vl + h[b] * h[a].transpose() * vm;
+                if let Some((p, q)) = &rot {
+                    blk += p[a] * q[b];
+                }
+                for i in 0..3 {
+                    for j in 0..3 {
+                        k[3 * a + i][3 * b + j] = blk[(i, j)] + if i == j { gab } else { 0.0 };
                     }
                 }
             }
@@ -205,9 +191,10 @@ pub struct ElementState {
 pub fn polar_rotation(f: &Matrix3<f64>) -> Matrix3<f64> {
     let mut r = *f;
     for _ in 0..40 {
-        let det = r.determinant();
         let Some(inv) = r.try_inverse() else { break };
-        let g = det.abs().powf(-1.0 / 3.0);
+        // Frobenius-norm scaling (Higham): as fast to converge as the determinant
+        // scaling, without a software cube root.
+        let g = (inv.norm() / r.norm()).sqrt();
         let next = (r * g + inv.transpose() / g) * 0.5;
         let diff = (next - r).abs().max();
         r = next;

@@ -154,3 +154,113 @@ fn a_cable_asked_to_push_goes_slack_with_zero_tension() {
         "the slack cable is longer than its attach path"
     );
 }
+
+#[test]
+fn loads_on_missing_nodes_are_model_errors_not_panics() {
+    let (mut p, _) = setup();
+    p.loads.push(PointLoad {
+        at: MappedPoint::node(100_000),
+        force: [1.0, 0.0, 0.0],
+    });
+    assert!(matches!(
+        p.solve_static(&NewtonParams::default()),
+        Err(softsense::fem::FemError::Model(_))
+    ));
+}
+
+/// W and delta^free by full solves K X = [H^T r] and products H X (the straightforward path
+/// the forward-only supernodal compliance replaces).
+fn compliance_by_full_solves(
+    s: &softsense::fem::solve::Solver<'_>,
+    rows: &[ConstraintRow],
+    x: &[[f64; 3]],
+    r: &[f64],
+) -> (nalgebra::DMatrix<f64>, Vec<f64>) {
+    let nd = s.ndof();
+    let m = rows.len();
+    let cols: Vec<Vec<f64>> = rows
+        .iter()
+        .map(|row| {
+            let mut c = vec![0.0; nd];
+            s.row_to_dofs(&row.entries, &mut c);
+            c
+        })
+        .collect();
+    let mut b = faer::Mat::<f64>::from_fn(nd, m + 1, |i, j| if j < m { cols[j][i] } else { r[i] });
+    s.solve_in_place(&mut b).unwrap();
+    let dot = |c: &[f64], j: usize| (0..nd).map(|k| c[k] * b[(k, j)]).sum::<f64>();
+    let w = nalgebra::DMatrix::from_fn(m, m, |i, j| dot(&cols[i], j));
+    let d = (0..m)
+        .map(|i| rows[i].value(x) + dot(&cols[i], m))
+        .collect();
+    (w, d)
+}
+
+fn assert_close_relative(a: &[f64], b: &[f64], what: &str) {
+    let scale = b.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    assert!(scale > 0.0, "{what} is all zero");
+    for (i, (x, y)) in a.iter().zip(b).enumerate() {
+        assert!(
+            (x - y).abs() <= 1e-10 * scale,
+            "{what}[{i}]: {x:e} vs {y:e}"
+        );
+    }
+}
+
+#[test]
+fn forward_only_compliance_equals_full_solves() {
+    // A larger corotational column so the rows reach only part of the elimination tree,
+    // deformed (nonzero residual), with rows of every kind and one on fixed nodes only.
+    let (small, mut rows) = setup();
+    let mesh =
+        TetMesh::structured_box([-0.02, -0.02, 0.0], [0.02, 0.02, 0.12], [5, 5, 14]).unwrap();
+    let mut p = Problem::new(mesh.clone(), small.material, Formulation::Corotational);
+    p.fixed = mesh.nodes_in_box([-1.0, -1.0, -1e-9], [1.0, 1.0, 1e-9]);
+    p.density = small.density;
+    p.gravity = small.gravity;
+    for row in &mut rows {
+        for (n, _) in &mut row.entries {
+            // Same points located on the finer mesh would need relocation; use nodes instead.
+            *n %= mesh.num_nodes();
+        }
+    }
+    rows.push(
+        ConstraintRow::along(
+            RowKind::Force,
+            &MappedPoint::node(p.fixed[0]),
+            [0.0, 0.0, 1.0],
+        )
+        .unwrap(),
+    );
+    let x: Vec<[f64; 3]> = p
+        .mesh
+        .nodes_in_rest
+        .iter()
+        .map(|q| {
+            [
+                q[0] + 0.1 * q[2] * q[2],
+                q[1] - 0.05 * q[2] * q[2],
+                q[2] * 1.01,
+            ]
+        })
+        .collect();
+    let mut s = p.solver().unwrap();
+    let c = s.compliance_at(&x, &rows).unwrap();
+    let mut full = p.external_forces();
+    for (f, fi) in full.iter_mut().zip(&s.internal_force) {
+        *f -= fi;
+    }
+    let r = s.dofs.gather(&full);
+    assert!(
+        r.iter().any(|v| v.abs() > 1e-6),
+        "the deformed state has a residual"
+    );
+    let (w_ref, d_ref) = compliance_by_full_solves(&s, &rows, &x, &r);
+    assert_close_relative(c.w.as_slice(), w_ref.as_slice(), "W");
+    assert_close_relative(&c.delta_free, &d_ref, "delta_free");
+    let last = rows.len() - 1;
+    assert!(
+        c.w.row(last).iter().all(|v| *v == 0.0),
+        "a row on fixed nodes has no compliance"
+    );
+}

@@ -326,3 +326,115 @@ fn assembly_is_bitwise_identical_for_any_thread_count() {
         assert!(f.iter().zip(&f1).all(|(a, b)| a.to_bits() == b.to_bits()));
     }
 }
+
+/// The corotational tangents column by column, straight from the derivation in the tet4
+/// module docs (dF = e_j g_b^T, dR = R [w]x, (tr(S) I - S) w = axial(R^T dF - dF^T R)),
+/// and R K0 R^T block by block: the reference the closed-form kernel must reproduce.
+fn reference_tangent(e: &TetRest, m: &Material, x: &[[f64; 3]; 4], t: Tangent) -> [[f64; 12]; 12] {
+    let f = e.deformation_gradient(x);
+    let r = softsense::fem::tet4::polar_rotation(&f);
+    let s = r.transpose() * f;
+    let s = (s + s.transpose()) * 0.5;
+    let sigma = m.stress(&(s - Matrix3::identity()));
+    let mut k = [[0.0; 12]; 12];
+    match t {
+        Tangent::Consistent => {
+            let a_inv = (Matrix3::identity() * s.trace() - s).try_inverse().unwrap();
+            for b in 0..4 {
+                for j in 0..3 {
+                    let mut df = Matrix3::zeros();
+                    df.set_row(j, &e.grads[b].transpose());
+                    let mm = r.transpose() * df;
+                    let ax = Vector3::new(
+                        mm[(2, 1)] - mm[(1, 2)],
+                        mm[(0, 2)] - mm[(2, 0)],
+                        mm[(1, 0)] - mm[(0, 1)],
+                    );
+                    let wx = (a_inv * ax).cross_matrix();
+                    let de = mm - wx * s;
+                    let dp = r * wx * sigma + r * m.stress(&((de + de.transpose()) * 0.5));
+                    for a in 0..4 {
+                        let dfa = dp * e.grads[a] * e.volume;
+                        for i in 0..3 {
+                            k[3 * a + i][3 * b + j] = dfa[i];
+                        }
+                    }
+                }
+            }
+        }
+        Tangent::Rotated => {
+            let k0 = e.stiffness(m);
+            for a in 0..4 {
+                for b in 0..4 {
+                    let blk = Matrix3::from_fn(|i, j| k0[3 * a + i][3 * b + j]);
+                    let rb = r * blk * r.transpose();
+                    for i in 0..3 {
+                        for j in 0..3 {
+                            k[3 * a + i][3 * b + j] = rb[(i, j)];
+                        }
+                    }
+                }
+            }
+        }
+    }
+    k
+}
+
+#[test]
+fn closed_form_tangents_equal_the_column_by_column_derivation() {
+    let (e, rest, m) = element();
+    let mut seed = 11;
+    for _ in 0..20 {
+        let axis = Vector3::new(lcg(&mut seed), lcg(&mut seed), lcg(&mut seed));
+        let q = Rotation3::new(axis * 2.0).into_inner();
+        let mut x = rest;
+        for p in &mut x {
+            for c in p.iter_mut() {
+                *c += 0.15 * lcg(&mut seed);
+            }
+        }
+        let x = apply(&q, [0.3, -0.1, 0.2], &x);
+        for t in [Tangent::Consistent, Tangent::Rotated] {
+            let k = e.corotational(0, &m, &x, t).unwrap().tangent;
+            let r = reference_tangent(&e, &m, &x, t);
+            let scale = r.iter().flatten().fold(0.0f64, |a, v| a.max(v.abs()));
+            for (p, (kr, rr)) in k.iter().zip(&r).enumerate() {
+                for (q, (a, b)) in kr.iter().zip(rr).enumerate() {
+                    assert!(
+                        (a - b).abs() <= 1e-12 * scale,
+                        "{t:?} K[{p}][{q}]: {a:e} vs {b:e}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn polar_rotation_is_orthonormal_and_leaves_a_symmetric_positive_stretch() {
+    let mut seed = 5;
+    for i in 0..200 {
+        // Rotations times stretches up to 10:1, some near-rigid.
+        let q = Rotation3::new(Vector3::new(lcg(&mut seed), lcg(&mut seed), lcg(&mut seed)) * 3.0)
+            .into_inner();
+        let amount = if i % 2 == 0 { 1e-6 } else { 0.9 };
+        let u = Matrix3::from_fn(|_, _| amount * lcg(&mut seed));
+        let stretch = Matrix3::identity() + (u + u.transpose()) * 0.5;
+        if stretch.symmetric_eigen().eigenvalues.min() < 0.1 {
+            continue;
+        }
+        let f = q * stretch;
+        let r = softsense::fem::tet4::polar_rotation(&f);
+        assert!(
+            (r.transpose() * r - Matrix3::identity()).amax() < 1e-12,
+            "R^T R at {i}"
+        );
+        assert!((r.determinant() - 1.0).abs() < 1e-12, "det R at {i}");
+        assert!((r - q).amax() < 1e-10, "R recovers the rotation at {i}");
+        let s = r.transpose() * f;
+        assert!(
+            (s - s.transpose()).amax() < 1e-10 * s.amax(),
+            "S symmetric at {i}"
+        );
+    }
+}

@@ -1,0 +1,60 @@
+//! Model files: unit conversion (mm-kg-s scenes to SI), selections, mapped points.
+
+use crate::common;
+use softsense::fem::model::{Model, ModelSpec};
+use softsense::fem::solve::CableControl;
+
+#[test]
+fn mm_kg_s_model_is_converted_to_si() {
+    let m = Model::load(
+        &common::project_root().join("meshes/models/robot.toml"),
+        None,
+    )
+    .unwrap();
+    let p = &m.problem;
+    assert!((p.material.young - 180e3).abs() < 1e-9, "180 kPa");
+    assert!((p.gravity[2] + 9.81).abs() < 1e-12, "9810 mm/s^2");
+    let mass: f64 = p.lumped_masses().iter().sum();
+    assert!((mass - 0.5).abs() < 1e-12, "total mass {mass} kg");
+    assert_eq!(p.cables.len(), 4);
+    assert_eq!(p.cables[0].control, CableControl::Displacement(0.010));
+    let attach = p.cables[0].attach[0].position(&p.mesh.nodes_in_rest);
+    assert!(
+        (attach[1] - 0.097).abs() < 1e-12 && (attach[2] - 0.045).abs() < 1e-12,
+        "{attach:?}"
+    );
+    assert!(!p.fixed.is_empty());
+    for &v in &p.fixed {
+        let q = p.mesh.nodes_in_rest[v];
+        assert!(
+            q[0].abs() <= 0.015 + 1e-12 && q[1].abs() <= 0.015 + 1e-12 && q[2] <= 0.0125 + 1e-12
+        );
+    }
+    assert_eq!(m.effectors[0].rows.len(), 3);
+    assert_eq!(m.force_rows.len(), 1, "a normal force point is one row");
+}
+
+#[test]
+fn bad_model_files_are_errors() {
+    let base = "[mesh]\npath = \"robot.vtu\"\n[material]\nyoung = 1.0\npoisson = 0.3\n";
+    assert!(
+        toml::from_str::<ModelSpec>(&format!("{base}bogus = 1\n")).is_err(),
+        "unknown keys are rejected"
+    );
+    let bad_units: ModelSpec = toml::from_str(&format!("units = \"furlong\"\n{base}")).unwrap();
+    let mesh =
+        softsense::fem::mesh::TetMesh::structured_box([0.0; 3], [1.0; 3], [1, 1, 1]).unwrap();
+    assert!(Model::from_spec(&bad_units, mesh.clone()).is_err());
+    let bad_nu: ModelSpec = toml::from_str(&base.replace("0.3", "0.5")).unwrap();
+    assert!(Model::from_spec(&bad_nu, mesh.clone()).is_err());
+    let far: ModelSpec = toml::from_str(&format!(
+        "{base}[[loads]]\nat = [9.0, 9.0, 9.0]\nforce = [1.0, 0.0, 0.0]\n"
+    ))
+    .unwrap();
+    assert!(matches!(
+        Model::from_spec(&far, mesh),
+        Err(softsense::fem::FemError::PointOutside { .. })
+    ));
+    std::env::remove_var("SOFTSENSE_SURELY_UNSET_VAR");
+    assert!(softsense::fem::model::expand_env("${SOFTSENSE_SURELY_UNSET_VAR}/x").is_err());
+}
