@@ -15,11 +15,20 @@ pub enum Error {
     #[error(transparent)]
     Fem(#[from] crate::fem::FemError),
     /// A filter was given invalid parameters.
+    #[error(transparent)]
     Filter(#[from] crate::filter::FilterError),
     /// Normal estimation was given invalid parameters.
+    #[error(transparent)]
     Features(#[from] crate::features::FeatureError),
     /// The filter chain could not run (bad configuration, unreadable sequence).
+    #[error(transparent)]
     Pipeline(#[from] crate::pipeline::PipelineError),
+    /// The inverse model: QPs and force intensities.
+    #[error(transparent)]
+    Inverse(#[from] crate::inverse::InverseError),
+    /// Synthetic scenes: scene files, direct model, rendering.
+    #[error(transparent)]
+    Scene(#[from] crate::scene::SceneError),
 }
 
 /// `Result` with the crate-level [`Error`](enum@Error).

@@ -31,9 +31,12 @@ pub mod error;
 pub mod fem;
 pub mod features;
 pub mod filter;
+pub mod inverse;
 pub mod io;
 pub mod math;
 pub mod pipeline;
+pub mod register;
+pub mod scene;
 pub mod search;
 
 pub use cloud::PointCloud;

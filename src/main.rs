@@ -40,6 +40,8 @@ enum Command {
     Fem(cli::fem::FemArgs),
     /// Crop, voxel-filter, remove outliers and estimate normals (PCL/Open3D semantics).
     Filter(cli::filter::FilterArgs),
+    /// Synthetic RGB-D scenes from the FE model (the direct model).
+    Scene(cli::scene::SceneArgs),
 }
 
 fn main() -> ExitCode {
@@ -49,6 +51,7 @@ fn main() -> ExitCode {
         Command::Convert(args) => cli::convert::run(&args),
         Command::Fem(args) => cli::fem::run(args).map_err(cli::CliError::Other),
         Command::Filter(args) => cli::filter::run(&args),
+        Command::Scene(args) => cli::scene::run(args).map_err(cli::CliError::Other),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

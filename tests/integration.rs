@@ -9,3 +9,5 @@ mod fem_cantilever;
 mod fem_diamond;
 #[path = "integration/fem_skfem.rs"]
 mod fem_skfem;
+#[path = "integration/sense_tip_weight.rs"]
+mod sense_tip_weight;

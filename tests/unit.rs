@@ -39,5 +39,9 @@ mod pipeline;
 #[path = "unit/filter_golden.rs"]
 mod filter_golden;
 
-#[path = "unit/io_malformed.rs"]
-mod io_malformed;
+#[path = "unit/inverse.rs"]
+mod inverse;
+#[path = "unit/register.rs"]
+mod register;
+#[path = "unit/scene.rs"]
+mod scene;

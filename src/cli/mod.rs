@@ -4,6 +4,7 @@ pub mod convert;
 pub mod fem;
 pub mod filter;
 pub mod info;
+pub mod scene;
 
 use std::fmt;
 

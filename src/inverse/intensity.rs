@@ -1,0 +1,252 @@
+//! The intensity QP in normal space (thesis 4.5.2, equations 4.14-4.18).
+//!
+//! Unknowns λ = [λ_a; λ_f] (actuator forces, then force intensities at candidate locations).
+//! Rows are the normal displacements of the visible registered feature points:
+//! δ_e^N = W_ea^N λ_a + W_ef^N λ_f + δ_e^{free,N} (4.14). The QP minimises
+//! ½‖W_eI^N λ + δ_e^{free,N} − δ_d^N‖² (4.15/4.16) with λ_a = λ_a^r for force-controlled
+//! actuators (4.17) or W_a^N λ + δ_a^{free} = δ_a^r for displacement-controlled ones (4.18),
+//! plus pushing-only bounds (λ_f ≥ 0) where asked and an optional Tikhonov term.
+
+use super::qp::{QpParams, QpProblem, QpStatus};
+use super::{InverseError, InverseResult};
+use nalgebra::{DMatrix, DVector};
+use serde::Serialize;
+
+/// How one actuator is driven in the frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ActuatorInput {
+    /// Known force λ_a^r (N): an equality λ_a = value (4.17).
+    Force(f64),
+    /// Known actuator displacement δ_a^r (m): an equality on the actuator row (4.18).
+    Displacement(f64),
+}
+
+/// The data of one intensity QP (all normal-space, SI).
+#[derive(Clone, Debug)]
+pub struct IntensityProblem {
+    /// W_ea^N: m feature rows x a actuators.
+    pub w_ea: DMatrix<f64>,
+    /// W_ef^N: m feature rows x k candidate forces.
+    pub w_ef: DMatrix<f64>,
+    /// δ_e^{free,N}: free normal displacement of each feature row (m).
+    pub delta_free_e: Vec<f64>,
+    /// δ_d^N: measured normal displacement of each feature row (m).
+    pub delta_measured: Vec<f64>,
+    /// W_aa: a x a actuator compliance (needed for displacement-controlled actuators).
+    pub w_aa: DMatrix<f64>,
+    /// W_af: a x k coupling between actuators and candidate forces.
+    pub w_af: DMatrix<f64>,
+    /// δ_a^{free}: free actuator displacements (a).
+    pub delta_free_a: Vec<f64>,
+    /// Control input of each actuator (a).
+    pub actuators: Vec<ActuatorInput>,
+    /// Per candidate force: whether it can only push (λ_f ≥ 0).
+    pub push_only: Vec<bool>,
+}
+
+/// Identifiability of the force unknowns (thesis Corollaries 1-2 and index I_w of 4.6.1).
+#[derive(Clone, Debug, Serialize)]
+pub struct Identifiability {
+    /// Number of feature rows.
+    pub rows: usize,
+    /// Number of force unknowns.
+    pub unknowns: usize,
+    /// I_w = ‖W_ef⁺‖₂ = 1 / σ_min(W_ef) (N/m); infinite when rank deficient.
+    pub i_w: f64,
+    /// A human-readable warning when the forces are not (well) identifiable.
+    pub warning: Option<String>,
+}
+
+/// Options of the intensity QP.
+#[derive(Clone, Debug)]
+pub struct IntensityParams {
+    /// Tikhonov weight ε on ‖λ_f‖² (relative to the largest diagonal of W_efᵀW_ef).
+    pub regularization: f64,
+    /// Standard deviation of one measured normal displacement (m), for the uncertainties.
+    pub sensor_sigma: f64,
+    /// I_w above which a warning is issued (N/m).
+    pub max_i_w: f64,
+    /// QP solver options.
+    pub qp: QpParams,
+}
+
+impl Default for IntensityParams {
+    fn default() -> Self {
+        Self {
+            regularization: 0.0,
+            sensor_sigma: 1.0e-3,
+            max_i_w: 1.0e6,
+            qp: QpParams::default(),
+        }
+    }
+}
+
+/// The estimate of one frame.
+#[derive(Clone, Debug, Serialize)]
+pub struct IntensityEstimate {
+    /// QP status (the forces below are empty unless it is a solution).
+    pub status: QpStatus,
+    /// Actuator forces λ_a (N).
+    pub actuator_forces: Vec<f64>,
+    /// Force intensities λ_f (N).
+    pub forces: Vec<f64>,
+    /// One-sigma uncertainty of each λ_f from the sensor noise and W (N).
+    pub force_sigma: Vec<f64>,
+    /// RMS of the normal-displacement residual at the solution (m).
+    pub residual_rms: f64,
+    /// The identifiability check done before solving.
+    pub identifiability: Identifiability,
+}
+
+impl IntensityProblem {
+    fn check(&self) -> InverseResult<(usize, usize, usize)> {
+        let m = self.delta_measured.len();
+        let a = self.actuators.len();
+        let k = self.push_only.len();
+        let ok = self.w_ea.shape() == (m, a)
+            && self.w_ef.shape() == (m, k)
+            && self.delta_free_e.len() == m
+            && self.w_aa.shape() == (a, a)
+            && self.w_af.shape() == (a, k)
+            && self.delta_free_a.len() == a;
+        if !ok {
+            return Err(InverseError::Intensity(format!(
+                "inconsistent dimensions (rows {m}, actuators {a}, forces {k})"
+            )));
+        }
+        if m == 0 {
+            return Err(InverseError::Intensity("no visible feature rows".into()));
+        }
+        Ok((m, a, k))
+    }
+
+    /// Rows against unknowns and I_w = ‖W_ef⁺‖.
+    pub fn identifiability(&self, params: &IntensityParams) -> Identifiability {
+        let (m, k) = self.w_ef.shape();
+        let unknowns = k + self
+            .actuators
+            .iter()
+            .filter(|a| matches!(a, ActuatorInput::Displacement(_)))
+            .count();
+        let sv = self.w_ef.clone().singular_values();
+        let smin = if k == 0 || m < k {
+            0.0
+        } else {
+            sv.iter().copied().fold(f64::INFINITY, f64::min)
+        };
+        let smax = sv.iter().copied().fold(0.0, f64::max);
+        let i_w = if smin > 1e-12 * smax.max(f64::MIN_POSITIVE) {
+            1.0 / smin
+        } else {
+            f64::INFINITY
+        };
+        let warning = if m < unknowns {
+            Some(format!(
+                "{m} feature rows for {unknowns} unknowns: forces are not identifiable"
+            ))
+        } else if i_w > params.max_i_w || i_w.is_nan() {
+            Some(format!(
+                "I_w = {i_w:.3e} N/m exceeds {:.3e}: forces are poorly conditioned",
+                params.max_i_w
+            ))
+        } else {
+            None
+        };
+        Identifiability {
+            rows: m,
+            unknowns,
+            i_w,
+            warning,
+        }
+    }
+
+    /// Solves the QP (4.16) with (4.17)/(4.18) and the bounds.
+    pub fn solve(&self, params: &IntensityParams) -> InverseResult<IntensityEstimate> {
+        let (m, a, k) = self.check()?;
+        let ident = self.identifiability(params);
+        let n = a + k;
+        let mut wei = DMatrix::zeros(m, n);
+        wei.view_mut((0, 0), (m, a)).copy_from(&self.w_ea);
+        wei.view_mut((0, a), (m, k)).copy_from(&self.w_ef);
+        let target: Vec<f64> = (0..m)
+            .map(|i| self.delta_measured[i] - self.delta_free_e[i])
+            .collect();
+        // Scale rows to O(1): interior-point gaps are absolute and compliances are ~1e-3 m/N.
+        let scale = wei.amax().max(f64::MIN_POSITIVE);
+        let scaled_target: Vec<f64> = target.iter().map(|t| t / scale).collect();
+        let mut qp = QpProblem::least_squares(&(&wei / scale), &scaled_target)?;
+        if params.regularization > 0.0 {
+            let scale = (a..n).map(|j| qp.p[(j, j)]).fold(0.0, f64::max);
+            for j in a..n {
+                qp.p[(j, j)] += params.regularization * scale;
+            }
+        }
+        let mut eq_rows = Vec::new();
+        let mut eq_b = Vec::new();
+        for (i, input) in self.actuators.iter().enumerate() {
+            let mut row = vec![0.0; n];
+            match *input {
+                ActuatorInput::Force(f) => {
+                    row[i] = 1.0;
+                    eq_b.push(f);
+                }
+                ActuatorInput::Displacement(d) => {
+                    for (j, r) in row.iter_mut().enumerate() {
+                        *r = if j < a {
+                            self.w_aa[(i, j)]
+                        } else {
+                            self.w_af[(i, j - a)]
+                        };
+                    }
+                    let s = row.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+                    let s = if s > 0.0 { s } else { 1.0 };
+                    row.iter_mut().for_each(|v| *v /= s);
+                    eq_b.push((d - self.delta_free_a[i]) / s);
+                }
+            }
+            eq_rows.push(row);
+        }
+        qp.a_eq = DMatrix::from_fn(a, n, |i, j| eq_rows[i][j]);
+        qp.b_eq = eq_b;
+        for (j, &push) in self.push_only.iter().enumerate() {
+            if push {
+                qp.lower[a + j] = 0.0;
+            }
+        }
+        let sol = qp.solve(&params.qp)?;
+        if !sol.status.is_solution() {
+            return Ok(IntensityEstimate {
+                status: sol.status,
+                actuator_forces: Vec::new(),
+                forces: Vec::new(),
+                force_sigma: Vec::new(),
+                residual_rms: f64::NAN,
+                identifiability: ident,
+            });
+        }
+        let x = DVector::from_column_slice(&sol.x);
+        let r = &wei * &x - DVector::from_column_slice(&target);
+        let residual_rms = (r.norm_squared() / m as f64).sqrt();
+        Ok(IntensityEstimate {
+            status: sol.status,
+            actuator_forces: sol.x[..a].to_vec(),
+            forces: sol.x[a..].to_vec(),
+            force_sigma: self.force_sigma(params.sensor_sigma),
+            residual_rms,
+            identifiability: ident,
+        })
+    }
+
+    /// σ_f = σ_d sqrt(diag((W_efᵀ W_ef)⁻¹)): the Gauss-Markov spread of the force unknowns
+    /// with the actuator forces held (bounds ignored). Infinite when not identifiable.
+    pub fn force_sigma(&self, sensor_sigma: f64) -> Vec<f64> {
+        let k = self.w_ef.ncols();
+        let g = self.w_ef.transpose() * &self.w_ef;
+        match g.try_inverse() {
+            Some(inv) => (0..k)
+                .map(|j| sensor_sigma * inv[(j, j)].max(0.0).sqrt())
+                .collect(),
+            None => vec![f64::INFINITY; k],
+        }
+    }
+}

@@ -1,0 +1,43 @@
+//! The inverse model: a small QP layer over clarabel ([`qp`]) and the normal-space intensity
+//! QP of thesis 4.5.2 (equations 4.14-4.18, [`intensity`]).
+//!
+//! ```
+//! use softsense::inverse::qp::{QpProblem, QpStatus};
+//! // minimise (x - 1)^2 subject to x >= 2  ->  x = 2
+//! let mut p = QpProblem::new(1);
+//! p.p[(0, 0)] = 2.0;
+//! p.q[0] = -2.0;
+//! p.lower[0] = 2.0;
+//! let s = p.solve(&Default::default()).unwrap();
+//! assert_eq!(s.status, QpStatus::Solved);
+//! assert!((s.x[0] - 2.0).abs() < 1e-6);
+//! ```
+
+pub mod frame;
+pub mod intensity;
+pub mod qp;
+
+use thiserror::Error;
+
+/// Errors of the inverse stage.
+#[derive(Debug, Error)]
+pub enum InverseError {
+    /// A QP was given inconsistent dimensions or non-finite data.
+    #[error("invalid QP: {0}")]
+    InvalidProblem(String),
+    /// The QP solver ended without a solution; the status says why.
+    #[error("QP not solved: {0:?}")]
+    NotSolved(qp::QpStatus),
+    /// clarabel refused the problem data or settings.
+    #[error("QP solver setup failed: {0}")]
+    Setup(String),
+    /// The intensity problem is ill-posed (no rows, no unknowns, bad indices).
+    #[error("intensity problem: {0}")]
+    Intensity(String),
+    /// The FE model failed while updating the state.
+    #[error(transparent)]
+    Fem(#[from] crate::fem::FemError),
+}
+
+/// `Result` of the inverse stage.
+pub type InverseResult<T> = std::result::Result<T, InverseError>;

@@ -1,0 +1,531 @@
+//! Synthetic truth, the direct model (design section 5, thesis 4.6): a scene file says which
+//! FE model, which loads and actuator inputs per frame, where the camera is and how noisy
+//! it is; [`generate`] solves the FE model per frame and ray-casts the deformed robot, the
+//! probe and the table into RGB-D frames, with a `truth.json` of everything used.
+//!
+//! ```
+//! use softsense::scene::camera::{Camera, CameraSpec};
+//! let cam = Camera::new(CameraSpec::default()).unwrap();
+//! // The optical axis passes through the principal point and hits the target.
+//! let s = &cam.spec;
+//! let dist = (0..3).map(|k| (s.target[k] - s.eye[k]).powi(2)).sum::<f64>().sqrt();
+//! let p = cam.backproject(s.cx, s.cy, dist);
+//! assert!((0..3).all(|k| (p[k] - s.target[k]).abs() < 1e-12));
+//! ```
+
+pub mod camera;
+pub mod raycast;
+pub mod sensor;
+
+use crate::fem::material::Material;
+use crate::fem::model::Model;
+use crate::fem::solve::{CableControl, MappedPoint, PointLoad};
+use camera::{Camera, CameraSpec};
+use raycast::Bvh;
+use sensor::SensorModel;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+
+/// Errors of scene generation.
+#[derive(Debug, Error)]
+pub enum SceneError {
+    /// A file could not be read or written.
+    #[error("{path}: {message}")]
+    File {
+        /// The file.
+        path: String,
+        /// What went wrong.
+        message: String,
+    },
+    /// The scene file is malformed or inconsistent.
+    #[error("scene: {0}")]
+    Spec(String),
+    /// The FE model failed to load or solve.
+    #[error(transparent)]
+    Fem(#[from] crate::fem::FemError),
+    /// Newton did not converge for a frame.
+    #[error("frame {frame}: the FE solve did not converge")]
+    NotConverged {
+        /// The frame.
+        frame: usize,
+    },
+}
+
+/// `Result` of the scene stage.
+pub type SceneResult<T> = std::result::Result<T, SceneError>;
+
+/// Largest accepted image side (pixels).
+pub const MAX_SIDE: u32 = 4096;
+/// Largest accepted number of frames in a scene file.
+pub const MAX_FRAMES: usize = 10_000;
+
+/// Colours (0-255 RGB) of the rendered objects.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Colors {
+    /// The robot.
+    pub robot: [u8; 3],
+    /// The probe.
+    pub probe: [u8; 3],
+    /// The table.
+    pub table: [u8; 3],
+}
+
+impl Default for Colors {
+    fn default() -> Self {
+        Self {
+            robot: [40, 200, 60],
+            probe: [220, 40, 40],
+            table: [150, 150, 160],
+        }
+    }
+}
+
+/// What kind of load.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LoadKind {
+    /// A spherical probe pressing on the surface (rendered).
+    Probe,
+    /// A weight hanging from a point by a string (not rendered: the string is thin).
+    Weight,
+}
+
+/// One load of a frame.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LoadInput {
+    /// Probe or weight.
+    pub kind: LoadKind,
+    /// Point in the robot frame (m); snapped to the nearest surface node of the rest mesh.
+    pub at: [f64; 3],
+    /// Force vector (N).
+    pub force: [f64; 3],
+    /// Probe radius (m).
+    #[serde(default = "default_radius")]
+    pub radius: f64,
+}
+
+fn default_radius() -> f64 {
+    0.008
+}
+
+/// One cable's input for a frame (exactly one of the two).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CableInput {
+    /// Cable name in the model.
+    pub name: String,
+    /// Shortening (m).
+    pub shorten: Option<f64>,
+    /// Tension (N).
+    pub force: Option<f64>,
+}
+
+/// One frame: actuator inputs (unlisted cables keep the model's) and loads.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FrameInput {
+    /// Cable inputs.
+    pub cables: Vec<CableInput>,
+    /// Loads.
+    pub loads: Vec<LoadInput>,
+}
+
+/// A scene file.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneSpec {
+    /// FE model file (relative to the scene file).
+    pub model: String,
+    /// Young's modulus override (Pa).
+    #[serde(default)]
+    pub young: Option<f64>,
+    /// Random seed of the sensor model.
+    #[serde(default)]
+    pub seed: u64,
+    /// Half side of the square table at z = 0 (m); 0 for none.
+    #[serde(default = "default_table")]
+    pub table_half: f64,
+    /// Colours.
+    #[serde(default)]
+    pub colors: Colors,
+    /// Camera.
+    #[serde(default)]
+    pub camera: CameraSpec,
+    /// Sensor model.
+    #[serde(default)]
+    pub sensor: SensorModel,
+    /// Frames.
+    pub frames: Vec<FrameInput>,
+}
+
+fn default_table() -> f64 {
+    0.3
+}
+
+/// A scene file with its resolved model path.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// The parsed spec.
+    pub spec: SceneSpec,
+    /// The model path, resolved against the scene file's folder.
+    pub model_path: PathBuf,
+}
+
+impl Scene {
+    /// Reads and checks a scene file.
+    pub fn load(path: &Path) -> SceneResult<Self> {
+        let text = std::fs::read_to_string(path).map_err(|e| SceneError::File {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        })?;
+        let spec: SceneSpec = toml::from_str(&text)
+            .map_err(|e| SceneError::Spec(format!("{}: {e}", path.display())))?;
+        let c = &spec.camera;
+        if c.width > MAX_SIDE || c.height > MAX_SIDE {
+            return Err(SceneError::Spec(format!(
+                "image larger than {MAX_SIDE} pixels"
+            )));
+        }
+        if spec.frames.is_empty() || spec.frames.len() > MAX_FRAMES {
+            return Err(SceneError::Spec(format!(
+                "needs 1..={MAX_FRAMES} frames, has {}",
+                spec.frames.len()
+            )));
+        }
+        let mp = PathBuf::from(&spec.model);
+        let model_path = if mp.is_relative() {
+            path.parent().unwrap_or(Path::new(".")).join(mp)
+        } else {
+            mp
+        };
+        Ok(Self { spec, model_path })
+    }
+
+    /// Loads the FE model with the scene's material override.
+    pub fn model(&self) -> SceneResult<Model> {
+        let mut model = Model::load(&self.model_path, None)?;
+        if let Some(e) = self.spec.young {
+            model.problem.material = Material::new(e, model.problem.material.poisson)?;
+        }
+        Ok(model)
+    }
+}
+
+/// The truth of one load, as applied.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct LoadTruth {
+    /// Probe or weight.
+    pub kind: LoadKind,
+    /// The surface node it acts on.
+    pub node: usize,
+    /// The node's rest position (m).
+    pub at_rest: [f64; 3],
+    /// The node's deformed position (m).
+    pub at_deformed: [f64; 3],
+    /// Force vector (N).
+    pub force: [f64; 3],
+    /// Force magnitude (N).
+    pub magnitude: f64,
+    /// Probe centre (m) when rendered.
+    pub probe_center: Option<[f64; 3]>,
+    /// Probe radius (m).
+    pub radius: f64,
+}
+
+/// The truth of one actuator in a frame.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct ActuatorTruth {
+    /// Cable name.
+    pub name: String,
+    /// Whether the input was a shortening (true) or a tension (false).
+    pub displacement_controlled: bool,
+    /// Shortening at equilibrium (m).
+    pub shortening: f64,
+    /// Tension at equilibrium (N).
+    pub tension: f64,
+}
+
+/// The truth of one frame.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct FrameTruth {
+    /// Frame index.
+    pub frame: usize,
+    /// Loads.
+    pub loads: Vec<LoadTruth>,
+    /// Actuators.
+    pub actuators: Vec<ActuatorTruth>,
+    /// Newton iterations.
+    pub newton_iterations: usize,
+    /// Pixels that hit the robot / probe / table (before holes).
+    pub pixels: [usize; 3],
+}
+
+/// Everything a scene folder's `truth.json` holds.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Truth {
+    /// The scene spec that was used (sensor, camera, colours, seed, frames).
+    pub scene: SceneSpec,
+    /// The model file.
+    pub model_path: String,
+    /// Young's modulus (Pa) and Poisson ratio actually used.
+    pub material: [f64; 2],
+    /// Per frame.
+    pub frames: Vec<FrameTruth>,
+}
+
+/// One rendered frame.
+#[derive(Clone, Debug)]
+pub struct Rendered {
+    /// Depth in sensor units, row-major (0 = hole).
+    pub depth: Vec<u16>,
+    /// RGB, row-major.
+    pub color: Vec<[u8; 3]>,
+    /// The frame's truth.
+    pub truth: FrameTruth,
+    /// The deformed node positions (m).
+    pub positions: Vec<[f64; 3]>,
+}
+
+/// The nearest surface node to `p` in the rest mesh.
+pub fn nearest_surface_node(
+    nodes: &[[f64; 3]],
+    surface_nodes: &[usize],
+    p: [f64; 3],
+) -> Option<usize> {
+    surface_nodes
+        .iter()
+        .copied()
+        .min_by(|&a, &b| dist2(nodes[a], p).total_cmp(&dist2(nodes[b], p)))
+}
+
+fn dist2(a: [f64; 3], b: [f64; 3]) -> f64 {
+    (0..3).map(|k| (a[k] - b[k]) * (a[k] - b[k])).sum()
+}
+
+/// Solves and renders frame `index` of the scene.
+pub fn render_frame(scene: &Scene, model: &Model, index: usize) -> SceneResult<Rendered> {
+    let spec = &scene.spec;
+    let frame = spec
+        .frames
+        .get(index)
+        .ok_or_else(|| SceneError::Spec(format!("no frame {index}")))?;
+    let mut problem = model.problem.clone();
+    for c in &frame.cables {
+        let cable = problem
+            .cables
+            .iter_mut()
+            .find(|k| k.name == c.name)
+            .ok_or_else(|| SceneError::Spec(format!("no cable named {:?}", c.name)))?;
+        cable.control = match (c.shorten, c.force) {
+            (Some(s), None) => CableControl::Displacement(s),
+            (None, Some(f)) => CableControl::Force(f),
+            _ => {
+                return Err(SceneError::Spec(format!(
+                    "cable {:?}: give exactly one of shorten, force",
+                    c.name
+                )))
+            }
+        };
+    }
+    let surface = problem.mesh.surface();
+    let rest = problem.mesh.nodes_in_rest.clone();
+    let mut nodes_of_loads = Vec::new();
+    for l in &frame.loads {
+        let node = nearest_surface_node(&rest, &surface.nodes, l.at)
+            .ok_or_else(|| SceneError::Spec("the mesh has no surface".into()))?;
+        if !(l.force.iter().all(|f| f.is_finite()) && l.radius > 0.0) {
+            return Err(SceneError::Spec(
+                "load with non-finite force or radius <= 0".into(),
+            ));
+        }
+        problem.loads.push(PointLoad {
+            at: MappedPoint::node(node),
+            force: l.force,
+        });
+        nodes_of_loads.push(node);
+    }
+    let sol = problem.solve_static(&model.newton)?;
+    if !sol.converged {
+        return Err(SceneError::NotConverged { frame: index });
+    }
+    let x = &sol.positions;
+    let loads: Vec<LoadTruth> = frame
+        .loads
+        .iter()
+        .zip(&nodes_of_loads)
+        .map(|(l, &node)| {
+            let mag = l.force.iter().map(|f| f * f).sum::<f64>().sqrt();
+            let probe_center = (l.kind == LoadKind::Probe && mag > 0.0)
+                .then(|| [0, 1, 2].map(|k| x[node][k] - l.radius * l.force[k] / mag));
+            LoadTruth {
+                kind: l.kind,
+                node,
+                at_rest: rest[node],
+                at_deformed: x[node],
+                force: l.force,
+                magnitude: mag,
+                probe_center,
+                radius: l.radius,
+            }
+        })
+        .collect();
+    let actuators = problem
+        .cables
+        .iter()
+        .enumerate()
+        .map(|(i, c)| ActuatorTruth {
+            name: c.name.clone(),
+            displacement_controlled: matches!(c.control, CableControl::Displacement(_)),
+            shortening: sol.cable_shortening.get(i).copied().unwrap_or(f64::NAN),
+            tension: sol.cable_tension.get(i).copied().unwrap_or(f64::NAN),
+        })
+        .collect();
+    let camera = Camera::new(spec.camera.clone())
+        .ok_or_else(|| SceneError::Spec("degenerate camera (intrinsics or pose)".into()))?;
+    let bvh = Bvh::new(x, &surface.triangles);
+    let (w, h) = (spec.camera.width as usize, spec.camera.height as usize);
+    let probes: Vec<([f64; 3], f64)> = loads
+        .iter()
+        .filter_map(|l| l.probe_center.map(|c| (c, l.radius)))
+        .collect();
+    // Per pixel: (depth, cos incidence, object 0 robot / 1 probe / 2 table / 3 none)
+    let cast = |i: usize| -> (f64, f64, usize) {
+        let (u, v) = ((i % w) as f64, (i / w) as f64);
+        let d = camera.ray(u, v);
+        let dn = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        let o = spec.camera.eye;
+        let mut best: Option<(raycast::Hit, usize)> = None;
+        let mut consider = |hit: Option<raycast::Hit>, obj: usize| {
+            if let Some(hh) = hit {
+                if best.as_ref().is_none_or(|b| hh.t < b.0.t) {
+                    best = Some((hh, obj));
+                }
+            }
+        };
+        consider(bvh.cast(o, d), 0);
+        for &(c, r) in &probes {
+            consider(raycast::ray_sphere(o, d, c, r), 1);
+        }
+        if spec.table_half > 0.0 {
+            consider(
+                raycast::ray_plane(o, d, [0.0, 0.0, 1.0], 0.0, spec.table_half),
+                2,
+            );
+        }
+        match best {
+            Some((hit, obj)) => {
+                let c =
+                    (hit.normal[0] * d[0] + hit.normal[1] * d[1] + hit.normal[2] * d[2]).abs() / dn;
+                (hit.t, c, obj)
+            }
+            None => (0.0, 1.0, 3),
+        }
+    };
+    #[cfg(feature = "parallel")]
+    let hits: Vec<(f64, f64, usize)> = {
+        use rayon::prelude::*;
+        (0..w * h).into_par_iter().map(cast).collect()
+    };
+    #[cfg(not(feature = "parallel"))]
+    let hits: Vec<(f64, f64, usize)> = (0..w * h).map(cast).collect();
+    let z: Vec<f64> = hits.iter().map(|h| h.0).collect();
+    let cosi: Vec<f64> = hits.iter().map(|h| h.1).collect();
+    let depth = spec.sensor.depth(&z, &cosi, w, spec.seed, index as u64);
+    let cols = [spec.colors.robot, spec.colors.probe, spec.colors.table];
+    let color = hits
+        .iter()
+        .enumerate()
+        .map(|(i, &(_, c, obj))| {
+            let base = if obj < 3 { cols[obj] } else { [0, 0, 0] };
+            let shade = 0.4 + 0.6 * c;
+            spec.sensor.color(
+                base.map(|b| b as f64 * shade),
+                spec.seed,
+                index as u64,
+                i as u64,
+            )
+        })
+        .collect();
+    let mut pixels = [0usize; 3];
+    for hh in &hits {
+        if hh.2 < 3 {
+            pixels[hh.2] += 1;
+        }
+    }
+    Ok(Rendered {
+        depth,
+        color,
+        truth: FrameTruth {
+            frame: index,
+            loads,
+            actuators,
+            newton_iterations: sol.iterations,
+            pixels,
+        },
+        positions: sol.positions,
+    })
+}
+
+fn write_err(path: &Path, e: impl std::fmt::Display) -> SceneError {
+    SceneError::File {
+        path: path.display().to_string(),
+        message: e.to_string(),
+    }
+}
+
+fn write_json(path: &Path, v: &impl Serialize) -> SceneResult<()> {
+    let text = serde_json::to_string_pretty(v).map_err(|e| write_err(path, e))?;
+    std::fs::write(path, text).map_err(|e| write_err(path, e))
+}
+
+/// Generates every frame into `out`: `depth_NNNN.png` (16-bit), `color_NNNN.png`,
+/// `intrinsics.json`, `camera_pose.json`, `actuators.json` and `truth.json`.
+/// `progress` is called after each frame with (done, total).
+pub fn generate(
+    scene: &Scene,
+    out: &Path,
+    mut progress: impl FnMut(usize, usize),
+) -> SceneResult<Truth> {
+    std::fs::create_dir_all(out).map_err(|e| write_err(out, e))?;
+    let model = scene.model()?;
+    let spec = &scene.spec;
+    let camera = Camera::new(spec.camera.clone())
+        .ok_or_else(|| SceneError::Spec("degenerate camera (intrinsics or pose)".into()))?;
+    write_json(&out.join("intrinsics.json"), &camera.open3d_intrinsics())?;
+    write_json(
+        &out.join("camera_pose.json"),
+        &serde_json::json!({ "robot_from_camera": camera.robot_from_camera() }),
+    )?;
+    let (w, h) = (spec.camera.width, spec.camera.height);
+    let mut frames = Vec::new();
+    let total = spec.frames.len();
+    for i in 0..total {
+        let r = render_frame(scene, &model, i)?;
+        let dp = out.join(format!("depth_{i:04}.png"));
+        image::ImageBuffer::<image::Luma<u16>, _>::from_raw(w, h, r.depth)
+            .ok_or_else(|| write_err(&dp, "depth buffer size"))?
+            .save(&dp)
+            .map_err(|e| write_err(&dp, e))?;
+        let cp = out.join(format!("color_{i:04}.png"));
+        let flat: Vec<u8> = r.color.iter().flatten().copied().collect();
+        image::RgbImage::from_raw(w, h, flat)
+            .ok_or_else(|| write_err(&cp, "colour buffer size"))?
+            .save(&cp)
+            .map_err(|e| write_err(&cp, e))?;
+        frames.push(r.truth);
+        progress(i + 1, total);
+    }
+    let actuators: Vec<&Vec<ActuatorTruth>> = frames.iter().map(|f| &f.actuators).collect();
+    write_json(&out.join("actuators.json"), &actuators)?;
+    let truth = Truth {
+        scene: spec.clone(),
+        model_path: scene.model_path.display().to_string(),
+        material: [model.problem.material.young, model.problem.material.poisson],
+        frames,
+    };
+    write_json(&out.join("truth.json"), &truth)?;
+    Ok(truth)
+}

@@ -1,0 +1,125 @@
+//! The depth-camera sensor model: depth noise σ = k·z², millimetre quantisation, holes at
+//! grazing angles and silhouette edges, colour noise. Every random draw is a hash of
+//! (seed, frame, pixel, stream), so results do not depend on thread scheduling.
+
+use serde::{Deserialize, Serialize};
+
+/// Sensor-model parameters.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SensorModel {
+    /// Master switch: false gives exact depth (still quantised to the depth unit).
+    pub enabled: bool,
+    /// Depth noise coefficient k in σ = k·z² (1/m; 0.002 gives 0.5 mm at 0.5 m).
+    pub depth_k: f64,
+    /// Depth unit of the PNG (m); 0.001 = millimetres.
+    pub depth_unit: f64,
+    /// Rays meeting the surface at more than this angle from its normal give holes (degrees).
+    pub grazing_deg: f64,
+    /// A depth jump to a 4-neighbour above this (m) marks a silhouette edge.
+    pub edge_jump: f64,
+    /// Probability that a silhouette-edge pixel is a hole.
+    pub edge_hole_probability: f64,
+    /// Colour noise standard deviation per channel (0-255 units).
+    pub color_sigma: f64,
+}
+
+impl Default for SensorModel {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            depth_k: 0.002,
+            depth_unit: 0.001,
+            grazing_deg: 80.0,
+            edge_jump: 0.02,
+            edge_hole_probability: 0.5,
+            color_sigma: 3.0,
+        }
+    }
+}
+
+/// splitmix64 finaliser.
+fn mix(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+/// A uniform number in (0, 1) from the key (seed, frame, pixel, stream).
+pub fn uniform(seed: u64, frame: u64, pixel: u64, stream: u64) -> f64 {
+    let h = mix(mix(mix(mix(seed) ^ frame) ^ pixel) ^ stream);
+    ((h >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+}
+
+/// A standard normal number from the key (Box-Muller on two uniforms).
+pub fn normal(seed: u64, frame: u64, pixel: u64, stream: u64) -> f64 {
+    let u1 = uniform(seed, frame, pixel, 2 * stream);
+    let u2 = uniform(seed, frame, pixel, 2 * stream + 1);
+    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+}
+
+impl SensorModel {
+    /// Applies the model to an exact depth image (m, 0 = no return) with the cosine of the
+    /// incidence angle per pixel; returns depth in PNG units (0 = hole).
+    pub fn depth(
+        &self,
+        z: &[f64],
+        cos_incidence: &[f64],
+        width: usize,
+        seed: u64,
+        frame: u64,
+    ) -> Vec<u16> {
+        let height = z.len().checked_div(width).unwrap_or(0);
+        let cos_graze = self.grazing_deg.to_radians().cos();
+        (0..z.len())
+            .map(|i| {
+                let zi = z[i];
+                if zi.is_nan() || zi <= 0.0 {
+                    return 0;
+                }
+                let mut value = zi;
+                if self.enabled {
+                    if cos_incidence[i] < cos_graze {
+                        return 0;
+                    }
+                    let (u, v) = (i % width, i / width);
+                    let jump = [(-1i64, 0i64), (1, 0), (0, -1), (0, 1)]
+                        .iter()
+                        .any(|(du, dv)| {
+                            let (nu, nv) = (u as i64 + du, v as i64 + dv);
+                            if nu < 0 || nv < 0 || nu >= width as i64 || nv >= height as i64 {
+                                return false;
+                            }
+                            let zn = z[nv as usize * width + nu as usize];
+                            zn.is_nan() || zn <= 0.0 || zn - zi > self.edge_jump
+                        });
+                    if jump && uniform(seed, frame, i as u64, 0) < self.edge_hole_probability {
+                        return 0;
+                    }
+                    value += self.depth_k * zi * zi * normal(seed, frame, i as u64, 1);
+                }
+                let q = (value / self.depth_unit).round();
+                if (1.0..=65535.0).contains(&q) {
+                    q as u16
+                } else {
+                    0
+                }
+            })
+            .collect()
+    }
+
+    /// Adds colour noise to one pixel.
+    pub fn color(&self, rgb: [f64; 3], seed: u64, frame: u64, pixel: u64) -> [u8; 3] {
+        let mut out = [0u8; 3];
+        for k in 0..3 {
+            let n = if self.enabled {
+                self.color_sigma * normal(seed, frame, pixel, 10 + k as u64)
+            } else {
+                0.0
+            };
+            out[k] = (rgb[k] + n).round().clamp(0.0, 255.0) as u8;
+        }
+        out
+    }
+}

@@ -1,0 +1,259 @@
+//! The QP wrapper against closed-form and KKT solutions, and the intensity QP on synthetic W.
+use nalgebra::{DMatrix, DVector};
+use proptest::prelude::*;
+use softsense::inverse::intensity::{ActuatorInput, IntensityParams, IntensityProblem};
+use softsense::inverse::qp::{QpParams, QpProblem, QpStatus, SecondOrderCone};
+
+fn spd(n: usize, seed: u64) -> DMatrix<f64> {
+    let mut s = seed;
+    let mut r = || {
+        s = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((s >> 11) as f64 / (1u64 << 53) as f64) - 0.5
+    };
+    let m = DMatrix::from_fn(n, n, |_, _| r());
+    &m * m.transpose() + DMatrix::identity(n, n)
+}
+
+#[test]
+fn unconstrained_qp_matches_the_closed_form() {
+    let mut p = QpProblem::new(3);
+    p.p = spd(3, 1);
+    p.q = vec![1.0, -2.0, 0.5];
+    let s = p.solve(&QpParams::default()).unwrap();
+    assert_eq!(s.status, QpStatus::Solved);
+    let x =
+        -p.p.clone()
+            .lu()
+            .solve(&DVector::from_vec(p.q.clone()))
+            .unwrap();
+    for i in 0..3 {
+        assert!((s.x[i] - x[i]).abs() < 1e-7, "{} vs {}", s.x[i], x[i]);
+    }
+    assert!((s.objective - p.objective(x.as_slice())).abs() < 1e-9);
+}
+
+#[test]
+fn equality_constrained_qp_matches_the_kkt_system() {
+    let n = 4;
+    let mut p = QpProblem::new(n);
+    p.p = spd(n, 7);
+    p.q = vec![0.3, -1.0, 2.0, 0.1];
+    p.a_eq = DMatrix::from_row_slice(2, n, &[1.0, 1.0, 0.0, 0.0, 0.0, 1.0, -1.0, 2.0]);
+    p.b_eq = vec![1.0, -0.5];
+    let s = p.solve(&QpParams::default()).unwrap();
+    assert_eq!(s.status, QpStatus::Solved);
+    let mut kkt = DMatrix::zeros(n + 2, n + 2);
+    kkt.view_mut((0, 0), (n, n)).copy_from(&p.p);
+    kkt.view_mut((n, 0), (2, n)).copy_from(&p.a_eq);
+    kkt.view_mut((0, n), (n, 2)).copy_from(&p.a_eq.transpose());
+    let mut rhs = DVector::zeros(n + 2);
+    for i in 0..n {
+        rhs[i] = -p.q[i];
+    }
+    rhs[n] = 1.0;
+    rhs[n + 1] = -0.5;
+    let z = kkt.lu().solve(&rhs).unwrap();
+    for i in 0..n {
+        assert!((s.x[i] - z[i]).abs() < 1e-7, "{i}: {} vs {}", s.x[i], z[i]);
+    }
+}
+
+#[test]
+fn active_bounds_clip_the_minimiser() {
+    // min (x0-1)^2 + (x1+1)^2 with x >= 0 -> (1, 0); with x0 <= 0.5 -> (0.5, 0)
+    let mut p = QpProblem::new(2);
+    p.p = DMatrix::identity(2, 2) * 2.0;
+    p.q = vec![-2.0, 2.0];
+    p.lower = vec![0.0, 0.0];
+    let s = p.solve(&QpParams::default()).unwrap();
+    assert!(
+        (s.x[0] - 1.0).abs() < 1e-7 && s.x[1].abs() < 1e-7,
+        "{:?}",
+        s.x
+    );
+    p.upper[0] = 0.5;
+    let s = p.solve(&QpParams::default()).unwrap();
+    assert!(
+        (s.x[0] - 0.5).abs() < 1e-7 && s.x[1].abs() < 1e-7,
+        "{:?}",
+        s.x
+    );
+}
+
+#[test]
+fn second_order_cone_projects_onto_the_cone() {
+    // Project (0, 3, 4) onto {t >= |(u, v)|}: (2.5, 1.5, 2.0).
+    let mut p = QpProblem::new(3);
+    p.p = DMatrix::identity(3, 3);
+    p.q = vec![0.0, -3.0, -4.0];
+    p.cones.push(SecondOrderCone {
+        g: DMatrix::identity(3, 3),
+        h: vec![0.0; 3],
+    });
+    let s = p.solve(&QpParams::default()).unwrap();
+    assert_eq!(s.status, QpStatus::Solved);
+    for (a, b) in s.x.iter().zip([2.5, 1.5, 2.0]) {
+        assert!((a - b).abs() < 1e-6, "{:?}", s.x);
+    }
+}
+
+#[test]
+fn infeasible_bounds_give_no_solution() {
+    let mut p = QpProblem::new(1);
+    p.p[(0, 0)] = 1.0;
+    p.lower[0] = 1.0;
+    p.upper[0] = -1.0;
+    let s = p.solve(&QpParams::default()).unwrap();
+    assert_eq!(s.status, QpStatus::PrimalInfeasible);
+    assert!(s.x.is_empty());
+    assert!(s.solution().is_err());
+}
+
+#[test]
+fn unbounded_objective_is_dual_infeasible() {
+    let mut p = QpProblem::new(1);
+    p.q[0] = -1.0;
+    let s = p.solve(&QpParams::default()).unwrap();
+    assert_eq!(s.status, QpStatus::DualInfeasible);
+    assert!(s.x.is_empty());
+}
+
+#[test]
+fn iteration_limit_is_reported_not_returned() {
+    let mut p = QpProblem::new(3);
+    p.p = spd(3, 3);
+    p.q = vec![1.0, 1.0, 1.0];
+    p.lower = vec![0.1; 3];
+    let s = p
+        .solve(&QpParams {
+            max_iterations: 1,
+            ..Default::default()
+        })
+        .unwrap();
+    assert_eq!(s.status, QpStatus::MaxIterations);
+    assert!(s.x.is_empty());
+}
+
+#[test]
+fn bad_dimensions_and_nan_are_rejected() {
+    let mut p = QpProblem::new(2);
+    p.q.push(0.0);
+    assert!(p.solve(&QpParams::default()).is_err());
+    let mut p = QpProblem::new(2);
+    p.p[(0, 1)] = f64::NAN;
+    assert!(p.solve(&QpParams::default()).is_err());
+}
+
+proptest! {
+    #[test]
+    fn least_squares_qp_solves_the_normal_equations(seed in 0u64..1000, m in 3usize..8) {
+        let a = spd(m, seed).columns(0, 3).into_owned();
+        let d: Vec<f64> = (0..m).map(|i| (i as f64 * 0.37 + seed as f64 * 0.01).sin()).collect();
+        let p = QpProblem::least_squares(&a, &d).unwrap();
+        let s = p.solve(&QpParams::default()).unwrap();
+        let x = a.clone().svd(true, true).solve(&DVector::from_vec(d), 1e-12).unwrap();
+        for i in 0..3 {
+            prop_assert!((s.x[i] - x[i]).abs() < 1e-6 * (1.0 + x[i].abs()));
+        }
+    }
+}
+
+fn synthetic(actuators: Vec<ActuatorInput>) -> (IntensityProblem, Vec<f64>, Vec<f64>) {
+    // 12 rows, 2 actuators, 2 forces; truth lambda_a = [0.4, 0.1], lambda_f = [0.7, 0.2].
+    let w = spd(16, 5) * 1e-3;
+    let (m, a, k) = (12, 2, 2);
+    let w_ea = w.view((0, 0), (m, a)).into_owned();
+    let w_ef = w.view((0, a), (m, k)).into_owned();
+    let w_aa = w.view((m, 0), (a, a)).into_owned() + DMatrix::identity(2, 2) * 1e-3;
+    let w_af = w.view((m, a), (a, k)).into_owned();
+    let la = DVector::from_vec(vec![0.4, 0.1]);
+    let lf = DVector::from_vec(vec![0.7, 0.2]);
+    let free_e: Vec<f64> = (0..m).map(|i| 1e-4 * i as f64).collect();
+    let free_a = vec![2e-4, -1e-4];
+    let meas = &w_ea * &la + &w_ef * &lf + DVector::from_vec(free_e.clone());
+    let act = &w_aa * &la + &w_af * &lf + DVector::from_vec(free_a.clone());
+    let actuators = actuators
+        .into_iter()
+        .enumerate()
+        .map(|(i, x)| match x {
+            ActuatorInput::Force(_) => ActuatorInput::Force(la[i]),
+            ActuatorInput::Displacement(_) => ActuatorInput::Displacement(act[i]),
+        })
+        .collect();
+    (
+        IntensityProblem {
+            w_ea,
+            w_ef,
+            delta_free_e: free_e,
+            delta_measured: meas.iter().copied().collect(),
+            w_aa,
+            w_af,
+            delta_free_a: free_a,
+            actuators,
+            push_only: vec![true, true],
+        },
+        la.iter().copied().collect(),
+        lf.iter().copied().collect(),
+    )
+}
+
+#[test]
+fn intensity_qp_recovers_forces_with_force_controlled_actuators() {
+    let (p, la, lf) = synthetic(vec![ActuatorInput::Force(0.0); 2]);
+    let e = p.solve(&IntensityParams::default()).unwrap();
+    assert_eq!(e.status, QpStatus::Solved);
+    for i in 0..2 {
+        assert!((e.forces[i] - lf[i]).abs() < 1e-6, "{:?}", e.forces);
+        assert!((e.actuator_forces[i] - la[i]).abs() < 1e-7);
+    }
+    assert!(e.residual_rms < 1e-9);
+    assert!(e.identifiability.warning.is_none());
+    assert!(e.force_sigma.iter().all(|s| s.is_finite() && *s > 0.0));
+}
+
+#[test]
+fn intensity_qp_recovers_forces_with_displacement_controlled_actuators() {
+    let (p, la, lf) = synthetic(vec![
+        ActuatorInput::Displacement(0.0),
+        ActuatorInput::Force(0.0),
+    ]);
+    let e = p.solve(&IntensityParams::default()).unwrap();
+    for i in 0..2 {
+        assert!((e.forces[i] - lf[i]).abs() < 1e-6, "{:?}", e.forces);
+        assert!(
+            (e.actuator_forces[i] - la[i]).abs() < 1e-6,
+            "{:?}",
+            e.actuator_forces
+        );
+    }
+}
+
+#[test]
+fn pushing_only_bound_holds_when_the_data_pull() {
+    let (mut p, _, _) = synthetic(vec![ActuatorInput::Force(0.0); 2]);
+    // Measured = free: the best unbounded fit is zero force; flip the sign to ask for a pull.
+    let d: Vec<f64> = p
+        .delta_measured
+        .iter()
+        .zip(&p.delta_free_e)
+        .map(|(m, f)| 2.0 * f - m)
+        .collect();
+    p.delta_measured = d;
+    p.actuators = vec![ActuatorInput::Force(0.0); 2];
+    let e = p.solve(&IntensityParams::default()).unwrap();
+    assert!(e.forces.iter().all(|f| *f >= -1e-8), "{:?}", e.forces);
+}
+
+#[test]
+fn too_few_rows_warn_about_identifiability() {
+    let (mut p, _, _) = synthetic(vec![ActuatorInput::Force(0.0); 2]);
+    p.w_ef = p.w_ef.rows(0, 1).into_owned();
+    p.w_ea = p.w_ea.rows(0, 1).into_owned();
+    p.delta_free_e.truncate(1);
+    p.delta_measured.truncate(1);
+    let id = p.identifiability(&IntensityParams::default());
+    assert!(id.warning.is_some());
+    assert!(id.i_w.is_infinite());
+}

@@ -1,0 +1,155 @@
+//! Normal-line registration on clouds sampled from a displaced FE surface.
+use softsense::fem::mesh::TetMesh;
+use softsense::register::{farthest_point_sampling, vertex_normals, RegisterParams, Registrar};
+use softsense::scene::raycast::Bvh;
+
+/// Box surface (rest), displaced nodes (a bend in z growing with x), dense samples on the
+/// displaced triangles.
+#[allow(clippy::type_complexity)]
+fn setup() -> (
+    Vec<[f64; 3]>,
+    Vec<[f64; 3]>,
+    Vec<[usize; 3]>,
+    Vec<usize>,
+    Vec<[f64; 3]>,
+) {
+    let m = TetMesh::structured_box([0.0, 0.0, 0.0], [0.1, 0.04, 0.02], [10, 4, 2]).unwrap();
+    let s = m.surface();
+    let rest = m.nodes_in_rest.clone();
+    let disp: Vec<[f64; 3]> = rest
+        .iter()
+        .map(|p| [p[0], p[1], p[2] + 0.004 * (p[0] / 0.1).powi(2)])
+        .collect();
+    let mut pts = Vec::new();
+    let k = 24;
+    for t in &s.triangles {
+        let [a, b, c] = t.map(|i| disp[i]);
+        for i in 0..=k {
+            for j in 0..=(k - i) {
+                let (u, v) = (i as f64 / k as f64, j as f64 / k as f64);
+                pts.push([0, 1, 2].map(|q| a[q] + u * (b[q] - a[q]) + v * (c[q] - a[q])));
+            }
+        }
+    }
+    (rest, disp, s.triangles, s.nodes, pts)
+}
+
+#[test]
+fn farthest_point_sampling_spreads_features_evenly() {
+    let (rest, _, _, nodes, _) = setup();
+    let f = farthest_point_sampling(&rest, &nodes, 20);
+    assert_eq!(f.len(), 20);
+    let mut sorted = f.clone();
+    sorted.sort_unstable();
+    sorted.dedup();
+    assert_eq!(sorted.len(), 20, "no repeats");
+    // Every surface node is within the covering radius, and chosen points are at least that far apart.
+    let d = |a: [f64; 3], b: [f64; 3]| (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt();
+    let cover = nodes
+        .iter()
+        .map(|&n| {
+            f.iter()
+                .map(|&c| d(rest[n], rest[c]))
+                .fold(f64::INFINITY, f64::min)
+        })
+        .fold(0.0, f64::max);
+    let sep = f
+        .iter()
+        .enumerate()
+        .flat_map(|(i, &a)| f[..i].iter().map(move |&b| (a, b)))
+        .map(|(a, b)| d(rest[a], rest[b]))
+        .fold(f64::INFINITY, f64::min);
+    assert!(
+        sep >= cover - 1e-12,
+        "separation {sep} < covering radius {cover}"
+    );
+    assert!(farthest_point_sampling(&rest, &[], 5).is_empty());
+}
+
+#[test]
+fn registration_recovers_normal_offsets_of_a_displaced_surface() {
+    let (rest, disp, tris, nodes, pts) = setup();
+    let normals = vertex_normals(&rest, &tris);
+    let feats = farthest_point_sampling(&rest, &nodes, 51);
+    let reg = Registrar::new(&pts);
+    let params = RegisterParams {
+        d_m: 0.0008,
+        average: false,
+        ..Default::default()
+    };
+    let matches = reg.register(&rest, &normals, &feats, &params);
+    let bvh = Bvh::new(&disp, &tris);
+    let mut worst: f64 = 0.0;
+    let mut found = 0;
+    for (m, &f) in matches.iter().zip(&feats) {
+        let n = normals[f];
+        // Exact: where the normal line meets the displaced surface, from 6 mm behind (the box is 20 mm thick).
+        let o = [0, 1, 2].map(|k| rest[f][k] - 0.006 * n[k]);
+        let exact = bvh.cast(o, n).map(|h| h.t - 0.006);
+        let on_face = n.iter().any(|c| c.abs() > 0.999);
+        match (m, exact) {
+            (Some(m), Some(e)) => {
+                found += 1;
+                worst = worst.max((m.offset - e).abs());
+            }
+            // Face features (not on box edges, whose diagonal normals can miss the
+            // sampled surface) must be matched.
+            (None, Some(_)) => assert!(!on_face, "face feature {f} not matched"),
+            _ => {}
+        }
+    }
+    eprintln!("{found} of 51 features matched, worst offset error {worst:e} m");
+    assert!(found >= 20, "only {found} of 51 features matched");
+    // Samples are ~0.4 mm apart on a surface tilted by at most ~0.08 rad.
+    assert!(worst < 2e-4, "worst offset error {worst} m");
+}
+
+#[test]
+fn registration_equals_brute_force_and_hides_unseen_features() {
+    let (rest, _, tris, nodes, pts) = setup();
+    let normals = vertex_normals(&rest, &tris);
+    let feats = farthest_point_sampling(&rest, &nodes, 51);
+    // Crop away the half x > 0.05: features there must be hidden.
+    let kept: Vec<[f64; 3]> = pts.iter().copied().filter(|p| p[0] < 0.05).collect();
+    let reg = Registrar::new(&kept);
+    let params = RegisterParams {
+        average: false,
+        ..Default::default()
+    };
+    let matches = reg.register(&rest, &normals, &feats, &params);
+    for (m, &f) in matches.iter().zip(&feats) {
+        let (p, n) = (rest[f], normals[f]);
+        let brute = kept
+            .iter()
+            .filter_map(|q| {
+                let d = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
+                let t = d[0] * n[0] + d[1] * n[1] + d[2] * n[2];
+                let perp = (d.iter().map(|c| c * c).sum::<f64>() - t * t)
+                    .max(0.0)
+                    .sqrt();
+                (t.abs() <= params.d_l && perp <= params.d_m).then_some((perp, t))
+            })
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+        match (m, brute) {
+            (None, None) => {}
+            (Some(m), Some(b)) => {
+                assert!((m.line_distance - b.0).abs() < 1e-12);
+                // Ties in line distance may pick another point: it must be one of the tied.
+                let tied = kept.iter().any(|q| {
+                    let d = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
+                    let t = d[0] * n[0] + d[1] * n[1] + d[2] * n[2];
+                    (t - m.offset).abs() < 1e-12
+                });
+                assert!(tied);
+            }
+            _ => panic!("feature {f}: tree {m:?} vs brute force {brute:?}"),
+        }
+        if p[0] > 0.06 {
+            assert!(m.is_none(), "feature {f} at x = {} should be hidden", p[0]);
+        }
+    }
+    assert!(Registrar::new(&[])
+        .register(&rest, &normals, &feats, &params)
+        .iter()
+        .all(|m| m.is_none()));
+}

@@ -1,0 +1,106 @@
+//! Scene rendering pieces: the BVH against a brute-force ray caster, the camera, the sensor.
+use proptest::prelude::*;
+use softsense::fem::mesh::TetMesh;
+use softsense::scene::camera::{Camera, CameraSpec};
+use softsense::scene::raycast::{ray_plane, ray_sphere, ray_triangle, Bvh};
+use softsense::scene::sensor::SensorModel;
+
+fn box_surface() -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
+    let m = TetMesh::structured_box([0.0, 0.0, 0.0], [0.1, 0.05, 0.03], [6, 3, 2]).unwrap();
+    let s = m.surface();
+    (m.nodes_in_rest.clone(), s.triangles)
+}
+
+proptest! {
+    #[test]
+    fn bvh_finds_the_same_nearest_hit_as_brute_force(
+        ox in -0.2f64..0.3, oy in -0.2f64..0.2, oz in 0.1f64..0.4,
+        tx in 0.0f64..0.1, ty in 0.0f64..0.05, tz in 0.0f64..0.03,
+    ) {
+        let (v, t) = box_surface();
+        let bvh = Bvh::new(&v, &t);
+        let o = [ox, oy, oz];
+        let d = [tx - ox, ty - oy, tz - oz];
+        let brute = t
+            .iter()
+            .filter_map(|tri| ray_triangle(o, d, tri.map(|i| v[i]), 0.0))
+            .fold(f64::INFINITY, f64::min);
+        let hit = bvh.cast(o, d);
+        prop_assert!(hit.is_some());
+        prop_assert!((hit.unwrap().t - brute).abs() < 1e-12);
+    }
+}
+
+#[test]
+fn bvh_normal_points_outward_on_the_top_face() {
+    let (v, t) = box_surface();
+    let bvh = Bvh::new(&v, &t);
+    let h = bvh.cast([0.05, 0.025, 1.0], [0.0, 0.0, -1.0]).unwrap();
+    assert!((h.t - 0.97).abs() < 1e-12);
+    assert!((h.normal[2] - 1.0).abs() < 1e-12);
+    assert!(bvh.cast([0.5, 0.5, 1.0], [0.0, 0.0, -1.0]).is_none());
+}
+
+#[test]
+fn sphere_and_plane_hits_are_exact() {
+    let h = ray_sphere([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, 1.0], 0.25).unwrap();
+    assert!((h.t - 0.75).abs() < 1e-12 && (h.normal[2] + 1.0).abs() < 1e-12);
+    assert!(ray_sphere([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0], 0.25).is_none());
+    let p = ray_plane([0.1, 0.0, 0.5], [0.0, 0.0, -2.0], [0.0, 0.0, 1.0], 0.0, 0.3).unwrap();
+    assert!((p.t - 0.25).abs() < 1e-12 && p.normal[2] == 1.0);
+    assert!(ray_plane([0.5, 0.0, 0.5], [0.0, 0.0, -1.0], [0.0, 0.0, 1.0], 0.0, 0.3).is_none());
+}
+
+#[test]
+fn camera_ray_and_backprojection_agree() {
+    let cam = Camera::new(CameraSpec::default()).unwrap();
+    let d = cam.ray(100.0, 50.0);
+    let p = cam.backproject(100.0, 50.0, 0.4);
+    for k in 0..3 {
+        assert!((p[k] - (cam.spec.eye[k] + 0.4 * d[k])).abs() < 1e-15);
+    }
+    // The camera z component of the ray is 1: depth is the distance along the optical axis.
+    let z: f64 = (0..3).map(|k| d[k] * cam.axes[2][k]).sum();
+    assert!((z - 1.0).abs() < 1e-12);
+    // robot_from_camera maps camera (0,0,1) to eye + axis z.
+    let t = cam.robot_from_camera();
+    for (k, row) in t.iter().take(3).enumerate() {
+        assert!((row[2] + row[3] - (cam.spec.eye[k] + cam.axes[2][k])).abs() < 1e-15);
+    }
+    let mut bad = CameraSpec::default();
+    bad.target = bad.eye;
+    assert!(Camera::new(bad).is_none());
+}
+
+#[test]
+fn sensor_off_only_quantises_and_on_adds_noise_of_the_right_size() {
+    let n = 20_000;
+    let z = vec![0.5; n];
+    let c = vec![1.0; n];
+    let off = SensorModel {
+        enabled: false,
+        ..Default::default()
+    };
+    assert!(off.depth(&z, &c, 200, 1, 0).iter().all(|&d| d == 500));
+    let on = SensorModel {
+        depth_unit: 1e-5,
+        ..Default::default()
+    };
+    let d = on.depth(&z, &c, 200, 1, 0);
+    let mean = d.iter().map(|&v| v as f64 * 1e-5).sum::<f64>() / n as f64;
+    let sd = (d
+        .iter()
+        .map(|&v| (v as f64 * 1e-5 - mean).powi(2))
+        .sum::<f64>()
+        / n as f64)
+        .sqrt();
+    let expected = on.depth_k * 0.25;
+    assert!((mean - 0.5).abs() < 3.0 * expected / (n as f64).sqrt() + 1e-6);
+    assert!(
+        (sd / expected - 1.0).abs() < 0.03,
+        "sd {sd} expected {expected}"
+    );
+    // Grazing pixels become holes.
+    let g = on.depth(&z, &vec![0.05; n], 200, 1, 0);
+    assert!(g.iter().all(|&v| v == 0));
+}
