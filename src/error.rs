@@ -20,6 +20,9 @@ pub enum Error {
     /// The filter chain could not run (bad configuration, unreadable sequence).
     #[error(transparent)]
     Pipeline(#[from] crate::pipeline::PipelineError),
+    /// Segmentation or clustering was given invalid parameters or data.
+    #[error(transparent)]
+    Segment(#[from] crate::segment::SegmentError),
 }
 
 /// `Result` with the crate-level [`Error`].

@@ -34,6 +34,7 @@ pub mod io;
 pub mod math;
 pub mod pipeline;
 pub mod search;
+pub mod segment;
 
 pub use cloud::PointCloud;
 pub use error::{Error, Result};

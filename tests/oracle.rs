@@ -5,3 +5,5 @@ mod common;
 mod harness;
 #[path = "oracle/io.rs"]
 mod io;
+#[path = "oracle/segment.rs"]
+mod segment;

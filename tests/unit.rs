@@ -15,3 +15,6 @@ mod features;
 
 #[path = "unit/io_pcd.rs"]
 mod io_pcd;
+
+#[path = "unit/segment.rs"]
+mod segment;
