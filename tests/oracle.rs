@@ -7,3 +7,5 @@ mod harness;
 mod io;
 #[path = "oracle/segment.rs"]
 mod segment;
+#[path = "oracle/segment_color.rs"]
+mod segment_color;
