@@ -18,3 +18,6 @@ mod io_pcd;
 
 #[path = "unit/segment.rs"]
 mod segment;
+
+#[path = "unit/contact.rs"]
+mod contact;
