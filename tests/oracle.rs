@@ -9,3 +9,5 @@ mod io;
 mod segment;
 #[path = "oracle/segment_color.rs"]
 mod segment_color;
+#[path = "oracle/segment_mosd.rs"]
+mod segment_mosd;
