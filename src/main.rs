@@ -7,10 +7,25 @@ use std::process::ExitCode;
 mod cli;
 
 /// softsense: make a soft robot its own force sensor from RGB-D frames.
-///
-/// Results go to stdout (as JSON with --json); human messages and progress go to stderr.
 #[derive(Parser)]
-#[command(name = "softsense", version, about, long_about = None, propagate_version = true)]
+#[command(
+    name = "softsense",
+    version,
+    about,
+    long_about = "softsense: make a soft robot its own force sensor from RGB-D frames.\n\n\
+Reads and writes point clouds (PCD ascii/binary/binary_compressed, PLY, XYZ) and turns \
+RGB-D image pairs into organized clouds, with PCL's and Open3D's conventions.\n\n\
+Results go to stdout (as JSON with --json); human messages go to stderr. Exit codes: \
+0 success, 1 a file or its content was refused (the message names the file), 2 bad \
+command-line usage.",
+    after_help = "Examples:\n  \
+softsense info clouds/demo_scene.pcd\n  \
+softsense convert clouds/demo_scene.pcd /tmp/demo.ply\n  \
+softsense convert --depth tests/fixtures/rgbd/depth.png --color tests/fixtures/rgbd/color.png \\\n      \
+--intrinsics tests/fixtures/rgbd/intrinsics.json /tmp/frame.pcd\n\n\
+Run `softsense help <command>` for a command's options and examples.",
+    propagate_version = true
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -18,22 +33,26 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    // Subcommands are added here, one line each, implemented in src/cli/<name>.rs.
+    /// Summarise a cloud file: points, fields, encoding, bounds, viewpoint.
+    Info(cli::info::InfoArgs),
+    /// Convert PCD/PLY/XYZ, or RGB-D images (+ intrinsics) to a cloud.
+    Convert(cli::convert::ConvertArgs),
+    /// Crop, voxel-filter, remove outliers and estimate normals (PCL/Open3D semantics).
+    Filter(cli::filter::FilterArgs),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let result: anyhow_like::Result = match cli.command {};
+    let result = match &cli.command {
+        Command::Info(args) => cli::info::run(args),
+        Command::Convert(args) => cli::convert::run(args),
+        Command::Filter(args) => cli::filter::run(args),
+    };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("softsense: error: {e}");
-            ExitCode::FAILURE
+            ExitCode::from(e.exit_code())
         }
     }
-}
-
-mod anyhow_like {
-    /// The CLI's result: any error with a message.
-    pub type Result = std::result::Result<(), Box<dyn std::error::Error>>;
 }

@@ -1,2 +1,5 @@
 //! Integration tests: whole stages and the CLI on files.
 mod common;
+
+#[path = "integration/cli.rs"]
+mod cli;

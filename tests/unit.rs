@@ -16,6 +16,12 @@ mod features;
 #[path = "unit/io_pcd.rs"]
 mod io_pcd;
 
+#[path = "unit/io_ply.rs"]
+mod io_ply;
+
+#[path = "unit/io_rgbd.rs"]
+mod io_rgbd;
+
 #[path = "unit/segment.rs"]
 mod segment;
 

@@ -1,1 +1,61 @@
 //! Subcommand implementations: each parses nothing itself (clap did) and calls the library.
+
+pub mod convert;
+pub mod filter;
+pub mod info;
+
+use std::fmt;
+
+/// Why a subcommand failed; decides the exit code.
+#[derive(Debug)]
+pub enum CliError {
+    /// The arguments do not make sense together (exit code 2, like clap's own errors).
+    Usage(String),
+    /// The library refused (bad file, bad intrinsics, ...); the message names the file.
+    Lib(softsense::Error),
+}
+
+impl CliError {
+    /// The process exit code for this error.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            CliError::Usage(_) => 2,
+            CliError::Lib(_) => 1,
+        }
+    }
+}
+
+impl fmt::Display for CliError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            CliError::Usage(m) => write!(f, "{m}"),
+            CliError::Lib(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl From<softsense::Error> for CliError {
+    fn from(e: softsense::Error) -> Self {
+        CliError::Lib(e)
+    }
+}
+
+impl From<softsense::pipeline::PipelineError> for CliError {
+    fn from(e: softsense::pipeline::PipelineError) -> Self {
+        CliError::Lib(e.into())
+    }
+}
+
+impl From<softsense::io::IoError> for CliError {
+    fn from(e: softsense::io::IoError) -> Self {
+        CliError::Lib(e.into())
+    }
+}
+
+/// The result every subcommand returns.
+pub type CliResult = Result<(), CliError>;
+
+/// Prints a JSON value on stdout, one document per line.
+pub fn print_json(value: &serde_json::Value) {
+    println!("{value}");
+}

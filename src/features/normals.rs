@@ -21,7 +21,8 @@ pub enum Neighbourhood {
 #[serde(rename_all = "lowercase")]
 pub enum NormalMode {
     /// PCL: flip towards the viewpoint; fewer than 3 neighbours or a non-finite point
-    /// give NaN normal and curvature; `f32` search distances.
+    /// give NaN normal and curvature, collinear neighbours a NaN normal (curvature
+    /// still computed); `f32` search distances.
     #[default]
     Pcl,
     /// Open3D: no orientation; fewer than 3 neighbours give `(0,0,1)` (curvature NaN);
@@ -122,9 +123,14 @@ pub fn estimate_normals(
         if nbrs.len() < 3 {
             return invalid;
         }
-        let Some((n, curv)) = pca_normal(&cloud.positions, &nbrs) else {
+        let Some((n, curv, degenerate)) = pca_normal(&cloud.positions, &nbrs) else {
             return invalid;
         };
+        if pcl && degenerate {
+            // Collinear (or coincident) neighbours: the plane is undefined. PCL's eigen33
+            // gives a NaN vector here (its cross products vanish) with a finite curvature.
+            return ([f32::NAN; 3], curv);
+        }
         let mut n = n;
         if pcl {
             let v = [vp[0] - p[0], vp[1] - p[1], vp[2] - p[2]];
@@ -140,9 +146,11 @@ pub fn estimate_normals(
     })
 }
 
-/// Normal (unit eigenvector of the smallest eigenvalue) and curvature of the points at
-/// `idx`, with the covariance de-meaned in `f64`. `None` if the covariance is not finite.
-pub(crate) fn pca_normal(points: &[[f32; 3]], idx: &[usize]) -> Option<([f32; 3], f32)> {
+/// Normal (unit eigenvector of the smallest eigenvalue), curvature, and whether the
+/// neighbourhood is degenerate (rank ≤ 1: the middle eigenvalue is below 1e-12 of the
+/// largest), for the points at `idx`, with the covariance de-meaned in `f64`. `None` if
+/// the covariance is not finite.
+pub(crate) fn pca_normal(points: &[[f32; 3]], idx: &[usize]) -> Option<([f32; 3], f32, bool)> {
     let n = idx.len() as f64;
     let mut mean = Vector3::<f64>::zeros();
     for &i in idx {
@@ -181,5 +189,8 @@ pub(crate) fn pca_normal(points: &[[f32; 3]], idx: &[usize]) -> Option<([f32; 3]
     } else {
         0.0
     };
-    Some((normal, curvature))
+    let mut ev = [eig.eigenvalues[0], eig.eigenvalues[1], eig.eigenvalues[2]];
+    ev.sort_by(f64::total_cmp);
+    let degenerate = ev[1] <= 1e-12 * ev[2].abs();
+    Some((normal, curvature, degenerate))
 }

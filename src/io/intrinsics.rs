@@ -1,1 +1,354 @@
-//! Pinhole camera intrinsics from Open3D JSON or PCL grabber XML. (Being implemented; see issue 2.)
+//! Pinhole camera intrinsics and depth-conversion settings, read from Open3D's
+//! `PinholeCameraIntrinsic` JSON or PCL's image-grabber XML.
+//!
+//! - [`PinholeIntrinsics`]: image size, focal lengths and principal point, in pixels.
+//! - [`DepthParams`]: how raw 16-bit depth becomes metres (`depth_scale` units per metre,
+//!   `depth_trunc` metres) and whose arithmetic to reproduce ([`Arithmetic`]).
+//! - [`CameraModel`]: the two together; [`read_camera_model`] picks the reader by extension
+//!   (`.json` → [`parse_open3d_json`], `.xml` → [`parse_pcl_xml`]).
+//!
+//! ```
+//! use softsense::io::intrinsics::parse_open3d_json;
+//! let json = r#"{"width": 640, "height": 480,
+//!                "intrinsic_matrix": [525, 0, 0, 0, 525, 0, 319.5, 239.5, 1]}"#;
+//! let camera = parse_open3d_json(json)?;
+//! assert_eq!(camera.intrinsics.cx, 319.5);
+//! assert_eq!(camera.params.depth_scale, 1000.0);
+//! # Ok::<(), softsense::io::rgbd::RgbdError>(())
+//! ```
+
+use super::rgbd::RgbdError;
+use super::IoError;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// The largest image side we accept from an intrinsics file (guards later allocations).
+pub const MAX_IMAGE_SIDE: u32 = 1 << 15;
+
+/// A pinhole camera: `u = fx·x/z + cx`, `v = fy·y/z + cy`, pixels 0-based, no skew.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PinholeIntrinsics {
+    /// Image width in pixels; 0 when the source does not say (PCL's XML), in which case
+    /// [`crate::io::rgbd::read_frame`] takes the depth image's width.
+    pub width: u32,
+    /// Image height in pixels; 0 when the source does not say (see `width`).
+    pub height: u32,
+    /// Focal length along x, pixels.
+    pub fx: f64,
+    /// Focal length along y, pixels.
+    pub fy: f64,
+    /// Principal point x (column), pixels.
+    pub cx: f64,
+    /// Principal point y (row), pixels.
+    pub cy: f64,
+}
+
+impl PinholeIntrinsics {
+    /// Open3D's `PrimeSenseDefault`: 640x480, f = 525, c = (319.5, 239.5).
+    pub fn prime_sense_default() -> Self {
+        PinholeIntrinsics {
+            width: 640,
+            height: 480,
+            fx: 525.0,
+            fy: 525.0,
+            cx: 319.5,
+            cy: 239.5,
+        }
+    }
+
+    /// Checks focal lengths (finite, > 0), principal point (finite) and size (at most
+    /// [`MAX_IMAGE_SIDE`]); the error names the first bad field.
+    pub fn validate(&self) -> Result<(), RgbdError> {
+        for (field, f) in [("fx", self.fx), ("fy", self.fy)] {
+            if !(f.is_finite() && f > 0.0) {
+                return Err(bad(field, format!("must be a finite number > 0, got {f}")));
+            }
+        }
+        for (field, c) in [("cx", self.cx), ("cy", self.cy)] {
+            if !c.is_finite() {
+                return Err(bad(field, format!("must be finite, got {c}")));
+            }
+        }
+        for (field, s) in [("width", self.width), ("height", self.height)] {
+            if s > MAX_IMAGE_SIDE {
+                return Err(bad(field, format!("{s} exceeds {MAX_IMAGE_SIDE}")));
+            }
+        }
+        if (self.width == 0) != (self.height == 0) {
+            return Err(bad(
+                if self.width == 0 { "width" } else { "height" },
+                "is 0 while the other side is not".into(),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Whose floating-point arithmetic the back-projection reproduces. Both give the same
+/// geometry; they differ in the last bits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Arithmetic {
+    /// PCL's grabbers, all in `f32`: `z = raw·f32(1/scale)`, `x = (u − cx)·z·f32(1/fx)`.
+    /// Reproduces the organized PCD PCL writes for the same frames bit for bit.
+    #[default]
+    Pcl,
+    /// Open3D's `create_from_rgbd_image`: `z = f32(raw)/f32(scale)` in `f32`, then
+    /// `x = (u − cx)·z/fx` in `f64`, rounded to `f32` for storage.
+    Open3d,
+}
+
+/// How raw depth values become metres.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct DepthParams {
+    /// Raw depth units per metre (1000 for millimetres, 5000 for TUM); must be > 0.
+    pub depth_scale: f64,
+    /// Depths at or beyond this many metres become invalid (NaN); `f64::INFINITY` keeps all.
+    pub depth_trunc: f64,
+    /// Whose floating-point order to reproduce.
+    pub arithmetic: Arithmetic,
+}
+
+impl Default for DepthParams {
+    /// Millimetres, no truncation (PCL's behaviour; Open3D's default truncation is 3 m),
+    /// PCL arithmetic.
+    fn default() -> Self {
+        DepthParams {
+            depth_scale: 1000.0,
+            depth_trunc: f64::INFINITY,
+            arithmetic: Arithmetic::Pcl,
+        }
+    }
+}
+
+impl DepthParams {
+    /// Checks `depth_scale` (finite, > 0) and `depth_trunc` (> 0, may be infinite).
+    pub fn validate(&self) -> Result<(), RgbdError> {
+        if !(self.depth_scale.is_finite() && self.depth_scale > 0.0) {
+            return Err(bad(
+                "depth_scale",
+                format!("must be a finite number > 0, got {}", self.depth_scale),
+            ));
+        }
+        if self.depth_trunc.is_nan() || self.depth_trunc <= 0.0 {
+            return Err(bad(
+                "depth_trunc",
+                format!("must be > 0 (or infinite), got {}", self.depth_trunc),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Intrinsics plus depth conversion: everything needed to turn a depth image into points.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct CameraModel {
+    /// The pinhole camera.
+    pub intrinsics: PinholeIntrinsics,
+    /// Depth units and truncation.
+    pub params: DepthParams,
+}
+
+impl Default for PinholeIntrinsics {
+    fn default() -> Self {
+        Self::prime_sense_default()
+    }
+}
+
+fn bad(field: &str, problem: String) -> RgbdError {
+    RgbdError::BadIntrinsics {
+        field: field.to_string(),
+        problem,
+    }
+}
+
+/// Reads a camera model from `.json` (Open3D) or `.xml` (PCL grabber) by extension.
+pub fn read_camera_model(path: impl AsRef<Path>) -> Result<CameraModel, IoError> {
+    let path = path.as_ref();
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    let wrap = |source| IoError::Rgbd {
+        path: path.to_path_buf(),
+        source,
+    };
+    let parse: fn(&str) -> Result<CameraModel, RgbdError> = match ext.as_deref() {
+        Some("json") => parse_open3d_json,
+        Some("xml") => parse_pcl_xml,
+        _ => return Err(wrap(RgbdError::UnknownIntrinsicsFormat)),
+    };
+    let bytes = super::read_bytes(path)?;
+    let text = std::str::from_utf8(&bytes).map_err(|e| {
+        wrap(RgbdError::IntrinsicsSyntax {
+            message: format!("not UTF-8 text: {e}"),
+        })
+    })?;
+    parse(text).map_err(wrap)
+}
+
+/// Parses Open3D's `PinholeCameraIntrinsic` JSON: `{"width", "height",
+/// "intrinsic_matrix": [9 numbers, column-major]}`. Depth settings are the defaults.
+///
+/// The matrix must be `[fx, 0, 0, s, fy, 0, cx, cy, 1]` with skew `s = 0` (we have no
+/// skew term, so a non-zero one is an error rather than silently ignored as in Open3D).
+pub fn parse_open3d_json(text: &str) -> Result<CameraModel, RgbdError> {
+    let value: serde_json::Value =
+        serde_json::from_str(text).map_err(|e| RgbdError::IntrinsicsSyntax {
+            message: e.to_string(),
+        })?;
+    let obj = value
+        .as_object()
+        .ok_or_else(|| bad("(root)", "expected a JSON object".into()))?;
+    let side = |name: &str| -> Result<u32, RgbdError> {
+        let v = obj
+            .get(name)
+            .ok_or_else(|| bad(name, "is missing".into()))?;
+        let n = v
+            .as_u64()
+            .ok_or_else(|| bad(name, format!("must be a positive integer, got {v}")))?;
+        if n == 0 || n > u64::from(MAX_IMAGE_SIDE) {
+            return Err(bad(
+                name,
+                format!("must be in 1..={MAX_IMAGE_SIDE}, got {n}"),
+            ));
+        }
+        Ok(n as u32)
+    };
+    let width = side("width")?;
+    let height = side("height")?;
+    let m = obj
+        .get("intrinsic_matrix")
+        .ok_or_else(|| bad("intrinsic_matrix", "is missing".into()))?
+        .as_array()
+        .ok_or_else(|| bad("intrinsic_matrix", "must be an array of 9 numbers".into()))?;
+    if m.len() != 9 {
+        return Err(bad(
+            "intrinsic_matrix",
+            format!("must have 9 numbers, has {}", m.len()),
+        ));
+    }
+    let mut k = [0.0f64; 9];
+    for (i, v) in m.iter().enumerate() {
+        k[i] = v.as_f64().ok_or_else(|| {
+            bad(
+                &format!("intrinsic_matrix[{i}]"),
+                format!("not a number: {v}"),
+            )
+        })?;
+    }
+    for (i, want) in [(1, 0.0), (2, 0.0), (3, 0.0), (5, 0.0), (8, 1.0)] {
+        if k[i] != want {
+            return Err(bad(
+                &format!("intrinsic_matrix[{i}]"),
+                format!(
+                    "must be {want} for a pinhole camera without skew, got {}",
+                    k[i]
+                ),
+            ));
+        }
+    }
+    let intrinsics = PinholeIntrinsics {
+        width,
+        height,
+        fx: k[0],
+        fy: k[4],
+        cx: k[6],
+        cy: k[7],
+    };
+    intrinsics.validate()?;
+    Ok(CameraModel {
+        intrinsics,
+        params: DepthParams::default(),
+    })
+}
+
+/// Parses PCL's image-grabber XML (the `<depth>` section: `focal_length_x`,
+/// `focal_length_y`, `principal_point_x`, `principal_point_y`, and optionally
+/// `z_multiplication_factor`, metres per raw unit, default 0.001 as in PCL).
+///
+/// The XML carries no image size, so `width` and `height` are 0 (taken from the image).
+/// A tiny parser: elements and text only (the files PCL writes have nothing else);
+/// comments and the `<?xml ...?>` declaration are skipped.
+pub fn parse_pcl_xml(text: &str) -> Result<CameraModel, RgbdError> {
+    let depth = xml_element(text, "depth")?
+        .ok_or_else(|| bad("depth", "the <depth> section is missing".into()))?;
+    let number = |name: &str| -> Result<Option<f64>, RgbdError> {
+        let Some(t) = xml_element(depth, name)? else {
+            return Ok(None);
+        };
+        let t = t.trim();
+        t.parse::<f64>()
+            .map(Some)
+            .map_err(|_| bad(name, format!("not a number: {t:?}")))
+    };
+    let need = |name: &str| -> Result<f64, RgbdError> {
+        number(name)?.ok_or_else(|| bad(name, "is missing from <depth>".into()))
+    };
+    let intrinsics = PinholeIntrinsics {
+        width: 0,
+        height: 0,
+        fx: need("focal_length_x")?,
+        fy: need("focal_length_y")?,
+        cx: need("principal_point_x")?,
+        cy: need("principal_point_y")?,
+    };
+    intrinsics.validate().map_err(|e| match e {
+        // Name the XML element, not our struct field.
+        RgbdError::BadIntrinsics { field, problem } => bad(
+            match field.as_str() {
+                "fx" => "focal_length_x",
+                "fy" => "focal_length_y",
+                "cx" => "principal_point_x",
+                "cy" => "principal_point_y",
+                other => other,
+            },
+            problem,
+        ),
+        other => other,
+    })?;
+    let factor = number("z_multiplication_factor")?.unwrap_or(0.001);
+    if !(factor.is_finite() && factor > 0.0) {
+        return Err(bad(
+            "z_multiplication_factor",
+            format!("must be a finite number > 0, got {factor}"),
+        ));
+    }
+    let params = DepthParams {
+        depth_scale: 1.0 / factor,
+        ..DepthParams::default()
+    };
+    params.validate().map_err(|e| match e {
+        RgbdError::BadIntrinsics { problem, .. } => bad("z_multiplication_factor", problem),
+        other => other,
+    })?;
+    Ok(CameraModel { intrinsics, params })
+}
+
+/// The text between the first `<name>` and its matching `</name>` at any depth, after
+/// removing comments; `None` if there is no such element. Errors on an unclosed element.
+fn xml_element<'a>(text: &'a str, name: &str) -> Result<Option<&'a str>, RgbdError> {
+    let open = format!("<{name}>");
+    let close = format!("</{name}>");
+    let mut from = 0;
+    loop {
+        let Some(rel) = text[from..].find(&open) else {
+            return Ok(None);
+        };
+        let start = from + rel;
+        // Skip matches inside comments.
+        if let Some(c) = text[..start].rfind("<!--") {
+            if !text[c..start].contains("-->") {
+                from = start + open.len();
+                continue;
+            }
+        }
+        let body = start + open.len();
+        let end = text[body..]
+            .find(&close)
+            .ok_or_else(|| RgbdError::IntrinsicsSyntax {
+                message: format!("<{name}> is never closed"),
+            })?;
+        return Ok(Some(&text[body..body + end]));
+    }
+}

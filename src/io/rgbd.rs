@@ -1,11 +1,357 @@
-//! RGB-D images to organized clouds. (Being implemented; see issue 2.)
+//! RGB-D images to organized point clouds.
+//!
+//! A depth image (16-bit, single channel, PNG or TIFF) and an optional colour image
+//! (8-bit RGB or RGBA, PNG or TIFF) of the same size become an organized cloud of
+//! `width x height` points in the camera frame (x right, y down, z forward, metres):
+//!
+//! `z = raw / depth_scale`, `x = (u − cx)·z/fx`, `y = (v − cy)·z/fy`
+//!
+//! for column `u` and row `v` (0-based, no half-pixel offset). A raw depth of 0 (no
+//! measurement), or a depth at or beyond `depth_trunc`, gives a NaN point, never (0,0,0);
+//! the organized shape is kept. Every pixel keeps its colour, valid or not, as PCL does.
+//! The floating-point order follows [`Arithmetic`]: by default PCL's, which reproduces the
+//! organized PCD PCL's grabber writes for the same frames bit for bit.
+//!
+//! For RGBA colour images the R, G and B channels are used and alpha is dropped. (Open3D
+//! 0.20 takes channels 0, 1 and 3, so its blue becomes the alpha; we do not copy that.)
+//!
+//! Principal entry points: [`read_frame`] (files) and [`depth_to_cloud`] (pixels).
+//!
+//! ```
+//! use softsense::io::intrinsics::{DepthParams, PinholeIntrinsics};
+//! use softsense::io::rgbd::depth_to_cloud;
+//! let intrinsics = PinholeIntrinsics { width: 2, height: 1, fx: 500.0, fy: 500.0, cx: 0.0, cy: 0.0 };
+//! let cloud = depth_to_cloud(&[0, 1000], None, &intrinsics, &DepthParams::default())?;
+//! assert!(cloud.positions[0][2].is_nan()); // no depth: NaN, not (0,0,0)
+//! assert_eq!(cloud.positions[1], [0.002, 0.0, 1.0]);
+//! assert_eq!((cloud.width, cloud.height), (2, 1));
+//! # Ok::<(), softsense::io::rgbd::RgbdError>(())
+//! ```
 
+use super::intrinsics::{Arithmetic, CameraModel, DepthParams, PinholeIntrinsics, MAX_IMAGE_SIDE};
+use super::IoError;
+use crate::cloud::PointCloud;
+use image::{ColorType, DynamicImage, ImageDecoder, ImageReader};
+use std::path::Path;
 use thiserror::Error;
 
 /// What is wrong with an RGB-D frame or its intrinsics.
 #[derive(Debug, Error, PartialEq)]
 pub enum RgbdError {
-    /// Placeholder until the converter lands.
-    #[error("RGB-D support is not built yet")]
-    NotImplemented,
+    /// An intrinsics or depth-conversion field is missing or has a bad value.
+    #[error("bad intrinsics: `{field}` {problem}")]
+    BadIntrinsics {
+        /// The field (as named in the file, e.g. `focal_length_x`, `intrinsic_matrix[3]`).
+        field: String,
+        /// What is wrong with it.
+        problem: String,
+    },
+    /// The intrinsics file is not well-formed JSON or XML.
+    #[error("intrinsics file is malformed: {message}")]
+    IntrinsicsSyntax {
+        /// The parser's message.
+        message: String,
+    },
+    /// The intrinsics file extension is neither `.json` nor `.xml`.
+    #[error(
+        "unknown intrinsics format (expected .json, Open3D's PinholeCameraIntrinsic, or .xml, PCL's grabber XML)"
+    )]
+    UnknownIntrinsicsFormat,
+    /// The image could not be decoded (corrupt, truncated, unknown format).
+    #[error("cannot decode image: {message}")]
+    Image {
+        /// The decoder's message.
+        message: String,
+    },
+    /// The depth image is not 16-bit single-channel.
+    #[error("depth image must be 16-bit single-channel (grey), found {found}")]
+    UnsupportedDepthType {
+        /// What the file holds, e.g. `8-bit grey` or `8-bit RGB`.
+        found: String,
+    },
+    /// The colour image is not 8-bit RGB or RGBA.
+    #[error("colour image must be 8-bit RGB or RGBA, found {found}")]
+    UnsupportedColorType {
+        /// What the file holds.
+        found: String,
+    },
+    /// Two sizes that must agree do not (depth vs colour, image vs intrinsics).
+    #[error("{what}: expected {expected:?} (width, height), found {found:?}")]
+    SizeMismatch {
+        /// Which two things disagree.
+        what: &'static str,
+        /// The size required.
+        expected: (u32, u32),
+        /// The size found.
+        found: (u32, u32),
+    },
+}
+
+/// A decoded 16-bit depth image, row-major.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DepthImage {
+    /// Columns.
+    pub width: u32,
+    /// Rows.
+    pub height: u32,
+    /// Raw depth values, `width * height`, row-major; 0 means no measurement.
+    pub data: Vec<u16>,
+}
+
+/// A decoded 8-bit colour image, row-major.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ColorImage {
+    /// Columns.
+    pub width: u32,
+    /// Rows.
+    pub height: u32,
+    /// RGB pixels, `width * height`, row-major.
+    pub data: Vec<[u8; 3]>,
+}
+
+fn describe(c: ColorType) -> String {
+    let s = match c {
+        ColorType::L8 => "8-bit grey",
+        ColorType::La8 => "8-bit grey+alpha",
+        ColorType::Rgb8 => "8-bit RGB",
+        ColorType::Rgba8 => "8-bit RGBA",
+        ColorType::L16 => "16-bit grey",
+        ColorType::La16 => "16-bit grey+alpha",
+        ColorType::Rgb16 => "16-bit RGB",
+        ColorType::Rgba16 => "16-bit RGBA",
+        ColorType::Rgb32F => "32-bit float RGB",
+        ColorType::Rgba32F => "32-bit float RGBA",
+        other => return format!("{other:?}"),
+    };
+    s.to_string()
+}
+
+/// Opens an image and checks its pixel type with `accept` before decoding any pixels,
+/// so that a wrong type is reported without allocating the image.
+fn decode_checked(
+    path: &Path,
+    accept: impl Fn(ColorType) -> Result<(), RgbdError>,
+) -> Result<DynamicImage, IoError> {
+    let rgbd = |source| IoError::Rgbd {
+        path: path.to_path_buf(),
+        source,
+    };
+    let image_err = |e: image::ImageError| {
+        rgbd(match e {
+            // A float or odd-bit-depth TIFF: the decoder refuses it before we see a type.
+            image::ImageError::Unsupported(u) => RgbdError::Image {
+                message: format!("unsupported pixel format: {u}"),
+            },
+            other => RgbdError::Image {
+                message: other.to_string(),
+            },
+        })
+    };
+    let file = std::fs::File::open(path).map_err(|source| IoError::Os {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let mut reader = ImageReader::new(std::io::BufReader::new(file))
+        .with_guessed_format()
+        .map_err(|source| IoError::Os {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(MAX_IMAGE_SIDE);
+    limits.max_image_height = Some(MAX_IMAGE_SIDE);
+    reader.limits(limits);
+    let decoder = reader.into_decoder().map_err(image_err)?;
+    accept(decoder.color_type()).map_err(rgbd)?;
+    DynamicImage::from_decoder(decoder).map_err(image_err)
+}
+
+/// Reads a 16-bit single-channel depth image (PNG or TIFF).
+pub fn read_depth_image(path: impl AsRef<Path>) -> Result<DepthImage, IoError> {
+    let path = path.as_ref();
+    let img = decode_checked(path, |c| match c {
+        ColorType::L16 => Ok(()),
+        other => Err(RgbdError::UnsupportedDepthType {
+            found: describe(other),
+        }),
+    })?;
+    let (width, height) = (img.width(), img.height());
+    match img {
+        DynamicImage::ImageLuma16(buf) => Ok(DepthImage {
+            width,
+            height,
+            data: buf.into_raw(),
+        }),
+        other => Err(IoError::Rgbd {
+            path: path.to_path_buf(),
+            source: RgbdError::UnsupportedDepthType {
+                found: describe(other.color()),
+            },
+        }),
+    }
+}
+
+/// Reads an 8-bit RGB or RGBA colour image (PNG or TIFF); RGBA keeps R, G, B.
+pub fn read_color_image(path: impl AsRef<Path>) -> Result<ColorImage, IoError> {
+    let path = path.as_ref();
+    let img = decode_checked(path, |c| match c {
+        ColorType::Rgb8 | ColorType::Rgba8 => Ok(()),
+        other => Err(RgbdError::UnsupportedColorType {
+            found: describe(other),
+        }),
+    })?;
+    let (width, height) = (img.width(), img.height());
+    let data = match img {
+        DynamicImage::ImageRgb8(buf) => buf.pixels().map(|p| p.0).collect(),
+        // R, G, B; not Open3D's channels 0, 1, 3 (alpha for blue).
+        DynamicImage::ImageRgba8(buf) => buf.pixels().map(|p| [p[0], p[1], p[2]]).collect(),
+        other => {
+            return Err(IoError::Rgbd {
+                path: path.to_path_buf(),
+                source: RgbdError::UnsupportedColorType {
+                    found: describe(other.color()),
+                },
+            })
+        }
+    };
+    Ok(ColorImage {
+        width,
+        height,
+        data,
+    })
+}
+
+/// Back-projects a row-major depth image of `intrinsics.width x intrinsics.height` raw
+/// values into an organized cloud, with colours if given (same size, row-major).
+///
+/// Errors if the intrinsics or params are invalid, the intrinsics have no size, or a
+/// buffer's length is not `width * height`.
+pub fn depth_to_cloud(
+    depth: &[u16],
+    color: Option<&[[u8; 3]]>,
+    intrinsics: &PinholeIntrinsics,
+    params: &DepthParams,
+) -> Result<PointCloud, RgbdError> {
+    intrinsics.validate()?;
+    params.validate()?;
+    let (w, h) = (intrinsics.width, intrinsics.height);
+    let n = w as usize * h as usize;
+    let as_size = |len: usize| (u32::try_from(len).unwrap_or(u32::MAX), 1);
+    if n == 0 || depth.len() != n {
+        return Err(RgbdError::SizeMismatch {
+            what: "depth buffer vs intrinsics width x height",
+            expected: (w, h),
+            found: as_size(depth.len()),
+        });
+    }
+    if let Some(c) = color {
+        if c.len() != n {
+            return Err(RgbdError::SizeMismatch {
+                what: "colour buffer vs intrinsics width x height",
+                expected: (w, h),
+                found: as_size(c.len()),
+            });
+        }
+    }
+    let nan = [f32::NAN; 3];
+    let trunc = params.depth_trunc;
+    let mut positions = Vec::with_capacity(n);
+    match params.arithmetic {
+        Arithmetic::Pcl => {
+            // PCL (OpenNI grabber, image grabber): everything in f32, reciprocal focal
+            // lengths, and the product taken as ((u - cx) * z) * (1/fx).
+            let factor = (1.0 / params.depth_scale) as f32;
+            let (kx, ky) = (1.0f32 / intrinsics.fx as f32, 1.0f32 / intrinsics.fy as f32);
+            let (cx, cy) = (intrinsics.cx as f32, intrinsics.cy as f32);
+            for (v, row) in depth.chunks_exact(w as usize).enumerate() {
+                let dv = v as f32 - cy;
+                for (u, &raw) in row.iter().enumerate() {
+                    let z = f32::from(raw) * factor;
+                    positions.push(if raw == 0 || f64::from(z) >= trunc {
+                        nan
+                    } else {
+                        [(u as f32 - cx) * z * kx, dv * z * ky, z]
+                    });
+                }
+            }
+        }
+        Arithmetic::Open3d => {
+            // Open3D: depth in f32 (raw / scale), back-projection in f64.
+            let scale = params.depth_scale as f32;
+            for (v, row) in depth.chunks_exact(w as usize).enumerate() {
+                let dv = v as f64 - intrinsics.cy;
+                for (u, &raw) in row.iter().enumerate() {
+                    let z32 = f32::from(raw) / scale;
+                    let z = f64::from(z32);
+                    positions.push(if z32 <= 0.0 || z >= trunc {
+                        nan
+                    } else {
+                        [
+                            ((u as f64 - intrinsics.cx) * z / intrinsics.fx) as f32,
+                            (dv * z / intrinsics.fy) as f32,
+                            z32,
+                        ]
+                    });
+                }
+            }
+        }
+    }
+    Ok(PointCloud {
+        positions,
+        colors: color.map(<[[u8; 3]]>::to_vec),
+        width: w,
+        height: h,
+        ..Default::default()
+    })
+}
+
+/// Reads a depth image, an optional colour image and converts them with `camera`.
+///
+/// Sizes must agree: colour with depth, and both with the intrinsics unless the
+/// intrinsics have no size (PCL's XML), in which case the depth image's size is used.
+/// Errors name the file at fault.
+pub fn read_frame(
+    depth_path: impl AsRef<Path>,
+    color_path: Option<&Path>,
+    camera: &CameraModel,
+) -> Result<PointCloud, IoError> {
+    let depth_path = depth_path.as_ref();
+    let at = |path: &Path, source| IoError::Rgbd {
+        path: path.to_path_buf(),
+        source,
+    };
+    let depth = read_depth_image(depth_path)?;
+    let mut intrinsics = camera.intrinsics;
+    if intrinsics.width == 0 && intrinsics.height == 0 {
+        intrinsics.width = depth.width;
+        intrinsics.height = depth.height;
+    } else if (intrinsics.width, intrinsics.height) != (depth.width, depth.height) {
+        return Err(at(
+            depth_path,
+            RgbdError::SizeMismatch {
+                what: "depth image vs intrinsics",
+                expected: (intrinsics.width, intrinsics.height),
+                found: (depth.width, depth.height),
+            },
+        ));
+    }
+    let color = match color_path {
+        Some(p) => {
+            let c = read_color_image(p)?;
+            if (c.width, c.height) != (depth.width, depth.height) {
+                return Err(at(
+                    p,
+                    RgbdError::SizeMismatch {
+                        what: "colour image vs depth image",
+                        expected: (depth.width, depth.height),
+                        found: (c.width, c.height),
+                    },
+                ));
+            }
+            Some(c.data)
+        }
+        None => None,
+    };
+    depth_to_cloud(&depth.data, color.as_deref(), &intrinsics, &camera.params)
+        .map_err(|e| at(depth_path, e))
 }

@@ -1,0 +1,93 @@
+//! Times one softsense stage on one file for `tools/bench/run.sh`.
+//!
+//! ```text
+//! cargo run --release --example bench_stages -- STAGE INPUT REPEAT [PARAMS_JSON]
+//! ```
+//!
+//! Prints one JSON line: `{"stage", "input", "ok", "error", "points", "timings_ms"}`, one
+//! timing per repetition, the stage alone (the input is read once beforehand, except for
+//! `load`, where reading is the stage). To add a stage, add an arm to [`run_stage`] and an
+//! entry to `tools/bench/stages.json`.
+
+use serde_json::{json, Value};
+use softsense::cloud::PointCloud;
+use std::path::Path;
+use std::process::ExitCode;
+use std::time::Instant;
+
+/// Runs `stage` once on `cloud` (already read from `input`); returns the output size.
+fn run_stage(
+    stage: &str,
+    input: &Path,
+    _cloud: &PointCloud,
+    _params: &Value,
+) -> Result<usize, String> {
+    match stage {
+        "load" => softsense::io::pcd::read_pcd(input)
+            .map(|c| c.len())
+            .map_err(|e| e.to_string()),
+        other => Err(format!("softsense has no bench stage `{other}` yet")),
+    }
+}
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    if args.len() < 3 || args.len() > 4 {
+        eprintln!("usage: bench_stages STAGE INPUT REPEAT [PARAMS_JSON]");
+        return ExitCode::from(2);
+    }
+    let (stage, input) = (args[0].as_str(), Path::new(&args[1]));
+    let repeat: usize = match args[2].parse() {
+        Ok(n) if n > 0 => n,
+        _ => {
+            eprintln!("REPEAT must be a positive integer, got `{}`", args[2]);
+            return ExitCode::from(2);
+        }
+    };
+    let params: Value = match args.get(3).map(|p| serde_json::from_str(p)) {
+        None => json!({}),
+        Some(Ok(v)) => v,
+        Some(Err(e)) => {
+            eprintln!("PARAMS_JSON: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let mut timings = Vec::with_capacity(repeat);
+    let mut points = None;
+    let mut error = None;
+    // Every stage but `load` works on the cloud read once, outside the timing.
+    let cloud = if stage == "load" {
+        Ok(PointCloud::default())
+    } else {
+        softsense::io::read_cloud(input).map_err(|e| e.to_string())
+    };
+    match cloud {
+        Err(e) => error = Some(e),
+        Ok(cloud) => {
+            for _ in 0..repeat {
+                let t0 = Instant::now();
+                let out = run_stage(stage, input, &cloud, &params);
+                let ms = t0.elapsed().as_secs_f64() * 1e3;
+                match out {
+                    Ok(n) => {
+                        points = Some(n);
+                        timings.push(ms);
+                    }
+                    Err(e) => {
+                        error = Some(e);
+                        break;
+                    }
+                }
+            }
+        }
+    }
+    let ok = error.is_none();
+    let line = json!({"stage": stage, "input": input, "ok": ok, "error": error,
+                      "points": points, "timings_ms": timings});
+    println!("{line}");
+    if ok {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    }
+}

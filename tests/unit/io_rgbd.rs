@@ -1,0 +1,602 @@
+//! RGB-D conversion and intrinsics readers: synthetic images in a temp dir, plus the
+//! real Kinect frames PCL converted itself (`$SOFTSENSE_DATA/pcl/grabber_sequence`).
+
+use crate::common;
+use image::{ImageBuffer, Luma, Rgb, Rgba};
+use proptest::prelude::*;
+use softsense::io::intrinsics::{
+    parse_open3d_json, parse_pcl_xml, read_camera_model, Arithmetic, CameraModel, DepthParams,
+    PinholeIntrinsics,
+};
+use softsense::io::rgbd::{
+    depth_to_cloud, read_color_image, read_depth_image, read_frame, RgbdError,
+};
+use softsense::io::IoError;
+use std::path::{Path, PathBuf};
+
+fn intr(width: u32, height: u32) -> PinholeIntrinsics {
+    PinholeIntrinsics {
+        width,
+        height,
+        fx: 525.0,
+        fy: 520.0,
+        cx: (width as f64 - 1.0) / 2.0,
+        cy: (height as f64 - 1.0) / 2.0,
+    }
+}
+
+fn rgbd_err(e: IoError) -> (PathBuf, RgbdError) {
+    match e {
+        IoError::Rgbd { path, source } => (path, source),
+        other => panic!("expected IoError::Rgbd, got {other:?}"),
+    }
+}
+
+fn write_depth_png(dir: &Path, name: &str, w: u32, h: u32, f: impl Fn(u32, u32) -> u16) -> PathBuf {
+    let p = dir.join(name);
+    ImageBuffer::<Luma<u16>, _>::from_fn(w, h, |u, v| Luma([f(u, v)]))
+        .save(&p)
+        .expect("write depth png");
+    p
+}
+
+fn write_rgb(dir: &Path, name: &str, w: u32, h: u32) -> PathBuf {
+    let p = dir.join(name);
+    ImageBuffer::<Rgb<u8>, _>::from_fn(w, h, |u, v| Rgb([u as u8, v as u8, 7]))
+        .save(&p)
+        .expect("write colour image");
+    p
+}
+
+// ---------------------------------------------------------------- depth_to_cloud
+
+#[test]
+fn zero_depth_gives_nan_and_keeps_the_organized_shape() {
+    let depth = [0u16, 1000, 2000, 0, 1500, 0];
+    let cloud = depth_to_cloud(&depth, None, &intr(3, 2), &DepthParams::default()).unwrap();
+    assert_eq!((cloud.width, cloud.height, cloud.len()), (3, 2, 6));
+    for (i, p) in cloud.positions.iter().enumerate() {
+        if depth[i] == 0 {
+            assert!(p.iter().all(|c| c.is_nan()), "pixel {i}: {p:?}");
+        } else {
+            assert_eq!(p[2], depth[i] as f32 * 0.001f32);
+        }
+    }
+    assert_eq!(cloud.count_finite(), 3);
+}
+
+#[test]
+fn back_projection_follows_the_pinhole_model() {
+    let k = PinholeIntrinsics {
+        width: 4,
+        height: 3,
+        fx: 500.0,
+        fy: 400.0,
+        cx: 1.0,
+        cy: 2.0,
+    };
+    let depth = vec![2000u16; 12];
+    for arithmetic in [Arithmetic::Pcl, Arithmetic::Open3d] {
+        let params = DepthParams {
+            arithmetic,
+            ..DepthParams::default()
+        };
+        let cloud = depth_to_cloud(&depth, None, &k, &params).unwrap();
+        // pixel (u=3, v=0): x = (3-1)*2/500, y = (0-2)*2/400
+        let p = cloud.positions[3];
+        assert!((p[0] - 0.008).abs() < 1e-7, "{arithmetic:?} {p:?}");
+        assert!((p[1] + 0.01).abs() < 1e-7, "{arithmetic:?} {p:?}");
+        assert_eq!(p[2], 2.0);
+    }
+}
+
+#[test]
+fn depth_at_or_beyond_trunc_is_invalid() {
+    // 2999 mm stays, 3000 mm (= trunc) and beyond go, as in Open3D.
+    let depth = [2999u16, 3000, 3001];
+    for arithmetic in [Arithmetic::Pcl, Arithmetic::Open3d] {
+        let params = DepthParams {
+            depth_trunc: 3.0,
+            arithmetic,
+            ..DepthParams::default()
+        };
+        let cloud = depth_to_cloud(&depth, None, &intr(3, 1), &params).unwrap();
+        assert!(cloud.positions[0][2].is_finite());
+        assert!(cloud.positions[1][2].is_nan(), "{arithmetic:?}");
+        assert!(cloud.positions[2][2].is_nan(), "{arithmetic:?}");
+    }
+}
+
+#[test]
+fn depth_scale_sets_the_units() {
+    // TUM: 5000 units per metre.
+    let params = DepthParams {
+        depth_scale: 5000.0,
+        ..DepthParams::default()
+    };
+    let cloud = depth_to_cloud(&[5000, 10000], None, &intr(2, 1), &params).unwrap();
+    assert_eq!(cloud.positions[0][2], 1.0);
+    assert_eq!(cloud.positions[1][2], 2.0);
+}
+
+#[test]
+fn colours_are_kept_for_every_pixel_including_invalid_ones() {
+    let colors = [[1, 2, 3], [4, 5, 6]];
+    let cloud = depth_to_cloud(
+        &[0, 800],
+        Some(&colors),
+        &intr(2, 1),
+        &DepthParams::default(),
+    )
+    .unwrap();
+    assert_eq!(cloud.colors.as_deref(), Some(&colors[..]));
+    assert_eq!(cloud.field_names(), vec!["x", "y", "z", "rgb"]);
+}
+
+#[test]
+fn buffer_length_mismatch_is_a_typed_error() {
+    let e = depth_to_cloud(&[1, 2, 3], None, &intr(2, 2), &DepthParams::default()).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            RgbdError::SizeMismatch {
+                expected: (2, 2),
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+    let e = depth_to_cloud(
+        &[1, 2, 3, 4],
+        Some(&[[0; 3]; 3]),
+        &intr(2, 2),
+        &DepthParams::default(),
+    )
+    .unwrap_err();
+    assert!(matches!(e, RgbdError::SizeMismatch { .. }), "{e:?}");
+}
+
+#[test]
+fn bad_params_name_the_field() {
+    for (params, field) in [
+        (
+            DepthParams {
+                depth_scale: 0.0,
+                ..DepthParams::default()
+            },
+            "depth_scale",
+        ),
+        (
+            DepthParams {
+                depth_trunc: -1.0,
+                ..DepthParams::default()
+            },
+            "depth_trunc",
+        ),
+    ] {
+        let e = depth_to_cloud(&[1], None, &intr(1, 1), &params).unwrap_err();
+        assert!(
+            matches!(&e, RgbdError::BadIntrinsics { field: f, .. } if f == field),
+            "{e:?}"
+        );
+    }
+    let mut k = intr(1, 1);
+    k.fy = f64::NAN;
+    let e = depth_to_cloud(&[1], None, &k, &DepthParams::default()).unwrap_err();
+    assert!(
+        matches!(&e, RgbdError::BadIntrinsics { field, .. } if field == "fy"),
+        "{e:?}"
+    );
+}
+
+proptest! {
+    #[test]
+    fn every_valid_point_projects_back_onto_its_own_pixel(
+        w in 1u32..20, h in 1u32..20,
+        fx in 100.0f64..1000.0, fy in 100.0f64..1000.0,
+        seed in any::<u64>(),
+        open3d in any::<bool>(),
+    ) {
+        let k = PinholeIntrinsics { width: w, height: h, fx, fy, cx: w as f64 / 2.0, cy: h as f64 / 3.0 };
+        let n = (w * h) as usize;
+        let depth: Vec<u16> = (0..n as u64)
+            .map(|i| (seed.wrapping_add(i).wrapping_mul(6364136223846793005).rotate_left(17) >> 48) as u16)
+            .collect();
+        let params = DepthParams {
+            arithmetic: if open3d { Arithmetic::Open3d } else { Arithmetic::Pcl },
+            ..DepthParams::default()
+        };
+        let cloud = depth_to_cloud(&depth, None, &k, &params).unwrap();
+        prop_assert_eq!(cloud.len(), n);
+        for (i, p) in cloud.positions.iter().enumerate() {
+            if depth[i] == 0 {
+                prop_assert!(p[0].is_nan() && p[1].is_nan() && p[2].is_nan());
+                continue;
+            }
+            let (u, v) = ((i as u32 % w) as f64, (i as u32 / w) as f64);
+            let z = p[2] as f64;
+            prop_assert!((z - depth[i] as f64 / 1000.0).abs() <= 1e-6 * z.max(1.0));
+            prop_assert!((fx * p[0] as f64 / z + k.cx - u).abs() < 1e-3, "u {} {:?}", u, p);
+            prop_assert!((fy * p[1] as f64 / z + k.cy - v).abs() < 1e-3, "v {} {:?}", v, p);
+        }
+    }
+}
+
+// ---------------------------------------------------------------- image files
+
+#[test]
+fn reads_a_png_frame_with_rgb_colour() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = write_depth_png(dir.path(), "d.png", 4, 3, |u, v| (u * 100 + v * 10) as u16);
+    let c = write_rgb(dir.path(), "c.png", 4, 3);
+    let camera = CameraModel {
+        intrinsics: intr(4, 3),
+        params: DepthParams::default(),
+    };
+    let cloud = read_frame(&d, Some(c.as_path()), &camera).unwrap();
+    assert_eq!((cloud.width, cloud.height), (4, 3));
+    assert!(cloud.positions[0][2].is_nan()); // (0,0) has depth 0
+    assert_eq!(cloud.positions[4 + 2][2], 210.0f32 * 0.001); // (u=2, v=1): 210 mm
+    assert_eq!(cloud.colors.as_ref().unwrap()[4 + 2], [2, 1, 7]);
+}
+
+#[test]
+fn reads_16_bit_tiff_depth() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("d.tiff");
+    ImageBuffer::<Luma<u16>, _>::from_fn(3, 2, |u, v| Luma([(u + 3 * v) as u16 * 1000]))
+        .save(&p)
+        .unwrap();
+    let img = read_depth_image(&p).unwrap();
+    assert_eq!((img.width, img.height), (3, 2));
+    assert_eq!(img.data, vec![0, 1000, 2000, 3000, 4000, 5000]);
+}
+
+#[test]
+fn rgba_colour_takes_red_green_blue_not_alpha() {
+    // Open3D 0.20 would give (10, 20, 255) here (alpha in place of blue).
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("c.png");
+    ImageBuffer::<Rgba<u8>, _>::from_pixel(2, 2, Rgba([10, 20, 30, 255]))
+        .save(&p)
+        .unwrap();
+    let img = read_color_image(&p).unwrap();
+    assert_eq!(img.data, vec![[10, 20, 30]; 4]);
+}
+
+#[test]
+fn eight_bit_or_rgb_depth_is_rejected_with_a_typed_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let p8 = dir.path().join("d8.png");
+    ImageBuffer::<Luma<u8>, _>::from_pixel(2, 2, Luma([9]))
+        .save(&p8)
+        .unwrap();
+    let (path, e) = rgbd_err(read_depth_image(&p8).unwrap_err());
+    assert_eq!(path, p8);
+    assert_eq!(
+        e,
+        RgbdError::UnsupportedDepthType {
+            found: "8-bit grey".into()
+        }
+    );
+    let rgb = write_rgb(dir.path(), "rgb.png", 2, 2);
+    let (_, e) = rgbd_err(read_depth_image(&rgb).unwrap_err());
+    assert_eq!(
+        e,
+        RgbdError::UnsupportedDepthType {
+            found: "8-bit RGB".into()
+        }
+    );
+}
+
+#[test]
+fn sixteen_bit_or_grey_colour_is_rejected_with_a_typed_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = write_depth_png(dir.path(), "d.png", 2, 2, |_, _| 5);
+    let (path, e) = rgbd_err(read_color_image(&d).unwrap_err());
+    assert_eq!(path, d);
+    assert_eq!(
+        e,
+        RgbdError::UnsupportedColorType {
+            found: "16-bit grey".into()
+        }
+    );
+}
+
+#[test]
+fn colour_and_depth_of_different_sizes_are_rejected_naming_the_colour_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = write_depth_png(dir.path(), "d.png", 4, 3, |_, _| 1000);
+    let c = write_rgb(dir.path(), "c.png", 3, 4);
+    let camera = CameraModel {
+        intrinsics: intr(4, 3),
+        params: DepthParams::default(),
+    };
+    let (path, e) = rgbd_err(read_frame(&d, Some(c.as_path()), &camera).unwrap_err());
+    assert_eq!(path, c);
+    assert!(
+        matches!(
+            e,
+            RgbdError::SizeMismatch {
+                expected: (4, 3),
+                found: (3, 4),
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+}
+
+#[test]
+fn depth_of_a_different_size_than_the_intrinsics_is_rejected() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = write_depth_png(dir.path(), "d.png", 4, 3, |_, _| 1000);
+    let camera = CameraModel {
+        intrinsics: intr(640, 480),
+        params: DepthParams::default(),
+    };
+    let (path, e) = rgbd_err(read_frame(&d, None, &camera).unwrap_err());
+    assert_eq!(path, d);
+    assert!(
+        matches!(
+            e,
+            RgbdError::SizeMismatch {
+                expected: (640, 480),
+                found: (4, 3),
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+}
+
+#[test]
+fn intrinsics_without_size_take_the_depth_image_size() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = write_depth_png(dir.path(), "d.png", 5, 2, |_, _| 1000);
+    let mut camera = CameraModel::default();
+    camera.intrinsics.width = 0;
+    camera.intrinsics.height = 0;
+    let cloud = read_frame(&d, None, &camera).unwrap();
+    assert_eq!((cloud.width, cloud.height), (5, 2));
+}
+
+#[test]
+fn corrupt_and_missing_images_are_typed_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = write_depth_png(dir.path(), "d.png", 8, 8, |u, v| (u * v) as u16);
+    let bytes = std::fs::read(&good).unwrap();
+    let cut = dir.path().join("cut.png");
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    let (_, e) = rgbd_err(read_depth_image(&cut).unwrap_err());
+    assert!(matches!(e, RgbdError::Image { .. }), "{e:?}");
+    let junk = dir.path().join("junk.png");
+    std::fs::write(&junk, b"not an image at all").unwrap();
+    let (_, e) = rgbd_err(read_depth_image(&junk).unwrap_err());
+    assert!(matches!(e, RgbdError::Image { .. }), "{e:?}");
+    let missing = dir.path().join("missing.png");
+    assert!(matches!(
+        read_depth_image(&missing).unwrap_err(),
+        IoError::Os { path, .. } if path == missing
+    ));
+}
+
+// ---------------------------------------------------------------- intrinsics
+
+#[test]
+fn open3d_json_is_column_major() {
+    let cam = parse_open3d_json(
+        r#"{"width": 640, "height": 480, "intrinsic_matrix": [525.0, 0, 0, 0, 520.5, 0, 319.5, 239.5, 1]}"#,
+    )
+    .unwrap();
+    assert_eq!(
+        cam.intrinsics,
+        PinholeIntrinsics {
+            width: 640,
+            height: 480,
+            fx: 525.0,
+            fy: 520.5,
+            cx: 319.5,
+            cy: 239.5
+        }
+    );
+    assert_eq!(cam.params, DepthParams::default());
+}
+
+fn field_of(e: RgbdError) -> String {
+    match e {
+        RgbdError::BadIntrinsics { field, .. } => field,
+        other => panic!("expected BadIntrinsics, got {other:?}"),
+    }
+}
+
+#[test]
+fn open3d_json_errors_name_the_field() {
+    let m = r#""intrinsic_matrix": [525, 0, 0, 0, 525, 0, 319.5, 239.5, 1]"#;
+    let cases = [
+        (format!(r#"{{"height": 480, {m}}}"#), "width"),
+        (format!(r#"{{"width": 0, "height": 480, {m}}}"#), "width"),
+        (format!(r#"{{"width": 640, "height": -3, {m}}}"#), "height"),
+        (format!(r#"{{"width": 640, "height": 1e12, {m}}}"#), "height"),
+        (r#"{"width": 640, "height": 480}"#.to_string(), "intrinsic_matrix"),
+        (
+            r#"{"width": 640, "height": 480, "intrinsic_matrix": [1, 2, 3]}"#.to_string(),
+            "intrinsic_matrix",
+        ),
+        (
+            r#"{"width": 640, "height": 480, "intrinsic_matrix": [525, 0, 0, 0.5, 525, 0, 319.5, 239.5, 1]}"#
+                .to_string(),
+            "intrinsic_matrix[3]",
+        ),
+        (
+            r#"{"width": 640, "height": 480, "intrinsic_matrix": [525, 0, 0, 0, "x", 0, 319.5, 239.5, 1]}"#
+                .to_string(),
+            "intrinsic_matrix[4]",
+        ),
+        (
+            r#"{"width": 640, "height": 480, "intrinsic_matrix": [-525, 0, 0, 0, 525, 0, 319.5, 239.5, 1]}"#
+                .to_string(),
+            "fx",
+        ),
+        ("[1, 2]".to_string(), "(root)"),
+    ];
+    for (text, field) in cases {
+        let e = parse_open3d_json(&text).unwrap_err();
+        assert_eq!(field_of(e), field, "{text}");
+    }
+    assert!(matches!(
+        parse_open3d_json("{\"width\": 640,").unwrap_err(),
+        RgbdError::IntrinsicsSyntax { .. }
+    ));
+}
+
+const PCL_XML: &str = r#"<?xml version="1.0" encoding="utf-8"?>
+<rgb>
+	<focal_length_x>500</focal_length_x>
+	<focal_length_y>500</focal_length_y>
+	<principal_point_x>300</principal_point_x>
+	<principal_point_y>200</principal_point_y>
+</rgb>
+<depth>
+	<!-- <focal_length_x>1</focal_length_x> -->
+	<focal_length_x>525</focal_length_x>
+	<focal_length_y>526.5</focal_length_y>
+	<principal_point_x>320</principal_point_x>
+	<principal_point_y>240</principal_point_y>
+	<z_multiplication_factor>0.0002</z_multiplication_factor>
+</depth>
+"#;
+
+#[test]
+fn pcl_xml_reads_the_depth_section() {
+    let cam = parse_pcl_xml(PCL_XML).unwrap();
+    assert_eq!(
+        cam.intrinsics,
+        PinholeIntrinsics {
+            width: 0,
+            height: 0,
+            fx: 525.0,
+            fy: 526.5,
+            cx: 320.0,
+            cy: 240.0
+        }
+    );
+    assert!((cam.params.depth_scale - 5000.0).abs() < 1e-9);
+    // Without the factor, PCL's default (millimetres) applies.
+    let no_factor = PCL_XML.replace(
+        "<z_multiplication_factor>0.0002</z_multiplication_factor>",
+        "",
+    );
+    assert_eq!(
+        parse_pcl_xml(&no_factor).unwrap().params.depth_scale,
+        1000.0
+    );
+}
+
+#[test]
+fn pcl_xml_errors_name_the_element() {
+    let cases = [
+        (
+            PCL_XML.replace("<focal_length_y>526.5</focal_length_y>", ""),
+            "focal_length_y",
+        ),
+        (
+            PCL_XML.replace("<principal_point_x>320<", "<principal_point_x>abc<"),
+            "principal_point_x",
+        ),
+        (
+            PCL_XML.replace("<focal_length_x>525<", "<focal_length_x>0<"),
+            "focal_length_x",
+        ),
+        (
+            PCL_XML.replace(">0.0002<", ">-1<"),
+            "z_multiplication_factor",
+        ),
+        (PCL_XML.replace("depth>", "dept>"), "depth"),
+    ];
+    for (text, field) in cases {
+        assert_eq!(field_of(parse_pcl_xml(&text).unwrap_err()), field);
+    }
+    assert!(matches!(
+        parse_pcl_xml("<depth><focal_length_x>525").unwrap_err(),
+        RgbdError::IntrinsicsSyntax { .. }
+    ));
+}
+
+#[test]
+fn intrinsics_format_is_chosen_by_extension() {
+    let dir = tempfile::tempdir().unwrap();
+    let x = dir.path().join("cam.xml");
+    std::fs::write(&x, PCL_XML).unwrap();
+    assert_eq!(read_camera_model(&x).unwrap().intrinsics.fx, 525.0);
+    let y = dir.path().join("cam.yaml");
+    std::fs::write(&y, PCL_XML).unwrap();
+    let (path, e) = rgbd_err(read_camera_model(&y).unwrap_err());
+    assert_eq!((path, e), (y, RgbdError::UnknownIntrinsicsFormat));
+}
+
+// ---------------------------------------------------------------- real data vs PCL
+
+/// PCL's image grabber wrote an organized PCD of each of these frames; ours must match:
+/// same validity mask, coordinates within 1e-6 m (bitwise with PCL arithmetic), same
+/// colours. Open3D's arithmetic must stay within 1e-6 m of PCL's.
+#[test]
+fn grabber_frames_match_pcls_own_pcd() {
+    let Some(dir) = common::data_dir("grabber_frames_match_pcls_own_pcd") else {
+        return;
+    };
+    let dir = dir.join("pcl/grabber_sequence");
+    let mut frames: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "xml"))
+        .collect();
+    frames.sort();
+    assert_eq!(
+        frames.len(),
+        3,
+        "expected three frames in {}",
+        dir.display()
+    );
+    let mut max_pcl = 0.0f64;
+    let mut max_o3d = 0.0f64;
+    for xml in &frames {
+        let stem = xml.with_extension("");
+        let stem = stem.to_str().unwrap();
+        let depth = PathBuf::from(format!("{stem}_depth.tiff"));
+        let color = PathBuf::from(format!("{stem}_rgb.tiff"));
+        let reference = softsense::io::pcd::read_pcd(&xml.with_extension("pcd")).unwrap();
+        let mut camera = read_camera_model(xml).unwrap();
+        let ours = read_frame(&depth, Some(color.as_path()), &camera).unwrap();
+        camera.params.arithmetic = Arithmetic::Open3d;
+        let o3d = read_frame(&depth, Some(color.as_path()), &camera).unwrap();
+        assert_eq!(
+            (ours.width, ours.height),
+            (reference.width, reference.height)
+        );
+        assert_eq!(ours.len(), reference.len());
+        assert_eq!(ours.colors, reference.colors, "{}", xml.display());
+        for (i, r) in reference.positions.iter().enumerate() {
+            let (a, b) = (ours.positions[i], o3d.positions[i]);
+            let valid = r[2].is_finite();
+            assert_eq!(
+                a[2].is_finite(),
+                valid,
+                "mask differs at {i} in {}",
+                xml.display()
+            );
+            assert_eq!(b[2].is_finite(), valid, "open3d mask differs at {i}");
+            if valid {
+                for k in 0..3 {
+                    max_pcl = max_pcl.max((a[k] as f64 - r[k] as f64).abs());
+                    max_o3d = max_o3d.max((b[k] as f64 - r[k] as f64).abs());
+                }
+            }
+        }
+    }
+    eprintln!(
+        "max |ours - PCL| = {max_pcl:e} m (PCL arithmetic), {max_o3d:e} m (Open3D arithmetic)"
+    );
+    assert!(max_pcl <= 1e-6, "{max_pcl}");
+    assert!(max_o3d <= 1e-6, "{max_o3d}");
+}

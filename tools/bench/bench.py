@@ -1,0 +1,106 @@
+#!/usr/bin/env python3
+"""Times every stage of stages.json for softsense, PCL and Open3D on the real clouds and
+prints a Markdown table of medians. Called by tools/bench/run.sh (which builds the
+programs); see tools/bench/README.md."""
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(os.path.dirname(HERE))
+
+
+def run_softsense(binary, spec, path, repeat):
+    cmd = [binary, spec["stage"], path, str(repeat), json.dumps(spec.get("params", {}))]
+    p = subprocess.run(cmd, capture_output=True, text=True)
+    try:
+        r = json.loads(p.stdout.strip().splitlines()[-1])
+    except (IndexError, json.JSONDecodeError):
+        return None, f"bench_stages failed: {p.stderr.strip()[-300:]}"
+    return (r["timings_ms"], None) if r["ok"] else (None, r["error"])
+
+
+def run_oracle(cmd_prefix, spec, path, repeat):
+    with tempfile.TemporaryDirectory() as d:
+        job = {"stage": spec["stage"], "input": path, "output_dir": d,
+               "params": spec.get("params", {}), "repeat": repeat}
+        with open(os.path.join(d, "job.json"), "w") as f:
+            json.dump(job, f)
+        p = subprocess.run(cmd_prefix + [os.path.join(d, "job.json")], capture_output=True, text=True)
+        try:
+            with open(os.path.join(d, "result.json")) as f:
+                r = json.load(f)
+        except (OSError, json.JSONDecodeError):
+            return None, f"oracle failed: {p.stderr.strip()[-300:]}"
+    return (r["timings_ms"], None) if r["ok"] else (None, r["error"])
+
+
+def fmt(ms):
+    return "n/a" if ms is None else (f"{ms:.2f}" if ms < 10 else f"{ms:.1f}")
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--data", required=True)
+    ap.add_argument("--softsense", required=True, help="path of the bench_stages binary")
+    ap.add_argument("--pcl", required=True, help="path of pcl_oracle")
+    ap.add_argument("--python", default=sys.executable)
+    ap.add_argument("--repeat", type=int, default=11)
+    ap.add_argument("--stages", default=os.path.join(HERE, "stages.json"))
+    ap.add_argument("--only", help="comma-separated stage names")
+    ap.add_argument("--json", help="also write all timings to this file")
+    a = ap.parse_args()
+
+    cfg = json.load(open(a.stages))
+    libs = {
+        "softsense": lambda s, p: run_softsense(a.softsense, s, p, a.repeat),
+        "pcl": lambda s, p: run_oracle([a.pcl], s, p, a.repeat),
+        "open3d": lambda s, p: run_oracle([a.python, os.path.join(ROOT, "tools/oracle/open3d_oracle.py")], s, p, a.repeat),
+    }
+    only = set(a.only.split(",")) if a.only else None
+    rows, raw, notes = [], [], []
+    for st in cfg["stages"]:
+        if only and st["name"] not in only:
+            continue
+        for rel in cfg["files"]:
+            path = os.path.join(a.data, rel)
+            med = {}
+            for lib, fn in libs.items():
+                spec = st.get(lib)
+                if spec is None:
+                    med[lib] = None
+                    continue
+                times, err = fn(spec, path)
+                if err:
+                    notes.append(f"{st['name']} / {os.path.basename(rel)} / {lib}: {err}")
+                med[lib] = statistics.median(times) if times else None
+                raw.append({"stage": st["name"], "file": rel, "lib": lib, "timings_ms": times, "error": err})
+                print(f"  {st['name']:<22} {os.path.basename(rel):<40} {lib:<9} {fmt(med[lib])} ms", file=sys.stderr)
+            others = [m for m in (med["pcl"], med["open3d"]) if m is not None]
+            ratio = (min(others) / med["softsense"]) if others and med["softsense"] else None
+            rows.append((st["name"], os.path.basename(rel), med, ratio))
+
+    print(f"softsense vs PCL 1.13 / Open3D 0.20: median of {a.repeat} runs, ms, {os.cpu_count()} cores; "
+          "speed-up = faster of PCL and Open3D divided by softsense (> 1: softsense is faster)\n")
+    print("| stage | cloud | softsense ms | PCL ms | Open3D ms | speed-up vs faster |")
+    print("| --- | --- | ---: | ---: | ---: | ---: |")
+    for name, cloud, med, ratio in rows:
+        r = "n/a" if ratio is None else f"{ratio:.2f}x"
+        print(f"| {name} | {cloud} | {fmt(med['softsense'])} | {fmt(med['pcl'])} | {fmt(med['open3d'])} | {r} |")
+    if notes:
+        print("\nNot measured:")
+        for n in notes:
+            print(f"- {n}")
+    if a.json:
+        with open(a.json, "w") as f:
+            json.dump(raw, f, indent=1)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
