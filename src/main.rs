@@ -39,6 +39,12 @@ enum Command {
     Convert(cli::convert::ConvertArgs),
     /// Crop, voxel-filter, remove outliers and estimate normals (PCL/Open3D semantics).
     Filter(cli::filter::FilterArgs),
+    /// Colour region growing (PCL RegionGrowingRGB, exact); writes a `label` field.
+    Segment(cli::segment::SegmentArgs),
+    /// Euclidean cluster extraction (PCL semantics); writes a `label` field.
+    Cluster(cli::cluster::ClusterArgs),
+    /// Segment, pick the robot and detect where objects touch it.
+    Contacts(cli::contacts::ContactsArgs),
 }
 
 fn main() -> ExitCode {
@@ -47,6 +53,9 @@ fn main() -> ExitCode {
         Command::Info(args) => cli::info::run(args),
         Command::Convert(args) => cli::convert::run(args),
         Command::Filter(args) => cli::filter::run(args),
+        Command::Segment(args) => cli::segment::run(args),
+        Command::Cluster(args) => cli::cluster::run(args),
+        Command::Contacts(args) => cli::contacts::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

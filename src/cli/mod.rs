@@ -1,8 +1,11 @@
 //! Subcommand implementations: each parses nothing itself (clap did) and calls the library.
 
+pub mod cluster;
+pub mod contacts;
 pub mod convert;
 pub mod filter;
 pub mod info;
+pub mod segment;
 
 use std::fmt;
 
