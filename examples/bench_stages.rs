@@ -19,10 +19,39 @@ use std::time::Instant;
 fn run_stage(
     stage: &str,
     input: &Path,
-    _cloud: &PointCloud,
-    _params: &Value,
+    cloud: &PointCloud,
+    params: &Value,
 ) -> Result<usize, String> {
+    let num = |k: &str, d: f64| params.get(k).and_then(Value::as_f64).unwrap_or(d);
     match stage {
+        // --- segment stages (owned by the `segment` work) ---
+        "region_growing_rgb" => {
+            let d = softsense::segment::RegionGrowingParams::default();
+            let p = softsense::segment::RegionGrowingParams {
+                distance_m: num("distance", d.distance_m),
+                point_color: num("point_color", d.point_color),
+                region_color: num("region_color", d.region_color),
+                min_cluster_size: num("min_cluster", d.min_cluster_size as f64) as usize,
+                ..d
+            };
+            softsense::segment::region_growing_rgb(cloud, &p)
+                .map(|s| s.segments.len())
+                .map_err(|e| e.to_string())
+        }
+        "euclidean" => {
+            let p = softsense::segment::EuclideanParams {
+                tolerance: num("tolerance", 0.0),
+                min_size: num("min", 1.0) as usize,
+                max_size: params
+                    .get("max")
+                    .and_then(Value::as_u64)
+                    .map_or(usize::MAX, |m| m as usize),
+            };
+            softsense::segment::euclidean_clusters(&cloud.positions, &p)
+                .map(|c| c.len())
+                .map_err(|e| e.to_string())
+        }
+        // --- end of segment stages ---
         "load" => softsense::io::pcd::read_pcd(input)
             .map(|c| c.len())
             .map_err(|e| e.to_string()),

@@ -66,13 +66,7 @@ pub fn run(args: &ContactsArgs) -> CliResult {
     let lib = |e: softsense::segment::SegmentError| CliError::Lib(e.into());
     let cloud = read_cloud(&args.input)?;
     let t0 = Instant::now();
-    let params = RegionGrowingParams {
-        distance_m: 0.01,
-        point_color: 6.0,
-        region_color: 4.0,
-        min_cluster_size: 100,
-        ..Default::default()
-    };
+    let params = RegionGrowingParams::thesis();
     let seg = region_growing_rgb(&cloud, &params).map_err(lib)?;
     let rule = match args.robot_color {
         Some((rgb, tolerance)) => RobotRule::Color { rgb, tolerance },

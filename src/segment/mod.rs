@@ -19,6 +19,7 @@
 
 pub mod color;
 pub mod euclidean;
+pub mod knn;
 pub mod metrics;
 pub mod region_growing_rgb;
 pub mod robot;

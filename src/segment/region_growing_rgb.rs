@@ -29,7 +29,7 @@
 
 use super::{check_distance, check_threshold, SegmentError, UNSEGMENTED};
 use crate::cloud::PointCloud;
-use crate::search::{KdTree, Parallelism};
+use crate::search::Parallelism;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
@@ -70,6 +70,20 @@ impl Default for RegionGrowingParams {
             region_neighbours: 100,
             merge_small: true,
             parallelism: Parallelism::default(),
+        }
+    }
+}
+
+impl RegionGrowingParams {
+    /// The thesis code's parameters (SoftRobots `PointCloudProcessing`): distance 0.01 m,
+    /// point colour 6, region colour 4, min cluster 100; the rest PCL's defaults.
+    pub fn thesis() -> Self {
+        RegionGrowingParams {
+            distance_m: 0.01,
+            point_color: 6.0,
+            region_color: 4.0,
+            min_cluster_size: 100,
+            ..Default::default()
         }
     }
 }
@@ -178,24 +192,9 @@ pub fn region_growing_rgb(
     };
 
     // Step 1: K nearest neighbours of every point (rows of equal length k).
-    let tree = KdTree::build(&pts);
-    let k = params.region_neighbours.min(m);
-    let rows = crate::search::map_indices(m, params.parallelism, |i| {
-        let nn = tree.nearest_n(&pts[i], k);
-        let mut idx = vec![0u32; k];
-        let mut d2 = vec![f32::MAX; k];
-        for (j, n) in nn.iter().enumerate() {
-            idx[j] = n.index as u32;
-            d2[j] = n.squared_distance;
-        }
-        (idx, d2)
-    });
-    let mut nb_idx = Vec::with_capacity(m * k);
-    let mut nb_d2 = Vec::with_capacity(m * k);
-    for (idx, d2) in rows {
-        nb_idx.extend_from_slice(&idx);
-        nb_d2.extend_from_slice(&d2);
-    }
+    let table = super::knn::knn_all(&pts, params.region_neighbours, params.parallelism);
+    let k = table.k;
+    let (nb_idx, nb_d2) = (table.idx, table.d2);
     let grow_n = params.neighbours.min(k);
 
     // Step 2: region growing.

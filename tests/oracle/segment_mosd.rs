@@ -31,13 +31,7 @@ const SCENES: &[&str] = &[
 /// The thesis code's RegionGrowingRGB parameters (user-needs.md): distance 0.01 m, point
 /// colour 6, region colour 4, min cluster 100.
 pub fn thesis_params() -> RegionGrowingParams {
-    RegionGrowingParams {
-        distance_m: 0.01,
-        point_color: 6.0,
-        region_color: 4.0,
-        min_cluster_size: 100,
-        ..Default::default()
-    }
+    RegionGrowingParams::thesis()
 }
 
 #[derive(Default)]

@@ -240,3 +240,33 @@ fn object_scores_count_matches_at_iou_half() {
     let s = object_scores(&reference, |r| r >= 2, &predicted, UNSEGMENTED, 0.51);
     assert_eq!((s.objects_found, s.segments_correct), (0, 1));
 }
+
+/// The grid k-NN equals brute force (sorted by (d², index)) on a jittered dense sheet
+/// with a sparse far cluster (which forces the KD-tree fallback).
+#[test]
+fn knn_all_equals_brute_force() {
+    use softsense::search::{squared_distance, Parallelism};
+    use softsense::segment::knn::knn_all;
+    let mut pts = Vec::new();
+    for i in 0..60 {
+        for j in 0..40 {
+            let s = ((i * 7919 + j * 104729) % 1000) as f32 * 1e-6;
+            pts.push([i as f32 * 0.002 + s, j as f32 * 0.002 - s, 1.0 + 3.0 * s]);
+        }
+    }
+    for i in 0..30 {
+        pts.push([5.0 + i as f32 * 0.37, -2.0, 3.0 + (i % 3) as f32]);
+    }
+    let k = 25;
+    let t = knn_all(&pts, k, Parallelism::Serial);
+    for (i, q) in pts.iter().enumerate() {
+        let mut all: Vec<(f32, u32)> = pts
+            .iter()
+            .enumerate()
+            .map(|(j, p)| (squared_distance(q, p), j as u32))
+            .collect();
+        all.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let want: Vec<u32> = all[..k].iter().map(|x| x.1).collect();
+        assert_eq!(&t.idx[i * k..(i + 1) * k], &want[..], "point {i}");
+    }
+}
