@@ -74,9 +74,20 @@ impl Contact {
 }
 
 /// Indices of the object points with more than `min_neighbors` robot points strictly
-/// within `radius_m` (ascending).
+/// within `radius_m` (ascending). Object points are first screened by an occupancy grid
+/// of the robot (cells of at least `radius_m`, dilated by one cell), so that only points
+/// that can have a robot point in range are queried in the tree.
 pub fn contact_points(
     robot_tree: &KdTree,
+    object: &[[f32; 3]],
+    params: &ContactParams,
+) -> Vec<usize> {
+    contact_points_screened(robot_tree, None, object, params)
+}
+
+fn contact_points_screened(
+    robot_tree: &KdTree,
+    screen: Option<&RobotGrid>,
     object: &[[f32; 3]],
     params: &ContactParams,
 ) -> Vec<usize> {
@@ -84,9 +95,89 @@ pub fn contact_points(
     object
         .iter()
         .enumerate()
+        .filter(|(_, p)| screen.is_none_or(|g| g.may_touch(p)))
         .filter(|(_, p)| robot_tree.count_within_radius(p, params.radius_m, false, need) >= need)
         .map(|(i, _)| i)
         .collect()
+}
+
+/// Occupancy of the robot's cells, dilated by one cell: a point outside every marked
+/// cell is farther than one cell size (≥ the search radius) from every robot point.
+struct RobotGrid {
+    lo: [f64; 3],
+    cell: f64,
+    dims: [usize; 3],
+    marked: Vec<bool>,
+}
+
+/// Largest number of cells of the screening grid.
+const MAX_GRID_CELLS: usize = 1 << 22;
+
+impl RobotGrid {
+    fn new(robot: &[[f32; 3]], radius: f64) -> Option<RobotGrid> {
+        let finite = || robot.iter().filter(|p| p.iter().all(|c| c.is_finite()));
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for p in finite() {
+            for a in 0..3 {
+                lo[a] = lo[a].min(p[a] as f64);
+                hi[a] = hi[a].max(p[a] as f64);
+            }
+        }
+        if !lo[0].is_finite() {
+            return None;
+        }
+        // Cells of at least the radius (slightly more, for rounding), coarser when the
+        // robot is large, so the grid stays bounded.
+        let mut cell = radius * 1.001;
+        let extent = (0..3).map(|a| hi[a] - lo[a]).fold(0.0, f64::max);
+        cell = cell.max(extent / 128.0);
+        let lo = lo.map(|v| v - 2.0 * cell);
+        let dims: [usize; 3] =
+            std::array::from_fn(|a| ((hi[a] + 2.0 * cell - lo[a]) / cell).ceil() as usize + 1);
+        let total = dims[0].checked_mul(dims[1])?.checked_mul(dims[2])?;
+        if total > MAX_GRID_CELLS {
+            return None;
+        }
+        let mut g = RobotGrid {
+            lo,
+            cell,
+            dims,
+            marked: vec![false; total],
+        };
+        for p in finite() {
+            let c = g.cell_of(p)?;
+            for dx in 0..3 {
+                for dy in 0..3 {
+                    for dz in 0..3 {
+                        let i = g.flat([c[0] + dx - 1, c[1] + dy - 1, c[2] + dz - 1]);
+                        g.marked[i] = true;
+                    }
+                }
+            }
+        }
+        Some(g)
+    }
+
+    fn cell_of(&self, p: &[f32; 3]) -> Option<[usize; 3]> {
+        let mut c = [0usize; 3];
+        for a in 0..3 {
+            let x = ((p[a] as f64 - self.lo[a]) / self.cell).floor();
+            if !(x >= 1.0 && x < (self.dims[a] - 1) as f64) {
+                return None;
+            }
+            c[a] = x as usize;
+        }
+        Some(c)
+    }
+
+    fn flat(&self, c: [usize; 3]) -> usize {
+        (c[2] * self.dims[1] + c[1]) * self.dims[0] + c[0]
+    }
+
+    fn may_touch(&self, p: &[f32; 3]) -> bool {
+        self.cell_of(p).is_some_and(|c| self.marked[self.flat(c)])
+    }
 }
 
 /// Detects contacts between `robot` and `object` points (see the module docs). Contacts
@@ -99,7 +190,8 @@ pub fn detect_contacts(
     check_distance("radius_m", params.radius_m)?;
     check_distance("tolerance_m", params.tolerance_m)?;
     let tree = KdTree::build(robot);
-    let hits = contact_points(&tree, object, params);
+    let grid = RobotGrid::new(robot, params.radius_m);
+    let hits = contact_points_screened(&tree, grid.as_ref(), object, params);
     let hit_pos: Vec<[f32; 3]> = hits.iter().map(|&i| object[i]).collect();
     let groups = euclidean_clusters(
         &hit_pos,

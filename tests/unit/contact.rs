@@ -28,7 +28,14 @@ proptest! {
         let brute: Vec<usize> = (0..object.len())
             .filter(|&i| robot.iter().filter(|q| squared_distance(&object[i], q) < r2).count() > n)
             .collect();
-        prop_assert_eq!(ours, brute);
+        prop_assert_eq!(&ours, &brute);
+        // The screened path inside detect_contacts finds the same points (as one group
+        // when min_group is 1 and the tolerance spans the box).
+        let all = ContactParams { tolerance_m: 1.0, min_group: 1, max_group: usize::MAX, ..params };
+        let groups = detect_contacts(&robot, &object, &all).unwrap();
+        let mut screened: Vec<usize> = groups.iter().flat_map(|g| g.indices.clone()).collect();
+        screened.sort_unstable();
+        prop_assert_eq!(screened, brute);
     }
 }
 
