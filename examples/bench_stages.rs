@@ -39,6 +39,34 @@ fn run_stage(
     };
     let err = |e: FilterError| e.to_string();
     match stage {
+        // --- segment stages (owned by the `segment` work) ---
+        "region_growing_rgb" => {
+            let d = softsense::segment::RegionGrowingParams::default();
+            let p = softsense::segment::RegionGrowingParams {
+                distance_m: f("distance", d.distance_m),
+                point_color: f("point_color", d.point_color),
+                region_color: f("region_color", d.region_color),
+                min_cluster_size: f("min_cluster", d.min_cluster_size as f64) as usize,
+                ..d
+            };
+            softsense::segment::region_growing_rgb(cloud, &p)
+                .map(|s| s.segments.len())
+                .map_err(|e| e.to_string())
+        }
+        "euclidean" => {
+            let p = softsense::segment::EuclideanParams {
+                tolerance: f("tolerance", 0.0),
+                min_size: f("min", 1.0) as usize,
+                max_size: params
+                    .get("max")
+                    .and_then(Value::as_u64)
+                    .map_or(usize::MAX, |m| m as usize),
+            };
+            softsense::segment::euclidean_clusters(&cloud.positions, &p)
+                .map(|c| c.len())
+                .map_err(|e| e.to_string())
+        }
+        // --- end of segment stages ---
         "load" => softsense::io::pcd::read_pcd(input)
             .map(|c| c.len())
             .map_err(|e| e.to_string()),

@@ -27,9 +27,10 @@
 #![warn(missing_docs, rustdoc::broken_intra_doc_links)]
 
 pub mod cloud;
+pub mod contact;
 pub mod error;
-pub mod fem;
 pub mod features;
+pub mod fem;
 pub mod filter;
 pub mod inverse;
 pub mod io;
@@ -38,6 +39,7 @@ pub mod pipeline;
 pub mod register;
 pub mod scene;
 pub mod search;
+pub mod segment;
 
 pub use cloud::PointCloud;
 pub use error::{Error, Result};

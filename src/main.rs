@@ -42,6 +42,12 @@ enum Command {
     Filter(cli::filter::FilterArgs),
     /// Synthetic RGB-D scenes from the FE model (the direct model).
     Scene(cli::scene::SceneArgs),
+    /// Colour region growing (PCL RegionGrowingRGB, exact); writes a `label` field.
+    Segment(cli::segment::SegmentArgs),
+    /// Euclidean cluster extraction (PCL semantics); writes a `label` field.
+    Cluster(cli::cluster::ClusterArgs),
+    /// Segment, pick the robot and detect where objects touch it.
+    Contacts(cli::contacts::ContactsArgs),
 }
 
 fn main() -> ExitCode {
@@ -52,6 +58,9 @@ fn main() -> ExitCode {
         Command::Fem(args) => cli::fem::run(args).map_err(cli::CliError::Other),
         Command::Filter(args) => cli::filter::run(&args),
         Command::Scene(args) => cli::scene::run(args).map_err(cli::CliError::Other),
+        Command::Segment(args) => cli::segment::run(&args),
+        Command::Cluster(args) => cli::cluster::run(&args),
+        Command::Contacts(args) => cli::contacts::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

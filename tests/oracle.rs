@@ -9,3 +9,9 @@ mod harness;
 mod io;
 #[path = "oracle/rgbd.rs"]
 mod rgbd;
+#[path = "oracle/segment.rs"]
+mod segment;
+#[path = "oracle/segment_color.rs"]
+mod segment_color;
+#[path = "oracle/segment_mosd.rs"]
+mod segment_mosd;

@@ -45,3 +45,8 @@ mod inverse;
 mod register;
 #[path = "unit/scene.rs"]
 mod scene;
+#[path = "unit/segment.rs"]
+mod segment;
+
+#[path = "unit/contact.rs"]
+mod contact;

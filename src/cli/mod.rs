@@ -1,10 +1,13 @@
 //! Subcommand implementations: each parses nothing itself (clap did) and calls the library.
 
+pub mod cluster;
+pub mod contacts;
 pub mod convert;
 pub mod fem;
 pub mod filter;
 pub mod info;
 pub mod scene;
+pub mod segment;
 
 use std::fmt;
 

@@ -250,6 +250,27 @@ def stage_normals(job, result, timings):
     save_cloud(job["output_dir"], result, out, normals=normals)
 
 
+# --- SEGMENTATION STAGES (owned by the `segment` work) ---------------------------------
+def stage_cluster_dbscan(job, result, timings):
+    """cluster_dbscan(eps, min_points) on the finite points. `labels`: one per input point
+    (-1: noise or non-finite); `clusters`: input indices per label, in label order."""
+    p = job["params"]
+    eps = float(param(p, "eps", required=True))
+    min_points = int(param(p, "min_points", required=True))
+    pcd = read_cloud(job["input"])
+    finite, to_input = finite_subset(pcd)
+    labels = timed(job["repeat"], timings,
+                   lambda: np.asarray(finite.cluster_dbscan(eps=eps, min_points=min_points, print_progress=False)))
+    n = len(pcd.points)
+    full = np.full(n, -1, dtype=np.int64)
+    full[to_input] = labels
+    result["points"] = n
+    result["labels"] = full.tolist()
+    k = int(labels.max()) + 1 if labels.size else 0
+    result["clusters"] = [np.flatnonzero(full == c).tolist() for c in range(k)]
+# --- END OF SEGMENTATION STAGES ---------------------------------------------------------
+
+
 STAGES = {
     "load": stage_load,
     "rgbd_to_cloud": stage_rgbd,
@@ -259,6 +280,7 @@ STAGES = {
     "radius_outlier": stage_radius_outlier,
     "statistical_outlier": stage_statistical_outlier,
     "normals": stage_normals,
+    "cluster_dbscan": stage_cluster_dbscan,
 }
 
 

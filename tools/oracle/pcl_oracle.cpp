@@ -20,6 +20,8 @@
 #include <pcl/io/pcd_io.h>
 #include <pcl/point_types.h>
 #include <pcl/search/kdtree.h>
+#include <pcl/segmentation/extract_clusters.h>
+#include <pcl/segmentation/region_growing_rgb.h>
 
 #include <algorithm>
 #include <chrono>
@@ -500,6 +502,88 @@ void stage_rgbd(const std::string& depth, const Json& params, int repeat, const 
   save_cloud(out_dir, *cloud, r);
 }
 
+// ---------------------------------------------------------------------------------------
+// SEGMENTATION STAGES (owned by the `segment` work: region_growing_rgb, euclidean).
+// Both drop non-finite points first (RegionGrowingRGB has no NaN guard, oracle-semantics
+// trap 6) and flatten to height 1 (trap 9), then report `clusters` as lists of INPUT
+// indices in PCL's own cluster order, points within a cluster in PCL's order.
+
+template <typename PointT>
+typename pcl::PointCloud<PointT>::Ptr finite_flat(const pcl::PCLPointCloud2& blob,
+                                                   std::vector<int>& to_input) {
+  pcl::PointCloud<PointT> all;
+  pcl::fromPCLPointCloud2(blob, all);
+  typename pcl::PointCloud<PointT>::Ptr finite(new pcl::PointCloud<PointT>);
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    if (pcl::isFinite(all[i])) {
+      finite->push_back(all[i]);
+      to_input.push_back(static_cast<int>(i));
+    }
+  }
+  finite->width = static_cast<std::uint32_t>(finite->size());
+  finite->height = 1;
+  finite->is_dense = true;
+  return finite;
+}
+
+void put_clusters(const std::vector<pcl::PointIndices>& clusters, const std::vector<int>& to_input,
+                  long long input_points, Result& r) {
+  std::ostringstream o;
+  o << "[";
+  for (std::size_t c = 0; c < clusters.size(); ++c) {
+    o << (c ? ", " : "") << "[";
+    const auto& idx = clusters[c].indices;
+    for (std::size_t i = 0; i < idx.size(); ++i) o << (i ? "," : "") << to_input[static_cast<std::size_t>(idx[i])];
+    o << "]";
+  }
+  o << "]";
+  r.extra.emplace_back("clusters", o.str());
+  r.points = input_points;
+}
+
+void stage_segment(const std::string& stage, const pcl::PCLPointCloud2& blob, const Json& params,
+                   int repeat, Result& r) {
+  std::vector<int> to_input;
+  std::vector<pcl::PointIndices> clusters;
+  long long n = static_cast<long long>(blob.width) * blob.height;
+  if (stage == "region_growing_rgb") {
+    auto cloud = finite_flat<pcl::PointXYZRGB>(blob, to_input);
+    auto tree = std::make_shared<pcl::search::KdTree<pcl::PointXYZRGB>>();
+    pcl::RegionGrowingRGB<pcl::PointXYZRGB> rg;
+    rg.setInputCloud(cloud);
+    rg.setSearchMethod(tree);
+    rg.setDistanceThreshold(static_cast<float>(num_param_or(params, "distance", std::sqrt(0.05))));
+    rg.setPointColorThreshold(static_cast<float>(num_param_or(params, "point_color", 35)));
+    rg.setRegionColorThreshold(static_cast<float>(num_param_or(params, "region_color", std::sqrt(10.0))));
+    rg.setMinClusterSize(static_cast<pcl::uindex_t>(num_param_or(params, "min_cluster", 10)));
+    double max_cluster = num_param_or(params, "max_cluster", -1);
+    if (max_cluster >= 0) rg.setMaxClusterSize(static_cast<pcl::uindex_t>(max_cluster));
+    rg.setNumberOfNeighbours(static_cast<unsigned>(num_param_or(params, "neighbours", 30)));
+    rg.setNumberOfRegionNeighbours(static_cast<unsigned>(num_param_or(params, "region_neighbours", 100)));
+    timed(repeat, r, [&] {
+      clusters.clear();
+      rg.extract(clusters);
+    });
+  } else if (stage == "euclidean") {
+    auto cloud = finite_flat<pcl::PointXYZ>(blob, to_input);
+    pcl::EuclideanClusterExtraction<pcl::PointXYZ> ece;  // default tree: KdTree(false)
+    ece.setInputCloud(cloud);
+    ece.setClusterTolerance(num_param(params, "tolerance"));
+    ece.setMinClusterSize(static_cast<pcl::uindex_t>(num_param_or(params, "min", 1)));
+    double mx = num_param_or(params, "max", -1);
+    if (mx >= 0) ece.setMaxClusterSize(static_cast<pcl::uindex_t>(mx));
+    timed(repeat, r, [&] {
+      clusters.clear();  // extract() appends (oracle-semantics section 6)
+      ece.extract(clusters);
+    });
+  } else {
+    throw std::runtime_error("unknown stage `" + stage + "`");
+  }
+  put_clusters(clusters, to_input, n, r);
+}
+// END OF SEGMENTATION STAGES
+// ---------------------------------------------------------------------------------------
+
 std::string read_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw std::runtime_error("cannot open job file " + path);
@@ -551,6 +635,12 @@ int main(int argc, char** argv) {
       stage_load(input, repeat, out_dir, r);
     } else if (stage == "rgbd_to_cloud") {
       stage_rgbd(input, *params, repeat, out_dir, r);
+    } else if (stage == "region_growing_rgb" || stage == "euclidean") {
+      pcl::PCLPointCloud2 blob;
+      Eigen::Vector4f origin;
+      Eigen::Quaternionf orientation;
+      load_blob(input, blob, origin, orientation);
+      stage_segment(stage, blob, *params, repeat, r);
     } else {
       pcl::PCLPointCloud2 blob;
       Eigen::Vector4f origin;

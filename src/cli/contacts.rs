@@ -1,0 +1,131 @@
+//! `softsense contacts`: segmentation, robot choice and KD-tree contact detection.
+
+use super::{print_json, CliError, CliResult};
+use clap::Args;
+use softsense::contact::{detect_contacts, ContactParams};
+use softsense::io::read_cloud;
+use softsense::segment::robot::{select_robot, RobotRule};
+use softsense::segment::{region_growing_rgb, RegionGrowingParams};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Find where objects touch the robot in a coloured scene (raw or filtered): colour
+/// region growing with the thesis code's parameters (0.01 m, point colour 6, region
+/// colour 4, min 100 points), the robot segment (by colour, or the largest), then object
+/// points with more than --min-neighbors robot points within --radius, grouped by
+/// Euclidean clustering (5 mm, 10-2000 points). Prints one line (or JSON object) per
+/// contact: centroid (m), points, extent (m).
+///
+/// Examples:
+///
+///   softsense contacts scene.pcd
+///
+///   softsense contacts scene.pcd --robot-color 30,60,200:25 --radius 0.004 --min-neighbors 3 --json
+#[derive(Debug, Args)]
+#[command(verbatim_doc_comment)]
+pub struct ContactsArgs {
+    /// Input cloud with colours (.pcd/.ply).
+    pub input: PathBuf,
+    /// The robot is the largest segment within TOL (CIE76 ΔE, default 20) of this sRGB
+    /// colour; without it, the largest segment.
+    #[arg(long, value_name = "R,G,B[:TOL]", value_parser = parse_robot_color)]
+    pub robot_color: Option<([u8; 3], f64)>,
+    /// Contact search radius in metres.
+    #[arg(long, value_name = "M", default_value_t = 0.004)]
+    pub radius: f64,
+    /// An object point is in contact with more than this many robot points in range.
+    #[arg(long, value_name = "N", default_value_t = 3)]
+    pub min_neighbors: usize,
+    /// Print JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn parse_robot_color(s: &str) -> Result<([u8; 3], f64), String> {
+    let (rgb, tol) = match s.split_once(':') {
+        Some((c, t)) => (c, t.parse::<f64>().map_err(|e| format!("tolerance: {e}"))?),
+        None => (s, 20.0),
+    };
+    let parts: Vec<&str> = rgb.split(',').collect();
+    let [r, g, b] = parts[..] else {
+        return Err("expected R,G,B[:TOL], e.g. 30,60,200:25".into());
+    };
+    let c = |v: &str| {
+        v.trim()
+            .parse::<u8>()
+            .map_err(|e| format!("colour {v:?}: {e}"))
+    };
+    if !(tol.is_finite() && tol >= 0.0) {
+        return Err("tolerance must be finite and >= 0".into());
+    }
+    Ok(([c(r)?, c(g)?, c(b)?], tol))
+}
+
+/// Runs the subcommand.
+pub fn run(args: &ContactsArgs) -> CliResult {
+    let lib = |e: softsense::segment::SegmentError| CliError::Lib(e.into());
+    let cloud = read_cloud(&args.input)?;
+    let t0 = Instant::now();
+    let params = RegionGrowingParams::thesis();
+    let seg = region_growing_rgb(&cloud, &params).map_err(lib)?;
+    let rule = match args.robot_color {
+        Some((rgb, tolerance)) => RobotRule::Color { rgb, tolerance },
+        None => RobotRule::Largest,
+    };
+    let robot = select_robot(&seg.segments, &rule).map_err(lib)?;
+    let robot_pts: Vec<[f32; 3]> = seg.segments[robot.segment]
+        .indices
+        .iter()
+        .map(|&i| cloud.positions[i])
+        .collect();
+    let object_idx: Vec<usize> = seg
+        .segments
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| *k != robot.segment)
+        .flat_map(|(_, s)| s.indices.iter().copied())
+        .collect();
+    let object_pts: Vec<[f32; 3]> = object_idx.iter().map(|&i| cloud.positions[i]).collect();
+    let cparams = ContactParams {
+        radius_m: args.radius,
+        min_neighbors: args.min_neighbors,
+        ..Default::default()
+    };
+    let contacts = detect_contacts(&robot_pts, &object_pts, &cparams).map_err(lib)?;
+    let ms = t0.elapsed().as_secs_f64() * 1e3;
+    if args.json {
+        let list: Vec<serde_json::Value> = contacts
+            .iter()
+            .map(|c| {
+                serde_json::json!({"centroid": c.centroid, "points": c.points,
+                    "extent": c.extent(), "min": c.min, "max": c.max})
+            })
+            .collect();
+        print_json(
+            &serde_json::json!({"input": args.input, "segments": seg.segments.len(),
+            "robot": {"segment": robot.segment, "points": robot_pts.len(), "chosen_by": robot.chosen_by,
+                      "mean_color": seg.segments[robot.segment].mean_color},
+            "contacts": list, "ms": ms}),
+        )?;
+    } else {
+        eprintln!(
+            "{} segments; robot = segment {} ({} points, chosen by {:?}); {} contacts; {ms:.1} ms",
+            seg.segments.len(),
+            robot.segment,
+            robot_pts.len(),
+            robot.chosen_by,
+            contacts.len()
+        );
+        for c in &contacts {
+            println!(
+                "{:.4} {:.4} {:.4}  points {}  extent {:.4} m",
+                c.centroid[0],
+                c.centroid[1],
+                c.centroid[2],
+                c.points,
+                c.extent()
+            );
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,90 @@
+//! Segmentation: PCL-compatible colour region growing, Euclidean clustering, the CIELAB
+//! colour model and robot selection (thesis sections 4.5.1.2-4.5.1.4).
+//!
+//! - [`euclidean`]: PCL `EuclideanClusterExtraction` (strict radius, size filter, clusters
+//!   by size descending, indices ascending);
+//! - [`region_growing_rgb`]: PCL `RegionGrowingRGB`, ported step by step, with a
+//!   near-linear segment adjacency and merge;
+//! - [`color`]: sRGB to CIELAB (D65) and ΔE;
+//! - [`robot`]: which segment is the robot;
+//! - [`metrics`]: adjusted Rand index and object-level scores against labels.
+//!
+//! ```
+//! use softsense::segment::euclidean::{euclidean_clusters, EuclideanParams};
+//! let pts = vec![[0.0f32, 0.0, 0.0], [0.001, 0.0, 0.0], [1.0, 0.0, 0.0]];
+//! let params = EuclideanParams { tolerance: 0.005, ..Default::default() };
+//! let clusters = euclidean_clusters(&pts, &params).unwrap();
+//! assert_eq!(clusters, vec![vec![0, 1], vec![2]]);
+//! ```
+
+pub mod color;
+pub mod euclidean;
+pub mod knn;
+pub mod metrics;
+pub mod region_growing_rgb;
+pub mod robot;
+
+pub use euclidean::{euclidean_clusters, EuclideanParams};
+pub use region_growing_rgb::{region_growing_rgb, RegionGrowingParams, Segment, Segmentation};
+
+/// Label given by [`Segmentation::labels`] to points that are in no segment (non-finite
+/// points and points of clusters removed by the size filter).
+pub const UNSEGMENTED: u32 = u32::MAX;
+
+/// Errors of the segmentation stages.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum SegmentError {
+    /// A distance parameter is not finite and positive.
+    #[error("{name} must be finite and > 0 (metres), got {value}")]
+    InvalidDistance {
+        /// Parameter name.
+        name: &'static str,
+        /// Value given.
+        value: f64,
+    },
+    /// A colour threshold is not finite and non-negative.
+    #[error("{name} must be finite and >= 0, got {value}")]
+    InvalidThreshold {
+        /// Parameter name.
+        name: &'static str,
+        /// Value given.
+        value: f64,
+    },
+    /// A count parameter is out of range.
+    #[error("{name} must be in {min}..={max}, got {value}")]
+    InvalidCount {
+        /// Parameter name.
+        name: &'static str,
+        /// Value given.
+        value: usize,
+        /// Smallest allowed.
+        min: usize,
+        /// Largest allowed.
+        max: usize,
+    },
+    /// The cloud has no colours but the stage needs them.
+    #[error("the cloud has no rgb field; colour region growing needs colours")]
+    NoColors,
+    /// The cloud is inconsistent (field lengths).
+    #[error(transparent)]
+    Cloud(#[from] crate::cloud::CloudError),
+    /// No segment could be chosen as the robot.
+    #[error("no robot segment: {0}")]
+    NoRobot(String),
+}
+
+pub(crate) fn check_distance(name: &'static str, value: f64) -> Result<(), SegmentError> {
+    if value.is_finite() && value > 0.0 && (value as f32) > 0.0 {
+        Ok(())
+    } else {
+        Err(SegmentError::InvalidDistance { name, value })
+    }
+}
+
+pub(crate) fn check_threshold(name: &'static str, value: f64) -> Result<(), SegmentError> {
+    if value.is_finite() && value >= 0.0 {
+        Ok(())
+    } else {
+        Err(SegmentError::InvalidThreshold { name, value })
+    }
+}

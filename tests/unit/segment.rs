@@ -1,0 +1,272 @@
+//! segment: Euclidean clusters against a brute-force union-find, region growing on
+//! hand-made scenes, the colour model, robot selection and the metrics.
+
+use proptest::prelude::*;
+use softsense::segment::color::{delta_e, rgb_to_lab};
+use softsense::segment::euclidean::{euclidean_clusters, EuclideanParams};
+use softsense::segment::metrics::{adjusted_rand_index, object_scores, singletons_for};
+use softsense::segment::robot::{select_robot, ChosenBy, RobotRule};
+use softsense::segment::{region_growing_rgb, RegionGrowingParams, SegmentError, UNSEGMENTED};
+use softsense::PointCloud;
+
+fn brute_components(p: &[[f32; 3]], tol: f64) -> Vec<Vec<usize>> {
+    let n = p.len();
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn find(p: &mut [usize], x: usize) -> usize {
+        if p[x] != x {
+            let r = find(p, p[x]);
+            p[x] = r;
+        }
+        p[x]
+    }
+    let r2 = (tol * tol) as f32;
+    for i in 0..n {
+        for j in 0..n {
+            let d = softsense::search::squared_distance(&p[i], &p[j]);
+            if d < r2 {
+                let (a, b) = (find(&mut parent, i), find(&mut parent, j));
+                parent[a] = b;
+            }
+        }
+    }
+    let mut groups = std::collections::BTreeMap::<usize, Vec<usize>>::new();
+    for i in 0..n {
+        let r = find(&mut parent, i);
+        groups.entry(r).or_default().push(i);
+    }
+    groups.into_values().collect()
+}
+
+proptest! {
+    #[test]
+    fn euclidean_clusters_are_the_connected_components_filtered_by_size(
+        pts in prop::collection::vec(prop::array::uniform3(0.0f32..0.1), 1..120),
+        tol in 0.002f64..0.03,
+        min in 1usize..5,
+        max in 3usize..60,
+    ) {
+        let ours = euclidean_clusters(&pts, &EuclideanParams { tolerance: tol, min_size: min, max_size: max }).unwrap();
+        let mut expected: Vec<Vec<usize>> = brute_components(&pts, tol)
+            .into_iter()
+            .filter(|c| c.len() >= min && c.len() <= max)
+            .collect();
+        // Discovery order = order of smallest index; then stable by size descending.
+        expected.sort_by_key(|c| c[0]);
+        expected.sort_by_key(|c| std::cmp::Reverse(c.len()));
+        prop_assert_eq!(ours, expected);
+    }
+}
+
+#[test]
+fn euclidean_tolerance_is_strict_and_oversized_clusters_vanish() {
+    // Points exactly 0.5 apart (exact in f32) do not connect at tolerance 0.5.
+    let pts = vec![
+        [0.0f32, 0.0, 0.0],
+        [0.5, 0.0, 0.0],
+        [0.25, 4.0, 0.0],
+        [0.25, 4.25, 0.0],
+    ];
+    let c = euclidean_clusters(
+        &pts,
+        &EuclideanParams {
+            tolerance: 0.5,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(c, vec![vec![2, 3], vec![0], vec![1]]);
+    // A 20-point chain with max 10 is dropped entirely, not split.
+    let chain: Vec<[f32; 3]> = (0..20).map(|i| [i as f32 * 0.01, 0.0, 0.0]).collect();
+    let c = euclidean_clusters(
+        &chain,
+        &EuclideanParams {
+            tolerance: 0.015,
+            min_size: 1,
+            max_size: 10,
+        },
+    )
+    .unwrap();
+    assert!(c.is_empty());
+    assert!(matches!(
+        euclidean_clusters(
+            &chain,
+            &EuclideanParams {
+                tolerance: 0.0,
+                ..Default::default()
+            }
+        ),
+        Err(SegmentError::InvalidDistance { .. })
+    ));
+}
+
+fn two_colour_scene() -> PointCloud {
+    // Two touching 10x10 patches 1 cm apart, red and blue, plus one NaN point.
+    let mut pos = Vec::new();
+    let mut col = Vec::new();
+    for i in 0..20 {
+        for j in 0..10 {
+            let jitter = ((i * 31 + j * 17) % 7) as f32 * 1e-5;
+            pos.push([i as f32 * 0.01 + jitter, j as f32 * 0.01, 1.0]);
+            col.push(if i < 10 { [200, 20, 20] } else { [20, 20, 200] });
+        }
+    }
+    pos.push([f32::NAN; 3]);
+    col.push([0, 0, 0]);
+    let mut c = PointCloud::from_positions(pos);
+    c.colors = Some(col);
+    c
+}
+
+#[test]
+fn region_growing_separates_colours_and_reports_segments() {
+    let cloud = two_colour_scene();
+    let s = region_growing_rgb(&cloud, &RegionGrowingParams::default()).unwrap();
+    assert_eq!(s.segments.len(), 2);
+    assert_eq!(s.segments[0].indices, (0..100).collect::<Vec<_>>());
+    assert_eq!(s.segments[1].indices, (100..200).collect::<Vec<_>>());
+    assert_eq!(s.segments[0].mean_color, [200.0, 20.0, 20.0]);
+    assert!(
+        (s.segments[1].min[0] - 0.10).abs() < 1e-3 && (s.segments[1].max[1] - 0.09).abs() < 1e-6
+    );
+    assert_eq!(s.labels[200], UNSEGMENTED);
+    // With a point colour threshold above the colour difference, one segment.
+    let p = RegionGrowingParams {
+        point_color: 300.0,
+        ..Default::default()
+    };
+    assert_eq!(region_growing_rgb(&cloud, &p).unwrap().segments.len(), 1);
+}
+
+#[test]
+fn small_segments_merge_into_the_nearest_unless_switched_off() {
+    let mut cloud = two_colour_scene();
+    // Three green points inside the red patch: a segment below the minimum size.
+    let colors = cloud.colors.as_mut().unwrap();
+    for k in [44, 45, 54] {
+        colors[k] = [20, 200, 20];
+    }
+    let merged = region_growing_rgb(&cloud, &RegionGrowingParams::default()).unwrap();
+    assert_eq!(merged.segments.len(), 2);
+    assert_eq!(merged.segments[0].len(), 100);
+    let off = RegionGrowingParams {
+        merge_small: false,
+        ..Default::default()
+    };
+    let s = region_growing_rgb(&cloud, &off).unwrap();
+    assert_eq!(s.segments.len(), 2);
+    assert_eq!(s.segments[0].len(), 97);
+    assert_eq!(s.labels[44], UNSEGMENTED);
+    let none = RegionGrowingParams {
+        merge_small: false,
+        min_cluster_size: 1,
+        ..Default::default()
+    };
+    assert_eq!(region_growing_rgb(&cloud, &none).unwrap().segments.len(), 3);
+}
+
+#[test]
+fn region_growing_needs_colours_and_valid_parameters() {
+    let c = PointCloud::from_positions(vec![[0.0, 0.0, 0.0]]);
+    assert_eq!(
+        region_growing_rgb(&c, &RegionGrowingParams::default()),
+        Err(SegmentError::NoColors)
+    );
+    let p = RegionGrowingParams {
+        region_neighbours: 0,
+        ..Default::default()
+    };
+    assert!(region_growing_rgb(&two_colour_scene(), &p).is_err());
+}
+
+#[test]
+fn lab_of_primaries_matches_published_values() {
+    // Published sRGB D65 values (CIE76): red L 53.24 a 80.09 b 67.20.
+    let red = rgb_to_lab([255, 0, 0]);
+    assert!(
+        (red[0] - 53.24).abs() < 0.05
+            && (red[1] - 80.09).abs() < 0.1
+            && (red[2] - 67.20).abs() < 0.1,
+        "{red:?}"
+    );
+    let black = rgb_to_lab([0, 0, 0]);
+    assert_eq!(black, [0.0, 0.0, 0.0]);
+    assert!(delta_e(rgb_to_lab([10, 10, 10]), rgb_to_lab([11, 10, 10])) < 1.0);
+}
+
+#[test]
+fn robot_rule_reports_how_the_robot_was_chosen() {
+    let s = region_growing_rgb(&two_colour_scene(), &RegionGrowingParams::default()).unwrap();
+    let rule = RobotRule::Color {
+        rgb: [0, 0, 255],
+        tolerance: 30.0,
+    };
+    let c = select_robot(&s.segments, &rule).unwrap();
+    assert_eq!(c.segment, 1);
+    assert!(matches!(c.chosen_by, ChosenBy::Color { delta_e } if delta_e < 30.0));
+    let c = select_robot(&s.segments, &RobotRule::Largest).unwrap();
+    assert_eq!((c.segment, c.chosen_by), (0, ChosenBy::Largest));
+    let green = RobotRule::Color {
+        rgb: [0, 255, 0],
+        tolerance: 10.0,
+    };
+    assert!(matches!(
+        select_robot(&s.segments, &green),
+        Err(SegmentError::NoRobot(_))
+    ));
+}
+
+#[test]
+fn adjusted_rand_index_is_one_for_renamed_partitions_and_low_for_unrelated_ones() {
+    assert!((adjusted_rand_index(&[1, 1, 2, 2, 3], &[7, 7, 0, 0, 9]) - 1.0).abs() < 1e-12);
+    let a: Vec<u32> = (0..1000).map(|i| i % 2).collect();
+    let b: Vec<u32> = (0..1000).map(|i| (i / 2) % 2).collect();
+    assert!(adjusted_rand_index(&a, &b).abs() < 0.01);
+    assert_eq!(
+        singletons_for(&[0, UNSEGMENTED, UNSEGMENTED], UNSEGMENTED),
+        vec![0, 1, 2]
+    );
+}
+
+#[test]
+fn object_scores_count_matches_at_iou_half() {
+    let reference = [Some(1), Some(1), Some(2), Some(2), Some(3), Some(3), None];
+    let predicted = [0, 0, 1, 1, 1, 1, 5];
+    let s = object_scores(&reference, |r| r >= 2, &predicted, UNSEGMENTED, 0.5);
+    // Object 2 has IoU 2/4 = 0.5 with segment 1 (found); object 3 too: both found.
+    assert_eq!(
+        (s.objects, s.objects_found, s.segments, s.segments_correct),
+        (2, 2, 2, 2)
+    );
+    let s = object_scores(&reference, |r| r >= 2, &predicted, UNSEGMENTED, 0.51);
+    assert_eq!((s.objects_found, s.segments_correct), (0, 1));
+}
+
+/// The grid k-NN equals brute force (sorted by (d², index)) on a jittered dense sheet
+/// with a sparse far cluster (which forces the KD-tree fallback).
+#[test]
+fn knn_all_equals_brute_force() {
+    use softsense::search::{squared_distance, Parallelism};
+    use softsense::segment::knn::knn_all;
+    let mut pts = Vec::new();
+    for i in 0..60 {
+        for j in 0..40 {
+            let s = ((i * 7919 + j * 104729) % 1000) as f32 * 1e-6;
+            pts.push([i as f32 * 0.002 + s, j as f32 * 0.002 - s, 1.0 + 3.0 * s]);
+        }
+    }
+    for i in 0..30 {
+        pts.push([5.0 + i as f32 * 0.37, -2.0, 3.0 + (i % 3) as f32]);
+    }
+    let k = 25;
+    let t = knn_all(&pts, k, Parallelism::Serial);
+    for (i, q) in pts.iter().enumerate() {
+        let mut all: Vec<(f32, u32)> = pts
+            .iter()
+            .enumerate()
+            .map(|(j, p)| (squared_distance(q, p), j as u32))
+            .collect();
+        all.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let want: Vec<u32> = all[..k].iter().map(|x| x.1).collect();
+        assert_eq!(&t.idx[i * k..(i + 1) * k], &want[..], "point {i}");
+    }
+}
