@@ -46,6 +46,22 @@ pub struct OracleResult {
 }
 
 impl OracleResult {
+    /// `json["clusters"]` as lists of input indices; panics if absent (not a clustering stage).
+    pub fn clusters(&self) -> Vec<Vec<usize>> {
+        self.json["clusters"]
+            .as_array()
+            .expect("result.json has no `clusters`")
+            .iter()
+            .map(|c| {
+                c.as_array()
+                    .expect("a cluster is a list of indices")
+                    .iter()
+                    .map(|v| v.as_u64().expect("an index") as usize)
+                    .collect()
+            })
+            .collect()
+    }
+
     /// `json["indices"]` as `usize`s; panics if absent (the stage selects no points).
     pub fn indices(&self) -> Vec<usize> {
         self.json["indices"]

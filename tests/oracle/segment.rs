@@ -46,21 +46,6 @@ pub fn voxelized(
     Some((dir, file, back))
 }
 
-fn oracle_clusters(r: &oracle::OracleResult) -> Vec<Vec<usize>> {
-    r.json["clusters"]
-        .as_array()
-        .expect("clusters")
-        .iter()
-        .map(|c| {
-            c.as_array()
-                .expect("cluster")
-                .iter()
-                .map(|v| v.as_u64().expect("index") as usize)
-                .collect()
-        })
-        .collect()
-}
-
 fn as_sets(clusters: &[Vec<usize>]) -> BTreeSet<Vec<usize>> {
     clusters
         .iter()
@@ -86,7 +71,7 @@ fn euclidean_clusters_equal_pcl_partitions_on_real_clouds() {
             let Some(r) = oracle::run(Lib::Pcl, "euclidean", &file, params) else {
                 return;
             };
-            let pcl = oracle_clusters(&r);
+            let pcl = r.clusters();
             let ours = euclidean_clusters(
                 &cloud.positions,
                 &EuclideanParams {
@@ -165,7 +150,7 @@ fn region_growing_rgb_matches_pcl_on_real_clouds() {
             else {
                 return;
             };
-            let pcl = oracle_clusters(&r);
+            let pcl = r.clusters();
             let ours = region_growing_rgb(&cloud, &params).expect("rg");
             let ours_c = ours.clusters();
             let n = cloud.len();
@@ -211,7 +196,7 @@ fn region_growing_rgb_full_frame_vs_pcl() {
     let Some(r) = oracle::run(Lib::Pcl, "region_growing_rgb", &path, rg_json(&params)) else {
         return;
     };
-    let pcl = oracle_clusters(&r);
+    let pcl = r.clusters();
     let ours = region_growing_rgb(&cloud, &params).expect("rg");
     let n = cloud.len();
     let a = singletons_for(&labels_from_clusters(n, &pcl, UNSEGMENTED), UNSEGMENTED);

@@ -67,21 +67,6 @@ impl Tally {
     }
 }
 
-fn clusters_of(r: &oracle::OracleResult) -> Vec<Vec<usize>> {
-    r.json["clusters"]
-        .as_array()
-        .expect("clusters")
-        .iter()
-        .map(|c| {
-            c.as_array()
-                .expect("cluster")
-                .iter()
-                .map(|v| v.as_u64().expect("idx") as usize)
-                .collect()
-        })
-        .collect()
-}
-
 #[test]
 fn mosd_segmentation_quality_against_labels() {
     let Some(dir) = common::data_dir("mOSD segmentation quality") else {
@@ -117,11 +102,11 @@ fn mosd_segmentation_quality_against_labels() {
         ) else {
             return;
         };
-        let pcl = labels_from_clusters(n, &clusters_of(&pcl), UNSEGMENTED);
+        let pcl = labels_from_clusters(n, &pcl.clusters(), UNSEGMENTED);
         let Some(o3d) = oracle::run(Lib::Open3d, "cluster_dbscan", &file, dbscan.clone()) else {
             return;
         };
-        let o3d = labels_from_clusters(n, &clusters_of(&o3d), UNSEGMENTED);
+        let o3d = labels_from_clusters(n, &o3d.clusters(), UNSEGMENTED);
 
         let keep: Vec<usize> = (0..n).filter(|&i| truth[i] != 0).collect();
         let reference: Vec<Option<u32>> = truth.iter().map(|&l| (l != 0).then_some(l)).collect();
