@@ -5,6 +5,14 @@ pub mod oracle;
 
 use std::path::PathBuf;
 
+/// Reports a skipped test on the process's stderr handle. libtest captures `eprintln!`
+/// of passing tests, which would hide the reason; writing to the handle does not, so every
+/// skip shows in a plain `cargo test` run.
+pub fn skipped(test: &str, why: &str) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stderr().lock(), "SKIPPED {test}: {why}");
+}
+
 /// The real third-party data folder from `SOFTSENSE_DATA`.
 ///
 /// - unset: prints why the calling test is skipped and returns `None`;
@@ -12,7 +20,10 @@ use std::path::PathBuf;
 pub fn data_dir(test: &str) -> Option<PathBuf> {
     match std::env::var_os("SOFTSENSE_DATA") {
         None => {
-            eprintln!("SKIPPED {test}: SOFTSENSE_DATA is not set (see ../shared/data/README.md)");
+            skipped(
+                test,
+                "SOFTSENSE_DATA is not set (see ../shared/data/README.md)",
+            );
             None
         }
         Some(dir) => {

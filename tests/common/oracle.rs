@@ -187,9 +187,12 @@ pub fn available(lib: Lib, test: &str) -> bool {
             )
         }
         Err(why) => {
-            eprintln!(
-                "SKIPPED {test}: {} oracle unavailable ({why}); run tools/oracle/install.sh",
-                lib.name()
+            super::skipped(
+                test,
+                &format!(
+                    "{} oracle unavailable ({why}); run tools/oracle/install.sh",
+                    lib.name()
+                ),
             );
             false
         }

@@ -26,8 +26,9 @@ fn skfem_displacements(
         if std::env::var_os("SOFTSENSE_ORACLES").is_some() {
             panic!("SOFTSENSE_ORACLES is set but python3 with scikit-fem is not available");
         }
-        eprintln!(
-            "SKIPPED {test}: python3 with scikit-fem is not available (pip install scikit-fem)"
+        crate::common::skipped(
+            test,
+            "python3 with scikit-fem is not available (pip install scikit-fem)",
         );
         return None;
     }

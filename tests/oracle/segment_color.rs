@@ -17,7 +17,10 @@ fn opencv_available(test: &str) -> bool {
             std::env::var_os("SOFTSENSE_ORACLES").is_none_or(|v| v != "1"),
             "{test}: SOFTSENSE_ORACLES=1 but OpenCV (cv2) is not importable"
         );
-        eprintln!("SKIPPED {test}: OpenCV is not importable; run tools/oracle/install.sh");
+        common::skipped(
+            test,
+            "OpenCV is not importable; run tools/oracle/install.sh",
+        );
     }
     ok
 }
