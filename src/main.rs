@@ -14,7 +14,11 @@ mod cli;
     about,
     long_about = "softsense: make a soft robot its own force sensor from RGB-D frames.\n\n\
 Reads and writes point clouds (PCD ascii/binary/binary_compressed, PLY, XYZ) and turns \
-RGB-D image pairs into organized clouds, with PCL's and Open3D's conventions.\n\n\
+RGB-D image pairs into organized clouds; filters them (pass-through, voxel grid, outlier \
+removal, normals), segments them (colour region growing, Euclidean clusters) and finds \
+contacts, each stage with PCL's or Open3D's exact semantics; solves the robot's \
+finite-element model (static solve, compliance) and renders synthetic RGB-D scenes with \
+known loads.\n\n\
 Results go to stdout (as JSON with --json); human messages go to stderr. Exit codes: \
 0 success, 1 a file or its content was refused (the message names the file), 2 bad \
 command-line usage.",
