@@ -32,6 +32,9 @@ pub enum Error {
     /// Segmentation or clustering was given invalid parameters or data.
     #[error(transparent)]
     Segment(#[from] crate::segment::SegmentError),
+    /// Force sensing.
+    #[error(transparent)]
+    Sense(#[from] crate::sense::SenseError),
 }
 
 /// `Result` with the crate-level [`Error`](enum@Error).

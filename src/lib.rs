@@ -40,6 +40,7 @@ pub mod register;
 pub mod scene;
 pub mod search;
 pub mod segment;
+pub mod sense;
 
 pub use cloud::PointCloud;
 pub use error::{Error, Result};

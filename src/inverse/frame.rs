@@ -9,13 +9,26 @@ use crate::fem::model::Model;
 use crate::fem::solve::{CableControl, MappedPoint, PointLoad};
 use crate::register::{RegisterParams, Registrar, SurfaceFeature};
 
-/// A candidate force: a surface node and the force direction (unit after normalising).
+/// A candidate force: a point on the mesh and the force direction (unit after normalising).
 #[derive(Clone, Copy, Debug)]
 pub struct Candidate {
-    /// Node of the mesh.
-    pub node: usize,
+    /// Where the force acts.
+    pub at: MappedPoint,
     /// Direction of a positive intensity.
     pub direction: [f64; 3],
+    /// Whether the intensity is bounded below by zero (a push, or a hanging weight).
+    pub push_only: bool,
+}
+
+impl Candidate {
+    /// A pushing-only force on node `node` along `direction`.
+    pub fn at_node(node: usize, direction: [f64; 3]) -> Self {
+        Self {
+            at: MappedPoint::node(node),
+            direction,
+            push_only: true,
+        }
+    }
 }
 
 /// Options of the per-frame loop.
@@ -82,8 +95,8 @@ pub fn estimate(
         let mut problem = base.clone();
         for (c, f) in candidates.iter().zip(&forces) {
             problem.loads.push(PointLoad {
-                at: MappedPoint::node(c.node),
-                force: c.direction.map(|d| d * f),
+                at: c.at,
+                force: crate::math::unit(c.direction).map(|d| d * f),
             });
         }
         let sol = problem.solve_static(&model.newton)?;
@@ -120,11 +133,7 @@ pub fn estimate(
         }
         let na = base.cables.len();
         for c in candidates {
-            rows.push(ConstraintRow::along(
-                RowKind::Force,
-                &MappedPoint::node(c.node),
-                c.direction,
-            )?);
+            rows.push(ConstraintRow::along(RowKind::Force, &c.at, c.direction)?);
         }
         let nf = candidates.len();
         let mut solver = base.solver()?;
@@ -147,7 +156,7 @@ pub fn estimate(
             w_af: comp.block(&a, &fo),
             delta_free_a: comp.delta_free[ne..ne + na].to_vec(),
             actuators: inputs,
-            push_only: vec![true; nf],
+            push_only: candidates.iter().map(|c| c.push_only).collect(),
         };
         if ne == 0 {
             return Err(InverseError::Intensity("no visible feature point".into()));
