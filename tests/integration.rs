@@ -3,11 +3,15 @@ mod common;
 
 #[path = "integration/cli.rs"]
 mod cli;
+#[path = "integration/cli_sense.rs"]
+mod cli_sense;
 #[path = "integration/fem_cantilever.rs"]
 mod fem_cantilever;
 #[path = "integration/fem_diamond.rs"]
 mod fem_diamond;
 #[path = "integration/fem_skfem.rs"]
 mod fem_skfem;
+#[path = "integration/sense_probe.rs"]
+mod sense_probe;
 #[path = "integration/sense_tip_weight.rs"]
 mod sense_tip_weight;

@@ -46,19 +46,10 @@ fn parse_robot_color(s: &str) -> Result<([u8; 3], f64), String> {
         Some((c, t)) => (c, t.parse::<f64>().map_err(|e| format!("tolerance: {e}"))?),
         None => (s, 20.0),
     };
-    let parts: Vec<&str> = rgb.split(',').collect();
-    let [r, g, b] = parts[..] else {
-        return Err("expected R,G,B[:TOL], e.g. 30,60,200:25".into());
-    };
-    let c = |v: &str| {
-        v.trim()
-            .parse::<u8>()
-            .map_err(|e| format!("colour {v:?}: {e}"))
-    };
     if !(tol.is_finite() && tol >= 0.0) {
         return Err("tolerance must be finite and >= 0".into());
     }
-    Ok(([c(r)?, c(g)?, c(b)?], tol))
+    Ok((super::parse_rgb(rgb)?, tol))
 }
 
 /// Runs the subcommand.

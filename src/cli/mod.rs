@@ -83,3 +83,17 @@ pub fn print_json(value: &serde_json::Value) -> CliResult {
         _ => Ok(()),
     }
 }
+
+/// Parses `R,G,B` (0-255 each), e.g. `40,200,60`.
+pub fn parse_rgb(s: &str) -> Result<[u8; 3], String> {
+    let parts: Vec<&str> = s.split(',').collect();
+    let [r, g, b] = parts[..] else {
+        return Err(format!("expected R,G,B, e.g. 40,200,60 (got {s:?})"));
+    };
+    let c = |v: &str| {
+        v.trim()
+            .parse::<u8>()
+            .map_err(|e| format!("colour {v:?}: {e}"))
+    };
+    Ok([c(r)?, c(g)?, c(b)?])
+}

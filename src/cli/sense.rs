@@ -40,24 +40,11 @@ pub struct SenseArgs {
     #[arg(long, value_name = "N", default_value_t = 51)]
     pub features: usize,
     /// Robot colour (sRGB) for the colour model.
-    #[arg(long, value_name = "R,G,B", value_parser = parse_rgb, default_value = "40,200,60")]
+    #[arg(long, value_name = "R,G,B", value_parser = super::parse_rgb, default_value = "40,200,60")]
     pub robot_color: [u8; 3],
     /// Print one JSON object per frame (JSON lines) instead of a table.
     #[arg(long)]
     pub json: bool,
-}
-
-fn parse_rgb(s: &str) -> Result<[u8; 3], String> {
-    let parts: Vec<&str> = s.split(',').collect();
-    let [r, g, b] = parts[..] else {
-        return Err("expected R,G,B, e.g. 40,200,60".into());
-    };
-    let c = |v: &str| {
-        v.trim()
-            .parse::<u8>()
-            .map_err(|e| format!("colour {v:?}: {e}"))
-    };
-    Ok([c(r)?, c(g)?, c(b)?])
 }
 
 pub fn run(args: &SenseArgs) -> CliResult {
@@ -96,7 +83,7 @@ pub fn run(args: &SenseArgs) -> CliResult {
     for &frame in &rec.frames {
         let mut report = match sensor.observe(&rec, frame) {
             Ok(obs) => sensor.sense(frame, &obs, rec.actuators_of(frame)),
-            Err(e) => unreadable(frame, e.to_string()),
+            Err(e) => FrameReport::empty(frame, FrameStatus::Unreadable(e.to_string())),
         };
         if let Some(t) = rec.truth_of(frame) {
             report.errors = Some(compare(&report, t));
@@ -124,25 +111,6 @@ pub fn run(args: &SenseArgs) -> CliResult {
         return Err(CliError::Result("no frame could be sensed".into()));
     }
     Ok(())
-}
-
-fn unreadable(frame: usize, why: String) -> FrameReport {
-    FrameReport {
-        frame,
-        status: FrameStatus::Unreadable(why),
-        robot_points: 0,
-        object_points: 0,
-        forces: Vec::new(),
-        actuators: Vec::new(),
-        features_visible: 0,
-        features: 0,
-        residual_rms: f64::NAN,
-        updates: 0,
-        identifiability: None,
-        warnings: Vec::new(),
-        errors: None,
-        ms: 0.0,
-    }
 }
 
 fn print_human(r: &FrameReport) {

@@ -363,6 +363,17 @@ impl Problem {
     pub fn solve_static(&self, params: &NewtonParams) -> FemResult<Solution> {
         self.solver()?.solve_static(params)
     }
+
+    /// As [`Problem::solve_static`], starting Newton from a nearby equilibrium `start`
+    /// (positions and cable tensions, e.g. the previous solution) in one load step: a warm
+    /// start for sequences of nearby problems.
+    pub fn solve_static_from(
+        &self,
+        params: &NewtonParams,
+        start: &Solution,
+    ) -> FemResult<Solution> {
+        self.solver()?.solve_static_from(params, Some(start))
+    }
 }
 
 fn spans_plane(pts: &[[f64; 3]], scale: f64) -> bool {
@@ -676,9 +687,31 @@ impl<'p> Solver<'p> {
 
     /// Static equilibrium by Newton iterations (with optional load stepping).
     pub fn solve_static(&mut self, params: &NewtonParams) -> FemResult<Solution> {
+        self.solve_static_from(params, None)
+    }
+
+    /// Static equilibrium by Newton iterations, from `start` (one load step) when given.
+    pub fn solve_static_from(
+        &mut self,
+        params: &NewtonParams,
+        start: Option<&Solution>,
+    ) -> FemResult<Solution> {
         let p = self.problem;
         let nn = p.mesh.num_nodes();
-        let mut x = p.initial_positions();
+        let warm =
+            start.filter(|s| s.positions.len() == nn && s.cable_tension.len() == p.cables.len());
+        let mut x = match warm {
+            Some(s) => {
+                let mut x = s.positions.clone();
+                // Held nodes keep their prescribed positions.
+                let x0 = p.initial_positions();
+                for v in p.held_nodes() {
+                    x[v] = x0[v];
+                }
+                x
+            }
+            None => p.initial_positions(),
+        };
         let f_ext_full = p.external_forces();
         let l0: Vec<f64> = p
             .cables
@@ -688,16 +721,21 @@ impl<'p> Solver<'p> {
         let mut tension: Vec<f64> = p
             .cables
             .iter()
-            .map(|c| match c.control {
+            .enumerate()
+            .map(|(i, c)| match c.control {
                 CableControl::Force(f) => f,
-                CableControl::Displacement(_) => 0.0,
+                CableControl::Displacement(_) => warm.map_or(0.0, |s| s.cable_tension[i]),
             })
             .collect();
         let mut slack = vec![false; p.cables.len()];
         let mut disp_cables: Vec<usize> = (0..p.cables.len())
             .filter(|&i| matches!(p.cables[i].control, CableControl::Displacement(_)))
             .collect();
-        let steps = params.load_steps.max(1);
+        let steps = if warm.is_some() {
+            1
+        } else {
+            params.load_steps.max(1)
+        };
         let mut residuals = Vec::new();
         let mut iterations = 0;
         let mut converged = false;

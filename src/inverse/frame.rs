@@ -6,7 +6,7 @@ use super::intensity::{ActuatorInput, IntensityEstimate, IntensityParams, Intens
 use super::{InverseError, InverseResult};
 use crate::fem::constraint::{ConstraintRow, RowKind};
 use crate::fem::model::Model;
-use crate::fem::solve::{CableControl, MappedPoint, PointLoad};
+use crate::fem::solve::{CableControl, MappedPoint, PointLoad, Solution};
 use crate::register::{RegisterParams, Registrar, SurfaceFeature};
 
 /// A candidate force: a point on the mesh and the force direction (unit after normalising).
@@ -71,12 +71,14 @@ pub struct FrameEstimate {
 /// Estimates the candidate forces from measured robot points (robot frame, m). The model's
 /// cable controls are the actuator inputs; `features` are points on flat surface patches
 /// (see [`crate::register::surface_features`]), matched along their patch normals at each FE
-/// state, so a measured surface equal to the model's gives zero offsets.
+/// state, so a measured surface equal to the model's gives zero offsets. `start`: a nearby
+/// equilibrium of the same model (e.g. without the candidate forces) to warm-start Newton.
 pub fn estimate(
     model: &Model,
     points: &[[f64; 3]],
     features: &[SurfaceFeature],
     candidates: &[Candidate],
+    start: Option<&Solution>,
     params: &FrameParams,
 ) -> InverseResult<FrameEstimate> {
     let base = {
@@ -90,6 +92,9 @@ pub fn estimate(
     let mut last: Option<(IntensityEstimate, usize)> = None;
     let mut x = rest.clone();
     let mut updates = 0;
+    let mut prev: Option<Solution> = None;
+    let mut omega = 1.0;
+    let mut r_prev: Option<Vec<f64>> = None;
     for _ in 0..params.max_updates {
         // FE state under the current forces.
         let mut problem = base.clone();
@@ -99,83 +104,40 @@ pub fn estimate(
                 force: crate::math::unit(c.direction).map(|d| d * f),
             });
         }
-        let sol = problem.solve_static(&model.newton)?;
-        x = sol.positions;
-        updates += 1;
-        // Register at the current state.
-        let mut rows = Vec::new();
-        let mut measured = Vec::new();
-        for f in features {
-            let (p, n) = (f.position(&x), f.normal(&x));
-            if n == [0.0; 3] {
-                continue;
-            }
-            if let Some(m) = registrar.match_feature(p, n, &params.register) {
-                let row = ConstraintRow::along(RowKind::Effector, &f.mapped(), n)?;
-                measured.push(row.value(&x) + m.offset);
-                rows.push(row);
-            }
-        }
-        let visible = rows.len();
-        let ne = rows.len();
-        let mut inputs = Vec::new();
-        for c in &base.cables {
-            let row = ConstraintRow::cable(c, &x);
-            inputs.push(match c.control {
-                CableControl::Force(f) => ActuatorInput::Force(f),
-                CableControl::Displacement(s) => {
-                    // Target in row units: value(x) + (s_target - s(x)).
-                    let s_now = c.length(&rest) - c.length(&x);
-                    ActuatorInput::Displacement(row.value(&x) + s - s_now)
-                }
-            });
-            rows.push(row);
-        }
-        let na = base.cables.len();
-        for c in candidates {
-            rows.push(ConstraintRow::along(RowKind::Force, &c.at, c.direction)?);
-        }
-        let nf = candidates.len();
-        let mut solver = base.solver()?;
-        solver.tangent_at(&x, Default::default())?;
-        let mut full = base.external_forces();
-        for (f, fi) in full.iter_mut().zip(&solver.internal_force) {
-            *f -= fi;
-        }
-        let r = solver.dofs.gather(&full);
-        let comp = solver.compliance(&rows, &x, &r)?;
-        let e: Vec<usize> = (0..ne).collect();
-        let a: Vec<usize> = (ne..ne + na).collect();
-        let fo: Vec<usize> = (ne + na..ne + na + nf).collect();
-        let prob = IntensityProblem {
-            w_ea: comp.block(&e, &a),
-            w_ef: comp.block(&e, &fo),
-            delta_free_e: comp.delta_free[..ne].to_vec(),
-            delta_measured: measured,
-            w_aa: comp.block(&a, &a),
-            w_af: comp.block(&a, &fo),
-            delta_free_a: comp.delta_free[ne..ne + na].to_vec(),
-            actuators: inputs,
-            push_only: candidates.iter().map(|c| c.push_only).collect(),
+        // Warm start from the previous state (or the caller's), from rest otherwise.
+        let sol = match prev.as_ref().or(start) {
+            Some(s) => problem.solve_static_from(&model.newton, s)?,
+            None => problem.solve_static(&model.newton)?,
         };
-        if ne == 0 {
-            return Err(InverseError::Intensity("no visible feature point".into()));
-        }
+        x = sol.positions.clone();
+        prev = Some(sol);
+        updates += 1;
+        let (prob, visible) = linearise(&base, &x, &registrar, features, candidates, params)?;
         let est = prob.solve(&params.intensity)?;
         if !est.status.is_solution() {
             return Err(InverseError::NotSolved(est.status));
         }
-        let change = est
-            .forces
-            .iter()
-            .zip(&forces)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max);
-        forces = est.forces.clone();
+        // Fixed point forces = QP(state(forces)), with Aitken's dynamic relaxation: the
+        // linearisation at a loaded state is not exact, and plain substitution oscillates
+        // (seen: period-2 in the tangential components, damped by only ~0.85 per update).
+        let r: Vec<f64> = est.forces.iter().zip(&forces).map(|(a, b)| a - b).collect();
+        let change = r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        if let Some(rp) = &r_prev {
+            let dr: Vec<f64> = r.iter().zip(rp).map(|(a, b)| a - b).collect();
+            let dd: f64 = dr.iter().map(|v| v * v).sum();
+            if dd > 0.0 {
+                let num: f64 = rp.iter().zip(&dr).map(|(a, b)| a * b).sum();
+                omega = (-omega * num / dd).clamp(0.1, 1.5);
+            }
+        }
         last = Some((est, visible));
         if change < params.force_tol {
             break;
         }
+        for (f, rk) in forces.iter_mut().zip(&r) {
+            *f += omega * rk;
+        }
+        r_prev = Some(r);
     }
     let (estimate, visible) =
         last.ok_or_else(|| InverseError::Intensity("max_updates is zero".into()))?;
@@ -185,4 +147,182 @@ pub fn estimate(
         updates,
         positions: x,
     })
+}
+
+/// The intensity problem linearised at node positions `x` (an equilibrium of `base` plus
+/// some candidate loads): features registered at `x`, compliance of the feature, actuator
+/// and candidate rows. Returns the problem and the number of visible features.
+fn linearise(
+    base: &crate::fem::solve::Problem,
+    x: &[[f64; 3]],
+    registrar: &Registrar,
+    features: &[SurfaceFeature],
+    candidates: &[Candidate],
+    params: &FrameParams,
+) -> InverseResult<(IntensityProblem, usize)> {
+    let rest = &base.mesh.nodes_in_rest;
+    // Register at the current state.
+    let mut rows = Vec::new();
+    let mut measured = Vec::new();
+    for f in features {
+        let (p, n) = (f.position(x), f.normal(x));
+        if n == [0.0; 3] {
+            continue;
+        }
+        if let Some(m) = registrar.match_feature(p, n, &params.register) {
+            let row = ConstraintRow::along(RowKind::Effector, &f.mapped(), n)?;
+            measured.push(row.value(x) + m.offset);
+            rows.push(row);
+        }
+    }
+    let visible = rows.len();
+    let ne = rows.len();
+    let mut inputs = Vec::new();
+    for c in &base.cables {
+        let row = ConstraintRow::cable(c, x);
+        inputs.push(match c.control {
+            CableControl::Force(f) => ActuatorInput::Force(f),
+            CableControl::Displacement(s) => {
+                // Target in row units: value(x) + (s_target - s(x)).
+                let s_now = c.length(rest) - c.length(x);
+                ActuatorInput::Displacement(row.value(x) + s - s_now)
+            }
+        });
+        rows.push(row);
+    }
+    let na = base.cables.len();
+    for c in candidates {
+        rows.push(ConstraintRow::along(RowKind::Force, &c.at, c.direction)?);
+    }
+    let nf = candidates.len();
+    let mut solver = base.solver()?;
+    solver.tangent_at(x, Default::default())?;
+    let mut full = base.external_forces();
+    for (f, fi) in full.iter_mut().zip(&solver.internal_force) {
+        *f -= fi;
+    }
+    let r = solver.dofs.gather(&full);
+    let comp = solver.compliance(&rows, x, &r)?;
+    let e: Vec<usize> = (0..ne).collect();
+    let a: Vec<usize> = (ne..ne + na).collect();
+    let fo: Vec<usize> = (ne + na..ne + na + nf).collect();
+    let prob = IntensityProblem {
+        w_ea: comp.block(&e, &a),
+        w_ef: comp.block(&e, &fo),
+        delta_free_e: comp.delta_free[..ne].to_vec(),
+        delta_measured: measured,
+        w_aa: comp.block(&a, &a),
+        w_af: comp.block(&a, &fo),
+        delta_free_a: comp.delta_free[ne..ne + na].to_vec(),
+        actuators: inputs,
+        push_only: candidates.iter().map(|c| c.push_only).collect(),
+    };
+    if ne == 0 {
+        return Err(InverseError::Intensity("no visible feature point".into()));
+    }
+    Ok((prob, visible))
+}
+
+/// Location mapping by the data: for each seen contact, a list of options (each option the
+/// candidate forces of one location, e.g. three directions at one surface node). Linearised
+/// once at the equilibrium node positions `at` (compliance of every option's rows in one computation), every
+/// combination of one option per contact is solved as an intensity QP and the combination
+/// with the smallest residual wins. Returns the chosen option per contact. More than
+/// `max_combinations` combinations: coordinate descent from the first options instead.
+pub fn choose_locations(
+    model: &Model,
+    points: &[[f64; 3]],
+    features: &[SurfaceFeature],
+    options: &[Vec<Vec<Candidate>>],
+    at: &[[f64; 3]],
+    params: &FrameParams,
+    max_combinations: usize,
+) -> InverseResult<Vec<usize>> {
+    if options.iter().any(|o| o.is_empty()) {
+        return Err(InverseError::Intensity(
+            "a contact has no location option".into(),
+        ));
+    }
+    let mut base = model.problem.clone();
+    base.loads.clear();
+    let registrar = Registrar::new(points);
+    // Columns of each option in the joint candidate list.
+    let mut all = Vec::new();
+    let mut cols: Vec<Vec<Vec<usize>>> = Vec::new();
+    for group in options {
+        let mut g = Vec::new();
+        for opt in group {
+            g.push((all.len()..all.len() + opt.len()).collect());
+            all.extend_from_slice(opt);
+        }
+        cols.push(g);
+    }
+    let (joint, _) = linearise(&base, at, &registrar, features, &all, params)?;
+    let residual = |choice: &[usize]| -> f64 {
+        let idx: Vec<usize> = choice
+            .iter()
+            .zip(&cols)
+            .flat_map(|(&c, g)| g[c].iter().copied())
+            .collect();
+        let sub = IntensityProblem {
+            w_ef: joint.w_ef.select_columns(idx.iter()),
+            w_af: joint.w_af.select_columns(idx.iter()),
+            push_only: idx.iter().map(|&i| joint.push_only[i]).collect(),
+            ..joint.clone()
+        };
+        match sub.solve(&params.intensity) {
+            Ok(e) if e.status.is_solution() => e.residual_rms,
+            _ => f64::INFINITY,
+        }
+    };
+    let total: usize = options
+        .iter()
+        .map(|o| o.len())
+        .try_fold(1usize, |a, b| a.checked_mul(b))
+        .unwrap_or(usize::MAX);
+    let mut best = vec![0; options.len()];
+    if total <= max_combinations {
+        let mut choice = vec![0; options.len()];
+        let mut best_r = f64::INFINITY;
+        loop {
+            let r = residual(&choice);
+            if r < best_r {
+                best_r = r;
+                best.clone_from(&choice);
+            }
+            // Next combination (odometer order).
+            let mut k = 0;
+            loop {
+                if k == choice.len() {
+                    return Ok(best);
+                }
+                choice[k] += 1;
+                if choice[k] < options[k].len() {
+                    break;
+                }
+                choice[k] = 0;
+                k += 1;
+            }
+        }
+    }
+    let mut best_r = residual(&best);
+    for _sweep in 0..3 {
+        let mut improved = false;
+        for g in 0..options.len() {
+            for c in 0..options[g].len() {
+                let mut trial = best.clone();
+                trial[g] = c;
+                let r = residual(&trial);
+                if r < best_r {
+                    best_r = r;
+                    best = trial;
+                    improved = true;
+                }
+            }
+        }
+        if !improved {
+            break;
+        }
+    }
+    Ok(best)
 }

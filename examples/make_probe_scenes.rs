@@ -1,0 +1,132 @@
+//! Writes the probe scene files `clouds/scenes/probe_side.toml` (one probe at each of 5
+//! random places on the robot's sides, one per frame) and `clouds/scenes/two_probes.toml`
+//! (two probes at once, 3 frames). Places are drawn (fixed seed) among surface nodes the
+//! default camera sees, on the legs (z > 20 mm) and facing sideways (|n_z| < 0.5); the force
+//! pushes along the inward normal tilted by up to 15 degrees, 0.3-0.8 N.
+//!
+//! Run: `cargo run --release --example make_probe_scenes`, then
+//! `softsense scene generate clouds/scenes/probe_side.toml clouds/scenes/probe_side` (and the
+//! same for two_probes).
+use softsense::fem::model::Model;
+use softsense::register::vertex_normals;
+use softsense::scene::camera::CameraSpec;
+use softsense::scene::raycast::Bvh;
+use std::fmt::Write as _;
+use std::path::Path;
+
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f64 {
+        // splitmix64
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+fn main() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let model = Model::load(&root.join("meshes/models/robot.toml"), None).expect("robot model");
+    let mesh = &model.problem.mesh;
+    let s = mesh.surface();
+    let x = &mesh.nodes_in_rest;
+    let n = vertex_normals(x, &s.triangles);
+    let eye = CameraSpec::default().eye;
+    let bvh = Bvh::new(x, &s.triangles);
+    let candidates: Vec<usize> = s
+        .nodes
+        .iter()
+        .copied()
+        .filter(|&v| {
+            let p = x[v];
+            let d = [p[0] - eye[0], p[1] - eye[1], p[2] - eye[2]];
+            let dist = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            let facing = -(d[0] * n[v][0] + d[1] * n[v][1] + d[2] * n[v][2]) / dist;
+            let seen = bvh
+                .cast(eye, d)
+                .is_some_and(|h| (h.t - 1.0).abs() * dist < 1e-6);
+            p[2] > 0.02 && n[v][2].abs() < 0.5 && facing > 0.5 && seen
+        })
+        .collect();
+    eprintln!("{} candidate places", candidates.len());
+    let mut rng = Rng(2026);
+    let probe = |rng: &mut Rng, v: usize| -> String {
+        // Inward normal tilted by up to 15 degrees about a random axis.
+        let inward = n[v].map(|c| -c);
+        let a = if inward[0].abs() < 0.9 {
+            [1.0, 0.0, 0.0]
+        } else {
+            [0.0, 1.0, 0.0]
+        };
+        let t1 = unit(cross(inward, a));
+        let t2 = cross(inward, t1);
+        let (tilt, phi) = (
+            15f64.to_radians() * rng.next(),
+            std::f64::consts::TAU * rng.next(),
+        );
+        let mag = 0.3 + 0.5 * rng.next();
+        let dir: Vec<f64> = (0..3)
+            .map(|k| tilt.cos() * inward[k] + tilt.sin() * (phi.cos() * t1[k] + phi.sin() * t2[k]))
+            .collect();
+        format!(
+            "[[frames.loads]]\nkind = \"probe\"\nat = [{:.5}, {:.5}, {:.5}]\nforce = [{:.4}, {:.4}, {:.4}]\n",
+            x[v][0], x[v][1], x[v][2], mag * dir[0], mag * dir[1], mag * dir[2]
+        )
+    };
+    let header = |what: &str, seed: u64| {
+        format!(
+            "# {what}\n# Made by `cargo run --example make_probe_scenes` (fixed seed); regenerate the frames:\n\
+             # softsense scene generate clouds/scenes/<name>.toml clouds/scenes/<name>\n\
+             model = \"../../meshes/models/robot.toml\"\nseed = {seed}\n\n[sensor]\nenabled = true\n\
+             depth_k = 0.002        # sigma = k z^2: 0.5 mm at 0.5 m\ncolor_sigma = 3.0\n"
+        )
+    };
+    let mut one = header(
+        "A probe pushing on the robot's side at 5 random places, one per frame.",
+        11,
+    );
+    for _ in 0..5 {
+        let v = candidates[(rng.next() * candidates.len() as f64) as usize];
+        let _ = write!(one, "\n[[frames]]\n{}", probe(&mut rng, v));
+    }
+    std::fs::write(root.join("clouds/scenes/probe_side.toml"), one).expect("write");
+    let mut two = header(
+        "Two probes pushing at once at random places at least 50 mm apart.",
+        12,
+    );
+    for _ in 0..3 {
+        let a = candidates[(rng.next() * candidates.len() as f64) as usize];
+        let b = loop {
+            let b = candidates[(rng.next() * candidates.len() as f64) as usize];
+            let d: f64 = (0..3)
+                .map(|k| (x[a][k] - x[b][k]).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            if d > 0.05 {
+                break b;
+            }
+        };
+        let _ = write!(
+            two,
+            "\n[[frames]]\n{}{}",
+            probe(&mut rng, a),
+            probe(&mut rng, b)
+        );
+    }
+    std::fs::write(root.join("clouds/scenes/two_probes.toml"), two).expect("write");
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+fn unit(a: [f64; 3]) -> [f64; 3] {
+    let l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+    a.map(|c| c / l)
+}

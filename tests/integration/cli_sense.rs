@@ -1,0 +1,86 @@
+//! `softsense sense` as a user runs it: JSON lines per frame, errors against truth, and
+//! clear failures on bad input.
+use std::path::Path;
+use std::process::Command;
+
+fn sense(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_softsense"))
+        .arg("sense")
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("run softsense")
+}
+
+#[test]
+fn sense_prints_one_json_object_per_frame_with_errors_against_truth() {
+    let out = sense(&["clouds/scenes/tip_weight", "--json"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8(out.stdout).unwrap();
+    let frames: Vec<serde_json::Value> = text
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("each line is JSON"))
+        .collect();
+    assert_eq!(frames.len(), 4);
+    for (i, f) in frames.iter().enumerate() {
+        assert_eq!(f["frame"], i);
+        assert_eq!(f["status"], "sensed", "{f}");
+        assert!(f["features_visible"].as_u64().unwrap() > 30);
+        let forces = f["forces"].as_array().unwrap();
+        assert_eq!(forces.len(), 1);
+        let errors = f["errors"].as_array().unwrap();
+        // Frame 0 carries no load; frames 1-3 one weight each.
+        assert_eq!(errors.len(), usize::from(i > 0));
+        for e in errors {
+            assert!(e["magnitude_error"].as_f64().unwrap() < 0.02, "{e}");
+        }
+    }
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("4/4 frames sensed"), "{stderr}");
+}
+
+#[test]
+fn sense_on_a_missing_or_empty_folder_fails_with_a_message() {
+    let out = sense(&["no/such/folder"]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("no/such/folder"), "{err}");
+    let empty = tempfile::tempdir().unwrap();
+    let out = sense(&[empty.path().to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no depth_NNNN.png frames"));
+}
+
+#[test]
+fn sense_without_a_model_asks_for_one() {
+    // A recording without truth.json names no model: the user must give --model.
+    let dir = tempfile::tempdir().unwrap();
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("clouds/scenes/tip_weight");
+    for f in [
+        "depth_0000.png",
+        "color_0000.png",
+        "intrinsics.json",
+        "camera_pose.json",
+    ] {
+        std::fs::copy(src.join(f), dir.path().join(f)).unwrap();
+    }
+    let out = sense(&[dir.path().to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--model"));
+    let model = Path::new(env!("CARGO_MANIFEST_DIR")).join("meshes/models/robot.toml");
+    let out = sense(&[
+        dir.path().to_str().unwrap(),
+        "--model",
+        model.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(String::from_utf8_lossy(&out.stdout).contains("no recorded actuator inputs"));
+}
