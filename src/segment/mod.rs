@@ -19,7 +19,10 @@
 
 pub mod color;
 pub mod euclidean;
-pub mod knn;
+/// Moved to [`crate::search::grid_knn`]; re-exported here for existing callers.
+pub mod knn {
+    pub use crate::search::grid_knn::{knn_all, KnnTable};
+}
 pub mod metrics;
 pub mod region_growing_rgb;
 pub mod robot;

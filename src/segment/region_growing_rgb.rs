@@ -192,7 +192,7 @@ pub fn region_growing_rgb(
     };
 
     // Step 1: K nearest neighbours of every point (rows of equal length k).
-    let table = super::knn::knn_all(&pts, params.region_neighbours, params.parallelism);
+    let table = crate::search::knn_all(&pts, params.region_neighbours, params.parallelism);
     let k = table.k;
     let (nb_idx, nb_d2) = (table.idx, table.d2);
     let grow_n = params.neighbours.min(k);
