@@ -19,6 +19,7 @@
 
 pub mod color;
 pub mod euclidean;
+pub mod geometric;
 /// Moved to [`crate::search::grid_knn`]; re-exported here for existing callers.
 pub mod knn {
     pub use crate::search::grid_knn::{knn_all, KnnTable};
@@ -71,6 +72,9 @@ pub enum SegmentError {
     /// The cloud is inconsistent (field lengths).
     #[error(transparent)]
     Cloud(#[from] crate::cloud::CloudError),
+    /// Normal estimation failed (geometric mode).
+    #[error(transparent)]
+    Features(#[from] crate::features::FeatureError),
     /// No segment could be chosen as the robot.
     #[error("no robot segment: {0}")]
     NoRobot(String),

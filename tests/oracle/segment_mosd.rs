@@ -18,6 +18,7 @@ use serde_json::json;
 use softsense::filter::{voxel_grid, VoxelGridParams};
 use softsense::io::{read_cloud, write_cloud, Encoding};
 use softsense::segment::euclidean::labels_from_clusters;
+use softsense::segment::geometric::{segment_geometric, GeometricParams};
 use softsense::segment::metrics::{
     adjusted_rand_index, object_scores, singletons_for, ObjectScores,
 };
@@ -75,8 +76,9 @@ fn mosd_segmentation_quality_against_labels() {
     let params = thesis_params();
     let dbscan = json!({"eps": 0.01, "min_points": 10});
     println!("mOSD, 5 mm voxels, thesis RegionGrowingRGB params (0.01 m, 6, 4, 100); DBSCAN eps 0.01 m, min_points 10");
-    println!("scene    points  objects | ours R/P/ARI          | PCL R/P/ARI           | DBSCAN R/P/ARI        | ours=PCL ARI");
-    let mut tallies: [Tally; 3] = Default::default();
+    println!("geometric mode: GeometricParams::default() (fixed, not fitted to these scenes)");
+    println!("scene    points  objects | ours R/P/ARI          | PCL R/P/ARI           | DBSCAN R/P/ARI        | geometric R/P/ARI     | ours=PCL ARI");
+    let mut tallies: [Tally; 4] = Default::default();
     for scene in SCENES {
         let raw = read_cloud(dir.join(format!("mosd/{scene}.pcd"))).expect("read scene");
         let vox = voxel_grid(&raw, &VoxelGridParams::new(0.005))
@@ -107,13 +109,17 @@ fn mosd_segmentation_quality_against_labels() {
             return;
         };
         let o3d = labels_from_clusters(n, &o3d.clusters(), UNSEGMENTED);
+        let geo = segment_geometric(&cloud, &GeometricParams::default())
+            .expect("geometric")
+            .segmentation
+            .labels;
 
         let keep: Vec<usize> = (0..n).filter(|&i| truth[i] != 0).collect();
         let reference: Vec<Option<u32>> = truth.iter().map(|&l| (l != 0).then_some(l)).collect();
         let gt_kept: Vec<u32> = keep.iter().map(|&i| truth[i]).collect();
         let mut cells = Vec::new();
         let mut objects = 0;
-        for (t, pred) in [&ours, &pcl, &o3d].into_iter().enumerate() {
+        for (t, pred) in [&ours, &pcl, &o3d, &geo].into_iter().enumerate() {
             let s = object_scores(&reference, |l| l >= 20, pred, UNSEGMENTED, 0.5);
             let kept: Vec<u32> = keep.iter().map(|&i| pred[i]).collect();
             let ari = adjusted_rand_index(&gt_kept, &singletons_for(&kept, UNSEGMENTED));
@@ -129,8 +135,8 @@ fn mosd_segmentation_quality_against_labels() {
             &singletons_for(&pcl, UNSEGMENTED),
         );
         println!(
-            "{scene:8} {n:6}  {objects:7} | {} | {} | {} | {same:.4}",
-            cells[0], cells[1], cells[2]
+            "{scene:8} {n:6}  {objects:7} | {} | {} | {} | {} | {same:.4}",
+            cells[0], cells[1], cells[2], cells[3]
         );
         assert!(
             same >= 0.99,
@@ -140,6 +146,7 @@ fn mosd_segmentation_quality_against_labels() {
     println!("overall ours (PCL mode): {}", tallies[0].line());
     println!("overall PCL RegionGrowingRGB: {}", tallies[1].line());
     println!("overall Open3D DBSCAN: {}", tallies[2].line());
+    println!("overall ours (geometric mode): {}", tallies[3].line());
     assert_eq!(tallies[0].scenes, SCENES.len());
     assert!(
         tallies[0].objects > 0,
