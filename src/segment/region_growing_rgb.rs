@@ -122,9 +122,10 @@ pub struct Segmentation {
     pub segments: Vec<Segment>,
     /// Per input point: index into `segments`, or [`UNSEGMENTED`].
     pub labels: Vec<u32>,
-    /// Segments after growing (step 2).
+    /// Segments after growing (step 2; geometric mode: smooth regions).
     pub grown_segments: usize,
-    /// Regions after the colour merge (step 5).
+    /// Regions after the colour merge (step 5; geometric mode: segments kept, support
+    /// parts included).
     pub colour_regions: usize,
 }
 
