@@ -108,6 +108,14 @@ impl Scene {
     }
 }
 
+/// The table with one box (label 1) standing on it over `[lo, hi]`, `h` tall.
+fn one_box(lo: [f32; 2], hi: [f32; 2], h: f32, faces: [[u8; 3]; 3]) -> Scene {
+    let mut s = Scene::new();
+    s.table(&[(lo, hi)]);
+    s.cuboid(lo, hi, 1.0, h, faces[0], faces[1], faces[2], 1);
+    s
+}
+
 /// For each truth label, the best IoU of any predicted segment.
 fn best_iou(truth: &[u32], pred: &[u32], label: u32) -> f64 {
     let mut best = 0.0f64;
@@ -183,18 +191,8 @@ fn geometric_mode_separates_a_box_stacked_on_another() {
 
 #[test]
 fn geometric_mode_keeps_a_box_with_differently_coloured_faces_whole() {
-    let mut s = Scene::new();
-    s.table(&[([0.03, 0.03], [0.11, 0.11])]);
-    s.cuboid(
-        [0.03, 0.03],
-        [0.11, 0.11],
-        1.0,
-        0.07,
-        [250, 20, 20],
-        [20, 250, 20],
-        [20, 20, 250],
-        1,
-    );
+    let faces = [[250, 20, 20], [20, 250, 20], [20, 20, 250]];
+    let s = one_box([0.03, 0.03], [0.11, 0.11], 0.07, faces);
     let out = segment_geometric(&s.cloud(), &GeometricParams::default()).unwrap();
     assert_eq!(out.segmentation.segments.len(), 2, "table and one box");
     assert!(best_iou(&s.truth, &out.segmentation.labels, 1) > 0.9);
@@ -216,8 +214,10 @@ fn geometric_mode_without_a_support_plane_removes_nothing() {
         .filter(|&&l| l != UNSEGMENTED)
         .count();
     assert!(segmented as f64 > 0.95 * s.pts.len() as f64);
-    let mut strict = GeometricParams::default();
-    strict.plane_min_fraction = 0.9;
+    let strict = GeometricParams {
+        plane_min_fraction: 0.9,
+        ..Default::default()
+    };
     let out = segment_geometric(&s.cloud(), &strict).unwrap();
     assert!(out.plane.is_none() && out.support.is_empty());
     assert_eq!(out.segmentation.segments.len(), 1, "one box");
@@ -225,9 +225,7 @@ fn geometric_mode_without_a_support_plane_removes_nothing() {
 
 #[test]
 fn geometric_mode_labels_every_input_point_and_leaves_nan_unsegmented() {
-    let mut s = Scene::new();
-    s.table(&[([0.03, 0.03], [0.09, 0.09])]);
-    s.cuboid([0.03, 0.03], [0.09, 0.09], 1.0, 0.06, GREY, GREY, GREY, 1);
+    let s = one_box([0.03, 0.03], [0.09, 0.09], 0.06, [GREY; 3]);
     let mut cloud = s.cloud();
     cloud.positions.insert(7, [f32::NAN, 0.0, 1.0]);
     cloud.colors.as_mut().unwrap().insert(7, [0, 0, 0]);
@@ -252,9 +250,7 @@ fn geometric_mode_labels_every_input_point_and_leaves_nan_unsegmented() {
 
 #[test]
 fn geometric_mode_does_not_depend_on_threads() {
-    let mut s = Scene::new();
-    s.table(&[([0.03, 0.03], [0.09, 0.09])]);
-    s.cuboid([0.03, 0.03], [0.09, 0.09], 1.0, 0.06, GREY, GREY, GREY, 1);
+    let s = one_box([0.03, 0.03], [0.09, 0.09], 0.06, [GREY; 3]);
     let serial = GeometricParams {
         parallelism: Parallelism::Serial,
         ..Default::default()
@@ -306,18 +302,7 @@ fn geometric_mode_rejects_bad_parameters() {
 
 #[test]
 fn segment_mode_pcl_is_region_growing_rgb() {
-    let mut s = Scene::new();
-    s.table(&[([0.03, 0.03], [0.09, 0.09])]);
-    s.cuboid(
-        [0.03, 0.03],
-        [0.09, 0.09],
-        1.0,
-        0.06,
-        [250, 0, 0],
-        GREY,
-        GREY,
-        1,
-    );
+    let s = one_box([0.03, 0.03], [0.09, 0.09], 0.06, [[250, 0, 0], GREY, GREY]);
     let p = RegionGrowingParams::thesis();
     let (seg, support) = segment(&s.cloud(), &SegmentMode::Pcl(p)).unwrap();
     assert_eq!(seg, region_growing_rgb(&s.cloud(), &p).unwrap());
