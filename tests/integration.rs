@@ -3,6 +3,8 @@ mod common;
 
 #[path = "integration/cli.rs"]
 mod cli;
+#[path = "integration/cli_segment.rs"]
+mod cli_segment;
 #[path = "integration/fem_cantilever.rs"]
 mod fem_cantilever;
 #[path = "integration/fem_diamond.rs"]
