@@ -187,14 +187,19 @@ fn cluster_labels_two_blobs_and_reports_their_sizes() {
     let input = tmp.path().join("blobs.pcd");
     let out = tmp.path().join("clusters.pcd");
     write(&input, &two_blobs());
-    let json = json_of(&softsense(&[
-        "cluster",
-        s(&input),
-        s(&out),
-        "--tolerance",
-        "0.005",
-        "--json",
-    ]));
+    let cluster = |extra: &[&str]| {
+        let mut args = vec![
+            "cluster",
+            s(&input),
+            s(&out),
+            "--tolerance",
+            "0.005",
+            "--json",
+        ];
+        args.extend_from_slice(extra);
+        json_of(&softsense(&args))
+    };
+    let json = cluster(&[]);
     assert_eq!(json["clusters"], serde_json::json!([25, 25]));
     assert_eq!(json["points"], 51);
     let labels = labelled_output(&input, &out);
@@ -203,16 +208,7 @@ fn cluster_labels_two_blobs_and_reports_their_sizes() {
     assert_eq!(labels[25], 0);
     assert!(labels[26..].iter().all(|&l| l == 2));
     // A minimum above both sizes drops every cluster: all labels 0.
-    let json = json_of(&softsense(&[
-        "cluster",
-        s(&input),
-        s(&out),
-        "--tolerance",
-        "0.005",
-        "--min",
-        "26",
-        "--json",
-    ]));
+    let json = cluster(&["--min", "26"]);
     assert_eq!(json["clusters"], serde_json::json!([]));
     assert!(labelled_output(&input, &out).iter().all(|&l| l == 0));
 }
