@@ -90,18 +90,23 @@ fn segment_writes_every_point_in_order_with_labels_matching_the_json() {
     );
 }
 
+/// `softsense segment DEMO OUT --mode geometric --json`.
+fn segment_demo_geometric(out: &Path) -> serde_json::Value {
+    json_of(&softsense(&[
+        "segment",
+        DEMO,
+        s(out),
+        "--mode",
+        "geometric",
+        "--json",
+    ]))
+}
+
 #[test]
 fn segment_geometric_mode_flags_the_support_and_keeps_every_point() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("geo.pcd");
-    let json = json_of(&softsense(&[
-        "segment",
-        DEMO,
-        s(&out),
-        "--mode",
-        "geometric",
-        "--json",
-    ]));
+    let json = segment_demo_geometric(&out);
     let labels = labelled_output(&crate::common::project_root().join(DEMO), &out);
     check_segments(&json, &labels);
     assert_eq!(json["params"]["mode"], "geometric");
@@ -328,4 +333,35 @@ fn contacts_rejects_bad_input_with_a_clear_message() {
     write(&grey, &PointCloud::from_positions(vec![[0.0, 0.0, 1.0]; 3]));
     assert_fails(&softsense(&["contacts", s(&grey)]), 1, &["rgb"]);
     assert_fails(&softsense(&["contacts", "gone.pcd"]), 1, &["gone.pcd"]);
+}
+
+#[test]
+fn contacts_geometric_mode_never_takes_the_support_as_the_robot() {
+    let tmp = tempfile::tempdir().unwrap();
+    let seg = segment_demo_geometric(&tmp.path().join("geo.pcd"));
+    let segments = seg["segments"].as_array().unwrap();
+    let support: Vec<u64> = segments
+        .iter()
+        .filter(|s| s["support"] == true)
+        .map(|s| s["label"].as_u64().unwrap() - 1)
+        .collect();
+    assert!(!support.is_empty());
+    let json = json_of(&softsense(&[
+        "contacts",
+        DEMO,
+        "--mode",
+        "geometric",
+        "--json",
+    ]));
+    let robot = json["robot"]["segment"].as_u64().unwrap();
+    assert!(!support.contains(&robot), "robot {robot} is a support part");
+    assert_eq!(json["robot"]["chosen_by"]["rule"], "largest");
+    // The largest non-support segment.
+    let largest = segments
+        .iter()
+        .filter(|s| s["support"] == false)
+        .map(|s| s["points"].as_u64().unwrap())
+        .max()
+        .unwrap();
+    assert_eq!(json["robot"]["points"].as_u64(), Some(largest));
 }
