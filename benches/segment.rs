@@ -4,13 +4,17 @@
 //!   resolution, the first labelled object as the robot and every other labelled point as
 //!   the object cloud (the KD-tree build over the robot is included);
 //! - `region_growing_rgb`: thesis parameters on the raw 640x480 milk frame and on its
-//!   5 mm voxel version.
+//!   5 mm voxel version;
+//! - `geometric`: the geometric mode (default parameters) on the 5 mm voxel version of
+//!   the mOSD scene learn17 (the protocol of the mOSD quality table).
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use softsense::contact::{detect_contacts, ContactParams};
 use softsense::filter::{voxel_grid, VoxelGridParams};
 use softsense::io::read_cloud;
-use softsense::segment::{region_growing_rgb, RegionGrowingParams};
+use softsense::segment::{
+    region_growing_rgb, segment_geometric, GeometricParams, RegionGrowingParams,
+};
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -81,5 +85,21 @@ fn region_growing(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, contacts, region_growing);
+fn geometric(c: &mut Criterion) {
+    let Some(dir) = data() else { return };
+    let raw = read_cloud(dir.join("mosd/learn17.pcd")).expect("learn17");
+    let mut vox = voxel_grid(&raw, &VoxelGridParams::new(0.005))
+        .expect("voxel")
+        .cloud;
+    vox.labels = None;
+    let params = GeometricParams::default();
+    let mut g = c.benchmark_group("geometric");
+    g.sample_size(10).measurement_time(Duration::from_secs(20));
+    g.bench_function("mOSD learn17 5 mm voxels, default params", |b| {
+        b.iter(|| segment_geometric(&vox, &params).expect("geometric"))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, contacts, region_growing, geometric);
 criterion_main!(benches);

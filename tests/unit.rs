@@ -47,6 +47,8 @@ mod register;
 mod scene;
 #[path = "unit/segment.rs"]
 mod segment;
+#[path = "unit/segment_geometric.rs"]
+mod segment_geometric;
 
 #[path = "unit/contact.rs"]
 mod contact;

@@ -1,20 +1,23 @@
 //! `softsense contacts`: segmentation, robot choice and KD-tree contact detection.
 
+use super::segment::Mode;
 use super::{print_json, CliError, CliResult};
 use clap::Args;
 use softsense::contact::{detect_contacts, ContactParams};
 use softsense::io::read_cloud;
 use softsense::segment::robot::{select_robot, RobotRule};
-use softsense::segment::{region_growing_rgb, RegionGrowingParams};
+use softsense::segment::{segment, GeometricParams, RegionGrowingParams, SegmentMode};
 use std::path::PathBuf;
 use std::time::Instant;
 
-/// Find where objects touch the robot in a coloured scene (raw or filtered): colour
-/// region growing with the thesis code's parameters (0.01 m, point colour 6, region
-/// colour 4, min 100 points), the robot segment (by colour, or the largest), then object
-/// points with more than --min-neighbors robot points within --radius, grouped by
-/// Euclidean clustering (5 mm, 10-2000 points). Prints one line (or JSON object) per
-/// contact: centroid (m), points, extent (m).
+/// Find where objects touch the robot in a coloured scene (raw or filtered): segmentation
+/// (--mode pcl: colour region growing with the thesis code's parameters, 0.01 m, point
+/// colour 6, region colour 4, min 100 points; --mode geometric: our geometric mode, whose
+/// support-plane parts are never the robot but are objects it can touch), the robot
+/// segment (by colour, or the largest), then object points with more than
+/// --min-neighbors robot points within --radius, grouped by Euclidean clustering (5 mm,
+/// 10-2000 points). Prints one line (or JSON object) per contact: centroid (m), points,
+/// extent (m).
 ///
 /// Examples:
 ///
@@ -26,6 +29,9 @@ use std::time::Instant;
 pub struct ContactsArgs {
     /// Input cloud with colours (.pcd/.ply).
     pub input: PathBuf,
+    /// Segmentation mode.
+    #[arg(long, value_enum, default_value_t = Mode::Pcl)]
+    pub mode: Mode,
     /// The robot is the largest segment within TOL (CIE76 ΔE, default 20) of this sRGB
     /// colour; without it, the largest segment.
     #[arg(long, value_name = "R,G,B[:TOL]", value_parser = parse_robot_color)]
@@ -57,13 +63,25 @@ pub fn run(args: &ContactsArgs) -> CliResult {
     let lib = |e: softsense::segment::SegmentError| CliError::Lib(e.into());
     let cloud = read_cloud(&args.input)?;
     let t0 = Instant::now();
-    let params = RegionGrowingParams::thesis();
-    let seg = region_growing_rgb(&cloud, &params).map_err(lib)?;
+    let mode = match args.mode {
+        Mode::Pcl => SegmentMode::Pcl(RegionGrowingParams::thesis()),
+        Mode::Geometric => SegmentMode::Geometric(GeometricParams::default()),
+    };
+    let (seg, support) = segment(&cloud, &mode).map_err(lib)?;
     let rule = match args.robot_color {
         Some((rgb, tolerance)) => RobotRule::Color { rgb, tolerance },
         None => RobotRule::Largest,
     };
-    let robot = select_robot(&seg.segments, &rule).map_err(lib)?;
+    // Support parts (geometric mode) are not robot candidates.
+    let candidates: Vec<usize> = (0..seg.segments.len())
+        .filter(|k| !support.contains(k))
+        .collect();
+    let candidate_segments: Vec<_> = candidates
+        .iter()
+        .map(|&k| seg.segments[k].clone())
+        .collect();
+    let mut robot = select_robot(&candidate_segments, &rule).map_err(lib)?;
+    robot.segment = candidates[robot.segment];
     let robot_pts: Vec<[f32; 3]> = seg.segments[robot.segment]
         .indices
         .iter()

@@ -26,7 +26,10 @@
 //! assert_eq!(knn[0].index, 2);
 //! ```
 
+pub mod grid_knn;
 mod kdtree;
+
+pub use grid_knn::{knn_all, KnnTable};
 
 pub use kdtree::{squared_distance, squared_distance_f64, KdTree, Neighbour, RadiusQuery};
 

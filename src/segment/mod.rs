@@ -5,6 +5,9 @@
 //!   by size descending, indices ascending);
 //! - [`region_growing_rgb`]: PCL `RegionGrowingRGB`, ported step by step, with a
 //!   near-linear segment adjacency and merge;
+//! - [`geometric`]: our own mode (support plane, smooth growing on normals, convexity
+//!   and colour merge), far closer to human labels than colour alone; pick a mode with
+//!   [`SegmentMode`] and [`segment`];
 //! - [`color`]: sRGB to CIELAB (D65) and ΔE;
 //! - [`robot`]: which segment is the robot;
 //! - [`metrics`]: adjusted Rand index and object-level scores against labels.
@@ -19,13 +22,50 @@
 
 pub mod color;
 pub mod euclidean;
-pub mod knn;
+pub mod geometric;
+/// Moved to [`crate::search::grid_knn`]; re-exported here for existing callers.
+pub mod knn {
+    pub use crate::search::grid_knn::{knn_all, KnnTable};
+}
 pub mod metrics;
 pub mod region_growing_rgb;
 pub mod robot;
 
 pub use euclidean::{euclidean_clusters, EuclideanParams};
+pub use geometric::{segment_geometric, GeometricParams, GeometricSegmentation};
 pub use region_growing_rgb::{region_growing_rgb, RegionGrowingParams, Segment, Segmentation};
+
+/// Which segmentation to run, with its parameters.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(tag = "mode", rename_all = "lowercase")]
+pub enum SegmentMode {
+    /// PCL 1.13 `RegionGrowingRGB`, exact ([`region_growing_rgb`]).
+    Pcl(RegionGrowingParams),
+    /// Our geometric mode: support plane, smooth growing, convexity merge
+    /// ([`segment_geometric`]).
+    Geometric(GeometricParams),
+}
+
+impl Default for SegmentMode {
+    fn default() -> Self {
+        SegmentMode::Pcl(RegionGrowingParams::default())
+    }
+}
+
+/// Segments `cloud` with the chosen mode. `support` lists the segments that are the
+/// support plane (always empty in PCL mode).
+pub fn segment(
+    cloud: &crate::cloud::PointCloud,
+    mode: &SegmentMode,
+) -> Result<(Segmentation, Vec<usize>), SegmentError> {
+    match mode {
+        SegmentMode::Pcl(p) => Ok((region_growing_rgb(cloud, p)?, Vec::new())),
+        SegmentMode::Geometric(p) => {
+            let g = segment_geometric(cloud, p)?;
+            Ok((g.segmentation, g.support))
+        }
+    }
+}
 
 /// Label given by [`Segmentation::labels`] to points that are in no segment (non-finite
 /// points and points of clusters removed by the size filter).
@@ -68,6 +108,9 @@ pub enum SegmentError {
     /// The cloud is inconsistent (field lengths).
     #[error(transparent)]
     Cloud(#[from] crate::cloud::CloudError),
+    /// Normal estimation failed (geometric mode).
+    #[error(transparent)]
+    Features(#[from] crate::features::FeatureError),
     /// No segment could be chosen as the robot.
     #[error("no robot segment: {0}")]
     NoRobot(String),

@@ -122,9 +122,10 @@ pub struct Segmentation {
     pub segments: Vec<Segment>,
     /// Per input point: index into `segments`, or [`UNSEGMENTED`].
     pub labels: Vec<u32>,
-    /// Segments after growing (step 2).
+    /// Segments after growing (step 2; geometric mode: smooth regions).
     pub grown_segments: usize,
-    /// Regions after the colour merge (step 5).
+    /// Regions after the colour merge (step 5; geometric mode: segments kept, support
+    /// parts included).
     pub colour_regions: usize,
 }
 
@@ -192,7 +193,7 @@ pub fn region_growing_rgb(
     };
 
     // Step 1: K nearest neighbours of every point (rows of equal length k).
-    let table = super::knn::knn_all(&pts, params.region_neighbours, params.parallelism);
+    let table = crate::search::knn_all(&pts, params.region_neighbours, params.parallelism);
     let k = table.k;
     let (nb_idx, nb_d2) = (table.idx, table.d2);
     let grow_n = params.neighbours.min(k);

@@ -29,8 +29,10 @@ pub enum RobotRule {
     Largest,
 }
 
-/// Which rule chose the robot.
+/// Which rule chose the robot. JSON: `{"rule": "color", "delta_e": ...}` or
+/// `{"rule": "largest"}`.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[serde(tag = "rule", rename_all = "lowercase")]
 pub enum ChosenBy {
     /// The colour rule, with the chosen segment's ΔE to the reference.
     Color {

@@ -7,7 +7,7 @@ use softsense::PointCloud;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-fn softsense(args: &[&str]) -> Output {
+pub(crate) fn softsense(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_softsense"))
         .args(args)
         .current_dir(project_root())
@@ -22,12 +22,12 @@ fn convert_rgbd(depth: &str, intrinsics: &str, rest: &[&str]) -> Output {
     softsense(&args)
 }
 
-fn stderr(o: &Output) -> String {
+pub(crate) fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
 /// Exit code `code`, no panic, and a stderr message containing every `needle`.
-fn assert_fails(o: &Output, code: i32, needles: &[&str]) {
+pub(crate) fn assert_fails(o: &Output, code: i32, needles: &[&str]) {
     let err = stderr(o);
     assert_eq!(o.status.code(), Some(code), "stderr: {err}");
     assert!(!err.contains("panicked"), "panic: {err}");
@@ -40,7 +40,7 @@ fn fixture(rel: &str) -> String {
     format!("tests/fixtures/rgbd/{rel}")
 }
 
-fn json_of(o: &Output) -> serde_json::Value {
+pub(crate) fn json_of(o: &Output) -> serde_json::Value {
     assert!(o.status.success(), "stderr: {}", stderr(o));
     serde_json::from_slice(&o.stdout).expect("stdout is one JSON document")
 }
@@ -51,7 +51,7 @@ fn bits(p: &[f32; 3]) -> [u32; 3] {
 }
 
 /// Positions equal bit for bit (NaN == NaN), colours equal, same organization.
-fn assert_same_cloud(a: &PointCloud, b: &PointCloud) {
+pub(crate) fn assert_same_cloud(a: &PointCloud, b: &PointCloud) {
     assert_eq!((a.width, a.height, a.len()), (b.width, b.height, b.len()));
     for (i, (p, q)) in a.positions.iter().zip(&b.positions).enumerate() {
         assert_eq!(bits(p), bits(q), "point {i}: {p:?} vs {q:?}");

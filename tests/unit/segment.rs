@@ -245,8 +245,8 @@ fn object_scores_count_matches_at_iou_half() {
 /// with a sparse far cluster (which forces the KD-tree fallback).
 #[test]
 fn knn_all_equals_brute_force() {
+    use softsense::search::knn_all;
     use softsense::search::{squared_distance, Parallelism};
-    use softsense::segment::knn::knn_all;
     let mut pts = Vec::new();
     for i in 0..60 {
         for j in 0..40 {

@@ -1,14 +1,14 @@
 //! Exact k-nearest-neighbour lists for every point of a cloud, on a uniform hash grid.
 //!
-//! A helper of the region growing (told to the `search` owner): for dense sensor
-//! clouds, gathering the 3x3x3 block of cells around a point and selecting the k closest
-//! is several times faster than k independent tree queries. A result is used only when
+//! Used by the region growing: for dense sensor clouds, gathering the 3x3x3 block of
+//! cells around a point and selecting the k closest is several times faster than k
+//! independent tree queries. A result is used only when
 //! it is provably exact: the k-th squared distance must be below the squared distance
 //! from the query to the block's boundary (with a relative margin for `f32` rounding);
 //! otherwise the KD-tree answers. Distances are [`squared_distance`] (`f32`, FLANN's
 //! order) and lists are sorted by `(distance, index)`, as [`KdTree::nearest_n`] does.
 
-use crate::search::{squared_distance, KdTree, Parallelism};
+use super::{squared_distance, KdTree, Parallelism};
 use std::collections::HashMap;
 
 /// Row-major `n x k` neighbour indices and squared distances.
@@ -37,7 +37,7 @@ pub fn knn_all(pts: &[[f32; 3]], k: usize, par: Parallelism) -> KnnTable {
     }
     let h = cell_size(pts, &tree, k);
     let grid = h.map(|h| Grid::new(pts, h));
-    let rows = crate::search::map_indices(n, par, |i| {
+    let rows = super::map_indices(n, par, |i| {
         let mut row: Vec<(f32, u32)> = Vec::new();
         let exact = grid.as_ref().is_some_and(|g| g.knn(pts, i, k, &mut row));
         if !exact {
