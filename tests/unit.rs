@@ -50,3 +50,6 @@ mod segment;
 
 #[path = "unit/contact.rs"]
 mod contact;
+
+#[path = "unit/render.rs"]
+mod render;

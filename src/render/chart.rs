@@ -172,6 +172,8 @@ pub fn legend(canvas: &mut Canvas, x: i64, y: i64, entries: &[(Swatch, &str)]) -
     if entries.is_empty() {
         return (0, 0);
     }
+    // Far beyond any canvas, and small enough that the sums below cannot overflow.
+    let (x, y) = (x.clamp(-(1 << 40), 1 << 40), y.clamp(-(1 << 40), 1 << 40));
     let row = 15i64;
     let text_w = entries
         .iter()

@@ -128,11 +128,15 @@ pub fn format_value(v: f64) -> String {
 /// written to its right and `label` (units) above it. Needs about `w + 60` pixels of width
 /// and 14 pixels above the box.
 pub fn colorbar(canvas: &mut Canvas, bar: [i64; 4], map: ColorMap, range: [f64; 2], label: &str) {
-    let [x, y, w, h] = bar;
+    // Far beyond any canvas, and small enough that the sums below cannot overflow.
+    let [x, y, w, h] = bar.map(|v| v.clamp(-(1 << 40), 1 << 40));
     if w <= 0 || h <= 1 {
         return;
     }
-    for row in 0..h {
+    // Only the rows on the canvas: the box may be huge.
+    let first = y.saturating_neg().clamp(0, h);
+    let last = i64::from(canvas.height()).saturating_sub(y).clamp(0, h);
+    for row in first..last {
         let t = 1.0 - row as f64 / (h - 1) as f64;
         canvas.fill_rect(x, y.saturating_add(row), w, 1, map.at(t));
     }
@@ -142,8 +146,14 @@ pub fn colorbar(canvas: &mut Canvas, bar: [i64; 4], map: ColorMap, range: [f64; 
     for (t, v) in [(0.0, hi), (0.5, 0.5 * (lo + hi)), (1.0, lo)] {
         let ty = y.saturating_add((t * (h - 1) as f64) as i64);
         canvas.fill_rect(x.saturating_add(w), ty, 3, 1, BLACK);
-        canvas.text(tx, ty - 3, &format_value(v), BLACK, 1);
+        canvas.text(tx, ty.saturating_sub(3), &format_value(v), BLACK, 1);
     }
     let (lw, _) = text_size(label, 1);
-    canvas.text(x + w / 2 - i64::from(lw) / 2, y - 14, label, BLACK, 1);
+    canvas.text(
+        x.saturating_add(w / 2 - i64::from(lw) / 2),
+        y.saturating_sub(14),
+        label,
+        BLACK,
+        1,
+    );
 }

@@ -137,8 +137,8 @@ pub fn sense_overlay(
         c.circle(ct.pixel, 10.0, WHITE, 4.0);
         c.circle(ct.pixel, 10.0, CONTACT, 2.0);
         if ct.pixel.iter().all(|v| v.is_finite()) {
-            let x = ct.pixel[0].clamp(-1e9, 1e9) as i64 + 14;
-            let y = ct.pixel[1].clamp(-1e9, 1e9) as i64 - 16;
+            let x = ct.pixel[0].clamp(-1e9, 1e9) as i64 + 13;
+            let y = ct.pixel[1].clamp(-1e9, 1e9) as i64 - 30;
             c.label(x, y, &ct.label, CONTACT, WHITE, 2);
         }
     }
