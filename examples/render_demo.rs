@@ -43,6 +43,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // 1. Height on the surface.
     let height_mm: Vec<f64> = vertices.iter().map(|p| p[2] * 1e3).collect();
     let view = View::orbit(vertices, -60.0, 30.0, 640, 480).ok_or("no view")?;
+    let start = std::time::Instant::now();
     let picture = surface_map(
         &SurfaceMesh {
             vertices_in_robot: vertices,
@@ -57,6 +58,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             ..SurfaceMapParams::default()
         },
     )?;
+    println!("surface_map: {:.1} ms", start.elapsed().as_secs_f64() * 1e3);
     picture.save_png(out.join("surface_height.png"))?;
 
     // 2. A signed residual before and after: a bending-like field, then 10% of it.
@@ -174,6 +176,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         force_in_camera: cam.rotate([0.0, 0.0, -1.06]),
         label: None,
     }];
+    let start = std::time::Instant::now();
     let picture = sense_overlay(
         &frame,
         &SenseOverlay {
@@ -189,6 +192,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             ..OverlayParams::default()
         },
     )?;
+    println!(
+        "sense_overlay: {:.1} ms",
+        start.elapsed().as_secs_f64() * 1e3
+    );
     picture.save_png(out.join("sense_overlay.png"))?;
 
     // 5. The font.

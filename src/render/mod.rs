@@ -45,8 +45,9 @@ pub use chart::{bar_chart, legend, Swatch, BAR, BAR_HIGHLIGHT};
 pub use colormap::{colorbar, finite_range, format_value, symmetric_range, ColorMap};
 pub use font::text_size;
 pub use overlay::{
-    sense_overlay, side_by_side, ContactMark, FeatureMark, ForceArrow, OverlayParams, SenseOverlay,
-    CONTACT, FEATURE_HIDDEN, FEATURE_VISIBLE, FORCE, MATCH_LINE, ROBOT_TINT,
+    mask_from_indices, sense_overlay, side_by_side, ContactMark, FeatureMark, ForceArrow,
+    OverlayParams, SenseOverlay, CONTACT, FEATURE_HIDDEN, FEATURE_VISIBLE, FORCE, MATCH_LINE,
+    ROBOT_TINT,
 };
 pub use project::{camera_from_robot, project, project_with, Pose, View, NEAR_Z};
 pub use surface::{

@@ -94,6 +94,20 @@ impl Default for OverlayParams {
     }
 }
 
+/// A robot mask for [`SenseOverlay::robot_mask`] from pixel indices (`row * width + col`,
+/// e.g. the indices of an organized cloud's robot segment); indices outside the image are
+/// ignored.
+pub fn mask_from_indices(width: u32, height: u32, indices: &[usize]) -> Vec<bool> {
+    let n = (width as usize).saturating_mul(height as usize);
+    let mut mask = vec![false; n];
+    for &i in indices {
+        if let Some(m) = mask.get_mut(i) {
+            *m = true;
+        }
+    }
+    mask
+}
+
 /// Draws `overlay` on a copy of `frame`. Errors when the mask length is not the frame's
 /// pixel count. Marks outside the frame are clipped; a force whose start is behind the
 /// camera is skipped, one whose tip would be is shortened to stay in front.
@@ -204,10 +218,10 @@ fn draw_force(c: &mut Canvas, f: &ForceArrow, params: &OverlayParams) {
 }
 
 /// Places `panels` left to right on `background`, each under its title, 8 pixels apart;
-/// the height is the tallest panel's plus a 22-pixel title band.
+/// the height is the tallest panel's plus a 28-pixel title band.
 pub fn side_by_side(panels: &[(&str, &Canvas)], background: Rgb) -> Result<Canvas, RenderError> {
     let gap = 8u32;
-    let band = 22u32;
+    let band = 28u32;
     let width = panels
         .iter()
         .map(|(_, p)| p.width())

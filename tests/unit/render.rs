@@ -638,13 +638,21 @@ fn panels_sit_side_by_side_under_their_titles() {
     let a = Canvas::new(30, 20, RED).unwrap();
     let b = Canvas::new(40, 50, BLACK).unwrap();
     let c = side_by_side(&[("before", &a), ("after", &b)], WHITE).unwrap();
-    assert_eq!((c.width(), c.height()), (30 + 8 + 40, 50 + 22));
-    assert_eq!(c.get(0, 22), Some(RED));
-    assert_eq!(c.get(29, 41), Some(RED));
-    assert_eq!(c.get(0, 42), Some(WHITE));
-    assert_eq!(c.get(38, 22), Some(BLACK));
-    assert_eq!(c.get(77, 71), Some(BLACK));
+    assert_eq!((c.width(), c.height()), (30 + 8 + 40, 50 + 28));
+    assert_eq!(c.get(0, 28), Some(RED));
+    assert_eq!(c.get(29, 47), Some(RED));
+    assert_eq!(c.get(0, 48), Some(WHITE));
+    assert_eq!(c.get(38, 28), Some(BLACK));
+    assert_eq!(c.get(77, 77), Some(BLACK));
     assert!(side_by_side(&[], WHITE).unwrap().pixels().is_empty());
+}
+
+#[test]
+fn masks_from_indices_mark_exactly_those_pixels() {
+    let m = mask_from_indices(4, 3, &[0, 5, 11, 12, usize::MAX]);
+    assert_eq!(m.len(), 12);
+    let set: Vec<usize> = (0..12).filter(|&i| m[i]).collect();
+    assert_eq!(set, vec![0, 5, 11]);
 }
 
 #[test]
