@@ -35,6 +35,9 @@ pub enum Error {
     /// Drawing pictures: canvas sizes, meshes to render, PNG files.
     #[error(transparent)]
     Render(#[from] crate::render::RenderError),
+    /// Force sensing.
+    #[error(transparent)]
+    Sense(#[from] crate::sense::SenseError),
 }
 
 /// `Result` with the crate-level [`Error`](enum@Error).

@@ -41,6 +41,7 @@ pub mod render;
 pub mod scene;
 pub mod search;
 pub mod segment;
+pub mod sense;
 
 pub use cloud::PointCloud;
 pub use error::{Error, Result};

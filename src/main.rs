@@ -23,6 +23,7 @@ Results go to stdout (as JSON with --json); human messages go to stderr. Exit co
 0 success, 1 a file or its content was refused (the message names the file), 2 bad \
 command-line usage.",
     after_help = "Examples:\n  \
+softsense sense clouds/scenes/tip_weight\n  \
 softsense info clouds/demo_scene.pcd\n  \
 softsense convert clouds/demo_scene.pcd /tmp/demo.ply\n  \
 softsense convert --depth tests/fixtures/rgbd/depth.png --color tests/fixtures/rgbd/color.png \\\n      \
@@ -52,6 +53,8 @@ enum Command {
     Cluster(cli::cluster::ClusterArgs),
     /// Segment, pick the robot and detect where objects touch it.
     Contacts(cli::contacts::ContactsArgs),
+    /// The main job: where the robot is touched and how hard, frame by frame.
+    Sense(cli::sense::SenseArgs),
 }
 
 fn main() -> ExitCode {
@@ -65,6 +68,7 @@ fn main() -> ExitCode {
         Command::Segment(args) => cli::segment::run(&args),
         Command::Cluster(args) => cli::cluster::run(&args),
         Command::Contacts(args) => cli::contacts::run(&args),
+        Command::Sense(args) => cli::sense::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -8,6 +8,7 @@ pub mod filter;
 pub mod info;
 pub mod scene;
 pub mod segment;
+pub mod sense;
 
 use std::fmt;
 
