@@ -14,8 +14,8 @@
 
 use softsense::fem::meshio::read_mesh;
 use softsense::render::{
-    bar_chart, camera_from_robot, project_with, sense_overlay, side_by_side, surface_map, Canvas,
-    ColorMap, ContactMark, FeatureMark, ForceArrow, OverlayParams, SenseOverlay, SurfaceMapParams,
+    bar_chart, project_with, sense_overlay, side_by_side, surface_map, Canvas, ColorMap,
+    ContactMark, FeatureMark, ForceArrow, OverlayParams, SenseOverlay, SurfaceMapParams,
     SurfaceMesh, SurfaceValues, View, BLACK, WHITE,
 };
 use std::path::{Path, PathBuf};
@@ -142,9 +142,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let pose: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(scene.join("camera_pose.json"))?)?;
     let m: [[f64; 4]; 4] = serde_json::from_value(pose["robot_from_camera"].clone())?;
-    let cam = camera_from_robot(&m)?;
     let camera = softsense::io::intrinsics::read_camera_model(scene.join("intrinsics.json"))?;
     let k = camera.intrinsics;
+    let cam = View::from_robot_from_camera(&m, k)?.camera_from_robot;
     let mask: Vec<bool> = frame
         .pixels()
         .iter()
@@ -171,11 +171,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         pixel: project_with(&k, tip).ok_or("tip behind camera")?,
         label: "c1 tip".into(),
     }];
-    let forces = vec![ForceArrow {
-        start_in_camera: tip,
-        force_in_camera: cam.rotate([0.0, 0.0, -1.06]),
-        label: None,
-    }];
+    let forces = vec![ForceArrow::from_robot(
+        &cam,
+        [0.0, 0.0, 0.125],
+        [0.0, 0.0, -1.06],
+        None,
+    )];
     let start = std::time::Instant::now();
     let picture = sense_overlay(
         &frame,

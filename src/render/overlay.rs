@@ -4,7 +4,7 @@
 use super::canvas::{Canvas, Rgb, BLACK, WHITE};
 use super::chart::{legend, Swatch};
 use super::font::text_size;
-use super::project::project_with;
+use super::project::{project_with, Pose};
 use super::RenderError;
 use crate::io::intrinsics::PinholeIntrinsics;
 
@@ -50,6 +50,23 @@ pub struct ForceArrow {
     pub force_in_camera: [f64; 3],
     /// Text at the arrow head; `None` writes the magnitude, e.g. "0.66 N".
     pub label: Option<String>,
+}
+
+impl ForceArrow {
+    /// An arrow from a force given in the robot frame (as the inverse model reports it),
+    /// moved into the camera frame by `camera_from_robot`.
+    pub fn from_robot(
+        camera_from_robot: &Pose,
+        start_in_robot: [f64; 3],
+        force_in_robot: [f64; 3],
+        label: Option<String>,
+    ) -> Self {
+        ForceArrow {
+            start_in_camera: camera_from_robot.apply(start_in_robot),
+            force_in_camera: camera_from_robot.rotate(force_in_robot),
+            label,
+        }
+    }
 }
 
 /// Everything drawn over one frame.

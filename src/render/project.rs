@@ -141,6 +141,18 @@ pub struct View {
 }
 
 impl View {
+    /// The view of a recording: its `robot_from_camera` matrix (as in `camera_pose.json`)
+    /// and the camera's intrinsics. Errors when the matrix is not rigid.
+    pub fn from_robot_from_camera(
+        robot_from_camera: &[[f64; 4]; 4],
+        intrinsics: PinholeIntrinsics,
+    ) -> Result<View, RenderError> {
+        Ok(View {
+            camera_from_robot: camera_from_robot(robot_from_camera)?,
+            intrinsics,
+        })
+    }
+
     /// Projects a robot-frame point: pixel `[u, v]` and depth `z` (m), or `None` when it is
     /// behind the camera.
     pub fn project_robot(&self, point_in_robot: [f64; 3]) -> Option<([f64; 2], f64)> {

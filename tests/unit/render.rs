@@ -254,6 +254,14 @@ fn projection_inverts_the_scene_cameras_back_projection() {
     let cam = Camera::new(CameraSpec::default()).unwrap();
     let pose = camera_from_robot(&cam.robot_from_camera()).unwrap();
     let s = &cam.spec;
+    let k = PinholeIntrinsics {
+        width: s.width,
+        height: s.height,
+        fx: s.fx,
+        fy: s.fy,
+        cx: s.cx,
+        cy: s.cy,
+    };
     for (u, v, z) in [
         (0.0, 0.0, 0.3),
         (319.5, 239.5, 0.5),
@@ -270,18 +278,21 @@ fn projection_inverts_the_scene_cameras_back_projection() {
         );
         let view = View {
             camera_from_robot: pose,
-            intrinsics: PinholeIntrinsics {
-                width: s.width,
-                height: s.height,
-                fx: s.fx,
-                fy: s.fy,
-                cx: s.cx,
-                cy: s.cy,
-            },
+            intrinsics: k,
         };
         let (uv2, z2) = view.project_robot(p_robot).unwrap();
         assert!((uv2[0] - u).abs() < 1e-9 && (uv2[1] - v).abs() < 1e-9 && (z2 - z).abs() < 1e-12);
     }
+    // The same through the conveniences a `sense` caller uses.
+    let view = View::from_robot_from_camera(&cam.robot_from_camera(), k).unwrap();
+    let tip = cam.backproject(300.0, 200.0, 0.45);
+    let (uv, _) = view.project_robot(tip).unwrap();
+    assert!((uv[0] - 300.0).abs() < 1e-9 && (uv[1] - 200.0).abs() < 1e-9);
+    let arrow = ForceArrow::from_robot(&view.camera_from_robot, tip, [0.0, 0.0, -1.0], None);
+    assert!((arrow.start_in_camera[2] - 0.45).abs() < 1e-12);
+    // Gravity points down in the image (+v) for this camera looking down at the robot.
+    let f = arrow.force_in_camera;
+    assert!((f.iter().map(|c| c * c).sum::<f64>() - 1.0).abs() < 1e-12 && f[1] > 0.5);
     assert_eq!(project([0.0, 0.0, -1.0], 500.0, 500.0, 0.0, 0.0), None);
     assert_eq!(project([0.0, 0.0, 0.0], 500.0, 500.0, 0.0, 0.0), None);
     assert_eq!(project([f64::NAN, 0.0, 1.0], 500.0, 500.0, 0.0, 0.0), None);
