@@ -175,7 +175,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         &cam,
         [0.0, 0.0, 0.125],
         [0.0, 0.0, -1.06],
-        None,
+        Some("1.06 ± 0.02 N".into()),
     )];
     let start = std::time::Instant::now();
     let picture = sense_overlay(
@@ -200,12 +200,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     picture.save_png(out.join("sense_overlay.png"))?;
 
     // 5. The font.
-    let mut sheet = Canvas::new(620, 170, WHITE)?;
-    let ascii: String = (32u8..=126).map(char::from).collect();
+    let mut sheet = Canvas::new(620, 240, WHITE)?;
+    let ascii: String = (32u8..=126)
+        .map(char::from)
+        .chain(softsense::render::EXTRA_CHARS.chars())
+        .collect();
     let mut y = 6;
     for scale in 1..=3u32 {
-        for chunk in ascii.as_bytes().chunks(600 / (6 * scale as usize)) {
-            sheet.text(6, y, std::str::from_utf8(chunk)?, BLACK, scale);
+        let chars: Vec<char> = ascii.chars().collect();
+        for chunk in chars.chunks(600 / (6 * scale as usize)) {
+            sheet.text(6, y, &chunk.iter().collect::<String>(), BLACK, scale);
             y += 11 * i64::from(scale);
         }
     }

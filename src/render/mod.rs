@@ -2,7 +2,8 @@
 //! `explain` reports.
 //!
 //! - [`Canvas`]: an RGB8 image with anti-aliased lines, arrows, circles, discs, boxes and
-//!   text in a built-in 5x7 font ([`text_size`]); PNG in and out.
+//!   text in a built-in 5x7 font (ASCII and [`EXTRA_CHARS`] such as `±µ°σχ`;
+//!   [`text_size`]); PNG in and out.
 //! - [`ColorMap`]: a sequential (viridis-like) and a diverging (blue-white-red) map, with
 //!   [`colorbar`] and [`format_value`] for labels.
 //! - [`project`], [`Pose`], [`View`]: the pinhole model and rigid camera poses, matching
@@ -43,7 +44,7 @@ mod surface;
 pub use canvas::{Canvas, Rgb, BLACK, GREY, MAX_PIXELS, MAX_SIDE, WHITE};
 pub use chart::{bar_chart, legend, Swatch, BAR, BAR_HIGHLIGHT};
 pub use colormap::{colorbar, finite_range, format_value, symmetric_range, ColorMap};
-pub use font::text_size;
+pub use font::{text_size, EXTRA_CHARS};
 pub use overlay::{
     mask_from_indices, sense_overlay, side_by_side, ContactMark, FeatureMark, ForceArrow,
     OverlayParams, SenseOverlay, CONTACT, FEATURE_HIDDEN, FEATURE_VISIBLE, FORCE, MATCH_LINE,

@@ -162,7 +162,7 @@ fn text_renders_inside_its_box_and_nothing_outside() {
 }
 
 #[test]
-fn every_printable_ascii_glyph_is_distinct() {
+fn every_glyph_is_distinct_and_unknown_characters_show_as_a_question_mark() {
     let render = |ch: char| {
         let mut c = Canvas::new(5, 8, WHITE).unwrap();
         c.text(0, 0, &ch.to_string(), BLACK, 1);
@@ -170,6 +170,7 @@ fn every_printable_ascii_glyph_is_distinct() {
     };
     let glyphs: Vec<(char, Canvas)> = (32u8..=126)
         .map(char::from)
+        .chain(EXTRA_CHARS.chars())
         .map(|ch| (ch, render(ch)))
         .collect();
     for (i, (a, ga)) in glyphs.iter().enumerate() {
@@ -180,8 +181,10 @@ fn every_printable_ascii_glyph_is_distinct() {
             assert_ne!(ga, gb, "{a:?} and {b:?} look the same");
         }
     }
-    // Characters outside the table draw as '?'.
-    assert_eq!(render('µ'), render('?'));
+    // Characters outside the tables draw as '?'; dashes as '-'.
+    assert_eq!(render('€'), render('?'));
+    assert_eq!(render('—'), render('-'));
+    assert_eq!(render('μ'), render('µ'));
 }
 
 #[test]
