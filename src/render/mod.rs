@@ -50,7 +50,7 @@ pub use overlay::{
     OverlayParams, SenseOverlay, CONTACT, FEATURE_HIDDEN, FEATURE_VISIBLE, FORCE, MATCH_LINE,
     ROBOT_TINT,
 };
-pub use project::{camera_from_robot, project, project_with, Pose, View, NEAR_Z};
+pub use project::{camera_from_robot, project, project_with, Pose, View, NEAR_Z, RIGID_TOLERANCE};
 pub use surface::{
     surface_map, SurfaceMapParams, SurfaceMesh, SurfaceValues, COLORBAR_PANEL, TITLE_BAND,
 };
