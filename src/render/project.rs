@@ -163,7 +163,8 @@ impl View {
     /// A camera that frames all finite `points_in_robot` in a `width` x `height` picture,
     /// looking at their bounding-box centre from `azimuth_deg` (about +z, from +x towards
     /// +y) and `elevation_deg` (above the x-y plane), with robot +z up in the image and a
-    /// 50° horizontal field of view. `None` when there is no finite point, a size is 0, or
+    /// 50° horizontal field of view, from the nearest distance at which every point is in
+    /// the picture with a 5% margin. `None` when there is no finite point, a size is 0, or
     /// the elevation is ±90° (up would be ambiguous).
     pub fn orbit(
         points_in_robot: &[[f64; 3]],
@@ -200,14 +201,29 @@ impl View {
         // Direction from the centre to the eye.
         let back = [el.cos() * az.cos(), el.cos() * az.sin(), el.sin()];
         let fx = 0.5 * f64::from(width) / (25f64.to_radians()).tan();
-        let half_fov = (0.5 * f64::from(width.min(height)) / fx).atan();
-        // The bounding sphere is loose around most shapes: frame 80% of it.
-        let dist = radius / half_fov.sin() * 0.8;
-        let eye = [0, 1, 2].map(|k| centre[k] + dist * back[k]);
         let z = back.map(|c| -c);
         let up = [0.0, 0.0, 1.0];
         let x = normalize(cross(z, up))?;
         let y = cross(z, x);
+        // The nearest eye distance that keeps every point inside the picture less a 5%
+        // margin: a point q (from the centre) sits at depth z·q + d and needs
+        // |x·q| <= tan_x (z·q + d), likewise for y.
+        let tan_x = 0.45 * f64::from(width) / fx;
+        let tan_y = 0.45 * f64::from(height) / fx;
+        let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        let mut dist = radius * 1e-3;
+        for p in points_in_robot
+            .iter()
+            .filter(|p| p.iter().all(|c| c.is_finite()))
+        {
+            let q = [0, 1, 2].map(|k| p[k] - centre[k]);
+            let (qx, qy, qz) = (dot(x, q), dot(y, q), dot(z, q));
+            dist = dist
+                .max(qx.abs() / tan_x - qz)
+                .max(qy.abs() / tan_y - qz)
+                .max(radius * 1e-3 - qz);
+        }
+        let eye = [0, 1, 2].map(|k| centre[k] + dist * back[k]);
         // Rows of camera_from_robot's rotation are the camera axes in the robot frame.
         let rotation = [x, y, z];
         let ti = [0, 1, 2].map(|i| {

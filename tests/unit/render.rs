@@ -357,6 +357,38 @@ fn facing_triangle(z: f64, s: f64) -> [[f64; 3]; 3] {
 }
 
 #[test]
+fn an_orbit_view_frames_every_point_in_front_of_the_camera() {
+    let points: Vec<[f64; 3]> = (0..27)
+        .map(|i| {
+            [
+                (i % 3) as f64 * 0.1,
+                (i / 3 % 3) as f64 * 0.05,
+                (i / 9) as f64 * 0.02 + 1.0,
+            ]
+        })
+        .chain([[f64::NAN, 0.0, 0.0]])
+        .collect();
+    for (az, el) in [(0.0, 0.0), (-60.0, 30.0), (135.0, -45.0), (90.0, 80.0)] {
+        let view = View::orbit(&points, az, el, 320, 200).unwrap();
+        for p in points.iter().filter(|p| p[0].is_finite()) {
+            let (uv, z) = view.project_robot(*p).unwrap();
+            assert!(z > 0.0);
+            assert!(
+                (0.0..320.0).contains(&uv[0]) && (0.0..200.0).contains(&uv[1]),
+                "{uv:?} at az {az} el {el}"
+            );
+        }
+        // Robot +z points up in the image (smaller v).
+        let (lo, _) = view.project_robot([0.1, 0.05, 1.0]).unwrap();
+        let (hi, _) = view.project_robot([0.1, 0.05, 1.04]).unwrap();
+        assert!(hi[1] < lo[1]);
+    }
+    assert!(View::orbit(&points, 0.0, 90.0, 320, 200).is_none());
+    assert!(View::orbit(&[], 0.0, 0.0, 320, 200).is_none());
+    assert!(View::orbit(&points, 0.0, 0.0, 0, 200).is_none());
+}
+
+#[test]
 fn the_z_buffer_shows_the_nearer_of_two_overlapping_triangles() {
     let near = facing_triangle(1.0, 0.2);
     let far = facing_triangle(2.0, 0.8);
