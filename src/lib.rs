@@ -37,6 +37,7 @@ pub mod io;
 pub mod math;
 pub mod pipeline;
 pub mod register;
+pub mod render;
 pub mod scene;
 pub mod search;
 pub mod segment;

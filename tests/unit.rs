@@ -52,3 +52,6 @@ mod segment_geometric;
 
 #[path = "unit/contact.rs"]
 mod contact;
+
+#[path = "unit/render.rs"]
+mod render;
