@@ -402,6 +402,9 @@ pub struct FrameReport {
     pub errors: Option<Vec<LoadError>>,
     /// Wall time of the frame (ms).
     pub ms: f64,
+    /// Node positions of the final FE state (m, robot frame; empty if none), for pictures.
+    #[serde(skip)]
+    pub positions: Vec<[f64; 3]>,
 }
 
 impl FrameReport {
@@ -422,6 +425,7 @@ impl FrameReport {
             warnings: Vec::new(),
             errors: None,
             ms: 0.0,
+            positions: Vec::new(),
         }
     }
 }
@@ -673,6 +677,7 @@ impl Sensor {
         };
         let e = &est.estimate;
         report.features_visible = est.visible;
+        report.positions.clone_from(&est.positions);
         report.residual_rms = e.residual_rms;
         report.updates = est.updates;
         report.identifiability = Some(e.identifiability.clone());

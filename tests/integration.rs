@@ -3,10 +3,10 @@ mod common;
 
 #[path = "integration/cli.rs"]
 mod cli;
-#[path = "integration/cli_sense.rs"]
-mod cli_sense;
 #[path = "integration/cli_segment.rs"]
 mod cli_segment;
+#[path = "integration/cli_sense.rs"]
+mod cli_sense;
 #[path = "integration/fem_cantilever.rs"]
 mod fem_cantilever;
 #[path = "integration/fem_diamond.rs"]

@@ -4,7 +4,9 @@ use super::{CliError, CliResult};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use softsense::fem::model::Model;
-use softsense::sense::{compare, FrameReport, FrameStatus, Recording, SenseParams, Sensor};
+use softsense::sense::{
+    compare, FrameReport, FrameStatus, Observation, Recording, SenseParams, Sensor,
+};
 use std::path::PathBuf;
 
 /// Find where the robot is touched and how hard, frame by frame.
@@ -45,6 +47,11 @@ pub struct SenseArgs {
     /// Print one JSON object per frame (JSON lines) instead of a table.
     #[arg(long)]
     pub json: bool,
+    /// Write a picture per frame into this folder (frame_NNNN.png): the colour frame with
+    /// the robot segment tinted, the feature points (registered / hidden), the seen
+    /// contacts and the estimated force arrows with their magnitudes.
+    #[arg(long, value_name = "OUT_DIR")]
+    pub render: Option<PathBuf>,
 }
 
 pub fn run(args: &SenseArgs) -> CliResult {
@@ -74,6 +81,10 @@ pub fn run(args: &SenseArgs) -> CliResult {
         rec.pose_file.display(),
         sensor.features.len()
     );
+    if let Some(dir) = &args.render {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| CliError::Result(format!("{}: {e}", dir.display())))?;
+    }
     let bar = ProgressBar::new(rec.frames.len() as u64);
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} frames {elapsed} {msg}")
@@ -81,12 +92,18 @@ pub fn run(args: &SenseArgs) -> CliResult {
     );
     let mut reports = Vec::new();
     for &frame in &rec.frames {
-        let mut report = match sensor.observe(&rec, frame) {
-            Ok(obs) => sensor.sense(frame, &obs, rec.actuators_of(frame)),
+        let obs = sensor.observe(&rec, frame);
+        let mut report = match &obs {
+            Ok(obs) => sensor.sense(frame, obs, rec.actuators_of(frame)),
             Err(e) => FrameReport::empty(frame, FrameStatus::Unreadable(e.to_string())),
         };
         if let Some(t) = rec.truth_of(frame) {
             report.errors = Some(compare(&report, t));
+        }
+        if let (Some(dir), Ok(obs)) = (&args.render, &obs) {
+            let path = dir.join(format!("frame_{frame:04}.png"));
+            picture(&rec, &sensor, obs, &report, &path)
+                .map_err(|e| CliError::Result(format!("{}: {e}", path.display())))?;
         }
         bar.suspend(|| -> CliResult {
             if args.json {
@@ -205,4 +222,88 @@ fn summary(reports: &[FrameReport]) {
             1e3 * max(&|e| e.location_error)
         );
     }
+}
+
+/// The frame with the robot tinted, features, contacts and force arrows.
+fn picture(
+    rec: &Recording,
+    sensor: &Sensor,
+    obs: &Observation,
+    report: &FrameReport,
+    path: &std::path::Path,
+) -> Result<(), Box<dyn std::error::Error>> {
+    use softsense::register::{RegisterParams, Registrar};
+    use softsense::render::{
+        camera_from_robot, mask_from_indices, project_with, sense_overlay, Canvas, ContactMark,
+        FeatureMark, ForceArrow, OverlayParams, SenseOverlay,
+    };
+    let frame = Canvas::from_rgb(obs.width, obs.height, obs.color.clone())?;
+    let mask = mask_from_indices(obs.width, obs.height, &obs.robot_pixels);
+    let cam = camera_from_robot(&rec.robot_from_camera)?;
+    let k = rec.camera.intrinsics;
+    let px = |p: [f64; 3]| project_with(&k, cam.apply(p));
+    let x = if report.positions.is_empty() {
+        &sensor.model.problem.mesh.nodes_in_rest
+    } else {
+        &report.positions
+    };
+    let registrar = Registrar::new(&obs.robot);
+    let rp: &RegisterParams = &sensor.params.frame.register;
+    let features: Vec<FeatureMark> = sensor
+        .features
+        .iter()
+        .filter_map(|f| {
+            let (p, n) = (f.position(x), f.normal(x));
+            let m = registrar.match_feature(p, n, rp);
+            Some(FeatureMark {
+                pixel: px(p)?,
+                visible: m.is_some(),
+                matched: m.and_then(|m| px([0, 1, 2].map(|i| p[i] + m.offset * n[i]))),
+            })
+        })
+        .collect();
+    let contacts: Vec<ContactMark> = report
+        .forces
+        .iter()
+        .enumerate()
+        .filter_map(|(i, f)| {
+            Some(ContactMark {
+                pixel: px(f.seen_at.unwrap_or(f.location))?,
+                label: format!("{i}: {}", f.source),
+            })
+        })
+        .collect();
+    let forces: Vec<ForceArrow> = report
+        .forces
+        .iter()
+        .map(|f| {
+            ForceArrow::from_robot(
+                &cam,
+                f.location,
+                f.force,
+                Some(format!("{:.2} ± {:.2} N", f.magnitude, f.sigma)),
+            )
+        })
+        .collect();
+    let title = format!(
+        "frame {}: {} force(s), {}/{} features, residual {:.2} mm",
+        report.frame,
+        report.forces.len(),
+        report.features_visible,
+        report.features,
+        report.residual_rms * 1e3
+    );
+    let overlay = SenseOverlay {
+        title: &title,
+        robot_mask: Some(&mask),
+        features: &features,
+        contacts: &contacts,
+        forces: &forces,
+    };
+    let params = OverlayParams {
+        intrinsics: k,
+        ..Default::default()
+    };
+    sense_overlay(&frame, &overlay, &params)?.save_png(path)?;
+    Ok(())
 }

@@ -84,3 +84,28 @@ fn sense_without_a_model_asks_for_one() {
     );
     assert!(String::from_utf8_lossy(&out.stdout).contains("no recorded actuator inputs"));
 }
+
+#[test]
+fn sense_render_writes_one_picture_per_frame_over_the_colour_frame() {
+    let out_dir = tempfile::tempdir().unwrap();
+    let pictures = out_dir.path().join("pictures");
+    let out = sense(&["clouds/scenes/tip_weight", "--render", pictures.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("clouds/scenes/tip_weight");
+    for i in 0..4 {
+        let pic = image::open(pictures.join(format!("frame_{i:04}.png")))
+            .unwrap()
+            .into_rgb8();
+        let frame = image::open(root.join(format!("color_{i:04}.png")))
+            .unwrap()
+            .into_rgb8();
+        assert_eq!(pic.dimensions(), frame.dimensions());
+        // Drawn over: the robot tint, features and arrow change many pixels.
+        let changed = pic
+            .pixels()
+            .zip(frame.pixels())
+            .filter(|(a, b)| a != b)
+            .count();
+        assert!(changed > 10_000, "frame {i}: only {changed} pixels drawn");
+    }
+}
