@@ -32,6 +32,9 @@ pub enum Error {
     /// Segmentation or clustering was given invalid parameters or data.
     #[error(transparent)]
     Segment(#[from] crate::segment::SegmentError),
+    /// Calibration of the camera pose and actuator inputs.
+    #[error(transparent)]
+    Calibrate(#[from] crate::calibrate::CalibrateError),
 }
 
 /// `Result` with the crate-level [`Error`](enum@Error).
