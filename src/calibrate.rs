@@ -115,6 +115,8 @@ pub struct CalibrateParams {
     /// Point-to-point (SVD) ICP iterations on the model's own shape before anything else:
     /// the coarse alignment from a rough start.
     pub coarse_iterations: usize,
+    /// Coarse restarts turned by ± this about each robot axis (degrees; 0 for none).
+    pub coarse_turn_deg: f64,
     /// QP + FE updates per outer iteration (I_2 of Algorithm 3.1).
     pub fe_updates: usize,
     /// A match farther than `trim_factor` × the median match distance is dropped.
@@ -127,6 +129,9 @@ pub struct CalibrateParams {
     pub rotation_tol: f64,
     /// Stop when no tension changes by more than this (N).
     pub tension_tol: f64,
+    /// A settled fit with a larger final RMS point-to-surface distance is reported as
+    /// [`CalibrationStatus::PoorFit`] (m).
+    pub max_residual_rms: f64,
     /// Fewest matched points, as a fraction of the points used, before giving up.
     pub min_matched_fraction: f64,
     /// Solve the rigid motion together with the tensions in the actuator QP (one
@@ -146,7 +151,8 @@ impl Default for CalibrateParams {
             min_points: 50,
             max_iterations: 30,
             icp_iterations: 15,
-            coarse_iterations: 40,
+            coarse_iterations: 20,
+            coarse_turn_deg: 15.0,
             fe_updates: 1,
             trim_factor: 3.0,
             min_trim: 0.003,
@@ -154,6 +160,7 @@ impl Default for CalibrateParams {
             rotation_tol: 5e-5,
             tension_tol: 1e-3,
             min_matched_fraction: 0.3,
+            max_residual_rms: 0.001,
             joint: true,
             qp: QpParams::default(),
         }
@@ -169,6 +176,9 @@ pub enum CalibrationStatus {
     MaxIterations,
     /// The model has no cables: only the pose was fitted (and it settled).
     PoseOnly,
+    /// It settled, but the final residual RMS exceeds `max_residual_rms`: a wrong local
+    /// minimum (start too far off) or a model that does not match the robot.
+    PoorFit,
 }
 
 /// The calibrated input of one cable.
@@ -605,6 +615,87 @@ fn fit_pose(
     Ok((pose, m))
 }
 
+/// Truncated RMS distance of the points at `pose` to the surface: each distance capped at
+/// `cap`, so a pose that explains most points well beats one that explains all poorly.
+fn truncated_rms(index: &SurfaceIndex, camera_points: &[[f64; 3]], pose: &Iso3, cap: f64) -> f64 {
+    let sum: f64 = camera_points
+        .iter()
+        .map(|p| {
+            let q = pose * Point3::from(*p);
+            index
+                .closest([q.x, q.y, q.z])
+                .map_or(cap, |m| m.distance.min(cap))
+                .powi(2)
+        })
+        .sum();
+    (sum / camera_points.len().max(1) as f64).sqrt()
+}
+
+/// The coarse alignment: point-to-point then point-to-plane ICP from the start and from the start turned by
+/// ± `coarse_turn_deg` about each robot axis (through the points' centroid), keeping the
+/// result with the smallest truncated RMS. ICP alone falls into a wrong minimum from some
+/// 10° starts on a four-legged robot; a handful of restarts finds the right basin.
+fn coarse_align(
+    index: &SurfaceIndex,
+    camera_points: &[[f64; 3]],
+    start: &Iso3,
+    params: &CalibrateParams,
+) -> CalibrateResult<Iso3> {
+    let n = camera_points.len() as f64;
+    let c = camera_points
+        .iter()
+        .fold(Vec3::zeros(), |a, p| a + (start * Point3::from(*p)).coords)
+        / n;
+    let mut turns = vec![Vec3::zeros()];
+    if params.coarse_turn_deg > 0.0 {
+        for k in 0..3 {
+            for s in [1.0, -1.0] {
+                let mut a = Vec3::zeros();
+                a[k] = s * params.coarse_turn_deg.to_radians();
+                turns.push(a);
+            }
+        }
+    }
+    let mut best: Option<(f64, Iso3)> = None;
+    let mut last_err = None;
+    for a in turns {
+        let rot = UnitQuaternion::from_scaled_axis(a);
+        let turn = Iso3::from_parts(Translation3::from(c - rot * c), rot);
+        let fitted = fit_pose(
+            index,
+            camera_points,
+            turn * start,
+            params.coarse_iterations,
+            true,
+            params,
+        )
+        .and_then(|(p, _)| {
+            fit_pose(
+                index,
+                camera_points,
+                p,
+                2 * params.icp_iterations,
+                false,
+                params,
+            )
+        });
+        match fitted {
+            Ok((pose, _)) => {
+                let score = truncated_rms(index, camera_points, &pose, params.min_trim);
+                if best.is_none_or(|b| score < b.0) {
+                    best = Some((score, pose));
+                }
+            }
+            Err(e) => last_err = Some(e),
+        }
+    }
+    match (best, last_err) {
+        (Some((_, pose)), _) => Ok(pose),
+        (None, Some(e)) => Err(e),
+        (None, None) => Ok(*start),
+    }
+}
+
 /// Factorizes the tangent at `x` including the cables' geometric stiffness.
 fn factorize_at(
     solver: &mut Solver<'_>,
@@ -777,7 +868,7 @@ pub fn calibrate(
         let before = pose;
         let index = SurfaceIndex::new(&x, &triangles);
         if it == 0 && params.coarse_iterations > 0 {
-            pose = fit_pose(&index, &pts, pose, params.coarse_iterations, true, params)?.0;
+            pose = coarse_align(&index, &pts, &pose, params)?;
         }
         let (p, mut m) = fit_pose(&index, &pts, pose, params.icp_iterations, false, params)?;
         pose = p;
@@ -837,6 +928,9 @@ pub fn calibrate(
     let index = SurfaceIndex::new(&x, &triangles);
     if let Ok(m) = match_points(&index, &pts, &pose, params) {
         residual_rms = m.rms;
+    }
+    if !(residual_rms <= params.max_residual_rms) {
+        status = CalibrationStatus::PoorFit;
     }
     Ok(Calibration {
         robot_from_camera: pose_to_matrix(&pose),
