@@ -52,6 +52,8 @@ enum Command {
     Cluster(cli::cluster::ClusterArgs),
     /// Segment, pick the robot and detect where objects touch it.
     Contacts(cli::contacts::ContactsArgs),
+    /// Camera-to-robot pose and cable inputs from one frame and a rough pose.
+    Calibrate(cli::calibrate::CalibrateArgs),
 }
 
 fn main() -> ExitCode {
@@ -65,6 +67,7 @@ fn main() -> ExitCode {
         Command::Segment(args) => cli::segment::run(&args),
         Command::Cluster(args) => cli::cluster::run(&args),
         Command::Contacts(args) => cli::contacts::run(&args),
+        Command::Calibrate(args) => cli::calibrate::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
