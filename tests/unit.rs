@@ -48,5 +48,7 @@ mod scene;
 #[path = "unit/segment.rs"]
 mod segment;
 
+#[path = "unit/calibrate.rs"]
+mod calibrate;
 #[path = "unit/contact.rs"]
 mod contact;
