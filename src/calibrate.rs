@@ -929,7 +929,7 @@ pub fn calibrate(
     if let Ok(m) = match_points(&index, &pts, &pose, params) {
         residual_rms = m.rms;
     }
-    if !(residual_rms <= params.max_residual_rms) {
+    if residual_rms.is_nan() || residual_rms > params.max_residual_rms {
         status = CalibrationStatus::PoorFit;
     }
     Ok(Calibration {
