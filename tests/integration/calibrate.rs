@@ -111,3 +111,61 @@ fn calibration_recovers_pose_and_inputs_from_perturbed_starts() {
         failures.join("\n")
     );
 }
+
+fn run_cli(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_softsense"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn calibrate_cli_writes_the_pose_and_inputs_from_the_committed_rough_start() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = root.join("clouds/scenes/calib");
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("calibration.json");
+    let o = run_cli(&[
+        "calibrate",
+        dir.to_str().unwrap(),
+        root.join("meshes/models/robot.toml").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let printed: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let written: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert_eq!(printed, written);
+    assert_eq!(written["status"], "Converged");
+    let m: [[f64; 4]; 4] = serde_json::from_value(written["robot_from_camera"].clone()).unwrap();
+    let got = softsense::calibrate::pose_from_matrix(&m).unwrap();
+    let truth = read_pose(&dir.join("camera_pose.json")).unwrap();
+    let (dt, dr) = pose_difference(&got, &truth);
+    assert!(dt <= 1e-3 && dr.to_degrees() <= 0.2, "{dt} m {dr} rad");
+    assert_eq!(written["actuators"].as_array().unwrap().len(), 4);
+}
+
+#[test]
+fn calibrate_cli_refuses_a_missing_start_or_model_with_a_clear_message() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = root.join("clouds/scenes/calib");
+    let model = root.join("meshes/models/robot.toml");
+    let o = run_cli(&[
+        "calibrate",
+        dir.to_str().unwrap(),
+        model.to_str().unwrap(),
+        "--start",
+        "/nonexistent/pose.json",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("/nonexistent/pose.json"));
+    let o = run_cli(&[
+        "calibrate",
+        dir.to_str().unwrap(),
+        "/nonexistent/model.toml",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("/nonexistent/model.toml"));
+}
