@@ -633,7 +633,7 @@ fn truncated_rms(index: &SurfaceIndex, camera_points: &[[f64; 3]], pose: &Iso3, 
 
 /// The coarse alignment: point-to-point then point-to-plane ICP from the start and from the start turned by
 /// ± `coarse_turn_deg` about each robot axis (through the points' centroid), keeping the
-/// result with the smallest truncated RMS. ICP alone falls into a wrong minimum from some
+/// result with the smallest truncated RMS; every point is matched (no trimming). ICP alone falls into a wrong minimum from some
 /// 10° starts on a four-legged robot; a handful of restarts finds the right basin.
 fn coarse_align(
     index: &SurfaceIndex,
@@ -656,6 +656,13 @@ fn coarse_align(
             }
         }
     }
+    // No trimming here: from a far start the trimmed set is the part that already fits,
+    // which pulls ICP into a wrong minimum (seen from -10° about x, -30 mm along z).
+    let all = CalibrateParams {
+        trim_factor: f64::INFINITY,
+        ..params.clone()
+    };
+    let params = &all;
     let mut best: Option<(f64, Iso3)> = None;
     let mut last_err = None;
     for a in turns {
