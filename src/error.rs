@@ -38,6 +38,9 @@ pub enum Error {
     /// Force sensing.
     #[error(transparent)]
     Sense(#[from] crate::sense::SenseError),
+    /// Calibration of the camera pose and actuator inputs.
+    #[error(transparent)]
+    Calibrate(#[from] crate::calibrate::CalibrateError),
 }
 
 /// `Result` with the crate-level [`Error`](enum@Error).

@@ -26,6 +26,7 @@
 //! ```
 #![warn(missing_docs, rustdoc::broken_intra_doc_links)]
 
+pub mod calibrate;
 pub mod cloud;
 pub mod contact;
 pub mod error;

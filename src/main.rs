@@ -55,6 +55,8 @@ enum Command {
     Contacts(cli::contacts::ContactsArgs),
     /// The main job: where the robot is touched and how hard, frame by frame.
     Sense(cli::sense::SenseArgs),
+    /// Camera-to-robot pose and cable inputs from one frame and a rough pose.
+    Calibrate(cli::calibrate::CalibrateArgs),
 }
 
 fn main() -> ExitCode {
@@ -69,6 +71,7 @@ fn main() -> ExitCode {
         Command::Cluster(args) => cli::cluster::run(&args),
         Command::Contacts(args) => cli::contacts::run(&args),
         Command::Sense(args) => cli::sense::run(&args),
+        Command::Calibrate(args) => cli::calibrate::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,6 +1,8 @@
 //! Integration tests: whole stages and the CLI on files.
 mod common;
 
+#[path = "integration/calibrate.rs"]
+mod calibrate;
 #[path = "integration/cli.rs"]
 mod cli;
 #[path = "integration/cli_segment.rs"]

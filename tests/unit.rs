@@ -50,6 +50,8 @@ mod segment;
 #[path = "unit/segment_geometric.rs"]
 mod segment_geometric;
 
+#[path = "unit/calibrate.rs"]
+mod calibrate;
 #[path = "unit/contact.rs"]
 mod contact;
 

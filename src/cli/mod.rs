@@ -1,5 +1,6 @@
 //! Subcommand implementations: each parses nothing itself (clap did) and calls the library.
 
+pub mod calibrate;
 pub mod cluster;
 pub mod contacts;
 pub mod convert;

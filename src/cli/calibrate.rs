@@ -1,0 +1,121 @@
+//! `softsense calibrate`: camera pose and initial actuator inputs from one RGB-D frame of
+//! the robot and a rough pose (thesis 3.3.2, markers not needed).
+
+use super::{print_json, CliError, CliResult};
+use clap::Args;
+use softsense::calibrate::{
+    calibrate, read_pose, read_scene_robot_points, CalibrateParams, CalibrationStatus,
+};
+use softsense::fem::model::Model;
+use std::path::PathBuf;
+
+/// Calibrate the camera-to-robot transform and the cable inputs from a frame.
+#[derive(Args, Debug)]
+#[command(
+    long_about = "Calibrate the camera-to-robot transform and the initial cable inputs of the \
+FE model from one RGB-D frame of the robot (thesis 3.3.2, Algorithm 3.1), without markers: \
+ICP on the exact closest FE surface points, then the actuator QP (3.18) with the pose, \
+re-solving the FE model until both settle.\n\n\
+SCENE_DIR holds depth_NNNN.png (millimetres), color_NNNN.png and intrinsics.json (Open3D \
+format), as `softsense scene generate` writes them. The rough start pose is \
+{\"robot_from_camera\": 4x4} (--start, default SCENE_DIR/rough_pose.json); it should be \
+within about 10 degrees and 30 mm. Writes calibration.json (robot_from_camera and the \
+cable tensions and shortenings) into SCENE_DIR or --out.",
+    after_help = "Example:\n  softsense calibrate clouds/scenes/calib meshes/models/robot.toml \
+--start clouds/scenes/calib/rough_pose.json"
+)]
+pub struct CalibrateArgs {
+    /// Folder with the frame's depth/colour PNGs and intrinsics.json.
+    scene_dir: PathBuf,
+    /// FE model file (TOML).
+    model: PathBuf,
+    /// Rough robot_from_camera pose (JSON); default SCENE_DIR/rough_pose.json.
+    #[arg(long)]
+    start: Option<PathBuf>,
+    /// Frame index to use.
+    #[arg(long, default_value_t = 0)]
+    frame: usize,
+    /// Where to write calibration.json (default SCENE_DIR/calibration.json).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Print the result as JSON on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Runs `softsense calibrate`.
+pub fn run(args: &CalibrateArgs) -> CliResult {
+    let params = CalibrateParams::default();
+    let start_path = args
+        .start
+        .clone()
+        .unwrap_or_else(|| args.scene_dir.join("rough_pose.json"));
+    if !start_path.exists() {
+        return Err(CliError::Usage(format!(
+            "no rough start pose: {} does not exist (give --start POSE.json with \
+             {{\"robot_from_camera\": 4x4}})",
+            start_path.display()
+        )));
+    }
+    let start = read_pose(&start_path).map_err(softsense::Error::from)?;
+    let model = Model::load(&args.model, None).map_err(softsense::Error::from)?;
+    let points = read_scene_robot_points(&args.scene_dir, args.frame, &params)
+        .map_err(softsense::Error::from)?;
+    eprintln!("{} robot points in frame {}", points.len(), args.frame);
+    let cal = calibrate(&model, &points, &start, &params, |i, r| {
+        eprintln!(
+            "iteration {i}: rms {:.3} mm over {} points, pose moved {:.3} mm {:.4} deg, \
+             tensions moved {:.4} N",
+            r.residual_rms * 1e3,
+            r.matched,
+            r.translation_change * 1e3,
+            r.rotation_change.to_degrees(),
+            r.tension_change
+        )
+    })
+    .map_err(softsense::Error::from)?;
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| args.scene_dir.join("calibration.json"));
+    let text = serde_json::to_string_pretty(&cal)
+        .map_err(|e| CliError::Result(format!("cannot encode the result: {e}")))?;
+    std::fs::write(&out, text)
+        .map_err(|e| CliError::Result(format!("{}: cannot write: {e}", out.display())))?;
+    eprintln!("wrote {}", out.display());
+    if args.json {
+        print_json(&serde_json::to_value(&cal).map_err(|e| CliError::Result(e.to_string()))?)?;
+    } else {
+        let m = cal.robot_from_camera;
+        println!(
+            "status {:?} after {} iterations, residual RMS {:.3} mm over {} points",
+            cal.status,
+            cal.iterations,
+            cal.residual_rms * 1e3,
+            cal.points
+        );
+        println!("robot_from_camera:");
+        for row in m {
+            println!(
+                "  {:>10.6} {:>10.6} {:>10.6} {:>10.6}",
+                row[0], row[1], row[2], row[3]
+            );
+        }
+        for a in &cal.actuators {
+            println!(
+                "cable {:<8} tension {:>8.4} N  shortening {:>8.3} mm",
+                a.name,
+                a.tension,
+                a.shortening * 1e3
+            );
+        }
+    }
+    if cal.status == CalibrationStatus::PoorFit {
+        return Err(CliError::Result(format!(
+            "the fit did not match the frame (residual RMS {:.3} mm): start pose too far off \
+             or wrong model",
+            cal.residual_rms * 1e3
+        )));
+    }
+    Ok(())
+}
