@@ -93,6 +93,12 @@ pub struct SenseParams {
     pub location_radius: f64,
     /// At most this many options per contact, nearest first (16).
     pub location_options: usize,
+    /// Pool features within this of a seen contact join the frame's features (m, 0.03; 0
+    /// turns it off): a point load's tangential part shows mostly near it, where 51 features
+    /// spread over the whole robot put only one or two.
+    pub local_features_radius: f64,
+    /// Size of the dense pool (600).
+    pub local_feature_pool: usize,
     /// Largest number of option combinations tried exhaustively (400); beyond, coordinate
     /// descent.
     pub max_combinations: usize,
@@ -125,6 +131,8 @@ impl Default for SenseParams {
             location_radius: 0.015,
             location_options: 16,
             max_combinations: 400,
+            local_features_radius: 0.03,
+            local_feature_pool: 600,
         }
     }
 }
@@ -438,6 +446,9 @@ pub struct Sensor {
     pub features: Vec<SurfaceFeature>,
     /// Parameters.
     pub params: SenseParams,
+    /// A dense pool of features (same rules), from which those near a seen contact join
+    /// the frame's features.
+    pub local_pool: Vec<SurfaceFeature>,
     /// The camera centre in the robot frame (m).
     pub eye: [f64; 3],
     /// Crop box in the robot frame (m).
@@ -455,6 +466,18 @@ impl Sensor {
             &surface,
             &params.features,
         );
+        let local_pool = if params.local_features_radius > 0.0 {
+            surface_features(
+                &model.problem.mesh.nodes_in_rest,
+                &surface,
+                &FeatureParams {
+                    count: params.local_feature_pool,
+                    ..params.features.clone()
+                },
+            )
+        } else {
+            Vec::new()
+        };
         let [lo, hi] = model.problem.mesh.bbox();
         let m = params.crop_margin;
         let bounds = [
@@ -465,6 +488,7 @@ impl Sensor {
             model,
             features,
             params,
+            local_pool,
             eye,
             bounds,
         }
@@ -555,11 +579,22 @@ impl Sensor {
             detect_contacts(&robot_f32, &obs.objects, &self.params.contact).map_err(|e| fail(&e))?
         };
         let surface = model.problem.mesh.surface();
+        let mut features = self.features.clone();
+        let r2 = self.params.local_features_radius.powi(2);
+        features.extend(self.local_pool.iter().filter(|f| {
+            let p = f.position(&free.positions);
+            contacts.iter().any(|c| {
+                let d = sub(p, c.centroid.map(|v| v as f64));
+                dot(d, d) <= r2
+            })
+        }));
+        report.features = features.len();
+        let features = &features;
         let solve = |cands: &[Candidate]| {
             estimate(
                 &model,
                 &obs.robot,
-                &self.features,
+                features,
                 cands,
                 Some(&free),
                 &self.params.frame,
@@ -645,7 +680,7 @@ impl Sensor {
                 let pick = choose_locations(
                     &model,
                     &obs.robot,
-                    &self.features,
+                    features,
                     &all,
                     &x,
                     &self.params.frame,

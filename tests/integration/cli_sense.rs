@@ -89,8 +89,16 @@ fn sense_without_a_model_asks_for_one() {
 fn sense_render_writes_one_picture_per_frame_over_the_colour_frame() {
     let out_dir = tempfile::tempdir().unwrap();
     let pictures = out_dir.path().join("pictures");
-    let out = sense(&["clouds/scenes/tip_weight", "--render", pictures.to_str().unwrap()]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = sense(&[
+        "clouds/scenes/tip_weight",
+        "--render",
+        pictures.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("clouds/scenes/tip_weight");
     for i in 0..4 {
         let pic = image::open(pictures.join(format!("frame_{i:04}.png")))
