@@ -26,8 +26,13 @@
 //! assert_eq!(knn[0].index, 2);
 //! ```
 
+mod grid;
 mod kdtree;
+pub(crate) mod sort;
 
+pub(crate) use grid::map_has_neighbours;
+pub use grid::map_knn;
+pub(crate) use kdtree::squared_radius_f32;
 pub use kdtree::{squared_distance, squared_distance_f64, KdTree, Neighbour, RadiusQuery};
 
 /// How a stage spreads its work over threads. Results never depend on the choice.
