@@ -116,8 +116,9 @@ where
     let parts: Vec<Vec<(u32, bool)>> = super::map_indices(n_chunks, par, |c| {
         let cells = c * chunk..((c + 1) * chunk).min(grid.cell_keys.len());
         let mut out = Vec::new();
-        grid.blocks(positions, cells, |members, cand| {
-            for &i in members {
+        let cells: Vec<usize> = cells.collect();
+        grid.blocks(positions, 1, &cells, |c, cand| {
+            for &i in grid.cell(c) {
                 let q = &positions[i as usize];
                 let m = grid.margin(q);
                 let ok = if m > 0.0 && r2 < m * m {
@@ -180,8 +181,6 @@ struct Grid {
     origin: [f64; 3],
     /// Key strides of y and z (x stride 1).
     stride: [u64; 2],
-    /// Cells per axis (padding included).
-    dims: [u64; 3],
     /// Sorted occupied cell keys.
     cell_keys: Vec<u64>,
     /// `cell_start[c]..cell_start[c + 1]` are cell `c`'s points in `sorted`.
@@ -287,54 +286,74 @@ impl Grid {
             h,
             origin,
             stride,
-            dims,
             cell_keys,
             cell_start,
             sorted,
         })
     }
 
-    /// Calls `visit(members, candidates)` for every cell of `cells` (a range of
-    /// `cell_keys`, ascending): the cell's point indices, and the points (position,
-    /// index) of the 3x3x3 block of cells around it.
+    /// Calls `visit(cell, candidates)` for every cell of `cells` (indices into
+    /// `cell_keys`, ascending) with the points (position, index) of the block of cells
+    /// within `r` cells of it (`(2r+1)³` cells; near the grid's edge a row may wrap
+    /// into the next one, which only adds candidates).
     fn blocks(
         &self,
         positions: &[[f32; 3]],
-        cells: std::ops::Range<usize>,
-        mut visit: impl FnMut(&[u32], &[([f32; 3], u32)]),
+        r: i64,
+        cells: &[usize],
+        mut visit: impl FnMut(usize, &[([f32; 3], u32)]),
     ) {
         let keys = &self.cell_keys;
-        if cells.is_empty() {
+        let Some(&first) = cells.first() else {
             return;
-        }
+        };
         let (sx, sy) = (self.stride[0] as i64, self.stride[1] as i64);
-        let mut offsets = [0i64; 9];
-        for (o, off) in offsets.iter_mut().enumerate() {
-            let (dy, dz) = ((o % 3) as i64 - 1, (o / 3) as i64 - 1);
-            *off = dy * sx + dz * sy - 1;
-        }
+        let side = 2 * r + 1;
+        let offsets: Vec<i64> = (0..side * side)
+            .map(|o| (o % side - r) * sx + (o / side - r) * sy - r)
+            .collect();
         // Per row of the block, a cursor into `keys` that only moves forward, since the
         // cells come in ascending key order.
-        let first = keys[cells.start] as i64;
-        let mut cursor: [usize; 9] =
-            std::array::from_fn(|o| keys.partition_point(|&c| (c as i64) < first + offsets[o]));
+        let first = keys[first] as i64;
+        let mut cursor: Vec<usize> = offsets
+            .iter()
+            .map(|off| keys.partition_point(|&c| (c as i64) < first + off))
+            .collect();
         let mut cand: Vec<([f32; 3], u32)> = Vec::new();
-        for c in cells {
+        let mut ranges: Vec<(usize, usize)> = Vec::with_capacity(offsets.len());
+        for &c in cells {
             let key = keys[c] as i64;
-            cand.clear();
-            for o in 0..9 {
-                let lower = key + offsets[o];
-                let mut j = cursor[o];
+            ranges.clear();
+            for (cur, off) in cursor.iter_mut().zip(&offsets) {
+                let lower = key + off;
+                let mut j = *cur;
                 while j < keys.len() && (keys[j] as i64) < lower {
                     j += 1;
                 }
-                cursor[o] = j;
-                while j < keys.len() && (keys[j] as i64) <= lower + 2 {
-                    cand.extend(self.cell(j).iter().map(|&i| (positions[i as usize], i)));
+                *cur = j;
+                let start = j;
+                while j < keys.len() && (keys[j] as i64) <= lower + 2 * r {
                     j += 1;
                 }
+                if j > start {
+                    ranges.push((start, j));
+                }
             }
-            visit(self.cell(c), &cand);
+            // Wrapped rows of a narrow grid can overlap: merge the cell ranges so no
+            // point is a candidate twice.
+            ranges.sort_unstable();
+            cand.clear();
+            let mut done = 0;
+            for &(a, b) in &ranges {
+                let a = a.max(done);
+                if a < b {
+                    let pts =
+                        &self.sorted[self.cell_start[a] as usize..self.cell_start[b] as usize];
+                    cand.extend(pts.iter().map(|&i| (positions[i as usize], i)));
+                    done = b;
+                }
+            }
+            visit(c, &cand);
         }
     }
 
@@ -343,7 +362,8 @@ impl Grid {
         &self.sorted[self.cell_start[c] as usize..self.cell_start[c + 1] as usize]
     }
 
-    /// The k-NN results of the points of cells `cells`, in sorted-point order.
+    /// The k-NN results of the points of cells `cells`, block radius 1, then the
+    /// points not yet proven exact with radius 2, 3, ... [`RINGS`], then the tree.
     fn knn_chunk<'t, T, F, G>(
         &self,
         positions: &[[f32; 3]],
@@ -357,71 +377,56 @@ impl Grid {
         G: Fn() -> &'t KdTree,
     {
         let mut best: Vec<Neighbour> = Vec::with_capacity(k + 1);
+        let mut packed: Vec<u64> = Vec::new();
         let mut out = Vec::new();
-        self.blocks(positions, cells, |members, cand| {
-            for &i in members {
-                let q = &positions[i as usize];
-                best.clear();
-                for &(p, pi) in cand {
-                    push_best(&mut best, k, squared_distance(q, &p), pi);
-                }
-                let exact = best.len() == k && {
-                    let margin = self.margin(q);
-                    margin > 0.0
-                        && (best[k - 1].squared_distance as f64) * (1.0 + MARGIN) < margin * margin
-                };
-                let t = if exact {
-                    f(i as usize, &best)
+        let mut todo: Vec<usize> = cells.collect();
+        // Points not proven exact yet (ascending cell order), and their cells.
+        let mut pending: Vec<u32> = Vec::new();
+        for r in 1..=RINGS {
+            let mut next: Vec<u32> = Vec::new();
+            let mut next_cells: Vec<usize> = Vec::new();
+            let mut from = 0;
+            self.blocks(positions, r as i64, &todo, |c, cand| {
+                let members: &[u32] = if r == 1 {
+                    self.cell(c)
                 } else {
-                    // Larger blocks around the cell, then the tree.
-                    let ring =
-                        (2..=RINGS).find_map(|r| self.knn_ring(positions, q, k, r, &mut best));
-                    match ring {
-                        Some(()) => f(i as usize, &best),
-                        None => f(i as usize, &tree_knn(tree(), q, k)),
-                    }
+                    let n = pending[from..]
+                        .iter()
+                        .take_while(|&&i| self.cell(c).contains(&i))
+                        .count();
+                    from += n;
+                    &pending[from - n..from]
                 };
-                out.push((i, t));
-            }
-        });
-        out
-    }
-
-    /// The k nearest of `q` among the cells within `r` cells of its own (a block of
-    /// `(2r+1)³` cells) into `best`; `Some` when that is provably the exact answer.
-    fn knn_ring(
-        &self,
-        positions: &[[f32; 3]],
-        q: &[f32; 3],
-        k: usize,
-        r: u64,
-        best: &mut Vec<Neighbour>,
-    ) -> Option<()> {
-        let c = cell_of(q, self.origin, self.h);
-        let lo: [u64; 3] = std::array::from_fn(|a| c[a].saturating_sub(r));
-        let hi: [u64; 3] = std::array::from_fn(|a| (c[a] + r).min(self.dims[a] - 1));
-        best.clear();
-        for z in lo[2]..=hi[2] {
-            for y in lo[1]..=hi[1] {
-                let row = y * self.stride[0] + z * self.stride[1];
-                let (first, last) = (row + lo[0], row + hi[0]);
-                let start = self.cell_keys.partition_point(|&key| key < first);
-                let end = self.cell_keys.partition_point(|&key| key <= last);
-                if start == end {
-                    continue;
+                for &i in members {
+                    let q = &positions[i as usize];
+                    k_smallest(q, cand, k, &mut packed, &mut best);
+                    let margin = self.margin_r(q, r as f64);
+                    let exact = best.len() == k
+                        && margin > 0.0
+                        && (best[k - 1].squared_distance as f64) * (1.0 + MARGIN) < margin * margin;
+                    if exact {
+                        out.push((i, f(i as usize, &best)));
+                    } else {
+                        if next_cells.last() != Some(&c) {
+                            next_cells.push(c);
+                        }
+                        next.push(i);
+                    }
                 }
-                let pts =
-                    &self.sorted[self.cell_start[start] as usize..self.cell_start[end] as usize];
-                for &pi in pts {
-                    push_best(best, k, squared_distance(q, &positions[pi as usize]), pi);
-                }
+            });
+            pending = next;
+            todo = next_cells;
+            if pending.is_empty() {
+                break;
             }
         }
-        let margin = self.margin_r(q, r as f64);
-        (best.len() == k
-            && margin > 0.0
-            && (best[k - 1].squared_distance as f64) * (1.0 + MARGIN) < margin * margin)
-            .then_some(())
+        for &i in &pending {
+            out.push((
+                i,
+                f(i as usize, &tree_knn(tree(), &positions[i as usize], k)),
+            ));
+        }
+        out
     }
 
     /// Distance from `q` to the boundary of the 3x3x3 block around its cell (shrunk by
@@ -444,28 +449,34 @@ impl Grid {
     }
 }
 
-/// Inserts `(d, index)` into `best` (sorted by `(d, index)`, at most `k` long) if it
-/// ranks among the `k` smallest.
-#[inline]
-fn push_best(best: &mut Vec<Neighbour>, k: usize, d: f32, index: u32) {
-    let index = index as usize;
-    if best.len() == k {
-        let w = best[k - 1];
-        if d > w.squared_distance || (d == w.squared_distance && index > w.index) {
-            return;
-        }
-        best.pop();
-    }
-    let at = best.partition_point(|b| {
-        b.squared_distance < d || (b.squared_distance == d && b.index < index)
-    });
-    best.insert(
-        at,
-        Neighbour {
-            index,
-            squared_distance: d,
-        },
+/// The `k` smallest `(squared distance, index)` from `q` among `cand`, sorted, into
+/// `best`.
+///
+/// PERF: a squared distance is ≥ +0 and never NaN here, so its bits order like its
+/// value; packed above the 32-bit index, one `u64` compares as `(d, index)`, and a
+/// selection plus a sort of k words replaces ordered insertion.
+fn k_smallest(
+    q: &[f32; 3],
+    cand: &[([f32; 3], u32)],
+    k: usize,
+    packed: &mut Vec<u64>,
+    best: &mut Vec<Neighbour>,
+) {
+    packed.clear();
+    packed.extend(
+        cand.iter()
+            .map(|(p, i)| ((squared_distance(q, p).to_bits() as u64) << 32) | *i as u64),
     );
+    if packed.len() > k {
+        packed.select_nth_unstable(k - 1);
+        packed.truncate(k);
+    }
+    packed.sort_unstable();
+    best.clear();
+    best.extend(packed.iter().map(|&w| Neighbour {
+        index: (w & 0xffff_ffff) as usize,
+        squared_distance: f32::from_bits((w >> 32) as u32),
+    }));
 }
 
 /// Cell coordinates of a finite point (`≥ 1` thanks to the padding).

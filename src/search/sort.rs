@@ -25,7 +25,7 @@ pub(crate) fn radix_sort_packed(words: &mut Vec<u64>, key_bits: u32) {
     }
     let mut buf = vec![0u64; n];
     for (d, h) in hist.iter().enumerate() {
-        if h.iter().any(|&c| c == n) {
+        if h.contains(&n) {
             continue; // every key has the same digit: the pass would not move anything
         }
         let mut start = [0usize; 256];

@@ -88,7 +88,7 @@ fn a_directory_with_depth_images_but_no_camera_file_is_an_error() {
 
 #[test]
 fn the_real_kinect_sequence_streams_as_rgbd_pairs_equal_to_pcl_clouds() {
-    let Some(dir) = common::data_dir("rgbd_sequence") else {
+    let Some(dir) = crate::common::data_dir("rgbd_sequence") else {
         return;
     };
     let dir = dir.join("pcl/grabber_sequence");
