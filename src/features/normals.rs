@@ -207,16 +207,25 @@ pub(crate) fn pca_normal(
     if !cov.iter().all(|c| c.is_finite()) {
         return None;
     }
-    let eig = cov.symmetric_eigen();
-    let (mut imin, mut lmin) = (0, eig.eigenvalues[0]);
-    for a in 1..3 {
-        if eig.eigenvalues[a] < lmin {
-            imin = a;
-            lmin = eig.eigenvalues[a];
+    let (ev, v) = match eigen_sym3_closed_form(&cov) {
+        Some(r) => r,
+        None => {
+            // Repeated eigenvalues (or a zero matrix): the iterative solver decides.
+            let eig = cov.symmetric_eigen();
+            let mut imin = 0;
+            for a in 1..3 {
+                if eig.eigenvalues[a] < eig.eigenvalues[imin] {
+                    imin = a;
+                }
+            }
+            let c = eig.eigenvectors.column(imin);
+            let mut ev = [eig.eigenvalues[0], eig.eigenvalues[1], eig.eigenvalues[2]];
+            ev.sort_by(f64::total_cmp);
+            (ev, [c[0], c[1], c[2]])
         }
-    }
-    let v = eig.eigenvectors.column(imin);
-    let norm = v.norm();
+    };
+    let lmin = ev[0];
+    let norm = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
     let normal = [
         (v[0] / norm) as f32,
         (v[1] / norm) as f32,
@@ -228,8 +237,57 @@ pub(crate) fn pca_normal(
     } else {
         0.0
     };
-    let mut ev = [eig.eigenvalues[0], eig.eigenvalues[1], eig.eigenvalues[2]];
-    ev.sort_by(f64::total_cmp);
     let degenerate = ev[1] <= 1e-12 * ev[2].abs();
     Some((normal, curvature, degenerate, count))
+}
+
+/// Eigenvalues (ascending) of a symmetric 3x3 matrix and an eigenvector of the smallest,
+/// in closed form: the trigonometric solution of the characteristic cubic on the
+/// matrix scaled to unit largest entry, then the largest cross product of two rows of
+/// `A − λ₀I`. `None` when that is ill-conditioned (a repeated smallest eigenvalue, a
+/// multiple of the identity, the zero matrix); the caller then uses an iterative solver.
+///
+/// PERF: several times faster than nalgebra's QR iteration, and in `f64` its error is
+/// far below what normals and curvature need (1e-10 rad for an eigenvalue gap of 1e-6
+/// of the largest).
+fn eigen_sym3_closed_form(a: &Matrix3<f64>) -> Option<([f64; 3], [f64; 3])> {
+    let s = a.iter().fold(0f64, |m, v| m.max(v.abs()));
+    if !(s > 0.0 && s.is_finite()) {
+        return None;
+    }
+    let b = a / s;
+    let q = (b[(0, 0)] + b[(1, 1)] + b[(2, 2)]) / 3.0;
+    let p1 = b[(0, 1)].powi(2) + b[(0, 2)].powi(2) + b[(1, 2)].powi(2);
+    let p2 = (b[(0, 0)] - q).powi(2) + (b[(1, 1)] - q).powi(2) + (b[(2, 2)] - q).powi(2) + 2.0 * p1;
+    let p = (p2 / 6.0).sqrt();
+    if p <= 1e-12 {
+        return None;
+    }
+    let c = (b - Matrix3::identity() * q) / p;
+    let r = (c.determinant() / 2.0).clamp(-1.0, 1.0);
+    let phi = r.acos() / 3.0;
+    let e_max = q + 2.0 * p * phi.cos();
+    let e_min = q + 2.0 * p * (phi + 2.0 * std::f64::consts::PI / 3.0).cos();
+    let e_mid = 3.0 * q - e_max - e_min;
+    let m = b - Matrix3::identity() * e_min;
+    let rows = [
+        m.row(0).transpose(),
+        m.row(1).transpose(),
+        m.row(2).transpose(),
+    ];
+    let crosses = [
+        rows[0].cross(&rows[1]),
+        rows[0].cross(&rows[2]),
+        rows[1].cross(&rows[2]),
+    ];
+    let best = crosses
+        .iter()
+        .max_by(|x, y| x.norm_squared().total_cmp(&y.norm_squared()))?;
+    // Rows of unit scale: a cross product this small means a repeated eigenvalue.
+    if !(best.norm_squared() > 1e-20) {
+        return None;
+    }
+    let mut ev = [e_min * s, e_mid * s, e_max * s];
+    ev.sort_by(f64::total_cmp);
+    Some((ev, [best[0], best[1], best[2]]))
 }
