@@ -284,7 +284,7 @@ fn eigen_sym3_closed_form(a: &Matrix3<f64>) -> Option<([f64; 3], [f64; 3])> {
         .iter()
         .max_by(|x, y| x.norm_squared().total_cmp(&y.norm_squared()))?;
     // Rows of unit scale: a cross product this small means a repeated eigenvalue.
-    if !(best.norm_squared() > 1e-20) {
+    if best.norm_squared().is_nan() || best.norm_squared() <= 1e-20 {
         return None;
     }
     let mut ev = [e_min * s, e_mid * s, e_max * s];
