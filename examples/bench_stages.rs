@@ -80,7 +80,7 @@ fn run_stage(
             let p = PassThroughParams::new(field, f("min", 0.0) as f32, f("max", 1.0) as f32);
             pass_through(cloud, &p).map(|o| o.cloud.len()).map_err(err)
         }
-        "crop_box" => {
+        "crop_box" | "crop_box_indices" => {
             let corner = |k: &str| -> [f64; 3] {
                 let v = params.get(k).and_then(Value::as_array);
                 std::array::from_fn(|a| {
@@ -94,7 +94,14 @@ fn run_stage(
                 max: corner("max"),
                 invert: false,
             };
-            crop_box(cloud, &p).map(|o| o.cloud.len()).map_err(err)
+            if stage == "crop_box_indices" {
+                // The work PCL's oracle times: CropBox::filter(indices), no output cloud.
+                crop_box_indices(&cloud.positions, &p)
+                    .map(|i| i.len())
+                    .map_err(err)
+            } else {
+                crop_box(cloud, &p).map(|o| o.cloud.len()).map_err(err)
+            }
         }
         "voxel" => {
             let p = VoxelGridParams {

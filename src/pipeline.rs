@@ -57,6 +57,13 @@ pub enum PipelineError {
     /// Normal estimation was given bad parameters.
     #[error(transparent)]
     Features(#[from] FeatureError),
+    /// An RGB-D depth image has no camera file (per-frame `.xml` or a shared
+    /// `intrinsics.json`/`intrinsics.xml`) next to it.
+    #[error("{depth}: no camera file (STEM.xml or intrinsics.json) for this depth image")]
+    NoCamera {
+        /// The depth image.
+        depth: PathBuf,
+    },
     /// Reading or writing a frame failed.
     #[error(transparent)]
     Io(#[from] IoError),
@@ -178,22 +185,27 @@ impl Pipeline {
 
     /// Runs every configured stage on one frame.
     pub fn step(&mut self, frame: &PointCloud) -> Result<FrameResult, PipelineError> {
-        let mut cloud = frame.clone();
-        let mut indices: Vec<usize> = (0..frame.len()).collect();
+        // PERF: no copy of the frame and no identity index list: `cloud` is `None` and
+        // `indices` `None` until a stage has run.
+        let mut cloud: Option<PointCloud> = None;
+        let mut indices: Option<Vec<usize>> = None;
         let mut timings = Vec::new();
         let mut apply = |stage: &'static str,
-                         cloud: &mut PointCloud,
+                         cloud: &mut Option<PointCloud>,
                          f: &dyn Fn(&PointCloud) -> Result<FilterOutput, FilterError>|
          -> Result<(), PipelineError> {
             let t = Instant::now();
-            let out = f(cloud)?;
-            indices = remap(&indices, &out.indices);
-            *cloud = out.cloud;
+            let out = f(cloud.as_ref().unwrap_or(frame))?;
+            indices = Some(match &indices {
+                None => out.indices,
+                Some(prev) => remap(prev, &out.indices),
+            });
             timings.push(StageTiming {
                 stage,
-                points_out: cloud.len(),
+                points_out: out.cloud.len(),
                 elapsed: t.elapsed(),
             });
+            *cloud = Some(out.cloud);
             Ok(())
         };
         let p = &self.params;
@@ -227,6 +239,7 @@ impl Pipeline {
                 statistical_outlier_removal(c, s)
             })?;
         }
+        let mut cloud = cloud.unwrap_or_else(|| frame.clone());
         if let Some(n) = &p.normals {
             let t = Instant::now();
             estimate_normals(&cloud, n)?.apply_to(&mut cloud);
@@ -238,15 +251,171 @@ impl Pipeline {
         }
         Ok(FrameResult {
             cloud,
-            indices,
+            indices: indices.unwrap_or_else(|| (0..frame.len()).collect()),
             timings,
         })
     }
 }
 
+/// One frame of a sequence: a cloud file, or an RGB-D image pair with its camera.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FrameSource {
+    /// A `.pcd` or `.ply` file.
+    Cloud(PathBuf),
+    /// A 16-bit depth image, an optional colour image of the same size, and the camera
+    /// file (Open3D `.json` or PCL grabber `.xml`, see [`crate::io::intrinsics`]).
+    Rgbd {
+        /// Depth image (PNG or TIFF).
+        depth: PathBuf,
+        /// Colour image (PNG or TIFF).
+        color: Option<PathBuf>,
+        /// Intrinsics file.
+        intrinsics: PathBuf,
+    },
+}
+
+impl From<PathBuf> for FrameSource {
+    fn from(p: PathBuf) -> Self {
+        FrameSource::Cloud(p)
+    }
+}
+
+impl FrameSource {
+    /// The file that names the frame (the cloud, or the depth image).
+    pub fn path(&self) -> &Path {
+        match self {
+            FrameSource::Cloud(p) => p,
+            FrameSource::Rgbd { depth, .. } => depth,
+        }
+    }
+
+    /// The output file name: the cloud's own name, or for an RGB-D pair
+    /// `frame_NNNN.pcd` (from `depth_NNNN.png`) or `STEM.pcd` (from `STEM_depth.tiff`).
+    pub fn output_name(&self) -> PathBuf {
+        match self {
+            FrameSource::Cloud(p) => p
+                .file_name()
+                .map(PathBuf::from)
+                .unwrap_or_else(|| "frame.pcd".into()),
+            FrameSource::Rgbd { depth, .. } => {
+                let stem = depth
+                    .file_stem()
+                    .and_then(|s| s.to_str())
+                    .unwrap_or("frame");
+                let id = match (stem.strip_prefix("depth_"), stem.strip_suffix("_depth")) {
+                    (Some(n), _) => format!("frame_{n}"),
+                    (None, Some(s)) => s.to_string(),
+                    (None, None) => stem.to_string(),
+                };
+                PathBuf::from(format!("{id}.pcd"))
+            }
+        }
+    }
+
+    /// Reads the frame as a cloud (RGB-D pairs in PCL's arithmetic, depth in the camera
+    /// file's units, millimetres by default).
+    pub fn read(&self) -> Result<PointCloud, IoError> {
+        match self {
+            FrameSource::Cloud(p) => read_cloud(p),
+            FrameSource::Rgbd {
+                depth,
+                color,
+                intrinsics,
+            } => {
+                let camera = crate::io::intrinsics::read_camera_model(intrinsics)?;
+                crate::io::rgbd::read_frame(depth, color.as_deref(), &camera)
+            }
+        }
+    }
+}
+
 /// The frames of a sequence: every `.pcd`/`.ply` file of a directory, or the files whose
-/// name matches a pattern with `*` wildcards (`dir/frame_*.pcd`), sorted by name.
-pub fn list_frames(spec: &Path) -> Result<Vec<PathBuf>, PipelineError> {
+/// name matches a pattern with `*` wildcards (`dir/frame_*.pcd`), sorted by name. A
+/// directory without cloud files is read as RGB-D pairs ([`list_rgbd_frames`]).
+pub fn list_frames(spec: &Path) -> Result<Vec<FrameSource>, PipelineError> {
+    match list_cloud_files(spec) {
+        Err(PipelineError::NoFrames { .. }) if spec.is_dir() => list_rgbd_frames(spec),
+        other => Ok(other?.into_iter().map(FrameSource::Cloud).collect()),
+    }
+}
+
+/// The RGB-D pairs of a directory, sorted by name, in either layout:
+/// - `depth_NNNN.png` + `color_NNNN.png` + one `intrinsics.json` (what
+///   `softsense scene generate` writes);
+/// - `STEM_depth.tiff` + `STEM_rgb.tiff` + `STEM.xml` per frame (PCL's image grabber
+///   sequences; PNG also accepted), or one shared `intrinsics.json`/`.xml`.
+///
+/// A depth image without a colour image gives an uncoloured cloud; one without any
+/// camera file is an error ([`PipelineError::NoCamera`]).
+pub fn list_rgbd_frames(dir: &Path) -> Result<Vec<FrameSource>, PipelineError> {
+    let entries = std::fs::read_dir(dir).map_err(|source| IoError::Os {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    let mut names: Vec<String> = entries
+        .filter_map(|e| e.ok())
+        .filter(|e| e.path().is_file())
+        .filter_map(|e| e.file_name().to_str().map(str::to_string))
+        .collect();
+    names.sort();
+    let has = |n: &str| names.iter().any(|m| m == n);
+    let shared = ["intrinsics.json", "intrinsics.xml"]
+        .into_iter()
+        .find(|n| has(n))
+        .map(|n| dir.join(n));
+    let image_ext = |n: &str| {
+        let l = n.to_ascii_lowercase();
+        [".png", ".tiff", ".tif"]
+            .into_iter()
+            .find(|e| l.ends_with(e))
+            .map(|e| n.len() - e.len())
+    };
+    let mut out = Vec::new();
+    for name in &names {
+        let Some(stem_len) = image_ext(name) else {
+            continue;
+        };
+        let (stem, ext) = name.split_at(stem_len);
+        // (colour file name candidates, per-frame camera file)
+        let (colors, own_camera): (Vec<String>, Option<String>) =
+            if let Some(id) = stem.strip_prefix("depth_") {
+                (
+                    vec![format!("color_{id}{ext}"), format!("color_{id}.png")],
+                    None,
+                )
+            } else if let Some(base) = stem.strip_suffix("_depth") {
+                (
+                    vec![format!("{base}_rgb{ext}"), format!("{base}_color{ext}")],
+                    Some(format!("{base}.xml")),
+                )
+            } else {
+                continue;
+            };
+        let color = colors.iter().find(|c| has(c)).map(|c| dir.join(c));
+        let intrinsics = own_camera
+            .filter(|c| has(c))
+            .map(|c| dir.join(c))
+            .or_else(|| shared.clone())
+            .ok_or_else(|| PipelineError::NoCamera {
+                depth: dir.join(name),
+            })?;
+        out.push(FrameSource::Rgbd {
+            depth: dir.join(name),
+            color,
+            intrinsics,
+        });
+    }
+    if out.is_empty() {
+        return Err(PipelineError::NoFrames {
+            path: dir.to_path_buf(),
+        });
+    }
+    Ok(out)
+}
+
+/// The cloud files of a sequence (see [`list_frames`]).
+fn list_cloud_files(spec: &Path) -> Result<Vec<PathBuf>, PipelineError> {
     let no_frames = || PipelineError::NoFrames {
         path: spec.to_path_buf(),
     };
@@ -330,11 +499,11 @@ pub struct FrameSummary {
 
 /// Streams `frames` through `pipeline`: a reader thread loads frames into a queue of at
 /// most `queue` frames while this thread filters and writes `out_dir/<input file name>`
-/// atomically (binary PCD or PLY by the input's extension). A progress bar goes to stderr
+/// atomically ([`FrameSource::output_name`]: binary PCD, or PLY for a PLY input). A progress bar goes to stderr
 /// when `progress`. Stops at the first error.
 pub fn run_sequence(
     pipeline: &mut Pipeline,
-    frames: &[PathBuf],
+    frames: &[FrameSource],
     out_dir: &Path,
     queue: usize,
     progress: bool,
@@ -356,30 +525,26 @@ pub fn run_sequence(
         indicatif::ProgressBar::hidden()
     };
     let (tx, rx) =
-        std::sync::mpsc::sync_channel::<(PathBuf, Result<PointCloud, IoError>)>(queue.max(1));
+        std::sync::mpsc::sync_channel::<(FrameSource, Result<PointCloud, IoError>)>(queue.max(1));
     let list = frames.to_vec();
     let reader = std::thread::spawn(move || {
-        for path in list {
-            let cloud = read_cloud(&path);
-            if tx.send((path, cloud)).is_err() {
+        for frame in list {
+            let cloud = frame.read();
+            if tx.send((frame, cloud)).is_err() {
                 break; // the consumer stopped
             }
         }
     });
     let mut summary = Vec::with_capacity(frames.len());
     let mut result = Ok(());
-    for (path, cloud) in rx.iter() {
+    for (frame, cloud) in rx.iter() {
         let step = (|| -> Result<FrameSummary, PipelineError> {
             let cloud = cloud?;
             let out = pipeline.step(&cloud)?;
-            let name = path
-                .file_name()
-                .map(PathBuf::from)
-                .unwrap_or_else(|| "frame.pcd".into());
-            let output = out_dir.join(name);
+            let output = out_dir.join(frame.output_name());
             write_cloud(&output, &out.cloud, Encoding::Binary)?;
             Ok(FrameSummary {
-                input: path.clone(),
+                input: frame.path().to_path_buf(),
                 output,
                 points_in: cloud.len(),
                 points_out: out.cloud.len(),

@@ -17,5 +17,7 @@ mod fem_diamond;
 mod fem_skfem;
 #[path = "integration/sense_probe.rs"]
 mod sense_probe;
+#[path = "integration/rgbd_sequence.rs"]
+mod rgbd_sequence;
 #[path = "integration/sense_tip_weight.rs"]
 mod sense_tip_weight;

@@ -8,7 +8,7 @@ use softsense::filter::{
     VoxelGridParams, VoxelMode,
 };
 use softsense::io::{read_cloud, write_cloud, Encoding};
-use softsense::pipeline::{list_frames, run_sequence, ChainParams, Pipeline};
+use softsense::pipeline::{list_frames, list_rgbd_frames, run_sequence, ChainParams, Pipeline};
 use std::io::IsTerminal;
 use std::path::PathBuf;
 
@@ -35,10 +35,13 @@ pub enum Mode {
 ///   softsense filter frames/ filtered/ --config chain.toml --json
 ///
 ///   softsense filter 'frames/frame_*.pcd' filtered/ --voxel 0.01 --voxel-mode open3d
+///
+///   softsense filter scene_dir/ filtered/ --voxel 0.005   (depth_NNNN.png + color_NNNN.png)
 #[derive(Debug, Args)]
 #[command(verbatim_doc_comment)]
 pub struct FilterArgs {
-    /// Input cloud (.pcd/.ply), a directory of them, or a pattern like 'dir/frame_*.pcd'.
+    /// Input cloud (.pcd/.ply), a directory of them (or of RGB-D image pairs), or a
+    /// pattern like 'dir/frame_*.pcd'.
     pub input: PathBuf,
     /// Output cloud, or an output directory when the input is a sequence.
     pub output: PathBuf,
@@ -73,6 +76,11 @@ pub struct FilterArgs {
     /// Print a JSON summary (points and per-stage milliseconds per frame) on stdout.
     #[arg(long)]
     pub json: bool,
+    /// Read the input directory's RGB-D image pairs (depth_NNNN.png + color_NNNN.png +
+    /// intrinsics.json, or STEM_depth.tiff + STEM_rgb.tiff + STEM.xml) even if it also
+    /// holds .pcd/.ply files; a directory without cloud files is read this way anyway.
+    #[arg(long)]
+    pub rgbd: bool,
 }
 
 fn parse_crop(s: &str) -> Result<PassThroughParams, String> {
@@ -182,7 +190,11 @@ pub fn run(args: &FilterArgs) -> CliResult {
     let input_str = args.input.to_string_lossy();
     let is_sequence = args.input.is_dir() || input_str.contains('*') || input_str.contains('?');
     if is_sequence {
-        let frames = list_frames(&args.input)?;
+        let frames = if args.rgbd {
+            list_rgbd_frames(&args.input)?
+        } else {
+            list_frames(&args.input)?
+        };
         let progress = std::io::stderr().is_terminal();
         let summary = run_sequence(&mut pipeline, &frames, &args.output, 4, progress)?;
         if args.json {

@@ -158,22 +158,19 @@ pub fn pass_through(
     params: &PassThroughParams,
 ) -> Result<FilterOutput, FilterError> {
     cloud.validate()?;
-    let finite = |i: usize| PointCloud::is_finite_point(&cloud.positions[i]);
+    let pos = &cloud.positions;
+    let finite = |i: usize| PointCloud::is_finite_point(&pos[i]);
+    let (lo, hi, negative) = (params.min, params.max, params.negative);
+    let test = |v: f32| v.is_finite() & ((lo <= v && v <= hi) != negative);
     let indices: Vec<usize> = match params.field {
-        None => (0..cloud.len()).filter(|&i| finite(i)).collect(),
+        None => indices_where(pos.len(), finite),
+        Some(field @ (Field::X | Field::Y | Field::Z)) => {
+            let a = field as usize;
+            indices_where(pos.len(), |i| finite(i) & test(pos[i][a]))
+        }
         Some(field) => {
             let values = field.values(cloud)?;
-            let (lo, hi) = (params.min, params.max);
-            (0..cloud.len())
-                .filter(|&i| {
-                    let v = values[i];
-                    if !finite(i) || !v.is_finite() {
-                        return false;
-                    }
-                    let inside = lo <= v && v <= hi;
-                    inside != params.negative
-                })
-                .collect()
+            indices_where(pos.len(), |i| finite(i) & test(values[i]))
         }
     };
     let out = if params.keep_organized {
@@ -226,22 +223,86 @@ impl Default for CropBoxParams {
 /// box is allowed; `min > max` or a NaN bound is an error (Open3D swaps silently).
 pub fn crop_box(cloud: &PointCloud, params: &CropBoxParams) -> Result<FilterOutput, FilterError> {
     cloud.validate()?;
-    let (lo, hi) = (params.min, params.max);
-    if (0..3).any(|a| lo[a].is_nan() || hi[a].is_nan() || lo[a] > hi[a]) {
-        return Err(FilterError::InvalidBox { min: lo, max: hi });
-    }
-    let indices: Vec<usize> = cloud
-        .positions
-        .iter()
-        .enumerate()
-        .filter(|(_, p)| {
-            let inside = (0..3).all(|a| lo[a] <= p[a] as f64 && p[a] as f64 <= hi[a]);
-            inside != params.invert
-        })
-        .map(|(i, _)| i)
-        .collect();
+    let indices = crop_box_indices(&cloud.positions, params)?;
     Ok(FilterOutput {
         cloud: cloud.select(&indices),
         indices,
     })
+}
+
+/// The kept indices of [`crop_box`] alone (the work PCL's `CropBox::filter(indices)`
+/// does), without building the output cloud.
+///
+/// PERF: the `f64` bounds are replaced by the equivalent `f32` bounds (the smallest
+/// `f32` ≥ `min`, the largest `f32` ≤ `max`), so the test is exact in `f32`, and the
+/// loop writes every index and advances the output cursor by the test's outcome
+/// (no branch to mispredict on a cloud where inside and outside alternate).
+pub fn crop_box_indices(
+    positions: &[[f32; 3]],
+    params: &CropBoxParams,
+) -> Result<Vec<usize>, FilterError> {
+    let (lo, hi) = (params.min, params.max);
+    if (0..3).any(|a| lo[a].is_nan() || hi[a].is_nan() || lo[a] > hi[a]) {
+        return Err(FilterError::InvalidBox { min: lo, max: hi });
+    }
+    let lo32: [f32; 3] = std::array::from_fn(|a| f32_at_least(lo[a]));
+    let hi32: [f32; 3] = std::array::from_fn(|a| f32_at_most(hi[a]));
+    let invert = params.invert;
+    Ok(indices_where(positions.len(), |i| {
+        let p = &positions[i];
+        let inside = (lo32[0] <= p[0])
+            & (p[0] <= hi32[0])
+            & (lo32[1] <= p[1])
+            & (p[1] <= hi32[1])
+            & (lo32[2] <= p[2])
+            & (p[2] <= hi32[2]);
+        inside != invert
+    }))
+}
+
+/// `(0..n).filter(keep).collect()`, without a branch on `keep`'s outcome: every index is
+/// written and the output cursor advances by the outcome (filters whose inside and
+/// outside points alternate do not pay branch mispredictions).
+fn indices_where(n: usize, keep: impl Fn(usize) -> bool) -> Vec<usize> {
+    let mut out = vec![0usize; n];
+    let mut m = 0;
+    for i in 0..n {
+        out[m] = i;
+        m += usize::from(keep(i));
+    }
+    out.truncate(m);
+    out
+}
+
+/// The smallest `f32` whose value is ≥ `v` (`v` not NaN); `x as f64 >= v` ⇔ `x >= it`.
+fn f32_at_least(v: f64) -> f32 {
+    let r = v as f32;
+    if (r as f64) < v {
+        next_up(r)
+    } else {
+        r
+    }
+}
+
+/// The largest `f32` whose value is ≤ `v` (`v` not NaN); `x as f64 <= v` ⇔ `x <= it`.
+fn f32_at_most(v: f64) -> f32 {
+    let r = v as f32;
+    if (r as f64) > v {
+        -next_up(-r)
+    } else {
+        r
+    }
+}
+
+/// The next `f32` towards +∞ (`x` itself for NaN and +∞).
+fn next_up(x: f32) -> f32 {
+    if x.is_nan() || x == f32::INFINITY {
+        x
+    } else if x == 0.0 {
+        f32::from_bits(1)
+    } else if x > 0.0 {
+        f32::from_bits(x.to_bits() + 1)
+    } else {
+        f32::from_bits(x.to_bits() - 1)
+    }
 }

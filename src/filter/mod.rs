@@ -27,7 +27,7 @@ mod crop;
 mod outlier;
 mod voxel;
 
-pub use crop::{crop_box, pass_through, CropBoxParams, Field, PassThroughParams};
+pub use crop::{crop_box, crop_box_indices, pass_through, CropBoxParams, Field, PassThroughParams};
 pub use outlier::{
     radius_outlier_removal, statistical_outlier_removal, OutlierMode, RadiusOutlierParams,
     StatisticalOutlierParams,

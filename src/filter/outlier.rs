@@ -2,7 +2,10 @@
 
 use super::{FilterError, FilterOutput};
 use crate::cloud::PointCloud;
-use crate::search::{map_indices, KdTree, Parallelism};
+use crate::search::{
+    map_has_neighbours, map_knn, squared_distance, squared_distance_f64, squared_radius_f32,
+    Parallelism,
+};
 use serde::{Deserialize, Serialize};
 
 /// Which library's neighbour counting and boundary rules to follow.
@@ -70,17 +73,25 @@ pub fn radius_outlier_removal(
             got: params.min_neighbors,
         });
     }
-    let tree = KdTree::build(&cloud.positions);
     let need = params.min_neighbors.saturating_add(1); // the point itself counts
     let inclusive = params.mode == OutlierMode::Pcl && cloud.is_dense();
-    let keep = map_indices(cloud.len(), params.parallelism, |i| {
-        let p = &cloud.positions[i];
-        let count = match params.mode {
-            OutlierMode::Pcl => tree.count_within_radius(p, params.radius, inclusive, need),
-            OutlierMode::Open3d => tree.count_within_radius_f64(p, params.radius, need),
-        };
-        count >= need
-    });
+    let r = params.radius;
+    let r2_32 = squared_radius_f32(r);
+    let r2_64 = r * r;
+    // PERF: a grid of radius-sized cells instead of one tree query per point.
+    let keep = match params.mode {
+        OutlierMode::Pcl => {
+            map_has_neighbours(&cloud.positions, r, need, params.parallelism, |q, p| {
+                let d = squared_distance(q, p);
+                (inclusive && d <= r2_32) || d < r2_32
+            })
+        }
+        OutlierMode::Open3d => {
+            map_has_neighbours(&cloud.positions, r, need, params.parallelism, |q, p| {
+                squared_distance_f64(q, p) < r2_64
+            })
+        }
+    };
     Ok(select_mask(cloud, &keep))
 }
 
@@ -143,13 +154,14 @@ pub fn statistical_outlier_removal(
             value: params.std_ratio,
         });
     }
-    let tree = KdTree::build(&cloud.positions);
+    // PERF: all k-NN lists at once on a grid; the mean distance does not depend on
+    // which of several tied points is taken.
+    let pos = &cloud.positions;
     let k = params.k;
     let keep = match params.mode {
         OutlierMode::Pcl => {
             // (mean distance, valid)
-            let d: Vec<(f32, bool)> = map_indices(cloud.len(), params.parallelism, |i| {
-                let nn = tree.nearest_n(&cloud.positions[i], k + 1);
+            let d: Vec<(f32, bool)> = map_knn(pos, k + 1, params.parallelism, |_, nn| {
                 if nn.len() < 2 {
                     return (0.0, false);
                 }
@@ -173,12 +185,14 @@ pub fn statistical_outlier_removal(
                 .collect::<Vec<_>>()
         }
         OutlierMode::Open3d => {
-            let avg: Vec<f64> = map_indices(cloud.len(), params.parallelism, |i| {
-                let nn = tree.nearest_n_f64(&cloud.positions[i], k);
+            let avg: Vec<f64> = map_knn(pos, k, params.parallelism, |i, nn| {
                 if nn.is_empty() {
                     return -1.0;
                 }
-                let s: f64 = nn.iter().map(|n| n.squared_distance.sqrt()).sum();
+                let s: f64 = nn
+                    .iter()
+                    .map(|n| squared_distance_f64(&pos[i], &pos[n.index]).sqrt())
+                    .sum();
                 s / nn.len() as f64
             });
             let valid = avg.iter().filter(|&&a| a >= 0.0).count() as f64;

@@ -2,6 +2,7 @@
 
 use super::{empty_like, FilterError, FilterOutput};
 use crate::cloud::PointCloud;
+use crate::search::sort::{bits_for, radix_sort_packed};
 use crate::search::Parallelism;
 use serde::{Deserialize, Serialize};
 
@@ -131,6 +132,19 @@ pub fn voxel_grid(
     let groups: Vec<std::ops::Range<usize>>;
     let order: Vec<u32>;
     match total {
+        Some(t) if t <= 1u128 << 32 => {
+            // PERF: the common case: keys fit in 32 bits, packed above the index and
+            // radix-sorted (stable, so indices stay ascending within a voxel).
+            let (dx, dxy) = (dims[0] as u64, (dims[0] * dims[1]) as u64);
+            let mut words: Vec<u64> = Vec::with_capacity(finite.len());
+            words.extend(finite.iter().map(|&i| {
+                let r = rel(&cloud.positions[i]);
+                ((r[0] + r[1] * dx + r[2] * dxy) << 32) | i as u64
+            }));
+            radix_sort_packed(&mut words, bits_for(t as u64));
+            groups = runs_by(&words, |w| w >> 32);
+            order = words.into_iter().map(|w| w as u32).collect();
+        }
         Some(t) if t <= u64::MAX as u128 => {
             let (dx, dxy) = (dims[0] as u64, (dims[0] * dims[1]) as u64);
             let mut pairs: Vec<(u64, u32)> = finite
@@ -141,7 +155,7 @@ pub fn voxel_grid(
                 })
                 .collect();
             sort_pairs(&mut pairs, params.parallelism);
-            groups = runs(&pairs);
+            groups = runs_by(&pairs, |p| p.0);
             order = pairs.into_iter().map(|(_, i)| i).collect();
         }
         _ => {
@@ -153,7 +167,7 @@ pub fn voxel_grid(
                 })
                 .collect();
             sort_pairs(&mut pairs, params.parallelism);
-            groups = runs(&pairs);
+            groups = runs_by(&pairs, |p| p.0);
             order = pairs.into_iter().map(|(_, i)| i).collect();
         }
     }
@@ -176,11 +190,11 @@ fn sort_pairs<K: Ord + Copy + Send>(pairs: &mut [(K, u32)], par: Parallelism) {
 }
 
 /// Ranges of equal keys in a sorted slice.
-fn runs<K: PartialEq>(pairs: &[(K, u32)]) -> Vec<std::ops::Range<usize>> {
+fn runs_by<T, K: PartialEq>(items: &[T], key: impl Fn(&T) -> K) -> Vec<std::ops::Range<usize>> {
     let mut out = Vec::new();
     let mut start = 0;
-    for i in 1..=pairs.len() {
-        if i == pairs.len() || pairs[i].0 != pairs[start].0 {
+    for i in 1..=items.len() {
+        if i == items.len() || key(&items[i]) != key(&items[start]) {
             out.push(start..i);
             start = i;
         }

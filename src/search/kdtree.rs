@@ -228,6 +228,18 @@ impl KdTree {
         self.count_inside(query, r2, stop_at, |p| squared_distance_f64(query, p) < r2)
     }
 
+    /// Number of points for which `inside` holds (it must imply `d ≤ radius`), stopping
+    /// at `stop_at`.
+    pub(crate) fn count_matching(
+        &self,
+        query: &[f32; 3],
+        radius: f64,
+        stop_at: usize,
+        inside: impl Fn(&[f32; 3]) -> bool,
+    ) -> usize {
+        self.count_inside(query, radius * radius, stop_at, inside)
+    }
+
     /// Counts the points for which `inside` holds among the candidates within
     /// `squared_radius` (widened), up to `stop_at`.
     ///

@@ -27,10 +27,15 @@
 //! ```
 
 pub mod grid_knn;
+mod grid;
 mod kdtree;
+pub(crate) mod sort;
 
 pub use grid_knn::{knn_all, KnnTable};
 
+pub(crate) use grid::map_has_neighbours;
+pub use grid::map_knn;
+pub(crate) use kdtree::squared_radius_f32;
 pub use kdtree::{squared_distance, squared_distance_f64, KdTree, Neighbour, RadiusQuery};
 
 /// How a stage spreads its work over threads. Results never depend on the choice.

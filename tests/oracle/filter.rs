@@ -376,6 +376,8 @@ fn normals_agree_with_pcl_within_one_degree_for_999_per_mille() {
             let (mut valid, mut agree, mut untied_valid, mut untied_agree) =
                 (0usize, 0usize, 0usize, 0usize);
             let (mut tied, mut validity_diff, mut worst_curv) = (0usize, 0usize, 0f32);
+            // Disagreeing points, and those of them with a tie at the k-th distance.
+            let (mut disagree, mut disagree_tied) = (0usize, 0usize);
             for i in 0..cloud.len() {
                 let (a, b) = (ours.normals[i], pn[i]);
                 let (va, vb) = (a[0].is_finite(), b[0].is_finite());
@@ -400,9 +402,11 @@ fn normals_agree_with_pcl_within_one_degree_for_999_per_mille() {
                 let ok = va && vb && angle_deg(a, b) <= 1.0 && dc <= 1e-4;
                 valid += 1;
                 agree += usize::from(ok);
+                disagree += usize::from(!ok);
                 if matches!(nb, Neighbourhood::Knn(k) if knn_boundary_tied(&tree, &cloud.positions[i], k))
                 {
                     tied += 1;
+                    disagree_tied += usize::from(!ok);
                     continue;
                 }
                 untied_valid += 1;
@@ -416,7 +420,8 @@ fn normals_agree_with_pcl_within_one_degree_for_999_per_mille() {
             let frac = untied_agree as f64 / untied_valid.max(1) as f64;
             eprintln!(
                 "normals {name} {nb:?}: {valid} valid; all: {:.4}% within 1 deg and curvature 1e-4; \
-                 {tied} with a tie at the k-th neighbour; the others: {:.4}%, validity differs {validity_diff}, worst curvature diff {worst_curv:e}",
+                 {tied} with a tie at the k-th neighbour; {disagree} disagree, {disagree_tied} of them tied; \
+                 the untied: {:.4}%, validity differs {validity_diff}, worst curvature diff {worst_curv:e}",
                 100.0 * frac_all, 100.0 * frac
             );
             if validity_diff > 0 || frac < 0.999 {

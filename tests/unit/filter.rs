@@ -85,6 +85,29 @@ proptest! {
     }
 
     #[test]
+    fn crop_box_bounds_at_and_next_to_point_coordinates_compare_in_f64(
+        pos in positions(),
+        pick in 0usize..64,
+        nudge in prop_oneof![Just(0.0f64), Just(1e-12), Just(-1e-12), Just(1e-9), Just(-1e-9)],
+        invert in any::<bool>(),
+    ) {
+        // Bounds on (or a hair off) a point's own f32 coordinates: the f32 bounds the
+        // crop uses internally must decide exactly as the f64 comparison does.
+        let Some(p) = pos.iter().filter(|p| finite(p)).nth(pick % pos.len().max(1)).copied() else {
+            return Ok(());
+        };
+        let lo: [f64; 3] = std::array::from_fn(|a| p[a] as f64 + nudge - 0.05);
+        let hi: [f64; 3] = std::array::from_fn(|a| p[a] as f64 + nudge);
+        let cloud = PointCloud::from_positions(pos.clone());
+        let out = crop_box(&cloud, &CropBoxParams { min: lo, max: hi, invert }).unwrap();
+        let want: Vec<usize> = (0..pos.len()).filter(|&i| {
+            let inside = (0..3).all(|a| lo[a] <= pos[i][a] as f64 && pos[i][a] as f64 <= hi[a]);
+            inside != invert
+        }).collect();
+        prop_assert_eq!(out.indices, want);
+    }
+
+    #[test]
     fn pcl_voxel_grid_matches_a_brute_force_grid(pos in positions(), leaf in prop_oneof![Just(0.1f64), Just(0.05), 0.02f64..0.4], min_pts in 0usize..3) {
         let cloud = with_attributes(pos.clone());
         let params = VoxelGridParams { min_points_per_voxel: min_pts, ..VoxelGridParams::new(leaf) };

@@ -1,7 +1,9 @@
 //! KD-tree searches against brute force.
 
 use proptest::prelude::*;
-use softsense::search::{squared_distance, squared_distance_f64, KdTree, RadiusQuery};
+use softsense::search::{
+    map_knn, squared_distance, squared_distance_f64, KdTree, Parallelism, RadiusQuery,
+};
 
 /// Random clouds on a coarse lattice (many exact duplicates and exact boundary
 /// distances), with some NaN points.
@@ -153,4 +155,59 @@ fn radius_boundary_is_strict_by_default_and_inclusive_on_request() {
     assert!(tree
         .within_radius(&pts[0], 0.0, RadiusQuery::sorted())
         .is_empty());
+}
+
+/// The k nearest finite points of point `i` by `(squared distance, index)`, brute force.
+fn brute_knn(points: &[[f32; 3]], i: usize, k: usize) -> Vec<(usize, f32)> {
+    if !points[i].iter().all(|c| c.is_finite()) {
+        return Vec::new();
+    }
+    let mut v = brute_radius(points, &points[i], f64::INFINITY, true);
+    v.truncate(k);
+    v
+}
+
+/// A sensor-like surface: a quantised height field on a regular pixel lattice, so that
+/// many neighbours tie at the k-th distance, plus a few far outliers and NaN pixels.
+fn surface_strategy() -> impl Strategy<Value = Vec<[f32; 3]>> {
+    (
+        5usize..40,
+        5usize..40,
+        prop::collection::vec(0u8..4, 1600),
+        0.0005f32..0.003,
+    )
+        .prop_map(|(w, h, z, s)| {
+            let mut pts: Vec<[f32; 3]> = (0..w * h)
+                .map(|j| {
+                    let (u, v) = ((j % w) as f32, (j / w) as f32);
+                    match z[j % z.len()] {
+                        0 if j % 7 == 0 => [f32::NAN; 3],
+                        q => [u * s, v * s, 1.0 + q as f32 * s],
+                    }
+                })
+                .collect();
+            pts.push([5.0, 5.0, 5.0]);
+            pts.push([-3.0, 0.0, 1.0]);
+            pts
+        })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+    #[test]
+    fn all_knn_lists_match_brute_force_with_ties_to_the_smaller_index(
+        points in prop_oneof![cloud_strategy(), surface_strategy()],
+        k in 1usize..25,
+    ) {
+        let lists = map_knn(&points, k, Parallelism::Serial, |_, nb| {
+            nb.iter().map(|n| (n.index, n.squared_distance)).collect::<Vec<_>>()
+        });
+        for (i, got) in lists.iter().enumerate() {
+            prop_assert_eq!(got, &brute_knn(&points, i, k), "point {}", i);
+        }
+        let par = map_knn(&points, k, Parallelism::Rayon, |_, nb| {
+            nb.iter().map(|n| (n.index, n.squared_distance)).collect::<Vec<_>>()
+        });
+        prop_assert_eq!(lists, par);
+    }
 }

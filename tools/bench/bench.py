@@ -52,7 +52,8 @@ def main():
     ap.add_argument("--python", default=sys.executable)
     ap.add_argument("--repeat", type=int, default=11)
     ap.add_argument("--stages", default=os.path.join(HERE, "stages.json"))
-    ap.add_argument("--only", help="comma-separated stage names")
+    ap.add_argument("--only", action="append",
+                    help="a stage name as in stages.json (exact; names may contain commas); repeatable")
     ap.add_argument("--json", help="also write all timings to this file")
     a = ap.parse_args()
 
@@ -62,7 +63,10 @@ def main():
         "pcl": lambda s, p: run_oracle([a.pcl], s, p, a.repeat),
         "open3d": lambda s, p: run_oracle([a.python, os.path.join(ROOT, "tools/oracle/open3d_oracle.py")], s, p, a.repeat),
     }
-    only = set(a.only.split(",")) if a.only else None
+    only = set(a.only) if a.only else None
+    unknown = (only or set()) - {st["name"] for st in cfg["stages"]}
+    if unknown:
+        ap.error(f"--only: no such stage {sorted(unknown)}")
     rows, raw, notes = [], [], []
     for st in cfg["stages"]:
         if only and st["name"] not in only:

@@ -2,7 +2,7 @@
 # Times each stage of tools/bench/stages.json for softsense, PCL and Open3D on the real
 # 640x480 clouds in one run and prints a Markdown table of medians and speed-ups.
 #
-# Usage: tools/bench/run.sh [--repeat N] [--only load,voxel] [--json out.json]
+# Usage: tools/bench/run.sh [--repeat N] [--only NAME]... [--json out.json]
 # Env:   SOFTSENSE_DATA (default ../shared/data), CARGO_TARGET_DIR, PYTHON (default python3)
 set -euo pipefail
 
