@@ -15,9 +15,9 @@ mod fem_cantilever;
 mod fem_diamond;
 #[path = "integration/fem_skfem.rs"]
 mod fem_skfem;
-#[path = "integration/sense_probe.rs"]
-mod sense_probe;
 #[path = "integration/rgbd_sequence.rs"]
 mod rgbd_sequence;
+#[path = "integration/sense_probe.rs"]
+mod sense_probe;
 #[path = "integration/sense_tip_weight.rs"]
 mod sense_tip_weight;

@@ -26,8 +26,8 @@
 //! assert_eq!(knn[0].index, 2);
 //! ```
 
-pub mod grid_knn;
 mod grid;
+pub mod grid_knn;
 mod kdtree;
 pub(crate) mod sort;
 
