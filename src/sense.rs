@@ -24,7 +24,7 @@
 //! for &frame in &rec.frames {
 //!     let obs = sensor.observe(&rec, frame).unwrap();
 //!     let report = sensor.sense(frame, &obs, rec.actuators_of(frame));
-//!     println!("{:?}", report.contacts);
+//!     println!("{:?}", report.forces);
 //! }
 //! ```
 
