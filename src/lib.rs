@@ -28,6 +28,7 @@
 
 pub mod cloud;
 pub mod contact;
+pub mod discrepancy;
 pub mod error;
 pub mod features;
 pub mod fem;

@@ -52,6 +52,9 @@ enum Command {
     Cluster(cli::cluster::ClusterArgs),
     /// Segment, pick the robot and detect where objects touch it.
     Contacts(cli::contacts::ContactsArgs),
+    Explain(cli::explain::ExplainArgs),
+    /// Generate a hidden-effect dataset for `explain` (truth kept in a separate file).
+    Hidden(cli::explain::HiddenArgs),
 }
 
 fn main() -> ExitCode {
@@ -65,6 +68,8 @@ fn main() -> ExitCode {
         Command::Segment(args) => cli::segment::run(&args),
         Command::Cluster(args) => cli::cluster::run(&args),
         Command::Contacts(args) => cli::contacts::run(&args),
+        Command::Explain(args) => cli::explain::run(&args),
+        Command::Hidden(args) => cli::explain::run_hidden(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

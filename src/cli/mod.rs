@@ -3,6 +3,7 @@
 pub mod cluster;
 pub mod contacts;
 pub mod convert;
+pub mod explain;
 pub mod fem;
 pub mod filter;
 pub mod info;
