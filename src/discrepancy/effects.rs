@@ -14,9 +14,11 @@ use serde::{Deserialize, Serialize};
 pub enum EffectKind {
     /// Self-weight: density scaled by (1 + p0).
     Gravity,
-    /// Global Young's modulus scaled by (1 + p0).
+    /// Global compliance scaled by (1 + p0): Young's modulus divided by (1 + p0) (the
+    /// displacements are then nearly linear in p0).
     Young,
-    /// Young's modulus of one leg (0 north, 1 east, 2 south, 3 west) scaled by (1 + p0).
+    /// Compliance of one leg (0 north, 1 east, 2 south, 3 west) scaled by (1 + p0): its
+    /// Young's modulus divided by (1 + p0).
     LegStiffness {
         /// The leg.
         leg: usize,
@@ -65,9 +67,9 @@ impl EffectKind {
     pub fn name(&self) -> String {
         match self {
             EffectKind::Gravity => "gravity (density scale)".into(),
-            EffectKind::Young => "Young's modulus scale".into(),
+            EffectKind::Young => "global compliance (1/Young) scale".into(),
             EffectKind::LegStiffness { leg } => {
-                format!("{} stiffness scale", super::features::REGION_NAMES[leg + 1])
+                format!("{} compliance scale", super::features::REGION_NAMES[leg + 1])
             }
             EffectKind::PointLoad { node } => format!("point load at node {node}"),
             EffectKind::ActuatorOffset => "actuator offsets".into(),
@@ -126,10 +128,10 @@ pub fn apply_model(
         let p = &e.params;
         let get = |i: usize| p.get(i).copied().unwrap_or(0.0);
         match e.kind {
-            EffectKind::Gravity => problem.density *= 1.0 + get(0),
+            EffectKind::Gravity => problem.density *= (1.0 + get(0)).max(0.0),
             EffectKind::Young => {
                 let m = problem.material;
-                problem.material = Material::new(m.young * (1.0 + get(0)), m.poisson)?;
+                problem.material = Material::new(m.young / (1.0 + get(0)).max(0.05), m.poisson)?;
             }
             EffectKind::Poisson => {
                 let m = problem.material;
@@ -140,7 +142,7 @@ pub fn apply_model(
                 if problem.young_scale.len() != legs.len() {
                     problem.young_scale = vec![1.0; legs.len()];
                 }
-                let f = (1.0 + get(0)).max(0.05);
+                let f = 1.0 / (1.0 + get(0)).max(0.05);
                 for (s, l) in problem.young_scale.iter_mut().zip(legs) {
                     if *l == Some(leg) {
                         *s *= f;

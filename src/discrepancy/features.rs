@@ -77,23 +77,51 @@ impl Feature {
 }
 
 /// Chooses up to `count` triangles spread evenly (farthest-point sampling of centroids)
-/// among those above `min_z` (m; the fixed base does not move).
-pub fn choose_features(x: &[[f64; 3]], surface: &Surface, count: usize, min_z: f64) -> Vec<Feature> {
-    let centroids: Vec<[f64; 3]> = surface
-        .triangles
+/// among those above `min_z` (m; the fixed base does not move) whose surroundings within
+/// `flat_radius` (m) are one plane: a face can then slide by about that much before its
+/// normal line leaves the plane, which keeps the residual linear in the model change.
+pub fn choose_features(
+    x: &[[f64; 3]],
+    surface: &Surface,
+    count: usize,
+    min_z: f64,
+    flat_radius: f64,
+) -> Vec<Feature> {
+    let tri = &surface.triangles;
+    let geo: Vec<([f64; 3], [f64; 3])> = tri
         .iter()
         .map(|t| {
-            let [a, b, c] = t.map(|i| x[i]);
-            [0, 1, 2].map(|k| (a[k] + b[k] + c[k]) / 3.0)
+            Feature {
+                triangle: *t,
+                rest: [0.0; 3],
+                region: 0,
+            }
+            .at(x)
         })
         .collect();
-    let candidates: Vec<usize> = (0..centroids.len())
-        .filter(|&i| centroids[i][2] > min_z)
+    let r2 = flat_radius * flat_radius;
+    let d2 = |a: [f64; 3], b: [f64; 3]| (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>();
+    let flat = |i: usize| -> bool {
+        let (c, n) = geo[i];
+        tri.iter().enumerate().all(|(j, t)| {
+            if !t.iter().any(|&v| d2(x[v], c) < r2) {
+                return true;
+            }
+            let nj = geo[j].1;
+            let dot: f64 = (0..3).map(|k| n[k] * nj[k]).sum();
+            dot > 0.9999
+                && t.iter()
+                    .all(|&v| (0..3).map(|k| n[k] * (x[v][k] - c[k])).sum::<f64>().abs() < 1e-7)
+        })
+    };
+    let candidates: Vec<usize> = (0..geo.len())
+        .filter(|&i| geo[i].0[2] > min_z && flat(i))
         .collect();
+    let centroids: Vec<[f64; 3]> = geo.iter().map(|g| g.0).collect();
     farthest_point_sampling(&centroids, &candidates, count)
         .into_iter()
         .map(|i| Feature {
-            triangle: surface.triangles[i],
+            triangle: tri[i],
             rest: centroids[i],
             region: region_of(centroids[i]),
         })

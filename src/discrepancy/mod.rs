@@ -73,6 +73,8 @@ pub struct DiscrepancyParams {
     pub features: usize,
     /// Features below this height (m) are skipped (the fixed base).
     pub min_feature_z: f64,
+    /// Features need one flat plane around them within this radius (m).
+    pub flat_radius: f64,
     /// Normal-line radius of the registration (m).
     pub line_radius: f64,
     /// Largest offset along the normal line (m).
@@ -96,6 +98,10 @@ pub struct DiscrepancyParams {
     pub max_effects: usize,
     /// Chord (fixed-Jacobian Gauss-Newton) iterations with exact FE re-solves per step.
     pub refine_iterations: usize,
+    /// Candidates (best by the linear fit) refined exactly before choosing.
+    pub refine_candidates: usize,
+    /// Huber threshold of the linear fits (in σ; 0 for plain least squares).
+    pub huber: f64,
 }
 
 impl Default for DiscrepancyParams {
@@ -104,6 +110,7 @@ impl Default for DiscrepancyParams {
             holdout: 0.25,
             features: 300,
             min_feature_z: 0.02,
+            flat_radius: 0.006,
             line_radius: 0.0015,
             line_length: 0.008,
             min_points: 3,
@@ -115,6 +122,8 @@ impl Default for DiscrepancyParams {
             load_candidates: 24,
             max_effects: 3,
             refine_iterations: 3,
+            refine_candidates: 5,
+            huber: 3.0,
         }
     }
 }
@@ -179,6 +188,8 @@ pub struct CandidateScore {
     pub chi2: f64,
     /// BIC = χ² + k ln n.
     pub bic: f64,
+    /// Whether χ² is from the exact refinement (else from the linear fit).
+    pub refined: bool,
 }
 
 /// One greedy step.
@@ -331,7 +342,13 @@ impl<'a> Workflow<'a> {
     fn new(model: &'a Model, rec: &'a Recording, params: &'a DiscrepancyParams) -> DiscrepancyResult<Self> {
         let surface = model.problem.mesh.surface();
         let rest = &model.problem.mesh.nodes_in_rest;
-        let features = choose_features(rest, &surface, params.features, params.min_feature_z);
+        let features = choose_features(
+            rest,
+            &surface,
+            params.features,
+            params.min_feature_z,
+            params.flat_radius,
+        );
         if features.is_empty() {
             return Err(DiscrepancyError::Data("no feature point on the surface".into()));
         }
@@ -492,6 +509,19 @@ impl<'a> Workflow<'a> {
         (0..self.frames.len()).map(|i| self.residuals(i, effects)).collect()
     }
 
+    /// Residuals of `frames` only (the others empty).
+    fn some_residuals(&self, frames: &[usize], effects: &[Effect]) -> DiscrepancyResult<Vec<Vec<Residual>>> {
+        (0..self.frames.len())
+            .map(|i| {
+                if frames.contains(&i) {
+                    self.residuals(i, effects)
+                } else {
+                    Ok(Vec::new())
+                }
+            })
+            .collect()
+    }
+
     fn stats(&self, res: &[Vec<Residual>], frames: &[usize]) -> Vec<RegionStats> {
         let nreg = REGION_NAMES.len();
         let mut acc = vec![(0usize, 0.0f64, 0.0f64, 0.0f64); nreg + 1];
@@ -523,58 +553,73 @@ impl<'a> Workflow<'a> {
     }
 
     /// Linear least squares over `frames` for the parameter increments of `kinds`
-    /// (candidate indices): returns (increments, χ² after, covariance, rows).
+    /// (candidate indices), with Huber reweighting (threshold `params.huber` in units of
+    /// σ) against rows the linearisation does not hold for (a face sliding past an edge):
+    /// returns (increments, plain χ² after, covariance, rows).
     fn fit(
         &self,
         res: &[Vec<Residual>],
         frames: &[usize],
         kinds: &[usize],
     ) -> Option<(Vec<f64>, f64, DMatrix<f64>, usize)> {
-        let k: usize = kinds.iter().map(|&c| self.frames[0].sens[c].first().map_or(0, |r| r.len())).sum();
-        let mut a = DMatrix::<f64>::zeros(k, k);
-        let mut b = DVector::<f64>::zeros(k);
-        let mut rr = 0.0;
-        let mut n = 0;
-        let mut row = vec![0.0; k];
+        let k: usize = kinds
+            .iter()
+            .map(|&c| self.frames[0].sens[c].first().map_or(0, |r| r.len()))
+            .sum();
+        let mut rows: Vec<f64> = Vec::new();
+        let mut ys: Vec<f64> = Vec::new();
         for &i in frames {
             for r in &res[i] {
-                let mut o = 0;
                 for &c in kinds {
-                    for &v in &self.frames[i].sens[c][r.feature] {
-                        row[o] = v / r.sigma;
-                        o += 1;
-                    }
+                    rows.extend(self.frames[i].sens[c][r.feature].iter().map(|v| v / r.sigma));
                 }
-                let y = r.r / r.sigma;
-                for p in 0..k {
-                    b[p] += row[p] * y;
-                    for q in 0..k {
-                        a[(p, q)] += row[p] * row[q];
-                    }
-                }
-                rr += y * y;
-                n += 1;
+                ys.push(r.r / r.sigma);
             }
         }
-        if n <= k {
+        let n = ys.len();
+        if n <= k || k == 0 {
             return None;
         }
-        // Scale for conditioning, then a tiny ridge.
-        let d: Vec<f64> = (0..k).map(|p| a[(p, p)].max(1e-300).sqrt()).collect();
-        let mut as_ = a.clone();
-        for p in 0..k {
-            for q in 0..k {
-                as_[(p, q)] /= d[p] * d[q];
+        let mut w = vec![1.0; n];
+        let mut out = None;
+        let passes = if self.params.huber > 0.0 { 5 } else { 1 };
+        for _ in 0..passes {
+            let mut a = DMatrix::<f64>::zeros(k, k);
+            let mut b = DVector::<f64>::zeros(k);
+            for (j, (&y, &wj)) in ys.iter().zip(&w).enumerate() {
+                let row = &rows[j * k..(j + 1) * k];
+                for p in 0..k {
+                    b[p] += wj * row[p] * y;
+                    for q in 0..k {
+                        a[(p, q)] += wj * row[p] * row[q];
+                    }
+                }
             }
-            as_[(p, p)] += 1e-10;
+            // Scale for conditioning, then a tiny ridge.
+            let d: Vec<f64> = (0..k).map(|p| a[(p, p)].max(1e-300).sqrt()).collect();
+            let mut sa = a.clone();
+            for p in 0..k {
+                for q in 0..k {
+                    sa[(p, q)] /= d[p] * d[q];
+                }
+                sa[(p, p)] += 1e-10;
+            }
+            let inv = sa.try_inverse()?;
+            let bs = DVector::from_fn(k, |p, _| b[p] / d[p]);
+            let ts = &inv * &bs;
+            let theta: Vec<f64> = (0..k).map(|p| ts[p] / d[p]).collect();
+            let mut chi2 = 0.0;
+            for (j, &y) in ys.iter().enumerate() {
+                let row = &rows[j * k..(j + 1) * k];
+                let e = y - row.iter().zip(&theta).map(|(a, t)| a * t).sum::<f64>();
+                chi2 += e * e;
+                let c = self.params.huber;
+                w[j] = if c > 0.0 && e.abs() > c { c / e.abs() } else { 1.0 };
+            }
+            let cov = DMatrix::from_fn(k, k, |p, q| inv[(p, q)] / (d[p] * d[q]));
+            out = Some((theta, chi2, cov, n));
         }
-        let inv = as_.try_inverse()?;
-        let bs = DVector::from_fn(k, |p, _| b[p] / d[p]);
-        let ts = &inv * &bs;
-        let theta: Vec<f64> = (0..k).map(|p| ts[p] / d[p]).collect();
-        let chi2 = (rr - ts.dot(&bs)).max(0.0);
-        let cov = DMatrix::from_fn(k, k, |p, q| inv[(p, q)] / (d[p] * d[q]));
-        Some((theta, chi2, cov, n))
+        out
     }
 
     fn chi2(&self, res: &[Vec<Residual>], frames: &[usize]) -> (f64, usize) {
@@ -645,13 +690,63 @@ pub fn explain(model: &Model, rec: &Recording, params: &DiscrepancyParams) -> Di
                             k,
                             chi2,
                             bic: chi2 + k as f64 * ln_n,
+                            refined: false,
                         },
                         theta,
                     ));
                 }
             }
             cands.sort_by(|a, b| a.1.bic.total_cmp(&b.1.bic));
-            let Some((best, score, theta)) = cands.first().cloned() else {
+            // The linear fits rank the candidates; the best few are refined with exact FE
+            // re-solves and re-registration (chord iterations) on the training frames, and
+            // the choice is made on their exact χ².
+            let mut best: Option<(f64, Vec<(usize, Vec<f64>)>, DMatrix<f64>)> = None;
+            for (c, score, theta) in cands.iter_mut().take(params.refine_candidates) {
+                let mut trial: Vec<(usize, Vec<f64>)> = kept.clone();
+                trial.push((*c, vec![0.0; wf.kinds[*c].n_params(model.problem.cables.len())]));
+                add_increments(&mut trial, theta);
+                let idx: Vec<usize> = trial.iter().map(|(k, _)| *k).collect();
+                // A trial the FE model cannot solve (absurd parameters) is not a candidate.
+                let refine = |trial: &mut Vec<(usize, Vec<f64>)>| -> DiscrepancyResult<(Vec<Vec<Residual>>, DMatrix<f64>)> {
+                    let mut res_t = wf.some_residuals(train, &wf.effects_of(trial))?;
+                    let mut cov = DMatrix::zeros(0, 0);
+                    // Keep the best iterate: a chord step can overshoot.
+                    let mut best_chi = wf.chi2(&res_t, train).0;
+                    for _ in 0..params.refine_iterations {
+                        let Some((d, _, cv, _)) = wf.fit(&res_t, train, &idx) else { break };
+                        cov = cv;
+                        let mut next = trial.clone();
+                        add_increments(&mut next, &d);
+                        let res_n = wf.some_residuals(train, &wf.effects_of(&next))?;
+                        let chi = wf.chi2(&res_n, train).0;
+                        if std::env::var_os("SOFTSENSE_DEBUG").is_some() {
+                            eprintln!("refine {next:?} chi2 {chi:.1}");
+                        }
+                        if chi >= best_chi {
+                            break;
+                        }
+                        best_chi = chi;
+                        *trial = next;
+                        res_t = res_n;
+                    }
+                    Ok((res_t, cov))
+                };
+                let Ok((res_t, cov)) = refine(&mut trial) else {
+                    score.chi2 = f64::INFINITY;
+                    score.bic = f64::INFINITY;
+                    score.refined = true;
+                    continue;
+                };
+                let (chi2, _) = wf.chi2(&res_t, train);
+                score.chi2 = chi2;
+                score.bic = chi2 + score.k as f64 * ln_n;
+                score.refined = true;
+                if best.as_ref().is_none_or(|b| score.bic < b.0) {
+                    best = Some((score.bic, trial, cov));
+                }
+            }
+            cands.sort_by(|a, b| b.1.refined.cmp(&a.1.refined).then(a.1.bic.total_cmp(&b.1.bic)));
+            let Some((best_bic, trial, cov)) = best else {
                 break;
             };
             let mut step = Step {
@@ -660,23 +755,11 @@ pub fn explain(model: &Model, rec: &Recording, params: &DiscrepancyParams) -> Di
                 holdout_chi2: [wf.chi2(&res, hold).0, f64::NAN],
                 accepted: false,
             };
-            if score.bic > bic_current - params.bic_margin {
+            if best_bic > bic_current - params.bic_margin {
                 steps.push(step);
                 break;
             }
-            // Joint update, then chord refinement with exact re-solves.
-            let mut trial: Vec<(usize, Vec<f64>)> = kept.clone();
-            trial.push((best, vec![0.0; wf.kinds[best].n_params(model.problem.cables.len())]));
-            add_increments(&mut trial, &theta);
-            let idx: Vec<usize> = trial.iter().map(|(k, _)| *k).collect();
-            let mut res_t = wf.all_residuals(&wf.effects_of(&trial))?;
-            let mut cov = DMatrix::zeros(0, 0);
-            for _ in 0..params.refine_iterations {
-                let Some((d, _, c, _)) = wf.fit(&res_t, train, &idx) else { break };
-                add_increments(&mut trial, &d);
-                cov = c;
-                res_t = wf.all_residuals(&wf.effects_of(&trial))?;
-            }
+            let res_t = wf.all_residuals(&wf.effects_of(&trial))?;
             let (h_new, n_hold) = wf.chi2(&res_t, hold);
             step.holdout_chi2[1] = h_new;
             let gain_ok = hold.is_empty() || step.holdout_chi2[0] - h_new > params.holdout_gain * n_hold as f64;
@@ -742,6 +825,20 @@ pub fn explain(model: &Model, rec: &Recording, params: &DiscrepancyParams) -> Di
         holdout_residuals: [pick(&res0), pick(&res)],
         kept: fitted,
     })
+}
+
+/// Held-out and training statistics (last entry: all regions) with the given effects
+/// applied exactly: a diagnostic, e.g. the residual at the true effects of a generated set.
+pub fn evaluate(
+    model: &Model,
+    rec: &Recording,
+    params: &DiscrepancyParams,
+    effects: &[Effect],
+) -> DiscrepancyResult<[Vec<RegionStats>; 2]> {
+    let wf = Workflow::new(model, rec, params)?;
+    let [train, hold] = split_frames(rec.frames.len(), params.holdout);
+    let res = wf.all_residuals(effects)?;
+    Ok([wf.stats(&res, &train), wf.stats(&res, &hold)])
 }
 
 fn add_increments(effects: &mut [(usize, Vec<f64>)], d: &[f64]) {

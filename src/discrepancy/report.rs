@@ -52,7 +52,7 @@ pub fn updated_model(original: &str, units: &Units, effects: &[FittedEffect]) ->
             EffectKind::Young | EffectKind::Poisson => {
                 if let Some(m) = t.get_mut("material").and_then(|m| m.as_table_mut()) {
                     let (key, val) = if e.effect.kind == EffectKind::Young {
-                        ("young", get(m, "young").map(|y| y * (1.0 + p0)))
+                        ("young", get(m, "young").map(|y| y / (1.0 + p0)))
                     } else {
                         ("poisson", get(m, "poisson").map(|y| y + p0))
                     };
@@ -151,7 +151,7 @@ pub fn markdown(x: &Explanation) -> String {
     for (i, st) in x.steps.iter().enumerate() {
         let _ = writeln!(
             s,
-            "Step {}: BIC with the effects kept so far {:.1}; held-out χ² {:.1} → {:.1}; {}\n\n| candidate | k | χ² | BIC |\n| --- | --- | --- | --- |",
+            "Step {}: BIC with the effects kept so far {:.1}; held-out χ² {:.1} → {:.1}; {}\n\n| candidate | k | χ² | BIC | exact |\n| --- | --- | --- | --- | --- |",
             i + 1,
             st.bic_current,
             st.holdout_chi2[0],
@@ -159,7 +159,15 @@ pub fn markdown(x: &Explanation) -> String {
             if st.accepted { "kept" } else { "rejected" }
         );
         for c in st.candidates.iter().take(12) {
-            let _ = writeln!(s, "| {} | {} | {:.1} | {:.1} |", c.name, c.k, c.chi2, c.bic);
+            let _ = writeln!(
+                s,
+                "| {} | {} | {:.1} | {:.1} | {} |",
+                c.name,
+                c.k,
+                c.chi2,
+                c.bic,
+                if c.refined { "yes" } else { "linear" }
+            );
         }
         s.push('\n');
     }
