@@ -9,7 +9,10 @@ use std::path::PathBuf;
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     let dir = PathBuf::from(&args[1]);
-    let model_path = args.get(2).cloned().unwrap_or("meshes/models/robot.toml".into());
+    let model_path = args
+        .get(2)
+        .cloned()
+        .unwrap_or("meshes/models/robot.toml".into());
     let model = Model::load(std::path::Path::new(&model_path), None)?;
     let (frames, truth) = layout(&dir);
     let rec = load_frames(&frames)?;
@@ -23,13 +26,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         })
         .collect();
     let p = DiscrepancyParams::default();
-    let mut cases = vec![("nominal".to_string(), vec![]), ("truth".to_string(), effects)];
+    let mut cases = vec![
+        ("nominal".to_string(), vec![]),
+        ("truth".to_string(), effects),
+    ];
     for v in args.iter().skip(3) {
         // extra: kind=value, e.g. young=-0.1
         let (k, x) = v.split_once('=').unwrap();
-        let e: softsense::discrepancy::effects::Effect = serde_json::from_str(&format!(
-            "{{\"kind\": \"{k}\", \"params\": [{x}]}}"
-        ))?;
+        let e: softsense::discrepancy::effects::Effect =
+            serde_json::from_str(&format!("{{\"kind\": \"{k}\", \"params\": [{x}]}}"))?;
         cases.push((v.clone(), vec![e]));
     }
     for (name, eff) in cases {

@@ -3,6 +3,8 @@ mod common;
 
 #[path = "integration/cli.rs"]
 mod cli;
+#[path = "integration/explain_hidden.rs"]
+mod explain_hidden;
 #[path = "integration/fem_cantilever.rs"]
 mod fem_cantilever;
 #[path = "integration/fem_diamond.rs"]

@@ -50,3 +50,5 @@ mod segment;
 
 #[path = "unit/contact.rs"]
 mod contact;
+#[path = "unit/discrepancy.rs"]
+mod discrepancy;

@@ -13,8 +13,10 @@ use std::path::PathBuf;
 /// Find where the model and the recorded frames disagree, name the missing effect, add it
 /// to the model and show the held-out residual before and after.
 #[derive(Args, Debug)]
-#[command(after_help = "Example:\n  softsense hidden /tmp/ds --effects young --seed 3\n  \
-softsense explain meshes/models/robot.toml /tmp/ds/frames --out /tmp/ds/report")]
+#[command(
+    after_help = "Example:\n  softsense hidden /tmp/ds --effects young --seed 3\n  \
+softsense explain meshes/models/robot.toml /tmp/ds/frames --out /tmp/ds/report"
+)]
 pub struct ExplainArgs {
     /// Nominal model file (TOML).
     model: PathBuf,
@@ -108,6 +110,11 @@ pub fn run_hidden(args: &HiddenArgs) -> CliResult {
     };
     let (frames, truth) = layout(&args.out_dir);
     generate_dataset(&spec, &frames, &truth).map_err(softsense::Error::from)?;
-    eprintln!("wrote {} frames to {}, truth to {}", args.frames, frames.display(), truth.display());
+    eprintln!(
+        "wrote {} frames to {}, truth to {}",
+        args.frames,
+        frames.display(),
+        truth.display()
+    );
     Ok(())
 }

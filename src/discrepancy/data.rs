@@ -78,7 +78,8 @@ fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> DiscrepancyResult<T
         path: path.display().to_string(),
         message: e.to_string(),
     })?;
-    serde_json::from_str(&text).map_err(|e| DiscrepancyError::Data(format!("{}: {e}", path.display())))
+    serde_json::from_str(&text)
+        .map_err(|e| DiscrepancyError::Data(format!("{}: {e}", path.display())))
 }
 
 /// Whether a colour is the robot's (green dominant), the colour segmentation used here.
@@ -95,11 +96,14 @@ pub fn load_frames(dir: &Path) -> DiscrepancyResult<Recording> {
         .map(|a| a.iter().filter_map(|v| v.as_f64()).collect())
         .unwrap_or_default();
     if m.len() != 9 || m[0] <= 0.0 || m[4] <= 0.0 {
-        return Err(DiscrepancyError::Data("intrinsics.json: bad intrinsic_matrix".into()));
+        return Err(DiscrepancyError::Data(
+            "intrinsics.json: bad intrinsic_matrix".into(),
+        ));
     }
     let pose: serde_json::Value = read_json(&dir.join("camera_pose.json"))?;
-    let robot_from_camera: [[f64; 4]; 4] = serde_json::from_value(pose["robot_from_camera"].clone())
-        .map_err(|e| DiscrepancyError::Data(format!("camera_pose.json: {e}")))?;
+    let robot_from_camera: [[f64; 4]; 4] =
+        serde_json::from_value(pose["robot_from_camera"].clone())
+            .map_err(|e| DiscrepancyError::Data(format!("camera_pose.json: {e}")))?;
     let camera = CameraInfo {
         intrinsics: [m[0], m[4], m[6], m[7]],
         robot_from_camera,

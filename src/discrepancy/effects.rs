@@ -69,7 +69,10 @@ impl EffectKind {
             EffectKind::Gravity => "gravity (density scale)".into(),
             EffectKind::Young => "global compliance (1/Young) scale".into(),
             EffectKind::LegStiffness { leg } => {
-                format!("{} compliance scale", super::features::REGION_NAMES[leg + 1])
+                format!(
+                    "{} compliance scale",
+                    super::features::REGION_NAMES[leg + 1]
+                )
             }
             EffectKind::PointLoad { node } => format!("point load at node {node}"),
             EffectKind::ActuatorOffset => "actuator offsets".into(),
@@ -151,7 +154,9 @@ pub fn apply_model(
             }
             EffectKind::PointLoad { node } => {
                 if node >= problem.mesh.num_nodes() {
-                    return Err(DiscrepancyError::Data(format!("load node {node} out of range")));
+                    return Err(DiscrepancyError::Data(format!(
+                        "load node {node} out of range"
+                    )));
                 }
                 problem.loads.push(PointLoad {
                     at: MappedPoint::node(node),
@@ -175,7 +180,11 @@ pub fn apply_model(
 /// Rotation matrix exp([ω]x) (Rodrigues).
 pub fn rotation(w: [f64; 3]) -> [[f64; 3]; 3] {
     let th = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
-    let k = if th > 1e-15 { w.map(|c| c / th) } else { [0.0, 0.0, 1.0] };
+    let k = if th > 1e-15 {
+        w.map(|c| c / th)
+    } else {
+        [0.0, 0.0, 1.0]
+    };
     let (s, c) = th.sin_cos();
     let mut r = [[0.0; 3]; 3];
     let kx = [[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]];
@@ -193,13 +202,21 @@ pub fn rotation_vector(r: &[[f64; 3]; 3]) -> [f64; 3] {
     let tr = r[0][0] + r[1][1] + r[2][2];
     let th = ((tr - 1.0) / 2.0).clamp(-1.0, 1.0).acos();
     let v = [r[2][1] - r[1][2], r[0][2] - r[2][0], r[1][0] - r[0][1]];
-    let f = if th < 1e-12 { 0.5 } else { th / (2.0 * th.sin()) };
+    let f = if th < 1e-12 {
+        0.5
+    } else {
+        th / (2.0 * th.sin())
+    };
     v.map(|c| c * f)
 }
 
 /// Undoes the measurement effects on measured points (robot frame): returns the points
 /// as they would be with a correct camera pose and depth.
-pub fn correct_points(points: &[[f64; 3]], effects: &[Effect], camera: &CameraInfo) -> Vec<[f64; 3]> {
+pub fn correct_points(
+    points: &[[f64; 3]],
+    effects: &[Effect],
+    camera: &CameraInfo,
+) -> Vec<[f64; 3]> {
     let mut out = points.to_vec();
     // Measured = nominal pose applied to a depth-scaled camera point, which equals the pose
     // error applied to a point scaled about the nominal eye: undo the depth, then the pose.
@@ -233,7 +250,12 @@ pub fn correct_points(points: &[[f64; 3]], effects: &[Effect], camera: &CameraIn
 
 /// Linear sensitivity rows of a measurement effect at a feature point `p` with normal `n`:
 /// the change of the residual (measured minus model, along n) per parameter.
-pub fn measurement_row(kind: EffectKind, p: [f64; 3], n: [f64; 3], camera: &CameraInfo) -> Vec<f64> {
+pub fn measurement_row(
+    kind: EffectKind,
+    p: [f64; 3],
+    n: [f64; 3],
+    camera: &CameraInfo,
+) -> Vec<f64> {
     match kind {
         EffectKind::CameraPose => {
             let pxn = [

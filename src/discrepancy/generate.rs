@@ -140,26 +140,43 @@ fn lerp(a: f64, b: f64, t: f64) -> f64 {
     a + (b - a) * t.clamp(0.0, 1.0)
 }
 
-fn draw(name: &str, rng: &mut Rng, m: f64, model: &Model, frames: usize) -> DiscrepancyResult<Hidden> {
+fn draw(
+    name: &str,
+    rng: &mut Rng,
+    m: f64,
+    model: &Model,
+    frames: usize,
+) -> DiscrepancyResult<Hidden> {
     let lib = |kind, params| Ok(Hidden::Library(Effect { kind, params }));
     match name {
         "gravity" => lib(EffectKind::Gravity, vec![rng.sign() * lerp(0.08, 0.6, m)]),
         "young" => lib(EffectKind::Young, vec![rng.sign() * lerp(0.04, 0.3, m)]),
         "leg_stiffness" => {
             let leg = (rng.u() * 4.0) as usize % 4;
-            lib(EffectKind::LegStiffness { leg }, vec![rng.sign() * lerp(0.1, 0.5, m)])
+            lib(
+                EffectKind::LegStiffness { leg },
+                vec![rng.sign() * lerp(0.1, 0.5, m)],
+            )
         }
         "point_load" | "varying_load" => {
-            let cands = load_candidates(&model.problem, super::DiscrepancyParams::default().load_candidates);
+            let cands = load_candidates(
+                &model.problem,
+                super::DiscrepancyParams::default().load_candidates,
+            );
             let node = cands
                 .get((rng.u() * cands.len() as f64) as usize % cands.len().max(1))
                 .copied()
                 .ok_or_else(|| DiscrepancyError::Data("no load candidate".into()))?;
             let f = lerp(0.03, 0.3, m);
             if name == "point_load" {
-                lib(EffectKind::PointLoad { node }, rng.dir().map(|c| c * f).to_vec())
+                lib(
+                    EffectKind::PointLoad { node },
+                    rng.dir().map(|c| c * f).to_vec(),
+                )
             } else {
-                let forces = (0..frames).map(|_| rng.dir().map(|c| c * f * rng.u())).collect();
+                let forces = (0..frames)
+                    .map(|_| rng.dir().map(|c| c * f * rng.u()))
+                    .collect();
                 Ok(Hidden::VaryingLoad { node, forces })
             }
         }
@@ -172,17 +189,25 @@ fn draw(name: &str, rng: &mut Rng, m: f64, model: &Model, frames: usize) -> Disc
         "camera_pose" => {
             let w = rng.dir().map(|c| c * lerp(0.15, 1.0, m).to_radians());
             let t = rng.dir().map(|c| c * lerp(0.5, 4.0, m) * 1e-3);
-            lib(EffectKind::CameraPose, vec![w[0], w[1], w[2], t[0], t[1], t[2]])
+            lib(
+                EffectKind::CameraPose,
+                vec![w[0], w[1], w[2], t[0], t[1], t[2]],
+            )
         }
         "depth" => lib(
             EffectKind::Depth,
-            vec![rng.sign() * lerp(0.003, 0.03, m), rng.sign() * lerp(0.3, 3.0, m) * 1e-3],
+            vec![
+                rng.sign() * lerp(0.003, 0.03, m),
+                rng.sign() * lerp(0.3, 3.0, m) * 1e-3,
+            ],
         ),
         "poisson" => lib(EffectKind::Poisson, vec![-lerp(0.03, 0.15, m)]),
         "stiffening" => Ok(Hidden::Stiffening {
             beta: lerp(0.1, 0.5, m),
         }),
-        _ => Err(DiscrepancyError::Data(format!("unknown effect type {name:?}"))),
+        _ => Err(DiscrepancyError::Data(format!(
+            "unknown effect type {name:?}"
+        ))),
     }
 }
 
@@ -196,17 +221,20 @@ fn true_camera(nominal: &CameraSpec, w: [f64; 3], t: [f64; 3]) -> DiscrepancyRes
         let d = [p[0] - t[0], p[1] - t[1], p[2] - t[2]];
         [0, 1, 2].map(|k| (0..3).map(|m| r[m][k] * d[m]).sum())
     };
-    let rot_t = |v: [f64; 3]| -> [f64; 3] { [0, 1, 2].map(|k| (0..3).map(|m| r[m][k] * v[m]).sum()) };
+    let rot_t =
+        |v: [f64; 3]| -> [f64; 3] { [0, 1, 2].map(|k| (0..3).map(|m| r[m][k] * v[m]).sum()) };
     let mut s = nominal.clone();
     s.eye = inv(nominal.eye);
     s.target = inv(nominal.target);
     s.up = rot_t(nominal.up);
-    Camera::new(s.clone()).ok_or_else(|| DiscrepancyError::Data("degenerate true camera".into()))?;
+    Camera::new(s.clone())
+        .ok_or_else(|| DiscrepancyError::Data("degenerate true camera".into()))?;
     Ok(s)
 }
 
 fn write_json(path: &Path, v: &impl Serialize) -> DiscrepancyResult<()> {
-    let text = serde_json::to_string_pretty(v).map_err(|e| DiscrepancyError::Data(e.to_string()))?;
+    let text =
+        serde_json::to_string_pretty(v).map_err(|e| DiscrepancyError::Data(e.to_string()))?;
     std::fs::write(path, text).map_err(|e| DiscrepancyError::File {
         path: path.display().to_string(),
         message: e.to_string(),
@@ -215,7 +243,11 @@ fn write_json(path: &Path, v: &impl Serialize) -> DiscrepancyResult<()> {
 
 /// Generates a dataset: frames into `frames_dir`, the truth into `truth_path` (keep it
 /// outside `frames_dir`).
-pub fn generate_dataset(spec: &DatasetSpec, frames_dir: &Path, truth_path: &Path) -> DiscrepancyResult<DatasetTruth> {
+pub fn generate_dataset(
+    spec: &DatasetSpec,
+    frames_dir: &Path,
+    truth_path: &Path,
+) -> DiscrepancyResult<DatasetTruth> {
     if spec.frames == 0 || spec.frames > super::data::MAX_FRAMES {
         return Err(DiscrepancyError::Data("frames must be 1..=1000".into()));
     }
@@ -224,7 +256,10 @@ pub fn generate_dataset(spec: &DatasetSpec, frames_dir: &Path, truth_path: &Path
         message: e.to_string(),
     })?;
     let nominal = Model::load(&spec.model, None)?;
-    let mut rng = Rng { seed: spec.seed, n: 0 };
+    let mut rng = Rng {
+        seed: spec.seed,
+        n: 0,
+    };
     let hidden = spec
         .effects
         .iter()
@@ -302,7 +337,8 @@ pub fn generate_dataset(spec: &DatasetSpec, frames_dir: &Path, truth_path: &Path
         if let Some(beta) = stiffening {
             let total: f64 = applied[i].cables.iter().filter_map(|c| c.force).sum();
             let e = m.problem.material;
-            m.problem.material = crate::fem::material::Material::new(e.young * (1.0 + beta * total), e.poisson)?;
+            m.problem.material =
+                crate::fem::material::Material::new(e.young * (1.0 + beta * total), e.poisson)?;
         }
         let r = render_frame(&scene, &m, i)?;
         let unit = spec.sensor.depth_unit;
@@ -335,7 +371,10 @@ pub fn generate_dataset(spec: &DatasetSpec, frames_dir: &Path, truth_path: &Path
     }
     let recorded_cam = Camera::new(spec.camera.clone())
         .ok_or_else(|| DiscrepancyError::Data("degenerate camera".into()))?;
-    write_json(&frames_dir.join("intrinsics.json"), &recorded_cam.open3d_intrinsics())?;
+    write_json(
+        &frames_dir.join("intrinsics.json"),
+        &recorded_cam.open3d_intrinsics(),
+    )?;
     write_json(
         &frames_dir.join("camera_pose.json"),
         &serde_json::json!({ "robot_from_camera": recorded_cam.robot_from_camera() }),

@@ -260,8 +260,9 @@ pub fn frame_problem(model: &Model, input: &FrameInput) -> DiscrepancyResult<Pro
     if !input.loads.is_empty() {
         let surface = p.mesh.surface();
         for l in &input.loads {
-            let node = crate::scene::nearest_surface_node(&p.mesh.nodes_in_rest, &surface.nodes, l.at)
-                .ok_or_else(|| DiscrepancyError::Data("the mesh has no surface".into()))?;
+            let node =
+                crate::scene::nearest_surface_node(&p.mesh.nodes_in_rest, &surface.nodes, l.at)
+                    .ok_or_else(|| DiscrepancyError::Data("the mesh has no surface".into()))?;
             p.loads.push(PointLoad {
                 at: MappedPoint::node(node),
                 force: l.force,
@@ -275,7 +276,12 @@ pub fn frame_problem(model: &Model, input: &FrameInput) -> DiscrepancyResult<Pro
 pub fn load_candidates(problem: &Problem, count: usize) -> Vec<usize> {
     let s = problem.mesh.surface();
     let x = &problem.mesh.nodes_in_rest;
-    let c: Vec<usize> = s.nodes.iter().copied().filter(|&v| x[v][2] > 0.03).collect();
+    let c: Vec<usize> = s
+        .nodes
+        .iter()
+        .copied()
+        .filter(|&v| x[v][2] > 0.03)
+        .collect();
     farthest_point_sampling(x, &c, count)
 }
 
@@ -339,7 +345,11 @@ fn solve_positions(model: &Model, p: &Problem, frame: usize) -> DiscrepancyResul
 }
 
 impl<'a> Workflow<'a> {
-    fn new(model: &'a Model, rec: &'a Recording, params: &'a DiscrepancyParams) -> DiscrepancyResult<Self> {
+    fn new(
+        model: &'a Model,
+        rec: &'a Recording,
+        params: &'a DiscrepancyParams,
+    ) -> DiscrepancyResult<Self> {
         let surface = model.problem.mesh.surface();
         let rest = &model.problem.mesh.nodes_in_rest;
         let features = choose_features(
@@ -350,7 +360,9 @@ impl<'a> Workflow<'a> {
             params.flat_radius,
         );
         if features.is_empty() {
-            return Err(DiscrepancyError::Data("no feature point on the surface".into()));
+            return Err(DiscrepancyError::Data(
+                "no feature point on the surface".into(),
+            ));
         }
         let legs = tet_legs(&model.problem);
         let kinds = candidate_kinds(&model.problem, params);
@@ -394,7 +406,11 @@ impl<'a> Workflow<'a> {
         // Compliance rows: features along their normals, then 3 rows per load candidate.
         let mut rows = Vec::with_capacity(self.features.len());
         for (f, (_, n)) in self.features.iter().zip(&pn0) {
-            let n = if n.iter().all(|c| *c == 0.0) { [0.0, 0.0, 1.0] } else { *n };
+            let n = if n.iter().all(|c| *c == 0.0) {
+                [0.0, 0.0, 1.0]
+            } else {
+                *n
+            };
             rows.push(ConstraintRow::along(RowKind::Effector, &f.mapped(), n)?);
         }
         let load_nodes: Vec<usize> = self
@@ -406,7 +422,10 @@ impl<'a> Workflow<'a> {
             })
             .collect();
         for &node in &load_nodes {
-            rows.extend(ConstraintRow::point3(RowKind::Force, &MappedPoint::node(node)));
+            rows.extend(ConstraintRow::point3(
+                RowKind::Force,
+                &MappedPoint::node(node),
+            ));
         }
         let nf = self.features.len();
         let w = if load_nodes.is_empty() {
@@ -420,10 +439,14 @@ impl<'a> Workflow<'a> {
         for kind in &self.kinds {
             let rows_k: Vec<Vec<f64>> = match kind {
                 EffectKind::PointLoad { .. } => {
-                    let w = w.as_ref().ok_or_else(|| DiscrepancyError::Data("no compliance".into()))?;
+                    let w = w
+                        .as_ref()
+                        .ok_or_else(|| DiscrepancyError::Data("no compliance".into()))?;
                     let c0 = nf + 3 * load_i;
                     load_i += 1;
-                    (0..nf).map(|i| (0..3).map(|k| w[(i, c0 + k)]).collect()).collect()
+                    (0..nf)
+                        .map(|i| (0..3).map(|k| w[(i, c0 + k)]).collect())
+                        .collect()
                 }
                 EffectKind::CameraPose | EffectKind::Depth => pn0
                     .iter()
@@ -436,7 +459,14 @@ impl<'a> Workflow<'a> {
                         let mut pp = vec![0.0; steps.len()];
                         pp[j] = *h;
                         let mut prob = problem.clone();
-                        apply_model(&mut prob, &[Effect { kind: *kind, params: pp }], &self.legs)?;
+                        apply_model(
+                            &mut prob,
+                            &[Effect {
+                                kind: *kind,
+                                params: pp,
+                            }],
+                            &self.legs,
+                        )?;
                         let xj = solve_positions(self.model, &prob, index)?;
                         let col: Vec<f64> = self
                             .features
@@ -449,7 +479,9 @@ impl<'a> Workflow<'a> {
                             .collect();
                         cols.push(col);
                     }
-                    (0..nf).map(|i| cols.iter().map(|c| c[i]).collect()).collect()
+                    (0..nf)
+                        .map(|i| cols.iter().map(|c| c[i]).collect())
+                        .collect()
                 }
             };
             sens.push(rows_k);
@@ -506,11 +538,17 @@ impl<'a> Workflow<'a> {
     }
 
     fn all_residuals(&self, effects: &[Effect]) -> DiscrepancyResult<Vec<Vec<Residual>>> {
-        (0..self.frames.len()).map(|i| self.residuals(i, effects)).collect()
+        (0..self.frames.len())
+            .map(|i| self.residuals(i, effects))
+            .collect()
     }
 
     /// Residuals of `frames` only (the others empty).
-    fn some_residuals(&self, frames: &[usize], effects: &[Effect]) -> DiscrepancyResult<Vec<Vec<Residual>>> {
+    fn some_residuals(
+        &self,
+        frames: &[usize],
+        effects: &[Effect],
+    ) -> DiscrepancyResult<Vec<Vec<Residual>>> {
         (0..self.frames.len())
             .map(|i| {
                 if frames.contains(&i) {
@@ -544,7 +582,11 @@ impl<'a> Workflow<'a> {
                     region: REGION_NAMES.get(g).copied().unwrap_or("all").to_string(),
                     n,
                     chi2,
-                    z: if n > 0 { (chi2 - nf) / (2.0 * nf).sqrt() } else { 0.0 },
+                    z: if n > 0 {
+                        (chi2 - nf) / (2.0 * nf).sqrt()
+                    } else {
+                        0.0
+                    },
                     rms: (rr / nf).sqrt(),
                     noise_rms: (ss / nf).sqrt(),
                 }
@@ -571,7 +613,11 @@ impl<'a> Workflow<'a> {
         for &i in frames {
             for r in &res[i] {
                 for &c in kinds {
-                    rows.extend(self.frames[i].sens[c][r.feature].iter().map(|v| v / r.sigma));
+                    rows.extend(
+                        self.frames[i].sens[c][r.feature]
+                            .iter()
+                            .map(|v| v / r.sigma),
+                    );
                 }
                 ys.push(r.r / r.sigma);
             }
@@ -614,7 +660,11 @@ impl<'a> Workflow<'a> {
                 let e = y - row.iter().zip(&theta).map(|(a, t)| a * t).sum::<f64>();
                 chi2 += e * e;
                 let c = self.params.huber;
-                w[j] = if c > 0.0 && e.abs() > c { c / e.abs() } else { 1.0 };
+                w[j] = if c > 0.0 && e.abs() > c {
+                    c / e.abs()
+                } else {
+                    1.0
+                };
             }
             let cov = DMatrix::from_fn(k, k, |p, q| inv[(p, q)] / (d[p] * d[q]));
             out = Some((theta, chi2, cov, n));
@@ -623,9 +673,10 @@ impl<'a> Workflow<'a> {
     }
 
     fn chi2(&self, res: &[Vec<Residual>], frames: &[usize]) -> (f64, usize) {
-        frames.iter().flat_map(|&i| &res[i]).fold((0.0, 0), |(c, n), r| {
-            (c + (r.r / r.sigma).powi(2), n + 1)
-        })
+        frames
+            .iter()
+            .flat_map(|&i| &res[i])
+            .fold((0.0, 0), |(c, n), r| (c + (r.r / r.sigma).powi(2), n + 1))
     }
 
     fn effects_of(&self, kept: &[(usize, Vec<f64>)]) -> Vec<Effect> {
@@ -648,7 +699,11 @@ fn significant(stats: &[RegionStats], z: f64) -> Vec<String> {
 }
 
 /// Runs the workflow on a model and a recording.
-pub fn explain(model: &Model, rec: &Recording, params: &DiscrepancyParams) -> DiscrepancyResult<Explanation> {
+pub fn explain(
+    model: &Model,
+    rec: &Recording,
+    params: &DiscrepancyParams,
+) -> DiscrepancyResult<Explanation> {
     if !(0.0..1.0).contains(&params.holdout) {
         return Err(DiscrepancyError::Data(format!(
             "holdout fraction {} not in [0, 1)",
@@ -666,12 +721,18 @@ pub fn explain(model: &Model, rec: &Recording, params: &DiscrepancyParams) -> Di
     let mut cov_kept = DMatrix::<f64>::zeros(0, 0);
     let mut res = res0.clone();
     let mut steps = Vec::new();
-    let at_floor = |s: &[RegionStats]| significant(s, params.z_significant).is_empty() && s.last().is_some_and(|a| a.z <= params.z_significant);
+    let at_floor = |s: &[RegionStats]| {
+        significant(s, params.z_significant).is_empty()
+            && s.last().is_some_and(|a| a.z <= params.z_significant)
+    };
     if !at_floor(&start) {
         while kept.len() < params.max_effects {
             let (chi_cur, n) = wf.chi2(&res, train);
             let ln_n = (n.max(2) as f64).ln();
-            let k_cur: usize = kept.iter().map(|(c, p)| p.len() + wf.kinds[*c].choice_params()).sum();
+            let k_cur: usize = kept
+                .iter()
+                .map(|(c, p)| p.len() + wf.kinds[*c].choice_params())
+                .sum();
             let bic_current = chi_cur + k_cur as f64 * ln_n;
             let mut cands: Vec<(usize, CandidateScore, Vec<f64>)> = Vec::new();
             for c in 0..wf.kinds.len() {
@@ -703,7 +764,10 @@ pub fn explain(model: &Model, rec: &Recording, params: &DiscrepancyParams) -> Di
             let mut best: Option<(f64, Vec<(usize, Vec<f64>)>, DMatrix<f64>)> = None;
             for (c, score, theta) in cands.iter_mut().take(params.refine_candidates) {
                 let mut trial: Vec<(usize, Vec<f64>)> = kept.clone();
-                trial.push((*c, vec![0.0; wf.kinds[*c].n_params(model.problem.cables.len())]));
+                trial.push((
+                    *c,
+                    vec![0.0; wf.kinds[*c].n_params(model.problem.cables.len())],
+                ));
                 add_increments(&mut trial, theta);
                 let idx: Vec<usize> = trial.iter().map(|(k, _)| *k).collect();
                 // A trial the FE model cannot solve (absurd parameters) is not a candidate.
@@ -745,7 +809,11 @@ pub fn explain(model: &Model, rec: &Recording, params: &DiscrepancyParams) -> Di
                     best = Some((score.bic, trial, cov));
                 }
             }
-            cands.sort_by(|a, b| b.1.refined.cmp(&a.1.refined).then(a.1.bic.total_cmp(&b.1.bic)));
+            cands.sort_by(|a, b| {
+                b.1.refined
+                    .cmp(&a.1.refined)
+                    .then(a.1.bic.total_cmp(&b.1.bic))
+            });
             let Some((best_bic, trial, cov)) = best else {
                 break;
             };
@@ -762,7 +830,8 @@ pub fn explain(model: &Model, rec: &Recording, params: &DiscrepancyParams) -> Di
             let res_t = wf.all_residuals(&wf.effects_of(&trial))?;
             let (h_new, n_hold) = wf.chi2(&res_t, hold);
             step.holdout_chi2[1] = h_new;
-            let gain_ok = hold.is_empty() || step.holdout_chi2[0] - h_new > params.holdout_gain * n_hold as f64;
+            let gain_ok = hold.is_empty()
+                || step.holdout_chi2[0] - h_new > params.holdout_gain * n_hold as f64;
             if !gain_ok {
                 steps.push(step);
                 break;
@@ -784,7 +853,14 @@ pub fn explain(model: &Model, rec: &Recording, params: &DiscrepancyParams) -> Di
     let mut o = 0;
     for (c, p) in &kept {
         let sigma = (0..p.len())
-            .map(|j| cov_kept.get((o + j, o + j)).copied().unwrap_or(f64::NAN).max(0.0).sqrt())
+            .map(|j| {
+                cov_kept
+                    .get((o + j, o + j))
+                    .copied()
+                    .unwrap_or(f64::NAN)
+                    .max(0.0)
+                    .sqrt()
+            })
             .collect();
         o += p.len();
         fitted.push(FittedEffect {
@@ -796,7 +872,11 @@ pub fn explain(model: &Model, rec: &Recording, params: &DiscrepancyParams) -> Di
             sigma,
         });
     }
-    let eval = if hold.is_empty() { wf.stats(&res, train) } else { after.clone() };
+    let eval = if hold.is_empty() {
+        wf.stats(&res, train)
+    } else {
+        after.clone()
+    };
     let regions = significant(&eval, params.z_significant);
     let overall_ok = eval.last().is_some_and(|a| a.z <= params.z_significant);
     let outcome = if regions.is_empty() && overall_ok {
@@ -808,7 +888,11 @@ pub fn explain(model: &Model, rec: &Recording, params: &DiscrepancyParams) -> Di
             }
         }
     } else {
-        let regions = if regions.is_empty() { vec!["all".to_string()] } else { regions };
+        let regions = if regions.is_empty() {
+            vec!["all".to_string()]
+        } else {
+            regions
+        };
         Outcome::UnexplainedResidual {
             regions,
             partial: fitted.clone(),

@@ -16,11 +16,15 @@ fn file_err(path: &Path, e: impl std::fmt::Display) -> DiscrepancyError {
 /// One line per effect: name, parameters ± 1σ.
 pub fn describe(e: &FittedEffect) -> String {
     let names: Vec<&str> = match e.effect.kind {
-        EffectKind::Gravity | EffectKind::Young | EffectKind::LegStiffness { .. } => vec!["relative change"],
+        EffectKind::Gravity | EffectKind::Young | EffectKind::LegStiffness { .. } => {
+            vec!["relative change"]
+        }
         EffectKind::Poisson => vec!["change of Poisson ratio"],
         EffectKind::PointLoad { .. } => vec!["Fx (N)", "Fy (N)", "Fz (N)"],
         EffectKind::ActuatorOffset => vec!["offset (N or m)"; e.effect.params.len()],
-        EffectKind::CameraPose => vec!["wx (rad)", "wy (rad)", "wz (rad)", "tx (m)", "ty (m)", "tz (m)"],
+        EffectKind::CameraPose => vec![
+            "wx (rad)", "wy (rad)", "wz (rad)", "tx (m)", "ty (m)", "tz (m)",
+        ],
         EffectKind::Depth => vec!["scale - 1", "offset (m)"],
     };
     let parts: Vec<String> = e
@@ -37,17 +41,26 @@ pub fn describe(e: &FittedEffect) -> String {
 /// The model file text with the effects added: material and mass effects edit their
 /// fields, a point load becomes a `[[loads]]` entry; effects the model file cannot hold
 /// (leg stiffness, actuator offsets, camera pose, depth) are written as comments.
-pub fn updated_model(original: &str, units: &Units, effects: &[FittedEffect]) -> DiscrepancyResult<String> {
+pub fn updated_model(
+    original: &str,
+    units: &Units,
+    effects: &[FittedEffect],
+) -> DiscrepancyResult<String> {
     let mut v: toml::Value =
         toml::from_str(original).map_err(|e| DiscrepancyError::Data(format!("model file: {e}")))?;
     let t = v
         .as_table_mut()
         .ok_or_else(|| DiscrepancyError::Data("model file is not a table".into()))?;
-    let mut notes = String::from("# Updated by `softsense explain`: effects found and fitted (value ± 1 sigma):\n");
+    let mut notes = String::from(
+        "# Updated by `softsense explain`: effects found and fitted (value ± 1 sigma):\n",
+    );
     for e in effects {
         let _ = writeln!(notes, "#   {}", describe(e));
         let p0 = e.effect.params.first().copied().unwrap_or(0.0);
-        let get = |t: &toml::value::Table, k: &str| t.get(k).and_then(|x| x.as_float().or(x.as_integer().map(|i| i as f64)));
+        let get = |t: &toml::value::Table, k: &str| {
+            t.get(k)
+                .and_then(|x| x.as_float().or(x.as_integer().map(|i| i as f64)))
+        };
         match e.effect.kind {
             EffectKind::Young | EffectKind::Poisson => {
                 if let Some(m) = t.get_mut("material").and_then(|m| m.as_table_mut()) {
@@ -91,11 +104,15 @@ pub fn updated_model(original: &str, units: &Units, effects: &[FittedEffect]) ->
                 }
             }
             _ => {
-                let _ = writeln!(notes, "#     (not representable in the model file; see effects.json)");
+                let _ = writeln!(
+                    notes,
+                    "#     (not representable in the model file; see effects.json)"
+                );
             }
         }
     }
-    let body = toml::to_string(&v).map_err(|e| DiscrepancyError::Data(format!("model file: {e}")))?;
+    let body =
+        toml::to_string(&v).map_err(|e| DiscrepancyError::Data(format!("model file: {e}")))?;
     Ok(format!("{notes}{body}"))
 }
 
@@ -123,7 +140,9 @@ fn stats_table(out: &mut String, before: &[RegionStats], after: &[RegionStats]) 
 pub fn markdown(x: &Explanation) -> String {
     let mut s = String::from("# softsense explain: report\n\n");
     match &x.outcome {
-        Outcome::NoMissingEffect => s.push_str("**No missing effect**: the residual is at the sensor noise floor.\n\n"),
+        Outcome::NoMissingEffect => {
+            s.push_str("**No missing effect**: the residual is at the sensor noise floor.\n\n")
+        }
         Outcome::Explained { effects } => {
             s.push_str("**Explained** by:\n\n");
             for e in effects {
@@ -132,7 +151,11 @@ pub fn markdown(x: &Explanation) -> String {
             s.push('\n');
         }
         Outcome::UnexplainedResidual { regions, partial } => {
-            let _ = writeln!(s, "**Unexplained residual remains** in: {}\n", regions.join(", "));
+            let _ = writeln!(
+                s,
+                "**Unexplained residual remains** in: {}\n",
+                regions.join(", ")
+            );
             for e in partial {
                 let _ = writeln!(s, "- kept on the way (not claimed): {}", describe(e));
             }
@@ -198,5 +221,8 @@ pub fn write_report(
         "effects.json",
         serde_json::to_string_pretty(&x.kept).map_err(|e| DiscrepancyError::Data(e.to_string()))?,
     )?;
-    w("model_updated.toml", updated_model(model_text, units, &x.kept)?)
+    w(
+        "model_updated.toml",
+        updated_model(model_text, units, &x.kept)?,
+    )
 }
