@@ -332,10 +332,10 @@ pub fn generate_dataset(
         model_path: spec.model.clone(),
     };
     let (w, h) = (camera.width, camera.height);
-    for i in 0..spec.frames {
+    for (i, input) in applied.iter().enumerate() {
         let mut m = truth_model.clone();
         if let Some(beta) = stiffening {
-            let total: f64 = applied[i].cables.iter().filter_map(|c| c.force).sum();
+            let total: f64 = input.cables.iter().filter_map(|c| c.force).sum();
             let e = m.problem.material;
             m.problem.material =
                 crate::fem::material::Material::new(e.young * (1.0 + beta * total), e.poisson)?;

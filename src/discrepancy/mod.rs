@@ -288,7 +288,7 @@ pub fn load_candidates(problem: &Problem, count: usize) -> Vec<usize> {
 /// Holdout frame indices: every k-th frame (k = round(1/fraction)), at least one, and at
 /// least one training frame.
 pub fn split_frames(n: usize, fraction: f64) -> [Vec<usize>; 2] {
-    if n < 2 || !(fraction > 0.0) {
+    if n < 2 || fraction.is_nan() || fraction <= 0.0 {
         return [(0..n).collect(), Vec::new()];
     }
     let k = (1.0 / fraction.min(0.5)).round().max(2.0) as usize;
@@ -314,6 +314,9 @@ pub fn candidate_kinds(problem: &Problem, params: &DiscrepancyParams) -> Vec<Eff
     );
     v
 }
+
+/// Effects kept or tried: candidate index and parameters.
+type Kept = Vec<(usize, Vec<f64>)>;
 
 /// Per-frame context: recorded problem, nominal solution, sensitivities.
 struct FrameCtx {
@@ -761,7 +764,7 @@ pub fn explain(
             // The linear fits rank the candidates; the best few are refined with exact FE
             // re-solves and re-registration (chord iterations) on the training frames, and
             // the choice is made on their exact χ².
-            let mut best: Option<(f64, Vec<(usize, Vec<f64>)>, DMatrix<f64>)> = None;
+            let mut best: Option<(f64, Kept, DMatrix<f64>)> = None;
             for (c, score, theta) in cands.iter_mut().take(params.refine_candidates) {
                 let mut trial: Vec<(usize, Vec<f64>)> = kept.clone();
                 trial.push((
