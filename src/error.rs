@@ -35,6 +35,12 @@ pub enum Error {
     /// Segmentation or clustering was given invalid parameters or data.
     #[error(transparent)]
     Segment(#[from] crate::segment::SegmentError),
+    /// Drawing pictures: canvas sizes, meshes to render, PNG files.
+    #[error(transparent)]
+    Render(#[from] crate::render::RenderError),
+    /// Force sensing.
+    #[error(transparent)]
+    Sense(#[from] crate::sense::SenseError),
 }
 
 /// `Result` with the crate-level [`Error`](enum@Error).

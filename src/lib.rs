@@ -38,9 +38,11 @@ pub mod io;
 pub mod math;
 pub mod pipeline;
 pub mod register;
+pub mod render;
 pub mod scene;
 pub mod search;
 pub mod segment;
+pub mod sense;
 
 pub use cloud::PointCloud;
 pub use error::{Error, Result};

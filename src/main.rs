@@ -23,6 +23,7 @@ Results go to stdout (as JSON with --json); human messages go to stderr. Exit co
 0 success, 1 a file or its content was refused (the message names the file), 2 bad \
 command-line usage.",
     after_help = "Examples:\n  \
+softsense sense clouds/scenes/tip_weight\n  \
 softsense info clouds/demo_scene.pcd\n  \
 softsense convert clouds/demo_scene.pcd /tmp/demo.ply\n  \
 softsense convert --depth tests/fixtures/rgbd/depth.png --color tests/fixtures/rgbd/color.png \\\n      \
@@ -52,9 +53,14 @@ enum Command {
     Cluster(cli::cluster::ClusterArgs),
     /// Segment, pick the robot and detect where objects touch it.
     Contacts(cli::contacts::ContactsArgs),
+<<<<<<< HEAD
     Explain(cli::explain::ExplainArgs),
     /// Generate a hidden-effect dataset for `explain` (truth kept in a separate file).
     Hidden(cli::explain::HiddenArgs),
+=======
+    /// The main job: where the robot is touched and how hard, frame by frame.
+    Sense(cli::sense::SenseArgs),
+>>>>>>> render
 }
 
 fn main() -> ExitCode {
@@ -68,8 +74,12 @@ fn main() -> ExitCode {
         Command::Segment(args) => cli::segment::run(&args),
         Command::Cluster(args) => cli::cluster::run(&args),
         Command::Contacts(args) => cli::contacts::run(&args),
+<<<<<<< HEAD
         Command::Explain(args) => cli::explain::run(&args),
         Command::Hidden(args) => cli::explain::run_hidden(&args),
+=======
+        Command::Sense(args) => cli::sense::run(&args),
+>>>>>>> render
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

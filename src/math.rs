@@ -14,3 +14,37 @@ pub type Iso3 = nalgebra::Isometry3<f64>;
 pub type Point3f = nalgebra::Point3<f32>;
 /// A 3-D vector in `f32`.
 pub type Vec3f = nalgebra::Vector3<f32>;
+
+/// `a − b` on plain arrays (the FE core, ray caster and registration keep `[f64; 3]`).
+pub(crate) fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+/// Dot product on plain arrays.
+pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// Cross product on plain arrays.
+pub(crate) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// Euclidean length on plain arrays.
+pub(crate) fn norm(a: [f64; 3]) -> f64 {
+    dot(a, a).sqrt()
+}
+
+/// `a / |a|`, or `a` unchanged when it has zero length.
+pub(crate) fn unit(a: [f64; 3]) -> [f64; 3] {
+    let l = norm(a);
+    if l > 0.0 {
+        a.map(|c| c / l)
+    } else {
+        a
+    }
+}

@@ -3,6 +3,16 @@
 //! is hidden when no point lies within `d_m` of its line, or the match is more than `d_l`
 //! along it. A KD-tree ball query (radius √(d_m² + d_l²)) replaces the thesis's brute force.
 //!
+//! Where the features sit matters. On a faceted FE surface the line through a mesh *vertex*
+//! along its averaged vertex normal meets the measured surface off the vertex, and the points
+//! within `d_m` of the line lie on several facets at different heights: on the project's
+//! stair-stepped robot mesh that reads as a false displacement of about −1.5 mm at edge
+//! vertices. [`surface_features`] therefore places features inside flat patches of the
+//! surface (every triangle within a flatness radius ≥ `d_m` coplanar), mapped by barycentric
+//! weights and matched along the patch's own normal, and optionally only where a camera sees
+//! the surface. There the offset of a measured surface that equals the model is zero up to
+//! sensor noise, so no per-feature bias has to be calibrated away.
+//!
 //! ```
 //! use softsense::register::{Registrar, RegisterParams};
 //! // A flat patch of points at z = 0.002 and one feature at the origin with normal +z.
@@ -14,6 +24,10 @@
 //! assert!((m.unwrap().offset - 0.002).abs() < 1e-12);
 //! ```
 
+use crate::fem::mesh::Surface;
+use crate::fem::solve::MappedPoint;
+use crate::math::{cross, dot, norm, sub, unit};
+use crate::scene::raycast::Bvh;
 use kiddo::{KdTree, SquaredEuclidean};
 use serde::Serialize;
 
@@ -29,6 +43,9 @@ pub struct RegisterParams {
     /// Average the offsets of all points within `d_m` of the line (less noise) instead of
     /// taking the single nearest point (the thesis's choice).
     pub average: bool,
+    /// With `average`: only points whose offset is within this of the nearest point's are
+    /// averaged (m), so a line crossing a thin part does not mix its two sides.
+    pub sheet: f64,
 }
 
 impl Default for RegisterParams {
@@ -38,6 +55,7 @@ impl Default for RegisterParams {
             d_m: 0.0015,
             d_l: 0.02,
             average: true,
+            sheet: 0.004,
         }
     }
 }
@@ -176,30 +194,47 @@ impl Registrar {
         }
         let r2 = params.d_m * params.d_m + params.d_l * params.d_l;
         let near = self.tree.within_unsorted::<SquaredEuclidean>(&p, r2);
-        let mut best: Option<(f64, f64)> = None;
-        let (mut sum, mut count) = (0.0, 0usize);
-        for nb in near {
-            let q = self.points[nb.item as usize];
-            let d = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
-            let t = d[0] * n[0] + d[1] * n[1] + d[2] * n[2];
-            let perp2 = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] - t * t).max(0.0);
-            if t.abs() > params.d_l || perp2 > params.d_m * params.d_m {
-                continue;
-            }
-            sum += t;
-            count += 1;
-            if best.is_none_or(|b| perp2 < b.1) {
-                best = Some((t, perp2));
-            }
+        // (offset along the line, squared distance to the line) of the points near the line.
+        let on_line: Vec<(f64, f64)> = near
+            .iter()
+            .filter_map(|nb| {
+                let q = self.points[nb.item as usize];
+                let d = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
+                let t = d[0] * n[0] + d[1] * n[1] + d[2] * n[2];
+                let perp2 = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] - t * t).max(0.0);
+                (t.abs() <= params.d_l && perp2 <= params.d_m * params.d_m).then_some((t, perp2))
+            })
+            .collect();
+        if !params.average {
+            // The thesis's rule: the point nearest to the line.
+            let &(t, perp2) = on_line
+                .iter()
+                .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.abs().total_cmp(&b.0.abs())))?;
+            return Some(LineMatch {
+                offset: t,
+                line_distance: perp2.sqrt(),
+                points: 1,
+            });
         }
-        best.map(|(t, perp2)| LineMatch {
-            offset: if params.average {
-                sum / count as f64
-            } else {
-                t
-            },
+        // The sheet of surface nearest to the feature along the line: start at the point of
+        // smallest |offset|, average the points within `sheet` of it, re-centre once.
+        let &(t0, _) = on_line
+            .iter()
+            .min_by(|a, b| a.0.abs().total_cmp(&b.0.abs()).then(a.1.total_cmp(&b.1)))?;
+        let sheet = |centre: f64| {
+            on_line
+                .iter()
+                .filter(|m| (m.0 - centre).abs() <= params.sheet)
+                .fold((0.0, 0usize, f64::INFINITY), |(s, c, d), m| {
+                    (s + m.0, c + 1, d.min(m.1))
+                })
+        };
+        let (sum, count, _) = sheet(t0);
+        let (sum, count, perp2) = sheet(sum / count as f64);
+        (count > 0).then(|| LineMatch {
+            offset: sum / count as f64,
             line_distance: perp2.sqrt(),
-            points: if params.average { count } else { 1 },
+            points: count,
         })
     }
 
@@ -219,4 +254,245 @@ impl Registrar {
             })
             .collect()
     }
+}
+
+/// A feature point on the FE surface: a fixed barycentric point of one surface triangle. It
+/// moves with the mesh; its normal line is the triangle's outward normal at the current state.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct SurfaceFeature {
+    /// The surface triangle (volume node indices, oriented outward).
+    pub triangle: [usize; 3],
+    /// Barycentric weights in the triangle (sum 1).
+    pub weights: [f64; 3],
+}
+
+impl SurfaceFeature {
+    /// Position at node positions `x` (m).
+    pub fn position(&self, x: &[[f64; 3]]) -> [f64; 3] {
+        let mut p = [0.0; 3];
+        for (&v, &w) in self.triangle.iter().zip(&self.weights) {
+            for k in 0..3 {
+                p[k] += w * x[v][k];
+            }
+        }
+        p
+    }
+
+    /// Unit outward normal of the triangle at node positions `x` (zero if degenerate).
+    pub fn normal(&self, x: &[[f64; 3]]) -> [f64; 3] {
+        let [a, b, c] = self.triangle.map(|v| x[v]);
+        unit(cross(sub(b, a), sub(c, a)))
+    }
+
+    /// The feature as an FE mapped point (the fourth weight is zero).
+    pub fn mapped(&self) -> MappedPoint {
+        let [a, b, c] = self.triangle;
+        let [wa, wb, wc] = self.weights;
+        MappedPoint {
+            nodes: [a, b, c, a],
+            weights: [wa, wb, wc, 0.0],
+        }
+    }
+}
+
+/// How [`surface_features`] chooses feature points.
+#[derive(Clone, Debug)]
+pub struct FeatureParams {
+    /// Number of features (thesis: 51).
+    pub count: usize,
+    /// Radius around a feature within which the surface must be one plane (m); keep it
+    /// ≥ [`RegisterParams::d_m`] so the points matched to a line all lie on that plane.
+    pub flat_radius: f64,
+    /// Largest angle between two triangles' normals still called coplanar (rad).
+    pub coplanar_angle: f64,
+    /// The camera centre in the robot frame (m): keep only features the camera sees at the
+    /// rest shape (facing it, not occluded). `None`: the whole surface.
+    pub eye: Option<[f64; 3]>,
+    /// With `eye`: the smallest cosine between the normal and the direction to the camera
+    /// (rejects grazing views, where depth sensors leave holes).
+    pub min_view_cos: f64,
+}
+
+impl Default for FeatureParams {
+    fn default() -> Self {
+        Self {
+            count: 51,
+            flat_radius: 0.002,
+            coplanar_angle: 1f64.to_radians(),
+            eye: None,
+            min_view_cos: 0.2,
+        }
+    }
+}
+
+/// Feature points spread evenly (farthest-point sampling) over the flat patches of the surface
+/// at node positions `x` (usually the rest shape). Candidates are triangle centroids and the
+/// midpoints of edges between coplanar triangles (the centres of split quads); a candidate is
+/// kept when every surface triangle within `flat_radius` of it is coplanar with its own, and,
+/// with `eye`, when it faces the camera and the first surface hit of the ray towards it is it.
+/// Deterministic; fewer than `count` when fewer candidates qualify.
+pub fn surface_features(
+    x: &[[f64; 3]],
+    surface: &Surface,
+    params: &FeatureParams,
+) -> Vec<SurfaceFeature> {
+    let tris: Vec<[usize; 3]> = surface
+        .triangles
+        .iter()
+        .copied()
+        .filter(|t| t.iter().all(|&v| v < x.len()))
+        .collect();
+    if tris.is_empty() || params.count == 0 {
+        return Vec::new();
+    }
+    let normals: Vec<[f64; 3]> = tris
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|v| x[v]);
+            unit(cross(sub(b, a), sub(c, a)))
+        })
+        .collect();
+    let cos_max = params.coplanar_angle.cos();
+    // Candidates: centroids, and midpoints of edges shared by two coplanar triangles.
+    let mut candidates: Vec<(usize, [f64; 3])> =
+        (0..tris.len()).map(|t| (t, [1.0 / 3.0; 3])).collect();
+    let mut edges: Vec<([usize; 2], usize, usize)> = Vec::with_capacity(3 * tris.len());
+    for (t, tri) in tris.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (tri[k], tri[(k + 1) % 3]);
+            edges.push(([a.min(b), a.max(b)], t, k));
+        }
+    }
+    edges.sort_unstable();
+    for w in edges.windows(2) {
+        if w[0].0 == w[1].0 && dot(normals[w[0].1], normals[w[1].1]) >= cos_max {
+            let (t, k) = (w[0].1, w[0].2);
+            let mut bary = [0.0; 3];
+            bary[k] = 0.5;
+            bary[(k + 1) % 3] = 0.5;
+            candidates.push((t, bary));
+        }
+    }
+    // Bounding boxes of the triangles for the flatness test.
+    let boxes: Vec<([f64; 3], [f64; 3])> = tris
+        .iter()
+        .map(|t| {
+            let mut lo = [f64::INFINITY; 3];
+            let mut hi = [f64::NEG_INFINITY; 3];
+            for &v in t {
+                for k in 0..3 {
+                    lo[k] = lo[k].min(x[v][k]);
+                    hi[k] = hi[k].max(x[v][k]);
+                }
+            }
+            (lo, hi)
+        })
+        .collect();
+    let bvh = params.eye.map(|_| Bvh::new(x, &tris));
+    let r = params.flat_radius.max(0.0);
+    let flat_and_seen = |&(t, bary): &(usize, [f64; 3])| -> Option<(SurfaceFeature, [f64; 3])> {
+        let f = SurfaceFeature {
+            triangle: tris[t],
+            weights: bary,
+        };
+        let p = f.position(x);
+        let n = normals[t];
+        if n == [0.0; 3] {
+            return None;
+        }
+        for (u, (lo, hi)) in boxes.iter().enumerate() {
+            if (0..3).any(|k| p[k] < lo[k] - r || p[k] > hi[k] + r) {
+                continue;
+            }
+            let [a, b, c] = tris[u].map(|v| x[v]);
+            if point_triangle_distance2(p, a, b, c) > r * r {
+                continue;
+            }
+            let off = [a, b, c].map(|q| dot(sub(q, p), n).abs());
+            if dot(normals[u], n) < cos_max || off.iter().any(|&o| o > 1e-3 * r) {
+                return None;
+            }
+        }
+        if let (Some(eye), Some(bvh)) = (params.eye, &bvh) {
+            let d = sub(p, eye);
+            let dist = norm(d);
+            if dist == 0.0 || -dot(d, n) / dist < params.min_view_cos {
+                return None;
+            }
+            match bvh.cast(eye, d) {
+                Some(hit) if (hit.t - 1.0).abs() * dist <= 1e-6 + 1e-3 * r => {}
+                _ => return None,
+            }
+        }
+        Some((f, p))
+    };
+    #[cfg(feature = "parallel")]
+    let kept: Vec<(SurfaceFeature, [f64; 3])> = {
+        use rayon::prelude::*;
+        candidates.par_iter().filter_map(flat_and_seen).collect()
+    };
+    #[cfg(not(feature = "parallel"))]
+    let kept: Vec<(SurfaceFeature, [f64; 3])> =
+        candidates.iter().filter_map(flat_and_seen).collect();
+    let positions: Vec<[f64; 3]> = kept.iter().map(|k| k.1).collect();
+    let all: Vec<usize> = (0..kept.len()).collect();
+    farthest_point_sampling(&positions, &all, params.count)
+        .into_iter()
+        .map(|i| kept[i].0)
+        .collect()
+}
+
+/// Squared distance from `p` to the triangle `abc` (closest point by Voronoi regions).
+pub fn point_triangle_distance2(p: [f64; 3], a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> f64 {
+    let q = closest_point_on_triangle(p, a, b, c);
+    let d = sub(p, q);
+    dot(d, d)
+}
+
+/// The point of triangle `abc` closest to `p`.
+pub fn closest_point_on_triangle(p: [f64; 3], a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> [f64; 3] {
+    let ab = sub(b, a);
+    let ac = sub(c, a);
+    let ap = sub(p, a);
+    let d1 = dot(ab, ap);
+    let d2 = dot(ac, ap);
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = sub(p, b);
+    let d3 = dot(ab, bp);
+    let d4 = dot(ac, bp);
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let lerp =
+        |o: [f64; 3], e: [f64; 3], t: f64| [o[0] + t * e[0], o[1] + t * e[1], o[2] + t * e[2]];
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return lerp(a, ab, d1 / (d1 - d3));
+    }
+    let cp = sub(p, c);
+    let d5 = dot(ab, cp);
+    let d6 = dot(ac, cp);
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return lerp(a, ac, d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        return lerp(b, sub(c, b), (d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let denom = va + vb + vc;
+    if denom == 0.0 {
+        return a;
+    }
+    let (v, w) = (vb / denom, vc / denom);
+    [
+        a[0] + ab[0] * v + ac[0] * w,
+        a[1] + ab[1] * v + ac[1] * w,
+        a[2] + ab[2] * v + ac[2] * w,
+    ]
 }

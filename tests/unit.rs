@@ -52,3 +52,6 @@ mod segment;
 mod contact;
 #[path = "unit/discrepancy.rs"]
 mod discrepancy;
+
+#[path = "unit/render.rs"]
+mod render;

@@ -9,6 +9,7 @@ pub mod filter;
 pub mod info;
 pub mod scene;
 pub mod segment;
+pub mod sense;
 
 use std::fmt;
 

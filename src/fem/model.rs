@@ -204,7 +204,7 @@ impl Units {
     }
 }
 
-/// A named effector with its constraint rows.
+/// A named effector or force point with its constraint rows.
 #[derive(Debug, Clone, Serialize)]
 pub struct Effector {
     /// Name.
@@ -222,8 +222,10 @@ pub struct Model {
     pub problem: Problem,
     /// Effectors.
     pub effectors: Vec<Effector>,
-    /// Force-point rows.
+    /// Force-point rows (all force points' rows, in order).
     pub force_rows: Vec<ConstraintRow>,
+    /// Force points: candidate locations of external forces, with their rows.
+    pub force_points: Vec<Effector>,
     /// Newton settings.
     pub newton: NewtonParams,
     /// Units of the file.
@@ -413,8 +415,15 @@ impl Model {
             });
         }
         let mut force_rows = Vec::new();
+        let mut force_points = Vec::new();
         for e in &spec.force_points {
-            force_rows.extend(rows_for(RowKind::Force, e)?.1);
+            let (point, rows) = rows_for(RowKind::Force, e)?;
+            force_rows.extend(rows.iter().cloned());
+            force_points.push(Effector {
+                name: e.name.clone(),
+                point,
+                rows,
+            });
         }
         let mut newton = NewtonParams::default();
         if let Some(n) = &spec.newton {
@@ -426,6 +435,7 @@ impl Model {
             problem: p,
             effectors,
             force_rows,
+            force_points,
             newton,
             units: u,
         })

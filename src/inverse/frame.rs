@@ -7,15 +7,28 @@ use super::{InverseError, InverseResult};
 use crate::fem::constraint::{ConstraintRow, RowKind};
 use crate::fem::model::Model;
 use crate::fem::solve::{CableControl, MappedPoint, PointLoad};
-use crate::register::{vertex_normals, RegisterParams, Registrar};
+use crate::register::{RegisterParams, Registrar, SurfaceFeature};
 
-/// A candidate force: a surface node and the force direction (unit after normalising).
+/// A candidate force: a point on the mesh and the force direction (unit after normalising).
 #[derive(Clone, Copy, Debug)]
 pub struct Candidate {
-    /// Node of the mesh.
-    pub node: usize,
+    /// Where the force acts.
+    pub at: MappedPoint,
     /// Direction of a positive intensity.
     pub direction: [f64; 3],
+    /// Whether the intensity is bounded below by zero (a push, or a hanging weight).
+    pub push_only: bool,
+}
+
+impl Candidate {
+    /// A pushing-only force on node `node` along `direction`.
+    pub fn at_node(node: usize, direction: [f64; 3]) -> Self {
+        Self {
+            at: MappedPoint::node(node),
+            direction,
+            push_only: true,
+        }
+    }
 }
 
 /// Options of the per-frame loop.
@@ -56,17 +69,13 @@ pub struct FrameEstimate {
 }
 
 /// Estimates the candidate forces from measured robot points (robot frame, m). The model's
-/// cable controls are the actuator inputs; `features` are surface nodes.
-///
-/// `reference`: points of an unloaded frame with the same actuator inputs. The line offsets
-/// measured there at the unloaded FE state are subtracted as a per-feature bias: on a
-/// faceted mesh the normal line of an edge vertex meets the measured surface off the vertex
-/// (about −1.5 mm on the robot mesh with d_m = 1.5 mm), which would otherwise read as a load.
+/// cable controls are the actuator inputs; `features` are points on flat surface patches
+/// (see [`crate::register::surface_features`]), matched along their patch normals at each FE
+/// state, so a measured surface equal to the model's gives zero offsets.
 pub fn estimate(
     model: &Model,
     points: &[[f64; 3]],
-    reference: Option<&[[f64; 3]]>,
-    features: &[usize],
+    features: &[SurfaceFeature],
     candidates: &[Candidate],
     params: &FrameParams,
 ) -> InverseResult<FrameEstimate> {
@@ -75,47 +84,35 @@ pub fn estimate(
         p.loads.clear();
         p
     };
-    let surface = base.mesh.surface();
     let rest = base.mesh.nodes_in_rest.clone();
     let registrar = Registrar::new(points);
     let mut forces = vec![0.0; candidates.len()];
     let mut last: Option<(IntensityEstimate, usize)> = None;
     let mut x = rest.clone();
     let mut updates = 0;
-    let mut bias: Option<Vec<Option<f64>>> = None;
     for _ in 0..params.max_updates {
         // FE state under the current forces.
         let mut problem = base.clone();
         for (c, f) in candidates.iter().zip(&forces) {
             problem.loads.push(PointLoad {
-                at: MappedPoint::node(c.node),
-                force: c.direction.map(|d| d * f),
+                at: c.at,
+                force: crate::math::unit(c.direction).map(|d| d * f),
             });
         }
         let sol = problem.solve_static(&model.newton)?;
         x = sol.positions;
         updates += 1;
         // Register at the current state.
-        let normals = vertex_normals(&x, &surface.triangles);
-        let matches = registrar.register(&x, &normals, features, &params.register);
-        if bias.is_none() {
-            bias = Some(match reference {
-                Some(r) => Registrar::new(r)
-                    .register(&x, &normals, features, &params.register)
-                    .iter()
-                    .map(|m| m.map(|m| m.offset))
-                    .collect(),
-                None => vec![Some(0.0); features.len()],
-            });
-        }
-        let b = bias.as_deref().unwrap_or_default();
         let mut rows = Vec::new();
         let mut measured = Vec::new();
-        for ((m, &f), b) in matches.iter().zip(features).zip(b) {
-            if let (Some(m), Some(b)) = (m, b) {
-                let row =
-                    ConstraintRow::along(RowKind::Effector, &MappedPoint::node(f), normals[f])?;
-                measured.push(row.value(&x) + m.offset - b);
+        for f in features {
+            let (p, n) = (f.position(&x), f.normal(&x));
+            if n == [0.0; 3] {
+                continue;
+            }
+            if let Some(m) = registrar.match_feature(p, n, &params.register) {
+                let row = ConstraintRow::along(RowKind::Effector, &f.mapped(), n)?;
+                measured.push(row.value(&x) + m.offset);
                 rows.push(row);
             }
         }
@@ -136,11 +133,7 @@ pub fn estimate(
         }
         let na = base.cables.len();
         for c in candidates {
-            rows.push(ConstraintRow::along(
-                RowKind::Force,
-                &MappedPoint::node(c.node),
-                c.direction,
-            )?);
+            rows.push(ConstraintRow::along(RowKind::Force, &c.at, c.direction)?);
         }
         let nf = candidates.len();
         let mut solver = base.solver()?;
@@ -163,7 +156,7 @@ pub fn estimate(
             w_af: comp.block(&a, &fo),
             delta_free_a: comp.delta_free[ne..ne + na].to_vec(),
             actuators: inputs,
-            push_only: vec![true; nf],
+            push_only: candidates.iter().map(|c| c.push_only).collect(),
         };
         if ne == 0 {
             return Err(InverseError::Intensity("no visible feature point".into()));

@@ -98,7 +98,8 @@ pub enum LoadKind {
 pub struct LoadInput {
     /// Probe or weight.
     pub kind: LoadKind,
-    /// Point in the robot frame (m); snapped to the nearest surface node of the rest mesh.
+    /// Point in the robot frame (m): a probe presses on the nearest surface node of the rest
+    /// mesh, a weight hangs from this point itself (located in the mesh; else the node).
     pub at: [f64; 3],
     /// Force vector (N).
     pub force: [f64; 3],
@@ -219,7 +220,7 @@ impl Scene {
 pub struct LoadTruth {
     /// Probe or weight.
     pub kind: LoadKind,
-    /// The surface node it acts on.
+    /// The nearest surface node (a probe acts on it; a weight acts at `at_rest` exactly).
     pub node: usize,
     /// The node's rest position (m).
     pub at_rest: [f64; 3],
@@ -341,11 +342,14 @@ pub fn render_frame(scene: &Scene, model: &Model, index: usize) -> SceneResult<R
                 "load with non-finite force or radius <= 0".into(),
             ));
         }
-        problem.loads.push(PointLoad {
-            at: MappedPoint::node(node),
-            force: l.force,
-        });
-        nodes_of_loads.push(node);
+        // A probe presses on a surface node; a weight hangs from exactly `at` (a hook).
+        let at = match l.kind {
+            LoadKind::Weight => MappedPoint::locate(&problem.mesh, l.at, 1e-4)
+                .unwrap_or_else(|_| MappedPoint::node(node)),
+            LoadKind::Probe => MappedPoint::node(node),
+        };
+        problem.loads.push(PointLoad { at, force: l.force });
+        nodes_of_loads.push((node, at));
     }
     let sol = problem.solve_static(&model.newton)?;
     if !sol.converged {
@@ -356,15 +360,15 @@ pub fn render_frame(scene: &Scene, model: &Model, index: usize) -> SceneResult<R
         .loads
         .iter()
         .zip(&nodes_of_loads)
-        .map(|(l, &node)| {
+        .map(|(l, &(node, at))| {
             let mag = l.force.iter().map(|f| f * f).sum::<f64>().sqrt();
             let probe_center = (l.kind == LoadKind::Probe && mag > 0.0)
                 .then(|| [0, 1, 2].map(|k| x[node][k] - l.radius * l.force[k] / mag));
             LoadTruth {
                 kind: l.kind,
                 node,
-                at_rest: rest[node],
-                at_deformed: x[node],
+                at_rest: at.position(&rest),
+                at_deformed: at.position(x),
                 force: l.force,
                 magnitude: mag,
                 probe_center,

@@ -10,27 +10,7 @@ pub struct Hit {
     pub normal: [f64; 3],
 }
 
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-fn unit(a: [f64; 3]) -> [f64; 3] {
-    let l = dot(a, a).sqrt();
-    if l > 0.0 {
-        a.map(|c| c / l)
-    } else {
-        a
-    }
-}
+use crate::math::{cross, dot, sub, unit};
 
 /// Ray-triangle intersection (Möller-Trumbore), both sides; returns t > `t_min`.
 pub fn ray_triangle(o: [f64; 3], d: [f64; 3], tri: [[f64; 3]; 3], t_min: f64) -> Option<f64> {

@@ -31,7 +31,13 @@ fn mm_kg_s_model_is_converted_to_si() {
         );
     }
     assert_eq!(m.effectors[0].rows.len(), 3);
-    assert_eq!(m.force_rows.len(), 1, "a normal force point is one row");
+    assert_eq!(
+        m.force_rows.len(),
+        2,
+        "a normal force point and a directed one: a row each"
+    );
+    assert_eq!(m.force_points.len(), 2);
+    assert_eq!(m.force_points[1].name, "hook");
 }
 
 #[test]

@@ -1,7 +1,27 @@
 //! Normal-line registration on clouds sampled from a displaced FE surface.
+use proptest::prelude::*;
 use softsense::fem::mesh::TetMesh;
-use softsense::register::{farthest_point_sampling, vertex_normals, RegisterParams, Registrar};
+use softsense::register::{
+    closest_point_on_triangle, farthest_point_sampling, surface_features, vertex_normals,
+    FeatureParams, RegisterParams, Registrar,
+};
 use softsense::scene::raycast::Bvh;
+
+/// Dense samples (24 steps per edge) on every triangle.
+fn sample_triangles(x: &[[f64; 3]], triangles: &[[usize; 3]]) -> Vec<[f64; 3]> {
+    let mut pts = Vec::new();
+    let k = 24;
+    for t in triangles {
+        let [a, b, c] = t.map(|i| x[i]);
+        for i in 0..=k {
+            for j in 0..=(k - i) {
+                let (u, v) = (i as f64 / k as f64, j as f64 / k as f64);
+                pts.push([0, 1, 2].map(|q| a[q] + u * (b[q] - a[q]) + v * (c[q] - a[q])));
+            }
+        }
+    }
+    pts
+}
 
 /// Box surface (rest), displaced nodes (a bend in z growing with x), dense samples on the
 /// displaced triangles.
@@ -20,17 +40,7 @@ fn setup() -> (
         .iter()
         .map(|p| [p[0], p[1], p[2] + 0.004 * (p[0] / 0.1).powi(2)])
         .collect();
-    let mut pts = Vec::new();
-    let k = 24;
-    for t in &s.triangles {
-        let [a, b, c] = t.map(|i| disp[i]);
-        for i in 0..=k {
-            for j in 0..=(k - i) {
-                let (u, v) = (i as f64 / k as f64, j as f64 / k as f64);
-                pts.push([0, 1, 2].map(|q| a[q] + u * (b[q] - a[q]) + v * (c[q] - a[q])));
-            }
-        }
-    }
+    let pts = sample_triangles(&disp, &s.triangles);
     (rest, disp, s.triangles, s.nodes, pts)
 }
 
@@ -152,4 +162,102 @@ fn registration_equals_brute_force_and_hides_unseen_features() {
         .register(&rest, &normals, &feats, &params)
         .iter()
         .all(|m| m.is_none()));
+}
+
+#[test]
+fn surface_features_of_an_undeformed_surface_read_zero_offsets_with_averaging() {
+    // The bias the features avoid: averaged matches at box-edge vertices read non-zero
+    // offsets even when the measured surface IS the model surface.
+    let m = TetMesh::structured_box([0.0, 0.0, 0.0], [0.1, 0.04, 0.02], [10, 4, 2]).unwrap();
+    let s = m.surface();
+    let rest = m.nodes_in_rest.clone();
+    let pts = sample_triangles(&rest, &s.triangles);
+    let reg = Registrar::new(&pts);
+    let params = RegisterParams::default();
+    let feats = surface_features(&rest, &s, &FeatureParams::default());
+    assert_eq!(feats.len(), 51);
+    let mut worst: f64 = 0.0;
+    for f in &feats {
+        let m = reg
+            .match_feature(f.position(&rest), f.normal(&rest), &params)
+            .expect("a feature on the sampled surface is matched");
+        worst = worst.max(m.offset.abs());
+    }
+    assert!(
+        worst < 1e-12,
+        "surface feature offset {worst} m on an undeformed surface"
+    );
+    // Vertex features at the box's edges do read a bias.
+    let normals = vertex_normals(&rest, &s.triangles);
+    let verts = farthest_point_sampling(&rest, &s.nodes, 51);
+    let biased = reg
+        .register(&rest, &normals, &verts, &params)
+        .iter()
+        .flatten()
+        .map(|m| m.offset.abs())
+        .fold(0.0, f64::max);
+    assert!(
+        biased > 1e-4,
+        "vertex features unexpectedly unbiased ({biased} m)"
+    );
+}
+
+#[test]
+fn surface_features_seen_from_a_camera_face_it() {
+    let m = TetMesh::structured_box([0.0, 0.0, 0.0], [0.1, 0.04, 0.02], [10, 4, 2]).unwrap();
+    let s = m.surface();
+    let rest = m.nodes_in_rest.clone();
+    let eye = [0.05, 0.02, 0.5];
+    let feats = surface_features(
+        &rest,
+        &s,
+        &FeatureParams {
+            eye: Some(eye),
+            count: 20,
+            ..Default::default()
+        },
+    );
+    assert_eq!(feats.len(), 20);
+    for f in &feats {
+        // Only the top face (z = 0.02, normal +z) is visible from above.
+        let p = f.position(&rest);
+        assert!(
+            (p[2] - 0.02).abs() < 1e-12 && f.normal(&rest)[2] > 0.999,
+            "{p:?}"
+        );
+        let w: f64 = f.weights.iter().sum();
+        assert!((w - 1.0).abs() < 1e-12);
+        assert!((f.mapped().position(&rest)[0] - p[0]).abs() < 1e-15);
+    }
+}
+
+fn brute_closest(p: [f64; 3], a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> f64 {
+    let k = 300;
+    let mut best = f64::INFINITY;
+    for i in 0..=k {
+        for j in 0..=(k - i) {
+            let (u, v) = (i as f64 / k as f64, j as f64 / k as f64);
+            let q = [0, 1, 2].map(|q| a[q] + u * (b[q] - a[q]) + v * (c[q] - a[q]));
+            best = best.min((0..3).map(|m| (p[m] - q[m]).powi(2)).sum::<f64>());
+        }
+    }
+    best.sqrt()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+    #[test]
+    fn closest_point_on_a_triangle_is_no_farther_than_any_sampled_point(
+        v in proptest::collection::vec(-1.0f64..1.0, 12)
+    ) {
+        let (a, b, c, p) = ([v[0], v[1], v[2]], [v[3], v[4], v[5]], [v[6], v[7], v[8]], [v[9], v[10], v[11]]);
+        let q = closest_point_on_triangle(p, a, b, c);
+        let d = (0..3).map(|m| (p[m] - q[m]).powi(2)).sum::<f64>().sqrt();
+        let brute = brute_closest(p, a, b, c);
+        // The brute force samples a 300-step grid: it is never closer, and at most one grid
+        // cell (edge / 300) farther.
+        let edge = [a, b, c].iter().zip([b, c, a]).map(|(x, y)| (0..3).map(|m| (x[m] - y[m]).powi(2)).sum::<f64>().sqrt()).fold(0.0, f64::max);
+        prop_assert!(d <= brute + 1e-12, "closest {d} > sampled {brute}");
+        prop_assert!(brute - d <= 2.0 * edge / 300.0 + 1e-12, "closest {d} << sampled {brute}");
+    }
 }

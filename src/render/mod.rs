@@ -1,0 +1,103 @@
+//! Pictures a person can read: a small RGB raster toolkit for `sense --render` and
+//! `explain` reports.
+//!
+//! - [`Canvas`]: an RGB8 image with anti-aliased lines, arrows, circles, discs, boxes and
+//!   text in a built-in 5x7 font (ASCII and [`EXTRA_CHARS`] such as `±µ°σχ`;
+//!   [`text_size`]); PNG in and out.
+//! - [`ColorMap`]: a sequential (viridis-like) and a diverging (blue-white-red) map, with
+//!   [`colorbar`] and [`format_value`] for labels.
+//! - [`project`], [`Pose`], [`View`]: the pinhole model and rigid camera poses, matching
+//!   [`crate::scene::camera`] and [`crate::io::intrinsics::PinholeIntrinsics`].
+//! - [`surface_map`]: a z-buffered, flat-shaded rendering of a triangle surface with a
+//!   scalar per vertex or per triangle (e.g. residuals), with a colour bar and title.
+//! - [`bar_chart`] and [`legend`]: labelled horizontal bars (e.g. a criterion per
+//!   candidate effect) and legend boxes.
+//! - [`sense_overlay`]: the robot segment, feature points, contacts and force arrows over
+//!   a colour frame; [`side_by_side`] puts before/after panels together.
+//!
+//! Pixel centres are at integer coordinates, as in the pinhole model. Drawing never panics:
+//! shapes are clipped to the canvas, and NaN or infinite coordinates draw nothing.
+//!
+//! ```
+//! use softsense::render::{bar_chart, Canvas, ColorMap, BLACK, WHITE};
+//! let mut canvas = Canvas::new(120, 80, WHITE)?;
+//! canvas.line([10.0, 10.0], [100.0, 60.0], BLACK, 2.0);
+//! canvas.arrow([10.0, 70.0], [60.0, 70.0], ColorMap::Diverging.at(1.0), 2.0);
+//! canvas.text(10, 20, "0.66 N", BLACK, 1);
+//! assert_eq!(canvas.get(10, 10), Some(BLACK));
+//! let chart = bar_chart("BIC", &["none", "young"], &[3.0, -1.5], Some(1), 300, 120)?;
+//! assert_eq!((chart.width(), chart.height()), (300, 120));
+//! # Ok::<(), softsense::render::RenderError>(())
+//! ```
+
+// `!(x > 0.0)` is the NaN-rejecting test, used on purpose throughout.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+mod canvas;
+mod chart;
+mod colormap;
+mod font;
+mod overlay;
+mod project;
+mod surface;
+
+pub use canvas::{Canvas, Rgb, BLACK, GREY, MAX_PIXELS, MAX_SIDE, WHITE};
+pub use chart::{bar_chart, legend, Swatch, BAR, BAR_HIGHLIGHT};
+pub use colormap::{colorbar, finite_range, format_value, symmetric_range, ColorMap};
+pub use font::{text_size, EXTRA_CHARS};
+pub use overlay::{
+    mask_from_indices, sense_overlay, side_by_side, ContactMark, FeatureMark, ForceArrow,
+    OverlayParams, SenseOverlay, CONTACT, FEATURE_HIDDEN, FEATURE_VISIBLE, FORCE, MATCH_LINE,
+    ROBOT_TINT,
+};
+pub use project::{camera_from_robot, project, project_with, Pose, View, NEAR_Z, RIGID_TOLERANCE};
+pub use surface::{
+    surface_map, SurfaceMapParams, SurfaceMesh, SurfaceValues, COLORBAR_PANEL, TITLE_BAND,
+};
+
+/// Errors of the render module.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    /// A canvas would exceed [`MAX_SIDE`] per side or [`MAX_PIXELS`] in all.
+    #[error("a {width}x{height} picture is larger than allowed ({MAX_SIDE} per side, {MAX_PIXELS} pixels)")]
+    TooLarge {
+        /// Requested width.
+        width: u32,
+        /// Requested height.
+        height: u32,
+    },
+    /// An input slice has the wrong length.
+    #[error("{what}: expected {expected} entries, got {got}")]
+    Length {
+        /// What the slice holds.
+        what: &'static str,
+        /// Expected length.
+        expected: usize,
+        /// Given length.
+        got: usize,
+    },
+    /// A triangle refers to a vertex that does not exist.
+    #[error("triangle {triangle} uses vertex {index}, but there are {vertices} vertices")]
+    TriangleIndex {
+        /// Triangle index.
+        triangle: usize,
+        /// The bad vertex index.
+        index: usize,
+        /// Number of vertices.
+        vertices: usize,
+    },
+    /// A 4x4 matrix is not a rigid transform.
+    #[error("not a rigid transform: {reason}")]
+    NotRigid {
+        /// What is wrong.
+        reason: String,
+    },
+    /// Reading or writing an image file failed.
+    #[error("image {path}: {message}")]
+    Image {
+        /// The file.
+        path: String,
+        /// The underlying error.
+        message: String,
+    },
+}

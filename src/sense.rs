@@ -1,0 +1,731 @@
+//! Marker-free force sensing, frame by frame (thesis 4.5, Algorithms 4.1-4.2): an RGB-D
+//! frame in, "touched here, this hard" out.
+//!
+//! Per frame: depth + colour → points in the camera frame → the robot frame
+//! (`robot_from_camera`) → crop to the robot's working box above the table → robot points by
+//! a colour model (hue and chroma in CIELAB, robust to shading) and object points (the rest)
+//! → KD-tree contact detection and Euclidean grouping ([`crate::contact`]) → location mapping
+//! (each contact to the nearest surface node of the FE model at the actuated state, refined at
+//! the estimated state) → registration of the surface features along their normal lines
+//! ([`crate::register`]) → the intensity QP with FE updates ([`crate::inverse::frame`]).
+//! Where no contact is seen (a weight hanging by a thin string), the model's declared force
+//! points are the candidates and the one that explains the frame best is reported.
+//!
+//! A recording is a folder as written by `softsense scene generate`: `depth_NNNN.png`,
+//! `color_NNNN.png`, `intrinsics.json`, a pose (`calibration.json` from `softsense calibrate`,
+//! else `camera_pose.json`), optionally `actuators.json` (recorded actuator inputs) and
+//! `truth.json` (only read to report errors, never for the estimate).
+//!
+//! ```no_run
+//! use softsense::sense::{Recording, SenseParams, Sensor};
+//! let rec = Recording::open("clouds/scenes/tip_weight".as_ref()).unwrap();
+//! let model = softsense::fem::model::Model::load(&rec.model_path().unwrap(), None).unwrap();
+//! let sensor = Sensor::new(model, rec.robot_from_camera, SenseParams::default());
+//! for &frame in &rec.frames {
+//!     let obs = sensor.observe(&rec, frame).unwrap();
+//!     let report = sensor.sense(frame, &obs, rec.actuators_of(frame));
+//!     println!("{:?}", report.contacts);
+//! }
+//! ```
+
+use crate::contact::{detect_contacts, ContactParams};
+use crate::fem::model::Model;
+use crate::fem::solve::{CableControl, MappedPoint};
+use crate::inverse::frame::{estimate, Candidate, FrameEstimate, FrameParams};
+use crate::inverse::intensity::Identifiability;
+use crate::io::intrinsics::{read_camera_model, CameraModel};
+use crate::io::rgbd::read_frame;
+use crate::math::{cross, dot, norm, sub, unit};
+use crate::register::{surface_features, vertex_normals, FeatureParams, SurfaceFeature};
+use crate::scene::{ActuatorTruth, FrameTruth, Truth};
+use crate::segment::color::rgb_to_lab;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+
+/// Errors of the sensing stage (per recording; per-frame failures are [`FrameStatus`]es).
+#[derive(Debug, Error)]
+pub enum SenseError {
+    /// A file of the recording is missing or unreadable.
+    #[error("{path}: {message}")]
+    File {
+        /// The file.
+        path: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// The recording folder has no frames.
+    #[error("{0}: no depth_NNNN.png frames")]
+    NoFrames(String),
+    /// Image or intrinsics reading failed.
+    #[error(transparent)]
+    Io(#[from] crate::io::IoError),
+}
+
+/// `Result` of the sensing stage.
+pub type SenseResult<T> = std::result::Result<T, SenseError>;
+
+/// Parameters of the sensing chain.
+#[derive(Clone, Debug)]
+pub struct SenseParams {
+    /// Reference colour of the robot's silicone (sRGB); default the scene generator's green.
+    pub robot_color: [u8; 3],
+    /// Largest hue difference in CIELAB's a-b plane from the reference colour (degrees, 25).
+    pub hue_tolerance_deg: f64,
+    /// Smallest CIELAB chroma of a robot point (12): grey table and dark holes are not robot.
+    pub min_chroma: f64,
+    /// Margin around the model's bounding box kept by the crop (m, 0.03).
+    pub crop_margin: f64,
+    /// Points lower than the model's lowest point plus this are the table (m, 0.004).
+    pub table_clearance: f64,
+    /// Contact detection (thesis defaults: 4 mm, more than 3 neighbours, 5 mm groups).
+    pub contact: ContactParams,
+    /// Feature points (51, on flat patches the camera sees).
+    pub features: FeatureParams,
+    /// Registration, intensity QP and FE updates.
+    pub frame: FrameParams,
+    /// At a seen contact, estimate a 3-D force (inward normal, pushing only, plus two
+    /// tangential components) instead of a normal force alone (true).
+    pub three_d: bool,
+}
+
+impl Default for SenseParams {
+    fn default() -> Self {
+        let mut frame = FrameParams::default();
+        // Matched offsets average ~10 points of 0.5 mm depth noise at 0.5 m.
+        frame.intensity.sensor_sigma = 2e-4;
+        frame.max_updates = 10;
+        Self {
+            robot_color: [40, 200, 60],
+            hue_tolerance_deg: 25.0,
+            min_chroma: 12.0,
+            crop_margin: 0.03,
+            table_clearance: 0.004,
+            contact: ContactParams::default(),
+            features: FeatureParams::default(),
+            frame,
+            three_d: true,
+        }
+    }
+}
+
+/// A recorded (or generated) RGB-D sequence.
+#[derive(Clone, Debug)]
+pub struct Recording {
+    /// The folder.
+    pub dir: PathBuf,
+    /// Intrinsics and depth units.
+    pub camera: CameraModel,
+    /// Rigid transform from camera to robot coordinates (4x4, row-major, m).
+    pub robot_from_camera: [[f64; 4]; 4],
+    /// Which file the pose came from.
+    pub pose_file: PathBuf,
+    /// Frame numbers, ascending.
+    pub frames: Vec<usize>,
+    /// Recorded actuator inputs per frame, if any.
+    pub actuators: Option<Vec<Vec<ActuatorTruth>>>,
+    /// The generator's truth, if any (used for error reports only).
+    pub truth: Option<Truth>,
+}
+
+fn file_err(path: &Path, e: impl std::fmt::Display) -> SenseError {
+    SenseError::File {
+        path: path.display().to_string(),
+        message: e.to_string(),
+    }
+}
+
+fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> SenseResult<T> {
+    let text = std::fs::read_to_string(path).map_err(|e| file_err(path, e))?;
+    serde_json::from_str(&text).map_err(|e| file_err(path, e))
+}
+
+#[derive(serde::Deserialize)]
+struct PoseFile {
+    robot_from_camera: [[f64; 4]; 4],
+}
+
+/// Points of one frame in the robot frame, split by the colour model.
+#[derive(Clone, Debug, Default)]
+pub struct Observation {
+    /// Robot points (m, robot frame).
+    pub robot: Vec<[f64; 3]>,
+    /// Other points inside the crop: what may touch the robot (m, robot frame).
+    pub objects: Vec<[f32; 3]>,
+    /// Pixel index of each robot point.
+    pub robot_pixels: Vec<usize>,
+    /// Pixel index of each object point.
+    pub object_pixels: Vec<usize>,
+    /// Image size.
+    pub width: u32,
+    /// Image size.
+    pub height: u32,
+    /// The colour frame, row-major.
+    pub color: Vec<[u8; 3]>,
+}
+
+impl Recording {
+    /// Opens a recording folder: finds the frames, reads intrinsics and the pose
+    /// (`calibration.json` if present, else `camera_pose.json`), and the optional
+    /// `actuators.json` and `truth.json`.
+    pub fn open(dir: &Path) -> SenseResult<Self> {
+        let entries = std::fs::read_dir(dir).map_err(|e| file_err(dir, e))?;
+        let mut frames: Vec<usize> = entries
+            .filter_map(|e| e.ok())
+            .filter_map(|e| {
+                let name = e.file_name().to_string_lossy().into_owned();
+                let num = name.strip_prefix("depth_")?.strip_suffix(".png")?;
+                num.parse().ok()
+            })
+            .collect();
+        frames.sort_unstable();
+        if frames.is_empty() {
+            return Err(SenseError::NoFrames(dir.display().to_string()));
+        }
+        let camera = read_camera_model(dir.join("intrinsics.json"))?;
+        let calib = dir.join("calibration.json");
+        let pose_file = if calib.exists() {
+            calib
+        } else {
+            dir.join("camera_pose.json")
+        };
+        let pose: PoseFile = read_json(&pose_file)?;
+        if !pose
+            .robot_from_camera
+            .iter()
+            .flatten()
+            .all(|v| v.is_finite())
+        {
+            return Err(file_err(&pose_file, "robot_from_camera is not finite"));
+        }
+        let opt = |name: &str| {
+            let p = dir.join(name);
+            p.exists().then_some(p)
+        };
+        let actuators = opt("actuators.json").map(|p| read_json(&p)).transpose()?;
+        let truth = opt("truth.json").map(|p| read_json(&p)).transpose()?;
+        Ok(Self {
+            dir: dir.to_path_buf(),
+            camera,
+            robot_from_camera: pose.robot_from_camera,
+            pose_file,
+            frames,
+            actuators,
+            truth,
+        })
+    }
+
+    /// The model file named by the truth (generated scenes), if any.
+    pub fn model_path(&self) -> Option<PathBuf> {
+        self.truth.as_ref().map(|t| PathBuf::from(&t.model_path))
+    }
+
+    /// The recorded actuator inputs of `frame`, if any.
+    pub fn actuators_of(&self, frame: usize) -> Option<&[ActuatorTruth]> {
+        self.actuators
+            .as_ref()
+            .and_then(|a| a.get(frame))
+            .map(|v| v.as_slice())
+    }
+
+    /// The truth of `frame`, if any.
+    pub fn truth_of(&self, frame: usize) -> Option<&FrameTruth> {
+        self.truth
+            .as_ref()
+            .and_then(|t| t.frames.iter().find(|f| f.frame == frame))
+    }
+
+    /// Paths of the depth and colour images of `frame`.
+    pub fn frame_paths(&self, frame: usize) -> (PathBuf, PathBuf) {
+        (
+            self.dir.join(format!("depth_{frame:04}.png")),
+            self.dir.join(format!("color_{frame:04}.png")),
+        )
+    }
+
+    /// Reads `frame` and splits its points (robot frame, cropped to `bounds` when given)
+    /// into robot and objects by the colour model of `params`.
+    pub fn observe(
+        &self,
+        frame: usize,
+        params: &SenseParams,
+        bounds: Option<[[f64; 3]; 2]>,
+    ) -> SenseResult<Observation> {
+        let (dp, cp) = self.frame_paths(frame);
+        let cloud = read_frame(&dp, cp.exists().then_some(cp.as_path()), &self.camera)?;
+        let colors = cloud.colors.clone().unwrap_or_default();
+        let t = &self.robot_from_camera;
+        let reference = rgb_to_lab(params.robot_color);
+        let ref_hue = reference[2].atan2(reference[1]);
+        let tol = params.hue_tolerance_deg.to_radians();
+        let mut obs = Observation {
+            width: cloud.width,
+            height: cloud.height,
+            color: colors.clone(),
+            ..Default::default()
+        };
+        for (i, p) in cloud.positions.iter().enumerate() {
+            if !p.iter().all(|c| c.is_finite()) {
+                continue;
+            }
+            let pc = p.map(|c| c as f64);
+            let q =
+                [0, 1, 2].map(|r| t[r][0] * pc[0] + t[r][1] * pc[1] + t[r][2] * pc[2] + t[r][3]);
+            if let Some([lo, hi]) = bounds {
+                if (0..3).any(|k| q[k] < lo[k] || q[k] > hi[k]) {
+                    continue;
+                }
+            }
+            let robot = colors.get(i).is_some_and(|&c| {
+                let lab = rgb_to_lab(c);
+                let chroma = (lab[1] * lab[1] + lab[2] * lab[2]).sqrt();
+                let dh = (lab[2].atan2(lab[1]) - ref_hue + std::f64::consts::PI)
+                    .rem_euclid(2.0 * std::f64::consts::PI)
+                    - std::f64::consts::PI;
+                chroma >= params.min_chroma && dh.abs() <= tol
+            });
+            if robot {
+                obs.robot.push(q);
+                obs.robot_pixels.push(i);
+            } else {
+                obs.objects.push(q.map(|c| c as f32));
+                obs.object_pixels.push(i);
+            }
+        }
+        Ok(obs)
+    }
+}
+
+/// What happened to a frame.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "status", content = "detail", rename_all = "snake_case")]
+pub enum FrameStatus {
+    /// Forces estimated.
+    Sensed,
+    /// Too few robot points (the colour model found no robot).
+    NoRobot,
+    /// No feature point could be registered.
+    NoFeatures,
+    /// The frame could not be read.
+    Unreadable(String),
+    /// The FE model or the QP failed; the message says how.
+    NotSolved(String),
+}
+
+/// One estimated force.
+#[derive(Clone, Debug, Serialize)]
+pub struct ForceEstimate {
+    /// Where the location came from: `contact` (seen) or `force point <name>` (declared).
+    pub source: String,
+    /// The seen contact's centroid (robot frame, m), for seen contacts.
+    pub seen_at: Option<[f64; 3]>,
+    /// Contact points in the seen group.
+    pub contact_points: usize,
+    /// The mapped FE location at the estimated state (robot frame, m).
+    pub location: [f64; 3],
+    /// The mapped surface node (seen contacts).
+    pub node: Option<usize>,
+    /// Force vector (N, robot frame).
+    pub force: [f64; 3],
+    /// Its magnitude (N).
+    pub magnitude: f64,
+    /// One-sigma uncertainty of the magnitude (N), from the sensor noise and W.
+    pub sigma: f64,
+}
+
+/// Errors of one estimated load against the truth.
+#[derive(Clone, Debug, Serialize)]
+pub struct LoadError {
+    /// The true load's force (N).
+    pub truth_force: [f64; 3],
+    /// The true location (deformed, m).
+    pub truth_at: [f64; 3],
+    /// Index of the matched estimate (nearest location), if any.
+    pub estimate: Option<usize>,
+    /// Distance between the estimated and true locations (m).
+    pub location_error: f64,
+    /// |f_est − f_true| / |f_true|.
+    pub force_error: f64,
+    /// | |f_est| − |f_true| | / |f_true|.
+    pub magnitude_error: f64,
+}
+
+/// The result of one frame.
+#[derive(Clone, Debug, Serialize)]
+pub struct FrameReport {
+    /// Frame number.
+    pub frame: usize,
+    /// Outcome.
+    #[serde(flatten)]
+    pub status: FrameStatus,
+    /// Robot and object points seen.
+    pub robot_points: usize,
+    /// Object points inside the crop.
+    pub object_points: usize,
+    /// Estimated forces.
+    pub forces: Vec<ForceEstimate>,
+    /// Actuator forces (N), one per cable, by name.
+    pub actuators: Vec<(String, f64)>,
+    /// Visible feature points of the last registration, and all.
+    pub features_visible: usize,
+    /// Number of feature points.
+    pub features: usize,
+    /// RMS of the normal-displacement residual (m).
+    pub residual_rms: f64,
+    /// FE updates in the last estimate.
+    pub updates: usize,
+    /// Identifiability of the last QP.
+    pub identifiability: Option<Identifiability>,
+    /// Warnings a user should read.
+    pub warnings: Vec<String>,
+    /// Errors against the truth, when the recording has one.
+    pub errors: Option<Vec<LoadError>>,
+    /// Wall time of the frame (ms).
+    pub ms: f64,
+}
+
+/// The per-recording state: the model and its features.
+pub struct Sensor {
+    /// The FE model (its cable controls are replaced per frame by recorded inputs).
+    pub model: Model,
+    /// Feature points on the surface.
+    pub features: Vec<SurfaceFeature>,
+    /// Parameters.
+    pub params: SenseParams,
+    /// The camera centre in the robot frame (m).
+    pub eye: [f64; 3],
+    /// Crop box in the robot frame (m).
+    pub bounds: [[f64; 3]; 2],
+}
+
+impl Sensor {
+    /// Prepares the features (flat patches the camera at `robot_from_camera` sees).
+    pub fn new(model: Model, robot_from_camera: [[f64; 4]; 4], mut params: SenseParams) -> Self {
+        let eye = [0, 1, 2].map(|r| robot_from_camera[r][3]);
+        params.features.eye = Some(eye);
+        let surface = model.problem.mesh.surface();
+        let features = surface_features(
+            &model.problem.mesh.nodes_in_rest,
+            &surface,
+            &params.features,
+        );
+        let [lo, hi] = model.problem.mesh.bbox();
+        let m = params.crop_margin;
+        let bounds = [
+            [lo[0] - m, lo[1] - m, lo[2] + params.table_clearance],
+            [hi[0] + m, hi[1] + m, hi[2] + m],
+        ];
+        Self {
+            model,
+            features,
+            params,
+            eye,
+            bounds,
+        }
+    }
+
+    /// Reads `frame` of `rec`, cropped to the robot's box, split by the colour model.
+    pub fn observe(&self, rec: &Recording, frame: usize) -> SenseResult<Observation> {
+        rec.observe(frame, &self.params, Some(self.bounds))
+    }
+
+    /// The model with `actuators` as its cable controls (by name; unknown names ignored).
+    fn actuated(&self, actuators: Option<&[ActuatorTruth]>) -> Model {
+        let mut model = self.model.clone();
+        model.problem.loads.clear();
+        for a in actuators.unwrap_or_default() {
+            if let Some(c) = model.problem.cables.iter_mut().find(|c| c.name == a.name) {
+                c.control = if a.displacement_controlled {
+                    CableControl::Displacement(a.shortening)
+                } else {
+                    CableControl::Force(a.tension)
+                };
+            }
+        }
+        model
+    }
+
+    /// Senses one frame. Never fails: problems are in the report's status.
+    pub fn sense(
+        &self,
+        frame: usize,
+        obs: &Observation,
+        actuators: Option<&[ActuatorTruth]>,
+    ) -> FrameReport {
+        let t0 = std::time::Instant::now();
+        let mut report = FrameReport {
+            frame,
+            status: FrameStatus::Sensed,
+            robot_points: obs.robot.len(),
+            object_points: obs.objects.len(),
+            forces: Vec::new(),
+            actuators: Vec::new(),
+            features_visible: 0,
+            features: self.features.len(),
+            residual_rms: f64::NAN,
+            updates: 0,
+            identifiability: None,
+            warnings: Vec::new(),
+            errors: None,
+            ms: 0.0,
+        };
+        if actuators.is_none() {
+            report
+                .warnings
+                .push("no recorded actuator inputs: the model file's are used".into());
+        }
+        if let Err(status) = self.sense_into(obs, actuators, &mut report) {
+            report.status = status;
+        }
+        report.ms = t0.elapsed().as_secs_f64() * 1e3;
+        report
+    }
+
+    fn sense_into(
+        &self,
+        obs: &Observation,
+        actuators: Option<&[ActuatorTruth]>,
+        report: &mut FrameReport,
+    ) -> Result<(), FrameStatus> {
+        if obs.robot.len() < 50 {
+            return Err(FrameStatus::NoRobot);
+        }
+        let model = self.actuated(actuators);
+        let fail = |e: &dyn std::fmt::Display| FrameStatus::NotSolved(e.to_string());
+        let free = model
+            .problem
+            .solve_static(&model.newton)
+            .map_err(|e| fail(&e))?;
+        let robot_f32: Vec<[f32; 3]> = obs.robot.iter().map(|p| p.map(|c| c as f32)).collect();
+        let contacts = if obs.objects.is_empty() {
+            Vec::new()
+        } else {
+            detect_contacts(&robot_f32, &obs.objects, &self.params.contact).map_err(|e| fail(&e))?
+        };
+        let surface = model.problem.mesh.surface();
+        let solve = |cands: &[Candidate]| {
+            estimate(
+                &model,
+                &obs.robot,
+                &self.features,
+                cands,
+                &self.params.frame,
+            )
+        };
+        let (est, cands, groups) = if contacts.is_empty() {
+            // Declared force points: the one explaining the frame best.
+            let mut best: Option<(FrameEstimate, Vec<Candidate>, Vec<Group>)> = None;
+            for fp in &model.force_points {
+                let cands: Vec<Candidate> = fp
+                    .rows
+                    .iter()
+                    .map(|r| Candidate {
+                        at: fp.point,
+                        direction: r.entries.iter().fold([0.0; 3], |a, e| {
+                            [a[0] + e.1[0], a[1] + e.1[1], a[2] + e.1[2]]
+                        }),
+                        push_only: true,
+                    })
+                    .collect();
+                let n = cands.len();
+                let est = match solve(&cands) {
+                    Ok(e) => e,
+                    Err(e) => {
+                        report
+                            .warnings
+                            .push(format!("force point {}: {e}", fp.name));
+                        continue;
+                    }
+                };
+                if best
+                    .as_ref()
+                    .is_none_or(|b| est.estimate.residual_rms < b.0.estimate.residual_rms)
+                {
+                    let g = Group {
+                        source: format!("force point {}", fp.name),
+                        seen_at: None,
+                        points: 0,
+                        node: None,
+                        range: 0..n,
+                    };
+                    best = Some((est, cands, vec![g]));
+                }
+            }
+            match best {
+                Some(b) => b,
+                None if model.force_points.is_empty() => {
+                    report.warnings.push(
+                        "no contact seen and the model declares no force points: only the actuators are estimated".into(),
+                    );
+                    let est = solve(&[]).map_err(|e| fail(&e))?;
+                    (est, Vec::new(), Vec::new())
+                }
+                None => return Err(FrameStatus::NotSolved("every force point failed".into())),
+            }
+        } else {
+            // Seen contacts: map to the nearest surface node, refine once at the estimate.
+            let mut x = free.positions.clone();
+            let mut nodes: Vec<usize> = Vec::new();
+            let mut out = None;
+            for _round in 0..2 {
+                let mapped: Vec<usize> = contacts
+                    .iter()
+                    .map(|c| nearest(&x, &surface.nodes, c.centroid.map(|v| v as f64)))
+                    .collect();
+                if mapped == nodes {
+                    break;
+                }
+                nodes = mapped;
+                let normals = vertex_normals(&x, &surface.triangles);
+                let mut cands = Vec::new();
+                let mut groups = Vec::new();
+                for (c, &node) in contacts.iter().zip(&nodes) {
+                    let inward = normals[node].map(|v| -v);
+                    let start = cands.len();
+                    cands.push(Candidate::at_node(node, inward));
+                    if self.params.three_d {
+                        let (t1, t2) = tangents(inward);
+                        for t in [t1, t2] {
+                            cands.push(Candidate {
+                                at: MappedPoint::node(node),
+                                direction: t,
+                                push_only: false,
+                            });
+                        }
+                    }
+                    groups.push(Group {
+                        source: "contact".into(),
+                        seen_at: Some(c.centroid.map(|v| v as f64)),
+                        points: c.points,
+                        node: Some(node),
+                        range: start..cands.len(),
+                    });
+                }
+                let est = solve(&cands).map_err(|e| fail(&e))?;
+                x = est.positions.clone();
+                out = Some((est, cands, groups));
+            }
+            out.ok_or_else(|| FrameStatus::NotSolved("no estimate".into()))?
+        };
+        let e = &est.estimate;
+        report.features_visible = est.visible;
+        report.residual_rms = e.residual_rms;
+        report.updates = est.updates;
+        report.identifiability = Some(e.identifiability.clone());
+        if let Some(w) = &e.identifiability.warning {
+            report.warnings.push(w.clone());
+        }
+        report.actuators = model
+            .problem
+            .cables
+            .iter()
+            .map(|c| c.name.clone())
+            .zip(e.actuator_forces.iter().copied())
+            .collect();
+        for g in groups {
+            let mut f = [0.0; 3];
+            let mut var = 0.0;
+            for k in g.range.clone() {
+                let d = unit(cands[k].direction);
+                for q in 0..3 {
+                    f[q] += e.forces[k] * d[q];
+                }
+            }
+            let magnitude = norm(f);
+            for k in g.range.clone() {
+                // Magnitude sigma: each component's sigma projected on the force direction.
+                let d = unit(cands[k].direction);
+                let proj = if magnitude > 0.0 {
+                    dot(d, f) / magnitude
+                } else {
+                    1.0
+                };
+                var += (proj * e.force_sigma.get(k).copied().unwrap_or(f64::NAN)).powi(2);
+            }
+            let at = cands[g.range.start].at.position(&est.positions);
+            report.forces.push(ForceEstimate {
+                source: g.source,
+                seen_at: g.seen_at,
+                contact_points: g.points,
+                location: at,
+                node: g.node,
+                force: f,
+                magnitude,
+                sigma: var.sqrt(),
+            });
+        }
+        if est.visible == 0 {
+            return Err(FrameStatus::NoFeatures);
+        }
+        Ok(())
+    }
+}
+
+struct Group {
+    source: String,
+    seen_at: Option<[f64; 3]>,
+    points: usize,
+    node: Option<usize>,
+    range: std::ops::Range<usize>,
+}
+
+fn nearest(x: &[[f64; 3]], nodes: &[usize], p: [f64; 3]) -> usize {
+    nodes
+        .iter()
+        .copied()
+        .min_by(|&a, &b| {
+            let da = sub(x[a], p);
+            let db = sub(x[b], p);
+            dot(da, da).total_cmp(&dot(db, db))
+        })
+        .unwrap_or(0)
+}
+
+/// Two unit vectors completing `n` (unit) to an orthonormal basis.
+fn tangents(n: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+    let a = if n[0].abs() < 0.9 {
+        [1.0, 0.0, 0.0]
+    } else {
+        [0.0, 1.0, 0.0]
+    };
+    let t1 = unit(cross(n, a));
+    (t1, cross(n, t1))
+}
+
+/// Matches each true load to the nearest estimate and reports the errors.
+pub fn compare(report: &FrameReport, truth: &FrameTruth) -> Vec<LoadError> {
+    truth
+        .loads
+        .iter()
+        .map(|l| {
+            let best = report
+                .forces
+                .iter()
+                .enumerate()
+                .map(|(i, f)| (i, norm(sub(f.location, l.at_deformed))))
+                .min_by(|a, b| a.1.total_cmp(&b.1));
+            let mag = l.magnitude.max(f64::MIN_POSITIVE);
+            match best {
+                Some((i, d)) => {
+                    let f = &report.forces[i];
+                    LoadError {
+                        truth_force: l.force,
+                        truth_at: l.at_deformed,
+                        estimate: Some(i),
+                        location_error: d,
+                        force_error: norm(sub(f.force, l.force)) / mag,
+                        magnitude_error: (f.magnitude - l.magnitude).abs() / mag,
+                    }
+                }
+                None => LoadError {
+                    truth_force: l.force,
+                    truth_at: l.at_deformed,
+                    estimate: None,
+                    location_error: f64::INFINITY,
+                    force_error: 1.0,
+                    magnitude_error: 1.0,
+                },
+            }
+        })
+        .collect()
+}
