@@ -53,14 +53,11 @@ enum Command {
     Cluster(cli::cluster::ClusterArgs),
     /// Segment, pick the robot and detect where objects touch it.
     Contacts(cli::contacts::ContactsArgs),
-<<<<<<< HEAD
     Explain(cli::explain::ExplainArgs),
     /// Generate a hidden-effect dataset for `explain` (truth kept in a separate file).
     Hidden(cli::explain::HiddenArgs),
-=======
     /// The main job: where the robot is touched and how hard, frame by frame.
     Sense(cli::sense::SenseArgs),
->>>>>>> render
 }
 
 fn main() -> ExitCode {
@@ -74,12 +71,9 @@ fn main() -> ExitCode {
         Command::Segment(args) => cli::segment::run(&args),
         Command::Cluster(args) => cli::cluster::run(&args),
         Command::Contacts(args) => cli::contacts::run(&args),
-<<<<<<< HEAD
         Command::Explain(args) => cli::explain::run(&args),
         Command::Hidden(args) => cli::explain::run_hidden(&args),
-=======
         Command::Sense(args) => cli::sense::run(&args),
->>>>>>> render
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -5,7 +5,7 @@ use super::{print_json, CliError, CliResult};
 use clap::Args;
 use softsense::discrepancy::data::load_frames;
 use softsense::discrepancy::generate::{generate_dataset, layout, DatasetSpec, EFFECT_TYPES};
-use softsense::discrepancy::report::{describe, write_report};
+use softsense::discrepancy::report::{describe, write_pictures, write_report};
 use softsense::discrepancy::{explain, DiscrepancyParams, Outcome};
 use softsense::fem::model::Model;
 use std::path::PathBuf;
@@ -65,6 +65,23 @@ pub fn run(args: &ExplainArgs) -> CliResult {
     if let Some(out) = &args.out {
         let text = std::fs::read_to_string(&args.model)
             .map_err(|e| CliError::Result(format!("{}: {e}", args.model.display())))?;
+        let surface = model.problem.mesh.surface();
+        let [fx, fy, cx, cy] = rec.camera.intrinsics;
+        let _ = (fx, fy);
+        let size = [
+            (2.0 * cx + 1.0).round() as u32,
+            (2.0 * cy + 1.0).round() as u32,
+        ];
+        if let Err(e) = write_pictures(
+            out,
+            &x,
+            &model.problem.mesh.nodes_in_rest,
+            &surface.triangles,
+            &rec.camera,
+            size,
+        ) {
+            eprintln!("pictures not written: {e}");
+        }
         write_report(out, &x, &text, &model.units).map_err(softsense::Error::from)?;
         eprintln!("report: {}", out.join("index.md").display());
     }

@@ -374,6 +374,7 @@ impl<'a> Workflow<'a> {
             d_m: params.line_radius,
             d_l: params.line_length,
             average: true,
+            ..Default::default()
         };
         let mut w = Self {
             model,

@@ -211,6 +211,11 @@ pub fn write_report(
         std::fs::write(&p, text).map_err(|e| file_err(&p, e))
     };
     let mut md = markdown(x);
+    for pic in ["residual_before_after.png", "criterion.png"] {
+        if dir.join(pic).exists() {
+            let _ = writeln!(md, "![{pic}]({pic})\n");
+        }
+    }
     md.push_str("Files: `model_updated.toml` (the model with the effects), `effects.json`, `explanation.json`.\n");
     w("index.md", md)?;
     w(
@@ -225,4 +230,122 @@ pub fn write_report(
         "model_updated.toml",
         updated_model(model_text, units, &x.kept)?,
     )
+}
+
+/// Mean held-out residual per feature (mm), NaN where never seen.
+fn mean_residual_mm(x: &Explanation, which: usize) -> Vec<f64> {
+    let mut sum = vec![0.0; x.features.len()];
+    let mut n = vec![0usize; x.features.len()];
+    for frame in &x.holdout_residuals[which] {
+        for r in frame {
+            if let Some(s) = sum.get_mut(r.feature) {
+                *s += r.r * 1e3;
+                n[r.feature] += 1;
+            }
+        }
+    }
+    sum.iter()
+        .zip(&n)
+        .map(|(s, &k)| if k > 0 { s / k as f64 } else { f64::NAN })
+        .collect()
+}
+
+/// Writes `residual_before.png`, `residual_after.png` (the mean held-out residual at each
+/// feature point over the rest surface, seen from the recording's camera, one shared
+/// colour range) and `criterion.png` (ΔBIC per candidate of the first greedy step).
+pub fn write_pictures(
+    dir: &Path,
+    x: &Explanation,
+    rest: &[[f64; 3]],
+    triangles: &[[usize; 3]],
+    camera: &super::data::CameraInfo,
+    size: [u32; 2],
+) -> DiscrepancyResult<Vec<String>> {
+    use crate::io::intrinsics::PinholeIntrinsics;
+    use crate::render::{
+        bar_chart, side_by_side, surface_map, ColorMap, SurfaceMapParams, SurfaceMesh,
+        SurfaceValues, View, WHITE,
+    };
+    let rerr = |e: crate::render::RenderError| DiscrepancyError::Data(format!("render: {e}"));
+    std::fs::create_dir_all(dir).map_err(|e| file_err(dir, e))?;
+    let [fx, fy, cx, cy] = camera.intrinsics;
+    let intr = PinholeIntrinsics {
+        width: size[0],
+        height: size[1],
+        fx,
+        fy,
+        cx,
+        cy,
+    };
+    let view = View::from_robot_from_camera(&camera.robot_from_camera, intr).map_err(rerr)?;
+    let before = mean_residual_mm(x, 0);
+    let after = mean_residual_mm(x, 1);
+    let lim = before
+        .iter()
+        .chain(&after)
+        .filter(|v| v.is_finite())
+        .fold(0.0f64, |m, v| m.max(v.abs()))
+        .max(1e-3);
+    let mut written = Vec::new();
+    let mut panels = Vec::new();
+    for (name, vals) in [("before", &before), ("after", &after)] {
+        let markers: Vec<([f64; 3], f64)> = x
+            .features
+            .iter()
+            .zip(vals.iter())
+            .filter(|(_, v)| v.is_finite())
+            .map(|(f, v)| (f.rest, *v))
+            .collect();
+        let mesh = SurfaceMesh {
+            vertices_in_robot: rest,
+            triangles,
+            values: SurfaceValues::None,
+            markers: &markers,
+        };
+        let params = SurfaceMapParams {
+            title: format!("held-out residual {name} (mean over frames)"),
+            value_label: "residual mm".into(),
+            colormap: ColorMap::Diverging,
+            range: Some([-lim, lim]),
+            marker_radius: 3.0,
+            ..Default::default()
+        };
+        let c = surface_map(&mesh, &view, &params).map_err(rerr)?;
+        let file = format!("residual_{name}.png");
+        c.save_png(dir.join(&file)).map_err(rerr)?;
+        written.push(file);
+        panels.push((name, c));
+    }
+    let refs: Vec<(&str, &crate::render::Canvas)> = panels.iter().map(|(n, c)| (*n, c)).collect();
+    side_by_side(&refs, WHITE)
+        .map_err(rerr)?
+        .save_png(dir.join("residual_before_after.png"))
+        .map_err(rerr)?;
+    written.push("residual_before_after.png".into());
+    if let Some(step) = x.steps.first() {
+        let cands: Vec<_> = step
+            .candidates
+            .iter()
+            .filter(|c| c.bic.is_finite())
+            .take(12)
+            .collect();
+        let labels: Vec<String> = cands
+            .iter()
+            .map(|c| format!("{}{}", c.name, if c.refined { "" } else { " (lin)" }))
+            .collect();
+        let label_refs: Vec<&str> = labels.iter().map(|s| s.as_str()).collect();
+        let values: Vec<f64> = cands.iter().map(|c| c.bic - step.bic_current).collect();
+        let chart = bar_chart(
+            "ΔBIC vs no new effect, step 1 (lower is better)",
+            &label_refs,
+            &values,
+            Some(0).filter(|_| step.accepted),
+            720,
+            40 + 22 * values.len() as u32,
+        )
+        .map_err(rerr)?;
+        chart.save_png(dir.join("criterion.png")).map_err(rerr)?;
+        written.push("criterion.png".into());
+    }
+    Ok(written)
 }
