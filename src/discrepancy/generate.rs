@@ -318,6 +318,10 @@ pub fn generate_dataset(
             Hidden::Stiffening { beta } => stiffening = Some(*beta),
         }
     }
+    // Render at a 16x finer depth unit, apply any depth error, then quantise once to the
+    // recorded unit: quantising twice would add noise the sensor model does not have.
+    let mut fine_sensor = spec.sensor.clone();
+    fine_sensor.depth_unit = spec.sensor.depth_unit / 16.0;
     let scene = Scene {
         spec: SceneSpec {
             model: spec.model.display().to_string(),
@@ -326,7 +330,7 @@ pub fn generate_dataset(
             table_half: 0.3,
             colors: Default::default(),
             camera: camera.clone(),
-            sensor: spec.sensor.clone(),
+            sensor: fine_sensor.clone(),
             frames: applied.clone(),
         },
         model_path: spec.model.clone(),
@@ -346,10 +350,10 @@ pub fn generate_dataset(
             .depth
             .iter()
             .map(|&v| {
-                if v == 0 || depth == (0.0, 0.0) {
-                    return v;
+                if v == 0 {
+                    return 0;
                 }
-                let z = v as f64 * unit * (1.0 + depth.0) + depth.1;
+                let z = v as f64 * fine_sensor.depth_unit * (1.0 + depth.0) + depth.1;
                 (z / unit).round().clamp(0.0, 65535.0) as u16
             })
             .collect();
