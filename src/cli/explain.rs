@@ -65,6 +65,23 @@ pub fn run(args: &ExplainArgs) -> CliResult {
     if let Some(out) = &args.out {
         let text = std::fs::read_to_string(&args.model)
             .map_err(|e| CliError::Result(format!("{}: {e}", args.model.display())))?;
+        // The updated model lives in the report folder: point it at the mesh absolutely.
+        let mut v: toml::Value =
+            toml::from_str(&text).map_err(|e| CliError::Result(e.to_string()))?;
+        if let Some(mesh) = v.get_mut("mesh").and_then(|m| m.as_table_mut()) {
+            if let Some(p) = mesh.get("path").and_then(|p| p.as_str()) {
+                let pb = PathBuf::from(p);
+                if pb.is_relative() && !p.contains("${") {
+                    let base = args.model.parent().unwrap_or(std::path::Path::new("."));
+                    let abs = std::fs::canonicalize(base.join(&pb)).unwrap_or(base.join(&pb));
+                    mesh.insert(
+                        "path".into(),
+                        toml::Value::String(abs.display().to_string()),
+                    );
+                }
+            }
+        }
+        let text = toml::to_string(&v).map_err(|e| CliError::Result(e.to_string()))?;
         let surface = model.problem.mesh.surface();
         let [fx, fy, cx, cy] = rec.camera.intrinsics;
         let _ = (fx, fy);
