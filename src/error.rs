@@ -29,6 +29,9 @@ pub enum Error {
     /// Synthetic scenes: scene files, direct model, rendering.
     #[error(transparent)]
     Scene(#[from] crate::scene::SceneError),
+    /// The model-discrepancy workflow.
+    #[error(transparent)]
+    Discrepancy(#[from] crate::discrepancy::DiscrepancyError),
     /// Segmentation or clustering was given invalid parameters or data.
     #[error(transparent)]
     Segment(#[from] crate::segment::SegmentError),

@@ -29,6 +29,7 @@
 pub mod calibrate;
 pub mod cloud;
 pub mod contact;
+pub mod discrepancy;
 pub mod error;
 pub mod features;
 pub mod fem;

@@ -53,6 +53,9 @@ enum Command {
     Cluster(cli::cluster::ClusterArgs),
     /// Segment, pick the robot and detect where objects touch it.
     Contacts(cli::contacts::ContactsArgs),
+    Explain(cli::explain::ExplainArgs),
+    /// Generate a hidden-effect dataset for `explain` (truth kept in a separate file).
+    Hidden(cli::explain::HiddenArgs),
     /// The main job: where the robot is touched and how hard, frame by frame.
     Sense(cli::sense::SenseArgs),
     /// Camera-to-robot pose and cable inputs from one frame and a rough pose.
@@ -70,6 +73,8 @@ fn main() -> ExitCode {
         Command::Segment(args) => cli::segment::run(&args),
         Command::Cluster(args) => cli::cluster::run(&args),
         Command::Contacts(args) => cli::contacts::run(&args),
+        Command::Explain(args) => cli::explain::run(&args),
+        Command::Hidden(args) => cli::explain::run_hidden(&args),
         Command::Sense(args) => cli::sense::run(&args),
         Command::Calibrate(args) => cli::calibrate::run(&args),
     };

@@ -54,6 +54,8 @@ mod segment_geometric;
 mod calibrate;
 #[path = "unit/contact.rs"]
 mod contact;
+#[path = "unit/discrepancy.rs"]
+mod discrepancy;
 
 #[path = "unit/render.rs"]
 mod render;

@@ -4,6 +4,7 @@ pub mod calibrate;
 pub mod cluster;
 pub mod contacts;
 pub mod convert;
+pub mod explain;
 pub mod fem;
 pub mod filter;
 pub mod info;

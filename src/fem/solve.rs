@@ -195,6 +195,8 @@ pub struct Problem {
     pub loads: Vec<PointLoad>,
     /// Cable actuators.
     pub cables: Vec<Cable>,
+    /// Per-tetrahedron factor on Young's modulus (regional stiffness); empty means all 1.
+    pub young_scale: Vec<f64>,
 }
 
 /// The result of a static solve.
@@ -235,6 +237,7 @@ impl Problem {
             gravity: [0.0; 3],
             loads: Vec::new(),
             cables: Vec::new(),
+            young_scale: Vec::new(),
         }
     }
 
@@ -532,6 +535,14 @@ impl<'p> Solver<'p> {
                 Formulation::Corotational => r.corotational(e, m, &t.map(|a| x[a]), tangent),
             }
         })?;
+        // Linear elasticity: force, tangent and stress all scale with Young's modulus.
+        for (s, &f) in states.iter_mut().zip(&p.young_scale) {
+            if f != 1.0 {
+                s.force.iter_mut().for_each(|v| *v *= f);
+                s.tangent.iter_mut().flatten().for_each(|v| *v *= f);
+                s.stress *= f;
+            }
+        }
         self.values.iter_mut().for_each(|v| *v = 0.0);
         self.internal_force.clear();
         self.internal_force.resize(3 * p.mesh.num_nodes(), 0.0);

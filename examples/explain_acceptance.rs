@@ -1,0 +1,143 @@
+//! Acceptance harness of the discrepancy workflow (issue 7): generates hidden-effect
+//! datasets, runs `explain` on each and scores the answer against the hidden truth.
+//!
+//! Usage: cargo run --example explain_acceptance -- [SHARD COUNT] [OUT_DIR]
+//! (runs the datasets i with i % COUNT == SHARD; one JSON line per dataset on stdout).
+use softsense::discrepancy::data::load_frames;
+use softsense::discrepancy::effects::{Effect, EffectKind};
+use softsense::discrepancy::generate::{generate_dataset, layout, DatasetSpec, Hidden};
+use softsense::discrepancy::{explain, DiscrepancyParams, Outcome};
+use softsense::fem::model::Model;
+use std::path::{Path, PathBuf};
+
+fn same(a: &EffectKind, b: &EffectKind) -> bool {
+    a == b
+}
+
+fn rel_err(fit: &Effect, truth: &Effect) -> f64 {
+    let n: f64 = truth.params.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let d: f64 = fit
+        .params
+        .iter()
+        .zip(&truth.params)
+        .map(|(a, b)| (a - b).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    d / n.max(1e-300)
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().collect();
+    let shard: usize = args.get(1).map_or(Ok(0), |s| s.parse())?;
+    let count: usize = args.get(2).map_or(Ok(1), |s| s.parse())?;
+    let out = PathBuf::from(
+        args.get(3)
+            .cloned()
+            .unwrap_or("/tmp/explain_acceptance".into()),
+    );
+    let lib = [
+        "gravity",
+        "young",
+        "leg_stiffness",
+        "point_load",
+        "actuator_offset",
+        "camera_pose",
+        "depth",
+        "poisson",
+    ];
+    let mut sets: Vec<(Vec<&str>, f64)> = Vec::new();
+    for m in [0.2, 0.7] {
+        for e in lib {
+            sets.push((vec![e], m));
+        }
+    }
+    for _ in 0..4 {
+        sets.push((vec![], 0.0));
+    }
+    for e in ["varying_load", "stiffening", "varying_load", "stiffening"] {
+        sets.push((vec![e], 0.5));
+    }
+    for pair in [
+        ["young", "camera_pose"],
+        ["point_load", "depth"],
+        ["gravity", "actuator_offset"],
+        ["leg_stiffness", "camera_pose"],
+    ] {
+        sets.push((pair.to_vec(), 0.6));
+    }
+    let model_path = Path::new("meshes/models/robot.toml");
+    let model = Model::load(model_path, None)?;
+    for (i, (effects, m)) in sets.iter().enumerate() {
+        if i % count != shard {
+            continue;
+        }
+        let dir = out.join(format!("ds{i:03}"));
+        let spec = DatasetSpec {
+            model: model_path.to_path_buf(),
+            seed: 100 + i as u64,
+            effects: effects.iter().map(|s| s.to_string()).collect(),
+            magnitude: *m,
+            ..Default::default()
+        };
+        let (frames, truth_path) = layout(&dir);
+        let truth = generate_dataset(&spec, &frames, &truth_path)?;
+        let rec = load_frames(&frames)?;
+        let t0 = std::time::Instant::now();
+        let x = match explain(&model, &rec, &DiscrepancyParams::default()) {
+            Ok(x) => x,
+            Err(e) => {
+                println!("{{\"dataset\": {i}, \"effects\": {effects:?}, \"error\": \"{e}\"}}");
+                continue;
+            }
+        };
+        let secs = t0.elapsed().as_secs_f64();
+        let (b, a) = (x.before.last().cloned(), x.after.last().cloned());
+        let (rb, ra, noise) = match (b, a) {
+            (Some(b), Some(a)) => (b.rms, a.rms, b.noise_rms),
+            _ => (f64::NAN, f64::NAN, f64::NAN),
+        };
+        let size = (rb * rb - noise * noise).max(0.0).sqrt() / noise;
+        let lib_truth: Vec<&Effect> = truth
+            .hidden
+            .iter()
+            .filter_map(|h| match h {
+                Hidden::Library(e) => Some(e),
+                _ => None,
+            })
+            .collect();
+        let (claimed, status) = match &x.outcome {
+            Outcome::NoMissingEffect => (Vec::new(), "none"),
+            Outcome::Explained { effects } => (
+                effects.iter().map(|f| f.effect.clone()).collect(),
+                "explained",
+            ),
+            Outcome::UnexplainedResidual { .. } => (Vec::new(), "unexplained"),
+        };
+        let named: Vec<bool> = lib_truth
+            .iter()
+            .map(|t| claimed.iter().any(|c| same(&c.kind, &t.kind)))
+            .collect();
+        let errs: Vec<f64> = lib_truth
+            .iter()
+            .map(|t| {
+                claimed
+                    .iter()
+                    .find(|c| same(&c.kind, &t.kind))
+                    .map_or(f64::NAN, |c| rel_err(c, t))
+            })
+            .collect();
+        let extra = claimed
+            .len()
+            .saturating_sub(named.iter().filter(|n| **n).count());
+        let reduced = ra <= 0.2 * rb || ra <= 1.2 * noise;
+        let line = serde_json::json!({
+            "dataset": i, "effects": effects, "magnitude": m, "status": status,
+            "named": named, "param_rel_err": errs, "extra_effects": extra,
+            "size_over_noise": size, "rms_before_mm": rb * 1e3, "rms_after_mm": ra * 1e3,
+            "noise_mm": noise * 1e3, "reduced": reduced, "seconds": secs,
+            "claimed": claimed, "truth": truth.hidden,
+        });
+        println!("{line}");
+    }
+    Ok(())
+}

@@ -1,0 +1,154 @@
+//! `softsense explain`: the model-discrepancy workflow; `softsense hidden`: hidden-effect
+//! datasets to test it on.
+
+use super::{print_json, CliError, CliResult};
+use clap::Args;
+use softsense::discrepancy::data::load_frames;
+use softsense::discrepancy::generate::{generate_dataset, layout, DatasetSpec, EFFECT_TYPES};
+use softsense::discrepancy::report::{describe, write_pictures, write_report};
+use softsense::discrepancy::{explain, DiscrepancyParams, Outcome};
+use softsense::fem::model::Model;
+use std::path::PathBuf;
+
+/// Find where the model and the recorded frames disagree, name the missing effect, add it
+/// to the model and show the held-out residual before and after.
+#[derive(Args, Debug)]
+#[command(
+    after_help = "Example:\n  softsense hidden /tmp/ds --effects young --seed 3\n  \
+softsense explain meshes/models/robot.toml /tmp/ds/frames --out /tmp/ds/report"
+)]
+pub struct ExplainArgs {
+    /// Nominal model file (TOML).
+    model: PathBuf,
+    /// Frames folder (depth/colour PNGs, intrinsics.json, camera_pose.json, sensor.json,
+    /// inputs.json).
+    frames_dir: PathBuf,
+    /// Fraction of frames held out for confirmation.
+    #[arg(long, default_value_t = 0.25)]
+    holdout: f64,
+    /// Report folder (index.md, explanation.json, effects.json, model_updated.toml).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Print the explanation as JSON on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Runs `explain`.
+pub fn run(args: &ExplainArgs) -> CliResult {
+    let model = Model::load(&args.model, None).map_err(softsense::Error::from)?;
+    let rec = load_frames(&args.frames_dir).map_err(softsense::Error::from)?;
+    let params = DiscrepancyParams {
+        holdout: args.holdout,
+        ..Default::default()
+    };
+    let x = explain(&model, &rec, &params).map_err(softsense::Error::from)?;
+    match &x.outcome {
+        Outcome::NoMissingEffect => eprintln!("no missing effect: residual at the noise floor"),
+        Outcome::Explained { effects } => {
+            for e in effects {
+                eprintln!("explained: {}", describe(e));
+            }
+        }
+        Outcome::UnexplainedResidual { regions, .. } => {
+            eprintln!("unexplained residual remains in: {}", regions.join(", "))
+        }
+    }
+    if let (Some(b), Some(a)) = (x.before.last(), x.after.last()) {
+        eprintln!(
+            "held-out RMS {:.3} mm -> {:.3} mm (noise floor {:.3} mm)",
+            b.rms * 1e3,
+            a.rms * 1e3,
+            b.noise_rms * 1e3
+        );
+    }
+    if let Some(out) = &args.out {
+        let text = std::fs::read_to_string(&args.model)
+            .map_err(|e| CliError::Result(format!("{}: {e}", args.model.display())))?;
+        // The updated model lives in the report folder: point it at the mesh absolutely.
+        let mut v: toml::Value =
+            toml::from_str(&text).map_err(|e| CliError::Result(e.to_string()))?;
+        if let Some(mesh) = v.get_mut("mesh").and_then(|m| m.as_table_mut()) {
+            if let Some(p) = mesh.get("path").and_then(|p| p.as_str()) {
+                let pb = PathBuf::from(p);
+                if pb.is_relative() && !p.contains("${") {
+                    let base = args.model.parent().unwrap_or(std::path::Path::new("."));
+                    let abs = std::fs::canonicalize(base.join(&pb)).unwrap_or(base.join(&pb));
+                    mesh.insert(
+                        "path".into(),
+                        toml::Value::String(abs.display().to_string()),
+                    );
+                }
+            }
+        }
+        let text = toml::to_string(&v).map_err(|e| CliError::Result(e.to_string()))?;
+        let surface = model.problem.mesh.surface();
+        let [fx, fy, cx, cy] = rec.camera.intrinsics;
+        let _ = (fx, fy);
+        let size = [
+            (2.0 * cx + 1.0).round() as u32,
+            (2.0 * cy + 1.0).round() as u32,
+        ];
+        if let Err(e) = write_pictures(
+            out,
+            &x,
+            &model.problem.mesh.nodes_in_rest,
+            &surface.triangles,
+            &rec.camera,
+            size,
+        ) {
+            eprintln!("pictures not written: {e}");
+        }
+        write_report(out, &x, &text, &model.units).map_err(softsense::Error::from)?;
+        eprintln!("report: {}", out.join("index.md").display());
+    }
+    if args.json {
+        let v = serde_json::to_value(&x).map_err(|e| CliError::Result(e.to_string()))?;
+        print_json(&v)?;
+    }
+    Ok(())
+}
+
+/// Generate a hidden-effect dataset: OUT_DIR/frames (what `explain` reads) and
+/// OUT_DIR/truth_hidden.json (the truth, never read by `explain`).
+#[derive(Args, Debug)]
+pub struct HiddenArgs {
+    /// Output folder.
+    out_dir: PathBuf,
+    /// Nominal model file.
+    #[arg(long, default_value = "meshes/models/robot.toml")]
+    model: PathBuf,
+    /// Comma-separated effect types to hide (none: a null dataset).
+    #[arg(long, value_delimiter = ',', value_parser = clap::builder::PossibleValuesParser::new(EFFECT_TYPES))]
+    effects: Vec<String>,
+    /// Magnitude in [0, 1] (0: barely above noise, 1: large).
+    #[arg(long, default_value_t = 0.5)]
+    magnitude: f64,
+    /// Random seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Number of frames.
+    #[arg(long, default_value_t = 8)]
+    frames: usize,
+}
+
+/// Runs `hidden`.
+pub fn run_hidden(args: &HiddenArgs) -> CliResult {
+    let spec = DatasetSpec {
+        model: args.model.clone(),
+        frames: args.frames,
+        seed: args.seed,
+        effects: args.effects.clone(),
+        magnitude: args.magnitude,
+        ..Default::default()
+    };
+    let (frames, truth) = layout(&args.out_dir);
+    generate_dataset(&spec, &frames, &truth).map_err(softsense::Error::from)?;
+    eprintln!(
+        "wrote {} frames to {}, truth to {}",
+        args.frames,
+        frames.display(),
+        truth.display()
+    );
+    Ok(())
+}

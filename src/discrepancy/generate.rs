@@ -1,0 +1,420 @@
+//! Hidden-effect datasets on the scene generator: a truth model equal to the nominal one
+//! plus hidden effects with random parameters, frames under varied cable inputs, the truth
+//! written to a separate file the workflow never reads.
+
+use super::effects::{apply_model, rotation, rotation_vector, tet_legs, Effect, EffectKind};
+use super::{load_candidates, DiscrepancyError, DiscrepancyResult};
+use crate::fem::model::Model;
+use crate::scene::camera::{Camera, CameraSpec};
+use crate::scene::sensor::{normal, uniform, SensorModel};
+use crate::scene::{render_frame, CableInput, FrameInput, LoadInput, LoadKind, Scene, SceneSpec};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// A hidden effect: one of the library's, or one outside it.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(tag = "hidden", rename_all = "snake_case")]
+pub enum Hidden {
+    /// A library effect with its true parameters.
+    Library(Effect),
+    /// A point load whose force changes from frame to frame (out of the library).
+    VaryingLoad {
+        /// The node.
+        node: usize,
+        /// Force per frame (N).
+        forces: Vec<[f64; 3]>,
+    },
+    /// Stiffening with the actuation: Young's modulus × (1 + beta · total tension in N)
+    /// (out of the library: the stiffness differs per frame).
+    Stiffening {
+        /// Relative stiffening per newton of total cable tension.
+        beta: f64,
+    },
+}
+
+/// Effect types the generator draws from.
+pub const EFFECT_TYPES: [&str; 10] = [
+    "gravity",
+    "young",
+    "leg_stiffness",
+    "point_load",
+    "actuator_offset",
+    "camera_pose",
+    "depth",
+    "poisson",
+    "varying_load",
+    "stiffening",
+];
+
+/// What to generate.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct DatasetSpec {
+    /// The nominal model file.
+    pub model: PathBuf,
+    /// Number of frames.
+    pub frames: usize,
+    /// Random seed (effects, inputs and sensor noise).
+    pub seed: u64,
+    /// Effect types to hide (names from [`EFFECT_TYPES`]); empty for a null dataset.
+    pub effects: Vec<String>,
+    /// Magnitude in [0, 1]: 0 barely above noise, 1 large.
+    pub magnitude: f64,
+    /// The recorded camera.
+    pub camera: CameraSpec,
+    /// The sensor model.
+    pub sensor: SensorModel,
+    /// Range of the recorded cable tensions (N).
+    pub tension: [f64; 2],
+}
+
+impl Default for DatasetSpec {
+    fn default() -> Self {
+        Self {
+            model: PathBuf::from("meshes/models/robot.toml"),
+            frames: 8,
+            seed: 1,
+            effects: Vec::new(),
+            magnitude: 0.5,
+            camera: small_camera(),
+            sensor: SensorModel::default(),
+            tension: [0.0, 1.0],
+        }
+    }
+}
+
+/// A 400x300 crop of the default D415-like camera (same focal length): the robot fills it
+/// and it renders in half the time of 640x480.
+pub fn small_camera() -> CameraSpec {
+    CameraSpec {
+        width: 400,
+        height: 300,
+        cx: 199.5,
+        cy: 149.5,
+        ..CameraSpec::default()
+    }
+}
+
+/// The truth file of a dataset.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct DatasetTruth {
+    /// The spec it was made from.
+    pub spec: DatasetSpec,
+    /// The hidden effects with their true parameters.
+    pub hidden: Vec<Hidden>,
+    /// The inputs actually applied per frame (recorded ones differ by any actuator offset).
+    pub applied: Vec<FrameInput>,
+}
+
+struct Rng {
+    seed: u64,
+    n: u64,
+}
+
+impl Rng {
+    fn u(&mut self) -> f64 {
+        self.n += 1;
+        uniform(self.seed, 7_777, self.n, 3)
+    }
+    fn g(&mut self) -> f64 {
+        self.n += 1;
+        normal(self.seed, 7_777, self.n, 5)
+    }
+    fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.u()
+    }
+    fn sign(&mut self) -> f64 {
+        if self.u() < 0.5 {
+            -1.0
+        } else {
+            1.0
+        }
+    }
+    fn dir(&mut self) -> [f64; 3] {
+        let v = [self.g(), self.g(), self.g()];
+        let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt().max(1e-12);
+        v.map(|c| c / l)
+    }
+}
+
+fn lerp(a: f64, b: f64, t: f64) -> f64 {
+    a + (b - a) * t.clamp(0.0, 1.0)
+}
+
+fn draw(
+    name: &str,
+    rng: &mut Rng,
+    m: f64,
+    model: &Model,
+    frames: usize,
+) -> DiscrepancyResult<Hidden> {
+    let lib = |kind, params| Ok(Hidden::Library(Effect { kind, params }));
+    match name {
+        "gravity" => lib(EffectKind::Gravity, vec![rng.sign() * lerp(0.08, 0.6, m)]),
+        "young" => lib(EffectKind::Young, vec![rng.sign() * lerp(0.04, 0.3, m)]),
+        "leg_stiffness" => {
+            let leg = (rng.u() * 4.0) as usize % 4;
+            lib(
+                EffectKind::LegStiffness { leg },
+                vec![rng.sign() * lerp(0.1, 0.5, m)],
+            )
+        }
+        "point_load" | "varying_load" => {
+            let cands = load_candidates(
+                &model.problem,
+                super::DiscrepancyParams::default().load_candidates,
+            );
+            let node = cands
+                .get((rng.u() * cands.len() as f64) as usize % cands.len().max(1))
+                .copied()
+                .ok_or_else(|| DiscrepancyError::Data("no load candidate".into()))?;
+            let f = lerp(0.03, 0.3, m);
+            if name == "point_load" {
+                lib(
+                    EffectKind::PointLoad { node },
+                    rng.dir().map(|c| c * f).to_vec(),
+                )
+            } else {
+                let forces = (0..frames)
+                    .map(|_| rng.dir().map(|c| c * f * rng.u()))
+                    .collect();
+                Ok(Hidden::VaryingLoad { node, forces })
+            }
+        }
+        "actuator_offset" => lib(
+            EffectKind::ActuatorOffset,
+            (0..model.problem.cables.len())
+                .map(|_| rng.sign() * lerp(0.03, 0.2, m) * rng.range(0.5, 1.0))
+                .collect(),
+        ),
+        "camera_pose" => {
+            let w = rng.dir().map(|c| c * lerp(0.15, 1.0, m).to_radians());
+            let t = rng.dir().map(|c| c * lerp(0.5, 4.0, m) * 1e-3);
+            lib(
+                EffectKind::CameraPose,
+                vec![w[0], w[1], w[2], t[0], t[1], t[2]],
+            )
+        }
+        "depth" => lib(
+            EffectKind::Depth,
+            vec![
+                rng.sign() * lerp(0.003, 0.03, m),
+                rng.sign() * lerp(0.3, 3.0, m) * 1e-3,
+            ],
+        ),
+        "poisson" => lib(EffectKind::Poisson, vec![-lerp(0.03, 0.15, m)]),
+        "stiffening" => Ok(Hidden::Stiffening {
+            beta: lerp(0.1, 0.5, m),
+        }),
+        _ => Err(DiscrepancyError::Data(format!(
+            "unknown effect type {name:?}"
+        ))),
+    }
+}
+
+/// The true camera for a camera-pose error (ω, t) such that points back-projected with
+/// the recorded pose are R(ω) p + t.
+fn true_camera(nominal: &CameraSpec, w: [f64; 3], t: [f64; 3]) -> DiscrepancyResult<CameraSpec> {
+    // Measured = R p + t with R = R_n R_tᵀ, t = e_n − R e_t, so R_t = Rᵀ R_n and
+    // e_t = Rᵀ (e_n − t): the true camera is the nominal one moved by the inverse map.
+    let r = rotation(w);
+    let inv = |p: [f64; 3]| -> [f64; 3] {
+        let d = [p[0] - t[0], p[1] - t[1], p[2] - t[2]];
+        [0, 1, 2].map(|k| (0..3).map(|m| r[m][k] * d[m]).sum())
+    };
+    let rot_t =
+        |v: [f64; 3]| -> [f64; 3] { [0, 1, 2].map(|k| (0..3).map(|m| r[m][k] * v[m]).sum()) };
+    let mut s = nominal.clone();
+    s.eye = inv(nominal.eye);
+    s.target = inv(nominal.target);
+    s.up = rot_t(nominal.up);
+    Camera::new(s.clone())
+        .ok_or_else(|| DiscrepancyError::Data("degenerate true camera".into()))?;
+    Ok(s)
+}
+
+fn write_json(path: &Path, v: &impl Serialize) -> DiscrepancyResult<()> {
+    let text =
+        serde_json::to_string_pretty(v).map_err(|e| DiscrepancyError::Data(e.to_string()))?;
+    std::fs::write(path, text).map_err(|e| DiscrepancyError::File {
+        path: path.display().to_string(),
+        message: e.to_string(),
+    })
+}
+
+/// Generates a dataset: frames into `frames_dir`, the truth into `truth_path` (keep it
+/// outside `frames_dir`).
+pub fn generate_dataset(
+    spec: &DatasetSpec,
+    frames_dir: &Path,
+    truth_path: &Path,
+) -> DiscrepancyResult<DatasetTruth> {
+    if spec.frames == 0 || spec.frames > super::data::MAX_FRAMES {
+        return Err(DiscrepancyError::Data("frames must be 1..=1000".into()));
+    }
+    std::fs::create_dir_all(frames_dir).map_err(|e| DiscrepancyError::File {
+        path: frames_dir.display().to_string(),
+        message: e.to_string(),
+    })?;
+    let nominal = Model::load(&spec.model, None)?;
+    let mut rng = Rng {
+        seed: spec.seed,
+        n: 0,
+    };
+    let hidden = spec
+        .effects
+        .iter()
+        .map(|e| draw(e, &mut rng, spec.magnitude, &nominal, spec.frames))
+        .collect::<DiscrepancyResult<Vec<_>>>()?;
+    // Recorded inputs: force-controlled cables with random tensions.
+    let recorded: Vec<FrameInput> = (0..spec.frames)
+        .map(|_| FrameInput {
+            cables: nominal
+                .problem
+                .cables
+                .iter()
+                .map(|c| CableInput {
+                    name: c.name.clone(),
+                    shorten: None,
+                    force: Some(rng.range(spec.tension[0], spec.tension[1])),
+                })
+                .collect(),
+            loads: Vec::new(),
+        })
+        .collect();
+    let mut applied = recorded.clone();
+    let mut truth_model = nominal.clone();
+    let legs = tet_legs(&nominal.problem);
+    let mut camera = spec.camera.clone();
+    let mut depth = (0.0, 0.0);
+    let mut stiffening = None;
+    for h in &hidden {
+        match h {
+            Hidden::Library(e) => match e.kind {
+                EffectKind::ActuatorOffset => {
+                    for f in &mut applied {
+                        for (c, off) in f.cables.iter_mut().zip(&e.params) {
+                            c.force = c.force.map(|v| v + off);
+                        }
+                    }
+                }
+                EffectKind::CameraPose => {
+                    let p = &e.params;
+                    camera = true_camera(&camera, [p[0], p[1], p[2]], [p[3], p[4], p[5]])?;
+                }
+                EffectKind::Depth => depth = (e.params[0], e.params[1]),
+                _ => apply_model(&mut truth_model.problem, std::slice::from_ref(e), &legs)?,
+            },
+            Hidden::VaryingLoad { node, forces } => {
+                let at = nominal.problem.mesh.nodes_in_rest[*node];
+                for (f, force) in applied.iter_mut().zip(forces) {
+                    f.loads.push(LoadInput {
+                        kind: LoadKind::Weight,
+                        at,
+                        force: *force,
+                        radius: 0.008,
+                    });
+                }
+            }
+            Hidden::Stiffening { beta } => stiffening = Some(*beta),
+        }
+    }
+    // Render at a 16x finer depth unit, apply any depth error, then quantise once to the
+    // recorded unit: quantising twice would add noise the sensor model does not have.
+    let mut fine_sensor = spec.sensor.clone();
+    fine_sensor.depth_unit = spec.sensor.depth_unit / 16.0;
+    let scene = Scene {
+        spec: SceneSpec {
+            model: spec.model.display().to_string(),
+            young: None,
+            seed: spec.seed,
+            table_half: 0.3,
+            colors: Default::default(),
+            camera: camera.clone(),
+            sensor: fine_sensor.clone(),
+            frames: applied.clone(),
+        },
+        model_path: spec.model.clone(),
+    };
+    let (w, h) = (camera.width, camera.height);
+    for (i, input) in applied.iter().enumerate() {
+        let mut m = truth_model.clone();
+        if let Some(beta) = stiffening {
+            let total: f64 = input.cables.iter().filter_map(|c| c.force).sum();
+            let e = m.problem.material;
+            m.problem.material =
+                crate::fem::material::Material::new(e.young * (1.0 + beta * total), e.poisson)?;
+        }
+        let r = render_frame(&scene, &m, i)?;
+        let unit = spec.sensor.depth_unit;
+        let d: Vec<u16> = r
+            .depth
+            .iter()
+            .map(|&v| {
+                if v == 0 {
+                    return 0;
+                }
+                let z = v as f64 * fine_sensor.depth_unit * (1.0 + depth.0) + depth.1;
+                (z / unit).round().clamp(0.0, 65535.0) as u16
+            })
+            .collect();
+        let file_err = |p: &Path, e: String| DiscrepancyError::File {
+            path: p.display().to_string(),
+            message: e,
+        };
+        let dp = frames_dir.join(format!("depth_{i:04}.png"));
+        image::ImageBuffer::<image::Luma<u16>, _>::from_raw(w, h, d)
+            .ok_or_else(|| file_err(&dp, "depth buffer size".into()))?
+            .save(&dp)
+            .map_err(|e| file_err(&dp, e.to_string()))?;
+        let cp = frames_dir.join(format!("color_{i:04}.png"));
+        let flat: Vec<u8> = r.color.iter().flatten().copied().collect();
+        image::RgbImage::from_raw(w, h, flat)
+            .ok_or_else(|| file_err(&cp, "colour buffer size".into()))?
+            .save(&cp)
+            .map_err(|e| file_err(&cp, e.to_string()))?;
+    }
+    let recorded_cam = Camera::new(spec.camera.clone())
+        .ok_or_else(|| DiscrepancyError::Data("degenerate camera".into()))?;
+    write_json(
+        &frames_dir.join("intrinsics.json"),
+        &recorded_cam.open3d_intrinsics(),
+    )?;
+    write_json(
+        &frames_dir.join("camera_pose.json"),
+        &serde_json::json!({ "robot_from_camera": recorded_cam.robot_from_camera() }),
+    )?;
+    write_json(&frames_dir.join("sensor.json"), &spec.sensor)?;
+    write_json(&frames_dir.join("inputs.json"), &recorded)?;
+    let truth = DatasetTruth {
+        spec: spec.clone(),
+        hidden,
+        applied,
+    };
+    write_json(truth_path, &truth)?;
+    Ok(truth)
+}
+
+/// The rotation vector of a camera-pose truth (for checks): the measured-from-true rotation
+/// between two camera specs.
+pub fn pose_error(nominal: &CameraSpec, truth: &CameraSpec) -> Option<[f64; 6]> {
+    let n = Camera::new(nominal.clone())?;
+    let t = Camera::new(truth.clone())?;
+    let rn = n.robot_from_camera();
+    let rt = t.robot_from_camera();
+    let mut r = [[0.0; 3]; 3];
+    for (i, ri) in r.iter_mut().enumerate() {
+        for (j, rij) in ri.iter_mut().enumerate() {
+            *rij = (0..3).map(|k| rn[i][k] * rt[j][k]).sum();
+        }
+    }
+    let w = rotation_vector(&r);
+    let et = [rt[0][3], rt[1][3], rt[2][3]];
+    let tv = [0, 1, 2].map(|i| rn[i][3] - (0..3).map(|k| r[i][k] * et[k]).sum::<f64>());
+    Some([w[0], w[1], w[2], tv[0], tv[1], tv[2]])
+}
+
+/// Default truth path for a dataset folder `dir`: `dir/truth_hidden.json` beside
+/// `dir/frames/`.
+pub fn layout(dir: &Path) -> (PathBuf, PathBuf) {
+    (dir.join("frames"), dir.join("truth_hidden.json"))
+}

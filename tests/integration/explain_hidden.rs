@@ -1,0 +1,89 @@
+//! The discrepancy workflow on small generated hidden-effect datasets (8 frames, 400x300):
+//! nothing hidden, a global stiffness error, a camera pose error. The workflow never reads
+//! the truth file; the test compares its answer with it.
+
+use softsense::discrepancy::data::load_frames;
+use softsense::discrepancy::effects::{Effect, EffectKind};
+use softsense::discrepancy::generate::{generate_dataset, layout, DatasetSpec, Hidden};
+use softsense::discrepancy::{explain, DiscrepancyParams, Explanation, Outcome};
+use softsense::fem::model::Model;
+use std::path::PathBuf;
+
+fn run(effects: &[&str], seed: u64) -> (Explanation, Vec<Hidden>) {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let model_path = root.join("meshes/models/robot.toml");
+    let dir = tempfile::tempdir().unwrap();
+    let (frames, truth_path) = layout(dir.path());
+    let spec = DatasetSpec {
+        model: model_path.clone(),
+        seed,
+        effects: effects.iter().map(|s| s.to_string()).collect(),
+        ..Default::default()
+    };
+    let truth = generate_dataset(&spec, &frames, &truth_path).unwrap();
+    let model = Model::load(&model_path, None).unwrap();
+    let rec = load_frames(&frames).unwrap();
+    (
+        explain(&model, &rec, &DiscrepancyParams::default()).unwrap(),
+        truth.hidden,
+    )
+}
+
+fn relative_error(fit: &Effect, truth: &Effect) -> f64 {
+    let n = truth.params.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let d = fit
+        .params
+        .iter()
+        .zip(&truth.params)
+        .map(|(a, b)| (a - b).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    d / n
+}
+
+fn check_named(effect: &str, kind: EffectKind, seed: u64) {
+    let (x, hidden) = run(&[effect], seed);
+    let Hidden::Library(truth) = &hidden[0] else {
+        panic!("not a library effect")
+    };
+    let Outcome::Explained { effects } = &x.outcome else {
+        panic!("{effect}: expected an explanation, got {:?}", x.outcome)
+    };
+    let fit = effects
+        .iter()
+        .find(|f| f.effect.kind == kind)
+        .unwrap_or_else(|| panic!("{effect}: not named: {effects:?}"));
+    let err = relative_error(&fit.effect, truth);
+    assert!(
+        err < 0.1,
+        "{effect}: parameters off by {err}: {fit:?} vs {truth:?}"
+    );
+    let (b, a) = (x.before.last().unwrap(), x.after.last().unwrap());
+    assert!(
+        a.rms <= 0.2 * b.rms || a.rms <= 1.2 * b.noise_rms,
+        "{effect}: held-out RMS {} -> {} (noise {})",
+        b.rms,
+        a.rms,
+        b.noise_rms
+    );
+}
+
+#[test]
+fn explain_finds_no_missing_effect_when_nothing_is_hidden() {
+    let (x, _) = run(&[], 1);
+    assert!(
+        matches!(x.outcome, Outcome::NoMissingEffect),
+        "{:?}",
+        x.outcome
+    );
+}
+
+#[test]
+fn explain_names_a_hidden_stiffness_error_and_its_size() {
+    check_named("young", EffectKind::Young, 2);
+}
+
+#[test]
+fn explain_names_a_hidden_camera_pose_error_and_its_size() {
+    check_named("camera_pose", EffectKind::CameraPose, 2);
+}
