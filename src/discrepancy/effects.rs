@@ -108,6 +108,21 @@ pub struct Effect {
     pub params: Vec<f64>,
 }
 
+impl Effect {
+    /// ‖self − truth‖ / ‖truth‖ over the parameter vectors (how far a fit is from the truth).
+    pub fn relative_error(&self, truth: &Effect) -> f64 {
+        let n = truth.params.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let d = self
+            .params
+            .iter()
+            .zip(&truth.params)
+            .map(|(a, b)| (a - b).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        d / n.max(1e-300)
+    }
+}
+
 /// Leg index of each tetrahedron (None for the base block and the top platform).
 pub fn tet_legs(problem: &Problem) -> Vec<Option<usize>> {
     let m = &problem.mesh;

@@ -3,7 +3,7 @@
 //! the truth file; the test compares its answer with it.
 
 use softsense::discrepancy::data::load_frames;
-use softsense::discrepancy::effects::{Effect, EffectKind};
+use softsense::discrepancy::effects::EffectKind;
 use softsense::discrepancy::generate::{generate_dataset, layout, DatasetSpec, Hidden};
 use softsense::discrepancy::{explain, DiscrepancyParams, Explanation, Outcome};
 use softsense::fem::model::Model;
@@ -29,18 +29,6 @@ fn run(effects: &[&str], seed: u64) -> (Explanation, Vec<Hidden>) {
     )
 }
 
-fn relative_error(fit: &Effect, truth: &Effect) -> f64 {
-    let n = truth.params.iter().map(|v| v * v).sum::<f64>().sqrt();
-    let d = fit
-        .params
-        .iter()
-        .zip(&truth.params)
-        .map(|(a, b)| (a - b).powi(2))
-        .sum::<f64>()
-        .sqrt();
-    d / n
-}
-
 fn check_named(effect: &str, kind: EffectKind, seed: u64) {
     let (x, hidden) = run(&[effect], seed);
     let Hidden::Library(truth) = &hidden[0] else {
@@ -53,7 +41,7 @@ fn check_named(effect: &str, kind: EffectKind, seed: u64) {
         .iter()
         .find(|f| f.effect.kind == kind)
         .unwrap_or_else(|| panic!("{effect}: not named: {effects:?}"));
-    let err = relative_error(&fit.effect, truth);
+    let err = fit.effect.relative_error(truth);
     assert!(
         err < 0.1,
         "{effect}: parameters off by {err}: {fit:?} vs {truth:?}"
