@@ -45,6 +45,7 @@ use crate::fem::FemError;
 use crate::inverse::qp::{QpParams, QpProblem};
 use crate::inverse::InverseError;
 use crate::math::{Iso3, Mat3, Point3, Vec3};
+use crate::register::closest_point_on_triangle_weights;
 use kiddo::{KdTree, SquaredEuclidean};
 use nalgebra::{Matrix6, Rotation3, Translation3, UnitQuaternion, Vector6};
 use serde::{Deserialize, Serialize};
@@ -358,44 +359,6 @@ pub fn point_to_plane_step(
 // ---------------------------------------------------------------------------------------
 // Closest points on the FE surface.
 
-/// The closest point on triangle (a, b, c) to p and its barycentric weights (Ericson,
-/// Real-Time Collision Detection 5.1.5, region by region).
-pub fn closest_point_on_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> (Vec3, [f64; 3]) {
-    let (ab, ac, ap) = (b - a, c - a, p - a);
-    let (d1, d2) = (ab.dot(&ap), ac.dot(&ap));
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return (a, [1.0, 0.0, 0.0]);
-    }
-    let bp = p - b;
-    let (d3, d4) = (ab.dot(&bp), ac.dot(&bp));
-    if d3 >= 0.0 && d4 <= d3 {
-        return (b, [0.0, 1.0, 0.0]);
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        let v = d1 / (d1 - d3);
-        return (a + ab * v, [1.0 - v, v, 0.0]);
-    }
-    let cp = p - c;
-    let (d5, d6) = (ab.dot(&cp), ac.dot(&cp));
-    if d6 >= 0.0 && d5 <= d6 {
-        return (c, [0.0, 0.0, 1.0]);
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        let w = d2 / (d2 - d6);
-        return (a + ac * w, [1.0 - w, 0.0, w]);
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-        return (b + (c - b) * w, [0.0, 1.0 - w, w]);
-    }
-    let denom = 1.0 / (va + vb + vc);
-    let (v, w) = (vb * denom, vc * denom);
-    (a + ab * v + ac * w, [1.0 - v - w, v, w])
-}
-
 /// The closest surface point to a query.
 #[derive(Clone, Copy, Debug)]
 pub struct SurfaceMatch {
@@ -473,7 +436,8 @@ impl SurfaceIndex {
         {
             let i = nb.item as usize;
             let [a, b, c] = self.tris[i];
-            let (s, w) = closest_point_on_triangle(q, a, b, c);
+            let (s, w) = closest_point_on_triangle_weights(p, a.into(), b.into(), c.into());
+            let s = Vec3::from(s);
             let d = (q - s).norm();
             if best.is_none_or(|m| d < m.distance) {
                 let n = self.normals[i];

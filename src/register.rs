@@ -451,48 +451,66 @@ pub fn point_triangle_distance2(p: [f64; 3], a: [f64; 3], b: [f64; 3], c: [f64; 
 
 /// The point of triangle `abc` closest to `p`.
 pub fn closest_point_on_triangle(p: [f64; 3], a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> [f64; 3] {
+    closest_point_on_triangle_weights(p, a, b, c).0
+}
+
+/// The point of triangle `abc` closest to `p` and its barycentric weights on `(a, b, c)`,
+/// found region by region (vertex, edge or face Voronoi region; Ericson, Real-Time
+/// Collision Detection 5.1.5). A degenerate triangle answers `a`.
+pub fn closest_point_on_triangle_weights(
+    p: [f64; 3],
+    a: [f64; 3],
+    b: [f64; 3],
+    c: [f64; 3],
+) -> ([f64; 3], [f64; 3]) {
     let ab = sub(b, a);
     let ac = sub(c, a);
     let ap = sub(p, a);
     let d1 = dot(ab, ap);
     let d2 = dot(ac, ap);
     if d1 <= 0.0 && d2 <= 0.0 {
-        return a;
+        return (a, [1.0, 0.0, 0.0]);
     }
     let bp = sub(p, b);
     let d3 = dot(ab, bp);
     let d4 = dot(ac, bp);
     if d3 >= 0.0 && d4 <= d3 {
-        return b;
+        return (b, [0.0, 1.0, 0.0]);
     }
     let lerp =
         |o: [f64; 3], e: [f64; 3], t: f64| [o[0] + t * e[0], o[1] + t * e[1], o[2] + t * e[2]];
     let vc = d1 * d4 - d3 * d2;
     if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        return lerp(a, ab, d1 / (d1 - d3));
+        let v = d1 / (d1 - d3);
+        return (lerp(a, ab, v), [1.0 - v, v, 0.0]);
     }
     let cp = sub(p, c);
     let d5 = dot(ab, cp);
     let d6 = dot(ac, cp);
     if d6 >= 0.0 && d5 <= d6 {
-        return c;
+        return (c, [0.0, 0.0, 1.0]);
     }
     let vb = d5 * d2 - d1 * d6;
     if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        return lerp(a, ac, d2 / (d2 - d6));
+        let w = d2 / (d2 - d6);
+        return (lerp(a, ac, w), [1.0 - w, 0.0, w]);
     }
     let va = d3 * d6 - d5 * d4;
     if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        return lerp(b, sub(c, b), (d4 - d3) / ((d4 - d3) + (d5 - d6)));
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return (lerp(b, sub(c, b), w), [0.0, 1.0 - w, w]);
     }
     let denom = va + vb + vc;
     if denom == 0.0 {
-        return a;
+        return (a, [1.0, 0.0, 0.0]);
     }
     let (v, w) = (vb / denom, vc / denom);
-    [
-        a[0] + ab[0] * v + ac[0] * w,
-        a[1] + ab[1] * v + ac[1] * w,
-        a[2] + ab[2] * v + ac[2] * w,
-    ]
+    (
+        [
+            a[0] + ab[0] * v + ac[0] * w,
+            a[1] + ab[1] * v + ac[1] * w,
+            a[2] + ab[2] * v + ac[2] * w,
+        ],
+        [1.0 - v - w, v, w],
+    )
 }

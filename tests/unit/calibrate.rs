@@ -2,11 +2,11 @@
 //! brute-force oracles.
 use proptest::prelude::*;
 use softsense::calibrate::{
-    closest_point_on_triangle, kabsch, point_to_plane_step, pose_difference, pose_from_matrix,
-    pose_to_matrix, SurfaceIndex,
+    kabsch, point_to_plane_step, pose_difference, pose_from_matrix, pose_to_matrix, SurfaceIndex,
 };
 use softsense::fem::mesh::TetMesh;
 use softsense::math::{Iso3, Point3, Vec3};
+use softsense::register::{closest_point_on_triangle, closest_point_on_triangle_weights};
 
 fn apply(t: &Iso3, p: [f64; 3]) -> [f64; 3] {
     let q = t * Point3::from(p);
@@ -27,7 +27,7 @@ fn grid_closest(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> f64 {
 }
 
 #[test]
-fn closest_point_on_triangle_matches_a_dense_grid_in_every_region() {
+fn closest_point_and_weights_on_a_triangle_match_a_dense_grid_in_every_region() {
     let (a, b, c) = (
         Vec3::new(0.0, 0.0, 0.0),
         Vec3::new(1.0, 0.0, 0.0),
@@ -44,7 +44,8 @@ fn closest_point_on_triangle_matches_a_dense_grid_in_every_region() {
         [-0.3, 0.5, -0.2],
     ] {
         let p = Vec3::from(p);
-        let (s, w) = closest_point_on_triangle(p, a, b, c);
+        let (s, w) = closest_point_on_triangle_weights(p.into(), a.into(), b.into(), c.into());
+        let s = Vec3::from(s);
         let d = (s - p).norm();
         assert!((d - grid_closest(p, a, b, c)).abs() < 5e-3, "{p:?}");
         assert!(
@@ -82,7 +83,8 @@ fn surface_index_finds_the_same_distance_as_brute_force_over_all_triangles() {
             .iter()
             .map(|t| {
                 let [a, b, c] = t.map(|i| Vec3::from(x[i]));
-                (closest_point_on_triangle(Vec3::from(p), a, b, c).0 - Vec3::from(p)).norm()
+                let q = closest_point_on_triangle(p, a.into(), b.into(), c.into());
+                (Vec3::from(q) - Vec3::from(p)).norm()
             })
             .fold(f64::INFINITY, f64::min);
         assert!(
