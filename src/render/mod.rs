@@ -47,8 +47,8 @@ pub use colormap::{colorbar, finite_range, format_value, symmetric_range, ColorM
 pub use font::{text_size, EXTRA_CHARS};
 pub use overlay::{
     mask_from_indices, sense_overlay, side_by_side, ContactMark, FeatureMark, ForceArrow,
-    OverlayParams, SenseOverlay, CONTACT, FEATURE_HIDDEN, FEATURE_VISIBLE, FORCE, MATCH_LINE,
-    ROBOT_TINT,
+    LabelPlacer, OverlayParams, SenseOverlay, CONTACT, FEATURE_HIDDEN, FEATURE_VISIBLE, FORCE,
+    MATCH_LINE, ROBOT_TINT,
 };
 pub use project::{camera_from_robot, project, project_with, Pose, View, NEAR_Z, RIGID_TOLERANCE};
 pub use surface::{

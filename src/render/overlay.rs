@@ -164,17 +164,30 @@ pub fn sense_overlay(
         c.disc(f.pixel, 4.0, BLACK);
         c.disc(f.pixel, 3.0, FEATURE_VISIBLE);
     }
+    // Labels are placed after every mark, so no mark hides one and none covers another.
+    let mut labels: Vec<PendingLabel> = Vec::new();
     for ct in overlay.contacts {
         c.circle(ct.pixel, 10.0, WHITE, 4.0);
         c.circle(ct.pixel, 10.0, CONTACT, 2.0);
         if ct.pixel.iter().all(|v| v.is_finite()) {
             let x = ct.pixel[0].clamp(-1e9, 1e9) as i64 + 13;
             let y = ct.pixel[1].clamp(-1e9, 1e9) as i64 - 30;
-            c.label(x, y, &ct.label, CONTACT, WHITE, 2);
+            labels.push(PendingLabel {
+                x,
+                y,
+                text: ct.label.clone(),
+                colour: CONTACT,
+            });
         }
     }
     for f in overlay.forces {
-        draw_force(&mut c, f, params);
+        if let Some(l) = draw_force(&mut c, f, params) {
+            labels.push(l);
+        }
+    }
+    let mut placer = LabelPlacer::default();
+    for l in &labels {
+        placer.place(&mut c, l.x, l.y, &l.text, l.colour, 2);
     }
     if !overlay.title.is_empty() {
         let scale = if i64::from(text_size(overlay.title, 2).0) + 12 <= w {
@@ -199,20 +212,75 @@ pub fn sense_overlay(
     Ok(c)
 }
 
-fn draw_force(c: &mut Canvas, f: &ForceArrow, params: &OverlayParams) {
+/// A label waiting for [`LabelPlacer`].
+struct PendingLabel {
+    x: i64,
+    y: i64,
+    text: String,
+    colour: Rgb,
+}
+
+/// Places text labels so that their boxes do not overlap: a label that would cover an
+/// earlier one moves down or up (alternately, one box height plus a gap at a time, at
+/// most 8 steps each way) to the nearest free spot; if none is free it stays where asked.
+#[derive(Default, Debug, Clone)]
+pub struct LabelPlacer {
+    /// Boxes already placed: (x, y, width, height) in pixels, padding included.
+    placed: Vec<[i64; 4]>,
+}
+
+impl LabelPlacer {
+    /// Draws `text` at `(x, y)` or the nearest free spot above or below it, and returns
+    /// the top-left corner used.
+    pub fn place(
+        &mut self,
+        c: &mut Canvas,
+        x: i64,
+        y: i64,
+        text: &str,
+        fg: Rgb,
+        scale: u32,
+    ) -> (i64, i64) {
+        let (w, h) = text_size(text, scale);
+        let pad = 2 * i64::from(scale.clamp(1, 64));
+        let (bw, bh) = (i64::from(w) + 2 * pad, i64::from(h) + 2 * pad);
+        let free = |ty: i64, placed: &[[i64; 4]]| {
+            let b = [x - pad, ty - pad, bw, bh];
+            !placed.iter().any(|p| {
+                b[0] < p[0] + p[2] && p[0] < b[0] + b[2] && b[1] < p[1] + p[3] && p[1] < b[1] + b[3]
+            })
+        };
+        let step = bh + 2;
+        let ty = (0..=16i64)
+            .map(|i| {
+                let k = (i + 1) / 2;
+                if i % 2 == 1 {
+                    y + k * step
+                } else {
+                    y - k * step
+                }
+            })
+            .find(|&ty| free(ty, &self.placed))
+            .unwrap_or(y);
+        self.placed.push([x - pad, ty - pad, bw, bh]);
+        c.label(x, ty, text, fg, WHITE, scale);
+        (x, ty)
+    }
+}
+
+/// Draws the arrow and returns its label for placement.
+fn draw_force(c: &mut Canvas, f: &ForceArrow, params: &OverlayParams) -> Option<PendingLabel> {
     let s = f.start_in_camera;
     let mut d = f.force_in_camera.map(|v| v * params.metres_per_newton);
     let k = &params.intrinsics;
-    let Some(a) = project_with(k, s) else { return };
+    let a = project_with(k, s)?;
     // Keep the tip in front of the camera: at most 90% of the way to the camera plane.
     let end_z = s[2] + d[2];
     if end_z < 0.1 * s[2] && d[2] < 0.0 {
         let t = 0.9 * s[2] / -d[2];
         d = d.map(|v| v * t);
     }
-    let Some(b) = project_with(k, [s[0] + d[0], s[1] + d[1], s[2] + d[2]]) else {
-        return;
-    };
+    let b = project_with(k, [s[0] + d[0], s[1] + d[1], s[2] + d[2]])?;
     c.arrow(a, b, WHITE, 5.0);
     c.arrow(a, b, FORCE, 3.0);
     c.disc(a, 3.5, FORCE);
@@ -227,11 +295,12 @@ fn draw_force(c: &mut Canvas, f: &ForceArrow, params: &OverlayParams) {
     let len = dir[0].hypot(dir[1]).max(1e-9);
     let tx = b[0] + 10.0 * dir[0] / len - if dir[0] < 0.0 { f64::from(tw) } else { 0.0 };
     let ty = b[1] + 10.0 * dir[1] / len - 7.0;
-    if tx.is_finite() && ty.is_finite() {
-        let x = tx.clamp(-1e9, 1e9) as i64;
-        let y = ty.clamp(-1e9, 1e9) as i64;
-        c.label(x, y, &text, FORCE, WHITE, 2);
-    }
+    (tx.is_finite() && ty.is_finite()).then(|| PendingLabel {
+        x: tx.clamp(-1e9, 1e9) as i64,
+        y: ty.clamp(-1e9, 1e9) as i64,
+        text,
+        colour: FORCE,
+    })
 }
 
 /// Places `panels` left to right on `background`, each under its title, 8 pixels apart;

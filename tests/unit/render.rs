@@ -824,3 +824,29 @@ proptest! {
         let _ = View::orbit(&vertices, r, width, w, h);
     }
 }
+
+#[test]
+fn labels_asked_for_at_the_same_spot_are_moved_apart_and_do_not_overlap() {
+    let mut c = Canvas::new(200, 200, BLACK).unwrap();
+    let mut placer = LabelPlacer::default();
+    let (_, h) = text_size("0.35 N", 2);
+    let a = placer.place(&mut c, 50, 90, "0.35 N", RED, 2);
+    let b = placer.place(&mut c, 50, 90, "c1 node 659", RED, 2);
+    let d = placer.place(&mut c, 60, 92, "third", RED, 2);
+    assert_eq!(a, (50, 90), "the first label goes where it was asked");
+    // Boxes are the text plus 4 px of padding each side: vertical gaps of at least the
+    // text height plus the padding mean the boxes are disjoint.
+    let box_h = i64::from(h) + 8;
+    for (p, q) in [(a, b), (a, d), (b, d)] {
+        assert!((p.1 - q.1).abs() >= box_h, "{p:?} and {q:?} overlap");
+    }
+    // The text of the first label is still there: red pixels on its row band.
+    let red_in_band = (90..90 + i64::from(h))
+        .flat_map(|y| (50..120).map(move |x| (x, y)))
+        .filter(|&(x, y)| c.get(x, y) == Some(RED))
+        .count();
+    assert!(
+        red_in_band > 10,
+        "first label overwritten: {red_in_band} red pixels"
+    );
+}
