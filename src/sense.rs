@@ -78,10 +78,14 @@ pub struct SenseParams {
     pub crop_margin: f64,
     /// Points lower than the model's lowest point plus this are the table (m, 0.004).
     pub table_clearance: f64,
-    /// Contact detection: more than 3 robot neighbours within 8 mm, 5 mm groups of 10-2000
-    /// points. The thesis used 4 mm with its camera closer; at 0.5 m a D415-like depth
-    /// stream samples ~0.8 mm apart and leaves holes along the probe's silhouette, so 4 mm
-    /// finds 9-18 probe points near the robot where 8 mm finds 70-100.
+    /// Contact detection: more than 3 robot neighbours within 12 mm, 5 mm groups of
+    /// 10-2000 points. The thesis used 4 mm with its camera closer; at 0.5 m a D415-like
+    /// depth stream samples ~0.8 mm apart and leaves holes along the probe's silhouette, so
+    /// 4 mm finds 9-18 probe points near the robot where 8 mm finds 70-100. A probe on a
+    /// side face the camera sees at a grazing angle is farther still from every robot point
+    /// it sees: 7.9 mm at best (two_probes frame 2, south leg), with one robot point within
+    /// 8 mm and 100+ within 12 mm. An object within 12 mm that does not push gets a force
+    /// near zero (pushing only), not a false load.
     pub contact: ContactParams,
     /// Feature points (51, on flat patches the camera sees).
     pub features: FeatureParams,
@@ -122,7 +126,7 @@ impl Default for SenseParams {
             crop_margin: 0.03,
             table_clearance: 0.004,
             contact: ContactParams {
-                radius_m: 0.008,
+                radius_m: 0.012,
                 ..ContactParams::default()
             },
             features: FeatureParams::default(),
