@@ -606,6 +606,12 @@ impl Sensor {
         };
         let (est, cands, groups) = if contacts.is_empty() {
             // Declared force points: the one explaining the frame best.
+            if !model.force_points.is_empty() {
+                report.warnings.push(format!(
+                    "no contact seen: the model's {} declared force point(s) are the candidates",
+                    model.force_points.len()
+                ));
+            }
             let mut best: Option<(FrameEstimate, Vec<Candidate>, Vec<Group>)> = None;
             for fp in &model.force_points {
                 let cands: Vec<Candidate> = fp

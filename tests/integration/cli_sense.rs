@@ -117,3 +117,49 @@ fn sense_render_writes_one_picture_per_frame_over_the_colour_frame() {
         assert!(changed > 10_000, "frame {i}: only {changed} pixels drawn");
     }
 }
+
+#[test]
+fn bad_frames_get_their_own_status_and_the_stream_goes_on() {
+    // tip_weight with frame 1's depth all zero (every point NaN), frame 2's colour grey
+    // (no robot colour anywhere) and frame 3's depth not a PNG. Frame 0 has no load and no
+    // contact: it is sensed with the model's force points, and says so.
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("clouds/scenes/tip_weight");
+    let dir = tempfile::tempdir().unwrap();
+    for entry in std::fs::read_dir(&src).unwrap() {
+        let p = entry.unwrap().path();
+        std::fs::copy(&p, dir.path().join(p.file_name().unwrap())).unwrap();
+    }
+    let (w, h) = image::image_dimensions(src.join("depth_0000.png")).unwrap();
+    image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::new(w, h)
+        .save(dir.path().join("depth_0001.png"))
+        .unwrap();
+    image::RgbImage::from_pixel(w, h, image::Rgb([128, 128, 128]))
+        .save(dir.path().join("color_0002.png"))
+        .unwrap();
+    std::fs::write(dir.path().join("depth_0003.png"), b"not a png").unwrap();
+    let out = sense(&[dir.path().to_str().unwrap(), "--json"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "one frame is still sensed: {stderr}");
+    let frames: Vec<serde_json::Value> = String::from_utf8(out.stdout)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("each line is JSON"))
+        .collect();
+    assert_eq!(frames.len(), 4, "every frame gets a report");
+    let status: Vec<&str> = frames
+        .iter()
+        .map(|f| f["status"].as_str().unwrap())
+        .collect();
+    assert_eq!(status, ["sensed", "no_robot", "no_robot", "unreadable"]);
+    let warnings = frames[0]["warnings"].to_string();
+    assert!(warnings.contains("no contact seen"), "{warnings}");
+    assert!(
+        frames[3]["detail"]
+            .as_str()
+            .unwrap()
+            .contains("depth_0003.png"),
+        "{}",
+        frames[3]
+    );
+    assert!(stderr.contains("1/4 frames sensed"), "{stderr}");
+}
