@@ -109,8 +109,10 @@ fn a_wrong_youngs_modulus_shows_in_the_residual_and_its_force_errors_are_reporte
     let right = rms(&right_errs);
     let right_norm: f64 = right_errs.iter().map(|e| e.1).sum();
     eprintln!(
-        "E right: 1-norm {:.0} mN, residual {:.3} mm",
+        "E right: 3-D force errors {:?} mN, 1-norm {:.0} mN, location errors {:?} mm, residual {:.3} mm",
+        right_errs.iter().map(|e| (1e3 * e.1).round()).collect::<Vec<_>>(),
         1e3 * right_norm,
+        right_errs.iter().map(|e| (1e4 * e.2).round() / 10.0).collect::<Vec<_>>(),
         1e3 * right
     );
     let mut norms = Vec::new();
