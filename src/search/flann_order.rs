@@ -56,6 +56,9 @@ const PAR_MIN: usize = 16_384;
 /// Per dimension `[low, high]`.
 type BBox = [[f32; 2]; 3];
 
+/// A point of FLANN's dataset and its index in the cloud.
+type Item = ([f32; 3], u32);
+
 enum Node {
     /// Points `left..right` of the reordered arrays.
     Leaf { left: u32, right: u32 },
@@ -72,10 +75,8 @@ enum Node {
 
 /// FLANN 1.9's single KD-tree as PCL 1.13's `KdTreeFLANN` builds it; see the module docs.
 pub struct FlannTree {
-    /// Finite points in the tree's (reordered) order.
-    data: Vec<[f32; 3]>,
-    /// Cloud index of each entry of `data`.
-    ids: Vec<u32>,
+    /// Finite points with their cloud indices, in the tree's (reordered) order.
+    data: Vec<Item>,
     root: Option<Node>,
     bbox: BBox,
 }
@@ -89,25 +90,25 @@ impl FlannTree {
     /// Builds the tree; with [`Parallelism::Rayon`] large subtrees are built on separate
     /// threads (the tree is the same).
     pub fn build_with(positions: &[[f32; 3]], par: Parallelism) -> FlannTree {
-        // FLANN's dataset: the finite points in cloud order (PCL's index mapping).
-        let map: Vec<u32> = (0..positions.len() as u32)
-            .filter(|&i| PointCloud::is_finite_point(&positions[i as usize]))
+        // FLANN's dataset: the finite points in cloud order (PCL's index mapping), each
+        // with its cloud index. PERF: the build permutes these pairs where FLANN
+        // permutes an index array, so the partitions read memory sequentially; the
+        // sequence of swaps, hence the resulting order, is FLANN's.
+        let mut items: Vec<Item> = positions
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| PointCloud::is_finite_point(p))
+            .map(|(i, p)| (*p, i as u32))
             .collect();
-        let pts: Vec<[f32; 3]> = map.iter().map(|&i| positions[i as usize]).collect();
-        if pts.is_empty() {
+        let Some(&(p0, _)) = items.first() else {
             return FlannTree {
                 data: Vec::new(),
-                ids: Vec::new(),
                 root: None,
                 bbox: [[0.0; 2]; 3],
             };
-        }
-        let mut bbox = [
-            [pts[0][0], pts[0][0]],
-            [pts[0][1], pts[0][1]],
-            [pts[0][2], pts[0][2]],
-        ];
-        for p in &pts[1..] {
+        };
+        let mut bbox = [[p0[0], p0[0]], [p0[1], p0[1]], [p0[2], p0[2]]];
+        for (p, _) in &items[1..] {
             for d in 0..3 {
                 if p[d] < bbox[d][0] {
                     bbox[d][0] = p[d];
@@ -117,11 +118,9 @@ impl FlannTree {
                 }
             }
         }
-        let mut vind: Vec<u32> = (0..pts.len() as u32).collect();
-        let root = divide(&pts, &mut vind, 0, &mut bbox, par == Parallelism::Rayon);
+        let root = divide(&mut items, 0, &mut bbox, par == Parallelism::Rayon);
         FlannTree {
-            data: vind.iter().map(|&v| pts[v as usize]).collect(),
-            ids: vind.iter().map(|&v| map[v as usize]).collect(),
+            data: items,
             root: Some(root),
             bbox,
         }
@@ -168,7 +167,7 @@ impl FlannTree {
             .into_iter()
             .take(res.count)
             .map(|(d, j)| Neighbour {
-                index: self.ids[j as usize] as usize,
+                index: self.data[j as usize].1 as usize,
                 squared_distance: d,
             })
             .collect()
@@ -187,7 +186,7 @@ impl FlannTree {
                 // FLANN reads the k-th distance once per leaf; the result set re-checks.
                 let worst = res.worst;
                 for j in *left..*right {
-                    let d = squared_distance(q, &self.data[j as usize]);
+                    let d = squared_distance(q, &self.data[j as usize].0);
                     if d < worst {
                         res.add(d, j);
                     }
@@ -261,37 +260,37 @@ impl SimpleResultSet {
     }
 }
 
-/// `divideTree` over `vind` (the node's slice of the index permutation, `offset` its
+/// `divideTree` over `items` (the node's slice of the permuted dataset, `offset` its
 /// start in the whole array). On return `bbox` is the actual box of the node's points.
 /// Recursion depth is the tree depth: logarithmic in the point count, except that
 /// lopsided splits may add levels, each of which halves a spread; `f32`'s exponent range
 /// bounds those to under a thousand.
-fn divide(pts: &[[f32; 3]], vind: &mut [u32], offset: u32, bbox: &mut BBox, par: bool) -> Node {
-    let count = vind.len();
+fn divide(items: &mut [Item], offset: u32, bbox: &mut BBox, par: bool) -> Node {
+    let count = items.len();
     if count <= LEAF_MAX {
-        return divide_leaf(vind, offset, bbox, pts);
+        return divide_leaf(items, offset, bbox);
     }
-    let (idx, feat, cut) = middle_split(pts, vind, bbox);
+    let (idx, feat, cut) = middle_split(items, bbox);
     if idx == 0 || idx == count {
         // Only when `(min + max) / 2` overflows to infinity (coordinates near
         // `f32::MAX`), where FLANN's own assertion would fail: stop splitting.
-        return divide_leaf(vind, offset, bbox, pts);
+        return divide_leaf(items, offset, bbox);
     }
     let mut left_box = *bbox;
     left_box[feat][1] = cut;
     let mut right_box = *bbox;
     right_box[feat][0] = cut;
-    let (lv, rv) = vind.split_at_mut(idx);
+    let (lv, rv) = items.split_at_mut(idx);
     let roff = offset + idx as u32;
     let (c1, c2) = if par && count >= PAR_MIN {
         join(
-            || divide(pts, lv, offset, &mut left_box, par),
-            || divide(pts, rv, roff, &mut right_box, par),
+            || divide(lv, offset, &mut left_box, par),
+            || divide(rv, roff, &mut right_box, par),
         )
     } else {
         (
-            divide(pts, lv, offset, &mut left_box, par),
-            divide(pts, rv, roff, &mut right_box, par),
+            divide(lv, offset, &mut left_box, par),
+            divide(rv, roff, &mut right_box, par),
         )
     };
     for d in 0..3 {
@@ -316,16 +315,15 @@ fn join<A, B>(a: impl FnOnce() -> A, b: impl FnOnce() -> B) -> (A, B) {
     (a(), b())
 }
 
-/// A leaf over `vind`; sets `bbox` to its points' actual box.
-fn divide_leaf(vind: &[u32], offset: u32, bbox: &mut BBox, pts: &[[f32; 3]]) -> Node {
-    let first = pts[vind[0] as usize];
+/// A leaf over `items`; sets `bbox` to its points' actual box.
+fn divide_leaf(items: &[Item], offset: u32, bbox: &mut BBox) -> Node {
+    let first = items[0].0;
     *bbox = [
         [first[0], first[0]],
         [first[1], first[1]],
         [first[2], first[2]],
     ];
-    for &v in &vind[1..] {
-        let p = pts[v as usize];
+    for (p, _) in &items[1..] {
         for d in 0..3 {
             if bbox[d][0] > p[d] {
                 bbox[d][0] = p[d];
@@ -337,16 +335,16 @@ fn divide_leaf(vind: &[u32], offset: u32, bbox: &mut BBox, pts: &[[f32; 3]]) -> 
     }
     Node::Leaf {
         left: offset,
-        right: offset + vind.len() as u32,
+        right: offset + items.len() as u32,
     }
 }
 
 /// Actual min and max of the node's points on dimension `d`.
-fn min_max(pts: &[[f32; 3]], vind: &[u32], d: usize) -> (f32, f32) {
-    let v0 = pts[vind[0] as usize][d];
+fn min_max(items: &[Item], d: usize) -> (f32, f32) {
+    let v0 = items[0].0[d];
     let (mut lo, mut hi) = (v0, v0);
-    for &v in &vind[1..] {
-        let x = pts[v as usize][d];
+    for (p, _) in &items[1..] {
+        let x = p[d];
         if x < lo {
             lo = x;
         }
@@ -358,8 +356,8 @@ fn min_max(pts: &[[f32; 3]], vind: &[u32], d: usize) -> (f32, f32) {
 }
 
 /// FLANN's `middleSplit` (the one `divideTree` calls): returns the split index within
-/// `vind` (which it partitions), the dimension and the cut value.
-fn middle_split(pts: &[[f32; 3]], vind: &mut [u32], bbox: &BBox) -> (usize, usize, f32) {
+/// `items` (which it partitions), the dimension and the cut value.
+fn middle_split(items: &mut [Item], bbox: &BBox) -> (usize, usize, f32) {
     // Widest dimension of the approximate box, the first on equal spans.
     let mut max_span = bbox[0][1] - bbox[0][0];
     let mut feat = 0;
@@ -370,7 +368,7 @@ fn middle_split(pts: &[[f32; 3]], vind: &mut [u32], bbox: &BBox) -> (usize, usiz
             feat = d;
         }
     }
-    let (lo, hi) = min_max(pts, vind, feat);
+    let (lo, hi) = min_max(items, feat);
     let mut cut = (lo + hi) / 2.0;
     max_span = hi - lo;
     // Another dimension whose approximate span exceeds that actual spread may win on
@@ -381,7 +379,7 @@ fn middle_split(pts: &[[f32; 3]], vind: &mut [u32], bbox: &BBox) -> (usize, usiz
             continue;
         }
         if b[1] - b[0] > max_span {
-            let (lo, hi) = min_max(pts, vind, d);
+            let (lo, hi) = min_max(items, d);
             let span = hi - lo;
             if span > max_span {
                 max_span = span;
@@ -390,8 +388,8 @@ fn middle_split(pts: &[[f32; 3]], vind: &mut [u32], bbox: &BBox) -> (usize, usiz
             }
         }
     }
-    let (lim1, lim2) = plane_split(pts, vind, feat, cut);
-    let count = vind.len();
+    let (lim1, lim2) = plane_split(items, feat, cut);
+    let count = items.len();
     let idx = if lim1 > count / 2 {
         lim1
     } else if lim2 < count / 2 {
@@ -404,30 +402,30 @@ fn middle_split(pts: &[[f32; 3]], vind: &mut [u32], bbox: &BBox) -> (usize, usiz
 
 /// FLANN's `planeSplit`: `< cut` first, then `== cut`, then `> cut`, with its exact
 /// swap sequence. Returns the ends of the first two blocks.
-fn plane_split(pts: &[[f32; 3]], vind: &mut [u32], feat: usize, cut: f32) -> (usize, usize) {
-    let lim1 = partition_pass(vind, 0, |v| pts[v as usize][feat] < cut);
-    let lim2 = partition_pass(vind, lim1, |v| pts[v as usize][feat] <= cut);
+fn plane_split(items: &mut [Item], feat: usize, cut: f32) -> (usize, usize) {
+    let lim1 = partition_pass(items, 0, |p| p[feat] < cut);
+    let lim2 = partition_pass(items, lim1, |p| p[feat] <= cut);
     (lim1, lim2)
 }
 
-/// One pass of `planeSplit` over `vind[start..]`: a cursor from the start skips points
+/// One pass of `planeSplit` over `items[start..]`: a cursor from the start skips points
 /// that belong in front, one from the end skips points that do not, and each
 /// out-of-place pair is swapped. Returns where the front block ends.
-fn partition_pass(vind: &mut [u32], start: usize, front: impl Fn(u32) -> bool) -> usize {
+fn partition_pass(items: &mut [Item], start: usize, front: impl Fn(&[f32; 3]) -> bool) -> usize {
     // Signed cursors as in FLANN (`right` may drop to -1).
     let mut left = start as isize;
-    let mut right = vind.len() as isize - 1;
+    let mut right = items.len() as isize - 1;
     loop {
-        while left <= right && front(vind[left as usize]) {
+        while left <= right && front(&items[left as usize].0) {
             left += 1;
         }
-        while left <= right && !front(vind[right as usize]) {
+        while left <= right && !front(&items[right as usize].0) {
             right -= 1;
         }
         if left > right {
             return left as usize;
         }
-        vind.swap(left as usize, right as usize);
+        items.swap(left as usize, right as usize);
         left += 1;
         right -= 1;
     }
