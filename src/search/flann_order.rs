@@ -100,24 +100,14 @@ impl FlannTree {
             .filter(|(_, p)| PointCloud::is_finite_point(p))
             .map(|(i, p)| (*p, i as u32))
             .collect();
-        let Some(&(p0, _)) = items.first() else {
+        if items.is_empty() {
             return FlannTree {
                 data: Vec::new(),
                 root: None,
                 bbox: [[0.0; 2]; 3],
             };
-        };
-        let mut bbox = [[p0[0], p0[0]], [p0[1], p0[1]], [p0[2], p0[2]]];
-        for (p, _) in &items[1..] {
-            for d in 0..3 {
-                if p[d] < bbox[d][0] {
-                    bbox[d][0] = p[d];
-                }
-                if p[d] > bbox[d][1] {
-                    bbox[d][1] = p[d];
-                }
-            }
         }
+        let mut bbox = actual_box(&items);
         let root = divide(&mut items, 0, &mut bbox, par == Parallelism::Rayon);
         FlannTree {
             data: items,
@@ -317,42 +307,33 @@ fn join<A, B>(a: impl FnOnce() -> A, b: impl FnOnce() -> B) -> (A, B) {
 
 /// A leaf over `items`; sets `bbox` to its points' actual box.
 fn divide_leaf(items: &[Item], offset: u32, bbox: &mut BBox) -> Node {
-    let first = items[0].0;
-    *bbox = [
-        [first[0], first[0]],
-        [first[1], first[1]],
-        [first[2], first[2]],
-    ];
-    for (p, _) in &items[1..] {
-        for d in 0..3 {
-            if bbox[d][0] > p[d] {
-                bbox[d][0] = p[d];
-            }
-            if bbox[d][1] < p[d] {
-                bbox[d][1] = p[d];
-            }
-        }
-    }
+    *bbox = actual_box(items);
     Node::Leaf {
         left: offset,
         right: offset + items.len() as u32,
     }
 }
 
-/// Actual min and max of the node's points on dimension `d`.
-fn min_max(items: &[Item], d: usize) -> (f32, f32) {
-    let v0 = items[0].0[d];
-    let (mut lo, mut hi) = (v0, v0);
+/// Actual min and max of the points on every dimension (FLANN's `computeMinMax` and
+/// leaf box, in one pass: the values do not depend on how they are gathered).
+fn actual_box(items: &[Item]) -> BBox {
+    let first = items[0].0;
+    let mut bbox = [
+        [first[0], first[0]],
+        [first[1], first[1]],
+        [first[2], first[2]],
+    ];
     for (p, _) in &items[1..] {
-        let x = p[d];
-        if x < lo {
-            lo = x;
-        }
-        if x > hi {
-            hi = x;
+        for d in 0..3 {
+            if p[d] < bbox[d][0] {
+                bbox[d][0] = p[d];
+            }
+            if p[d] > bbox[d][1] {
+                bbox[d][1] = p[d];
+            }
         }
     }
-    (lo, hi)
+    bbox
 }
 
 /// FLANN's `middleSplit` (the one `divideTree` calls): returns the split index within
@@ -368,7 +349,9 @@ fn middle_split(items: &mut [Item], bbox: &BBox) -> (usize, usize, f32) {
             feat = d;
         }
     }
-    let (lo, hi) = min_max(items, feat);
+    // PERF: FLANN scans the points once per dimension it examines; one scan gives all.
+    let actual = actual_box(items);
+    let [lo, hi] = actual[feat];
     let mut cut = (lo + hi) / 2.0;
     max_span = hi - lo;
     // Another dimension whose approximate span exceeds that actual spread may win on
@@ -379,7 +362,7 @@ fn middle_split(items: &mut [Item], bbox: &BBox) -> (usize, usize, f32) {
             continue;
         }
         if b[1] - b[0] > max_span {
-            let (lo, hi) = min_max(items, d);
+            let [lo, hi] = actual[d];
             let span = hi - lo;
             if span > max_span {
                 max_span = span;
