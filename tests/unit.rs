@@ -59,3 +59,6 @@ mod discrepancy;
 
 #[path = "unit/render.rs"]
 mod render;
+
+#[path = "unit/flann_order.rs"]
+mod flann_order;

@@ -2,8 +2,8 @@
 
 use super::FeatureError;
 use crate::cloud::PointCloud;
-use crate::search::map_knn;
 use crate::search::{map_indices, KdTree, Parallelism, RadiusQuery};
+use crate::search::{map_knn, FlannTree};
 use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
 
@@ -23,13 +23,20 @@ pub enum Neighbourhood {
 pub enum NormalMode {
     /// PCL: flip towards the viewpoint; fewer than 3 neighbours or a non-finite point
     /// give NaN normal and curvature, collinear neighbours a NaN normal (curvature
-    /// still computed); `f32` search distances.
+    /// still computed); `f32` search distances; a k-NN neighbourhood with several
+    /// points at the k-th distance keeps those FLANN visits first (for k ≤ 250, see
+    /// [`FlannTree`](crate::search::FlannTree)), as PCL's `KdTreeFLANN` does.
     #[default]
     Pcl,
     /// Open3D: no orientation; fewer than 3 neighbours give `(0,0,1)` (curvature NaN);
-    /// `f64` radius test.
+    /// `f64` radius test; a tie at the k-th distance keeps the smaller indices.
     Open3d,
 }
+
+/// Largest k for which FLANN uses its `KNNSimpleResultSet` (PCL mode emulates its tie
+/// choice up to here; above, FLANN's heap result set decides ties, not emulated: the
+/// smaller index is kept).
+const FLANN_SIMPLE_MAX_K: usize = 250;
 
 /// Parameters of [`estimate_normals`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -127,12 +134,50 @@ pub fn estimate_normals(
     };
     let res: Vec<([f32; 3], f32)> = match params.neighbourhood {
         // PERF: all k-NN lists at once on a grid (exact, ties to the smaller index).
-        Neighbourhood::Knn(k) => map_knn(&cloud.positions, k, params.parallelism, |i, nbrs| {
-            if nbrs.is_empty() {
-                return invalid;
-            }
-            normal_of(i, &mut nbrs.iter().map(|n| n.index))
-        }),
+        Neighbourhood::Knn(k) if !pcl || k > FLANN_SIMPLE_MAX_K => {
+            map_knn(&cloud.positions, k, params.parallelism, |i, nbrs| {
+                if nbrs.is_empty() {
+                    return invalid;
+                }
+                normal_of(i, &mut nbrs.iter().map(|n| n.index))
+            })
+        }
+        Neighbourhood::Knn(k) => {
+            // PCL: where points tie at the k-th distance, FLANN's visiting order decides
+            // which of them are kept. The grid asks for k + 1 neighbours to see the tie;
+            // the untied points (almost all) are done in this pass, the tied ones by the
+            // FLANN-order tree, built only when there is one.
+            let first = map_knn(
+                &cloud.positions,
+                k.saturating_add(1),
+                params.parallelism,
+                |i, nbrs| {
+                    if nbrs.is_empty() {
+                        return Some(invalid);
+                    }
+                    if nbrs.len() > k && nbrs[k].squared_distance == nbrs[k - 1].squared_distance {
+                        return None;
+                    }
+                    Some(normal_of(i, &mut nbrs.iter().take(k).map(|n| n.index)))
+                },
+            );
+            let tied: Vec<usize> = (0..first.len()).filter(|&i| first[i].is_none()).collect();
+            let fixed = if tied.is_empty() {
+                Vec::new()
+            } else {
+                let tree = FlannTree::build_with(&cloud.positions, params.parallelism);
+                map_indices(tied.len(), params.parallelism, |t| {
+                    let i = tied[t];
+                    let nbrs = tree.nearest_k(&cloud.positions[i], k);
+                    normal_of(i, &mut nbrs.iter().map(|n| n.index))
+                })
+            };
+            let mut fixed = fixed.into_iter();
+            first
+                .into_iter()
+                .map(|r| r.unwrap_or_else(|| fixed.next().unwrap_or(invalid)))
+                .collect()
+        }
         Neighbourhood::Radius(r) => {
             let tree = KdTree::build(&cloud.positions);
             map_indices(cloud.len(), params.parallelism, |i| {

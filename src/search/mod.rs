@@ -26,11 +26,13 @@
 //! assert_eq!(knn[0].index, 2);
 //! ```
 
+pub mod flann_order;
 mod grid;
 pub mod grid_knn;
 mod kdtree;
 pub(crate) mod sort;
 
+pub use flann_order::FlannTree;
 pub use grid_knn::{knn_all, KnnTable};
 
 pub(crate) use grid::map_has_neighbours;

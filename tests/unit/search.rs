@@ -8,13 +8,18 @@ use softsense::search::{
 /// Random clouds on a coarse lattice (many exact duplicates and exact boundary
 /// distances), with some NaN points.
 fn cloud_strategy() -> impl Strategy<Value = Vec<[f32; 3]>> {
+    lattice_cloud(200)
+}
+
+/// [`cloud_strategy`] with up to `max_points` points.
+pub(crate) fn lattice_cloud(max_points: usize) -> impl Strategy<Value = Vec<[f32; 3]>> {
     prop::collection::vec(
         prop_oneof![
             8 => (0i32..6, 0i32..6, 0i32..6).prop_map(|(x, y, z)| [x as f32 * 0.25, y as f32 * 0.25, z as f32 * 0.25]),
             4 => (-1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0).prop_map(|(x, y, z)| [x, y, z]),
             1 => Just([f32::NAN, 0.0, 0.0]),
         ],
-        0..200,
+        0..max_points,
     )
 }
 
