@@ -157,42 +157,63 @@ pub fn pass_through(
     cloud: &PointCloud,
     params: &PassThroughParams,
 ) -> Result<FilterOutput, FilterError> {
+    let mut out = FilterOutput::default();
+    pass_through_into(cloud, params, &mut out)?;
+    Ok(out)
+}
+
+/// [`pass_through`] into `out`, reusing its buffers (for a stream of frames: no
+/// allocation once they have grown to the frame size). On error `out` is unspecified.
+pub fn pass_through_into(
+    cloud: &PointCloud,
+    params: &PassThroughParams,
+    out: &mut FilterOutput,
+) -> Result<(), FilterError> {
+    pass_through_indices_into(cloud, params, &mut out.indices)?;
+    let indices = &out.indices;
+    if params.keep_organized {
+        out.cloud.clone_from(cloud);
+        let mut keep = vec![false; cloud.len()];
+        indices.iter().for_each(|&i| keep[i] = true);
+        let v = params.user_filter_value;
+        for (p, k) in out.cloud.positions.iter_mut().zip(&keep) {
+            if !k {
+                *p = [v, v, v];
+            }
+        }
+    } else if indices.len() == cloud.len() {
+        out.cloud.clone_from(cloud);
+    } else {
+        cloud.select_into(indices, &mut out.cloud);
+    }
+    Ok(())
+}
+
+/// The kept indices of [`pass_through`] alone (the work PCL's `PassThrough::filter(indices)`
+/// does), written into `out` (cleared first, its allocation reused), without building the
+/// output cloud.
+pub fn pass_through_indices_into(
+    cloud: &PointCloud,
+    params: &PassThroughParams,
+    out: &mut Vec<usize>,
+) -> Result<(), FilterError> {
     cloud.validate()?;
     let pos = &cloud.positions;
     let finite = |i: usize| PointCloud::is_finite_point(&pos[i]);
     let (lo, hi, negative) = (params.min, params.max, params.negative);
     let test = |v: f32| v.is_finite() & ((lo <= v && v <= hi) != negative);
-    let indices: Vec<usize> = match params.field {
-        None => indices_where(pos.len(), finite),
+    match params.field {
+        None => indices_where(pos.len(), finite, out),
         Some(field @ (Field::X | Field::Y | Field::Z)) => {
             let a = field as usize;
-            indices_where(pos.len(), |i| finite(i) & test(pos[i][a]))
+            indices_where(pos.len(), |i| finite(i) & test(pos[i][a]), out)
         }
         Some(field) => {
             let values = field.values(cloud)?;
-            indices_where(pos.len(), |i| finite(i) & test(values[i]))
+            indices_where(pos.len(), |i| finite(i) & test(values[i]), out)
         }
-    };
-    let out = if params.keep_organized {
-        let mut out = cloud.clone();
-        let mut keep = vec![false; cloud.len()];
-        indices.iter().for_each(|&i| keep[i] = true);
-        let v = params.user_filter_value;
-        for (p, k) in out.positions.iter_mut().zip(&keep) {
-            if !k {
-                *p = [v, v, v];
-            }
-        }
-        out
-    } else if indices.len() == cloud.len() {
-        cloud.clone()
-    } else {
-        cloud.select(&indices)
-    };
-    Ok(FilterOutput {
-        cloud: out,
-        indices,
-    })
+    }
+    Ok(())
 }
 
 /// Parameters of [`crop_box`] (Open3D `crop` with an axis-aligned box).
@@ -222,25 +243,43 @@ impl Default for CropBoxParams {
 /// when `invert`. Output is unorganized, in input order. Unlike Open3D, a zero-thickness
 /// box is allowed; `min > max` or a NaN bound is an error (Open3D swaps silently).
 pub fn crop_box(cloud: &PointCloud, params: &CropBoxParams) -> Result<FilterOutput, FilterError> {
+    let mut out = FilterOutput::default();
+    crop_box_into(cloud, params, &mut out)?;
+    Ok(out)
+}
+
+/// [`crop_box`] into `out`, reusing its buffers. On error `out` is unspecified.
+pub fn crop_box_into(
+    cloud: &PointCloud,
+    params: &CropBoxParams,
+    out: &mut FilterOutput,
+) -> Result<(), FilterError> {
     cloud.validate()?;
-    let indices = crop_box_indices(&cloud.positions, params)?;
-    Ok(FilterOutput {
-        cloud: cloud.select(&indices),
-        indices,
-    })
+    crop_box_indices_into(&cloud.positions, params, &mut out.indices)?;
+    cloud.select_into(&out.indices, &mut out.cloud);
+    Ok(())
 }
 
 /// The kept indices of [`crop_box`] alone (the work PCL's `CropBox::filter(indices)`
 /// does), without building the output cloud.
-///
-/// PERF: the `f64` bounds are replaced by the equivalent `f32` bounds (the smallest
-/// `f32` ≥ `min`, the largest `f32` ≤ `max`), so the test is exact in `f32`, and the
-/// loop writes every index and advances the output cursor by the test's outcome
-/// (no branch to mispredict on a cloud where inside and outside alternate).
 pub fn crop_box_indices(
     positions: &[[f32; 3]],
     params: &CropBoxParams,
 ) -> Result<Vec<usize>, FilterError> {
+    let mut out = Vec::new();
+    crop_box_indices_into(positions, params, &mut out)?;
+    Ok(out)
+}
+
+/// [`crop_box_indices`] into `out` (cleared first, its allocation reused).
+///
+/// PERF: the `f64` bounds are replaced by the equivalent `f32` bounds (the smallest
+/// `f32` ≥ `min`, the largest `f32` ≤ `max`), so the test is exact in `f32`.
+pub fn crop_box_indices_into(
+    positions: &[[f32; 3]],
+    params: &CropBoxParams,
+    out: &mut Vec<usize>,
+) -> Result<(), FilterError> {
     let (lo, hi) = (params.min, params.max);
     if (0..3).any(|a| lo[a].is_nan() || hi[a].is_nan() || lo[a] > hi[a]) {
         return Err(FilterError::InvalidBox { min: lo, max: hi });
@@ -248,30 +287,62 @@ pub fn crop_box_indices(
     let lo32: [f32; 3] = std::array::from_fn(|a| f32_at_least(lo[a]));
     let hi32: [f32; 3] = std::array::from_fn(|a| f32_at_most(hi[a]));
     let invert = params.invert;
-    Ok(indices_where(positions.len(), |i| {
-        let p = &positions[i];
-        let inside = (lo32[0] <= p[0])
-            & (p[0] <= hi32[0])
-            & (lo32[1] <= p[1])
-            & (p[1] <= hi32[1])
-            & (lo32[2] <= p[2])
-            & (p[2] <= hi32[2]);
-        inside != invert
-    }))
+    indices_where(
+        positions.len(),
+        |i| {
+            let p = &positions[i];
+            let inside = (lo32[0] <= p[0])
+                & (p[0] <= hi32[0])
+                & (lo32[1] <= p[1])
+                & (p[1] <= hi32[1])
+                & (lo32[2] <= p[2])
+                & (p[2] <= hi32[2]);
+            inside != invert
+        },
+        out,
+    );
+    Ok(())
 }
 
-/// `(0..n).filter(keep).collect()`, without a branch on `keep`'s outcome: every index is
-/// written and the output cursor advances by the outcome (filters whose inside and
-/// outside points alternate do not pay branch mispredictions).
-fn indices_where(n: usize, keep: impl Fn(usize) -> bool) -> Vec<usize> {
-    let mut out = vec![0usize; n];
-    let mut m = 0;
-    for i in 0..n {
-        out[m] = i;
-        m += usize::from(keep(i));
+/// Points per parallel chunk of [`indices_where`]; smaller inputs run on one thread.
+const CHUNK: usize = 1 << 15;
+
+/// `*out = (0..n).filter(keep).collect()`, reusing `out`'s allocation.
+///
+/// PERF: no branch on `keep`'s outcome: every index is written and the output cursor
+/// advances by the outcome (filters whose inside and outside points alternate do not
+/// pay branch mispredictions). With rayon, chunks of [`CHUNK`] points are compacted in
+/// place in parallel, each at its own offset, then moved together in chunk order, so
+/// the result does not depend on the thread count.
+fn indices_where(n: usize, keep: impl Fn(usize) -> bool + Sync, out: &mut Vec<usize>) {
+    out.clear();
+    out.resize(n, 0);
+    let compact = |start: usize, dst: &mut [usize]| -> usize {
+        let mut m = 0;
+        for i in start..start + dst.len() {
+            dst[m] = i; // m ≤ i - start < dst.len()
+            m += usize::from(keep(i));
+        }
+        m
+    };
+    #[cfg(feature = "parallel")]
+    if n > CHUNK {
+        use rayon::prelude::*;
+        let counts: Vec<usize> = out
+            .par_chunks_mut(CHUNK)
+            .enumerate()
+            .map(|(c, dst)| compact(c * CHUNK, dst))
+            .collect();
+        let mut m = counts[0];
+        for (c, &k) in counts.iter().enumerate().skip(1) {
+            out.copy_within(c * CHUNK..c * CHUNK + k, m);
+            m += k;
+        }
+        out.truncate(m);
+        return;
     }
+    let m = compact(0, out);
     out.truncate(m);
-    out
 }
 
 /// The smallest `f32` whose value is ≥ `v` (`v` not NaN); `x as f64 >= v` ⇔ `x >= it`.
