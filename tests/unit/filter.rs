@@ -471,13 +471,10 @@ fn open3d_statistical_removal_drops_exact_duplicates_and_pcl_keeps_nan() {
     );
 }
 
-#[path = "filter_golden_data.rs"]
-mod golden_data;
-
 /// A Kinect-sized cloud (307200 points, every 20th NaN), large enough for the parallel
 /// paths of the crop and voxel filters.
 fn big_cloud() -> PointCloud {
-    let mut c = golden_data::synthetic_cloud(3, 640 * 480);
+    let mut c = crate::filter_golden::data::synthetic_cloud(3, 640 * 480);
     c.positions
         .iter_mut()
         .step_by(20)
