@@ -309,19 +309,34 @@ const CHUNK: usize = 1 << 15;
 
 /// `*out = (0..n).filter(keep).collect()`, reusing `out`'s allocation.
 ///
-/// PERF: no branch on `keep`'s outcome: every index is written and the output cursor
-/// advances by the outcome (filters whose inside and outside points alternate do not
-/// pay branch mispredictions). With rayon, chunks of [`CHUNK`] points are compacted in
+/// PERF: `keep` is evaluated for 64 points at a time into a bit mask (a loop without
+/// branches or stores that the compiler can vectorise), then the mask's set bits are
+/// written out. A reused `out` is not cleared first: every slot below the final length
+/// is written before it is kept. With rayon, chunks of [`CHUNK`] points are compacted in
 /// place in parallel, each at its own offset, then moved together in chunk order, so
 /// the result does not depend on the thread count.
 fn indices_where(n: usize, keep: impl Fn(usize) -> bool + Sync, out: &mut Vec<usize>) {
-    out.clear();
-    out.resize(n, 0);
+    if out.len() < n {
+        out.resize(n, 0);
+    } else {
+        out.truncate(n);
+    }
     let compact = |start: usize, dst: &mut [usize]| -> usize {
+        let len = dst.len();
         let mut m = 0;
-        for i in start..start + dst.len() {
-            dst[m] = i; // m ≤ i - start < dst.len()
-            m += usize::from(keep(i));
+        let mut b = 0;
+        while b < len {
+            let e = (b + 64).min(len);
+            let mut mask = 0u64;
+            for k in b..e {
+                mask |= u64::from(keep(start + k)) << (k - b);
+            }
+            while mask != 0 {
+                dst[m] = start + b + mask.trailing_zeros() as usize; // m ≤ that - start
+                m += 1;
+                mask &= mask - 1;
+            }
+            b = e;
         }
         m
     };
