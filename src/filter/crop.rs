@@ -199,21 +199,33 @@ pub fn pass_through_indices_into(
 ) -> Result<(), FilterError> {
     cloud.validate()?;
     let pos = &cloud.positions;
-    let finite = |i: usize| PointCloud::is_finite_point(&pos[i]);
     let (lo, hi, negative) = (params.min, params.max, params.negative);
-    let test = |v: f32| v.is_finite() & ((lo <= v && v <= hi) != negative);
+    // Non-short-circuit `&`: no branches, so the per-64-points mask loop stays straight.
+    let test = |v: f32| finite(v) & ((lo <= v) & (v <= hi) != negative);
+    let point_ok = |p: &[f32; 3]| finite(p[0]) & finite(p[1]) & finite(p[2]);
     match params.field {
-        None => indices_where(pos.len(), finite, out),
+        None => indices_where(pos, point_ok, out),
         Some(field @ (Field::X | Field::Y | Field::Z)) => {
             let a = field as usize;
-            indices_where(pos.len(), |i| finite(i) & test(pos[i][a]), out)
+            indices_where(pos, |p| point_ok(p) & test(p[a]), out)
         }
         Some(field) => {
             let values = field.values(cloud)?;
-            indices_where(pos.len(), |i| finite(i) & test(values[i]), out)
+            let ok: Vec<bool> = pos
+                .iter()
+                .zip(&values)
+                .map(|(p, &v)| point_ok(p) & test(v))
+                .collect();
+            indices_where(&ok, |&k| k, out)
         }
     }
     Ok(())
+}
+
+/// `v.is_finite()` as a bit test (no branch).
+#[inline]
+fn finite(v: f32) -> bool {
+    v.to_bits() & 0x7fff_ffff < 0x7f80_0000
 }
 
 /// Parameters of [`crop_box`] (Open3D `crop` with an axis-aligned box).
@@ -288,9 +300,8 @@ pub fn crop_box_indices_into(
     let hi32: [f32; 3] = std::array::from_fn(|a| f32_at_most(hi[a]));
     let invert = params.invert;
     indices_where(
-        positions.len(),
-        |i| {
-            let p = &positions[i];
+        positions,
+        |p| {
             let inside = (lo32[0] <= p[0])
                 & (p[0] <= hi32[0])
                 & (lo32[1] <= p[1])
@@ -307,7 +318,7 @@ pub fn crop_box_indices_into(
 /// Points per parallel chunk of [`indices_where`]; smaller inputs run on one thread.
 const CHUNK: usize = 1 << 15;
 
-/// `*out = (0..n).filter(keep).collect()`, reusing `out`'s allocation.
+/// `*out = (0..n).filter(|&i| keep(&items[i])).collect()`, reusing `out`'s allocation.
 ///
 /// PERF: `keep` is evaluated for 64 points at a time into a bit mask (a loop without
 /// branches or stores that the compiler can vectorise), then the mask's set bits are
@@ -315,28 +326,27 @@ const CHUNK: usize = 1 << 15;
 /// is written before it is kept. With rayon, chunks of [`CHUNK`] points are compacted in
 /// place in parallel, each at its own offset, then moved together in chunk order, so
 /// the result does not depend on the thread count.
-fn indices_where(n: usize, keep: impl Fn(usize) -> bool + Sync, out: &mut Vec<usize>) {
+fn indices_where<T: Sync>(items: &[T], keep: impl Fn(&T) -> bool + Sync, out: &mut Vec<usize>) {
+    let n = items.len();
     if out.len() < n {
         out.resize(n, 0);
     } else {
         out.truncate(n);
     }
     let compact = |start: usize, dst: &mut [usize]| -> usize {
-        let len = dst.len();
         let mut m = 0;
-        let mut b = 0;
-        while b < len {
-            let e = (b + 64).min(len);
+        let chunk = &items[start..start + dst.len()];
+        for (b, block) in chunk.chunks(64).enumerate() {
             let mut mask = 0u64;
-            for k in b..e {
-                mask |= u64::from(keep(start + k)) << (k - b);
+            for (k, item) in block.iter().enumerate() {
+                mask |= u64::from(keep(item)) << k;
             }
+            let base = start + 64 * b;
             while mask != 0 {
-                dst[m] = start + b + mask.trailing_zeros() as usize; // m ≤ that - start
+                dst[m] = base + mask.trailing_zeros() as usize; // m ≤ that - start
                 m += 1;
                 mask &= mask - 1;
             }
-            b = e;
         }
         m
     };
