@@ -8,6 +8,10 @@
 //! timing per repetition, the stage alone (the input is read once beforehand, except for
 //! `load`, where reading is the stage). To add a stage, add an arm to [`run_stage`] and an
 //! entry to `tools/bench/stages.json`.
+//!
+//! Like the oracles' timing loops (PCL's `filter(kept)` / `filter(out)` reuse the caller's
+//! `kept` / `out` across repetitions), the selecting filters write into one output reused
+//! across repetitions ([`State`]), and the chain is one `Pipeline` run frame after frame.
 
 use serde_json::{json, Value};
 use softsense::cloud::PointCloud;
@@ -15,12 +19,20 @@ use std::path::Path;
 use std::process::ExitCode;
 use std::time::Instant;
 
+/// What a caller keeps between frames: the selecting filters' output and the chain.
+#[derive(Default)]
+struct State {
+    out: softsense::filter::FilterOutput,
+    chain: Option<softsense::pipeline::Pipeline>,
+}
+
 /// Runs `stage` once on `cloud` (already read from `input`); returns the output size.
 fn run_stage(
     stage: &str,
     input: &Path,
     cloud: &PointCloud,
     params: &Value,
+    state: &mut State,
 ) -> Result<usize, String> {
     use softsense::features::{estimate_normals, Neighbourhood, NormalMode, NormalParams};
     use softsense::filter::*;
@@ -70,7 +82,7 @@ fn run_stage(
         "load" => softsense::io::pcd::read_pcd(input)
             .map(|c| c.len())
             .map_err(|e| e.to_string()),
-        "passthrough" => {
+        "passthrough" | "passthrough_indices" => {
             let field: Field = params
                 .get("field")
                 .and_then(Value::as_str)
@@ -78,7 +90,14 @@ fn run_stage(
                 .parse()
                 .map_err(err)?;
             let p = PassThroughParams::new(field, f("min", 0.0) as f32, f("max", 1.0) as f32);
-            pass_through(cloud, &p).map(|o| o.cloud.len()).map_err(err)
+            if stage == "passthrough_indices" {
+                // The work PCL's and Open3D's oracles time: kept indices, no output cloud.
+                pass_through_indices_into(cloud, &p, &mut state.out.indices).map_err(err)?;
+                Ok(state.out.indices.len())
+            } else {
+                pass_through_into(cloud, &p, &mut state.out).map_err(err)?;
+                Ok(state.out.cloud.len())
+            }
         }
         "crop_box" | "crop_box_indices" => {
             let corner = |k: &str| -> [f64; 3] {
@@ -96,11 +115,11 @@ fn run_stage(
             };
             if stage == "crop_box_indices" {
                 // The work PCL's oracle times: CropBox::filter(indices), no output cloud.
-                crop_box_indices(&cloud.positions, &p)
-                    .map(|i| i.len())
-                    .map_err(err)
+                crop_box_indices_into(&cloud.positions, &p, &mut state.out.indices).map_err(err)?;
+                Ok(state.out.indices.len())
             } else {
-                crop_box(cloud, &p).map(|o| o.cloud.len()).map_err(err)
+                crop_box_into(cloud, &p, &mut state.out).map_err(err)?;
+                Ok(state.out.cloud.len())
             }
         }
         "voxel" => {
@@ -152,21 +171,24 @@ fn run_stage(
                 .map_err(|e| e.to_string())
         }
         "chain" => {
-            // crop z to [min, max], PCL voxel grid, PCL radius outlier removal.
-            let mut chain = softsense::pipeline::Pipeline::new(softsense::pipeline::ChainParams {
-                crop: vec![PassThroughParams::new(
-                    Field::Z,
-                    f("min", 0.0) as f32,
-                    f("max", 1.5) as f32,
-                )],
-                voxel: Some(VoxelGridParams::new(f("leaf", 0.005))),
-                radius_outlier: Some(RadiusOutlierParams {
-                    radius: f("radius", 0.01),
-                    min_neighbors: u("min_neighbors", 5),
-                    ..Default::default()
-                }),
-                statistical_outlier: None,
-                normals: None,
+            // crop z to [min, max], PCL voxel grid, PCL radius outlier removal; one
+            // Pipeline for all repetitions, as for the frames of a stream.
+            let chain = state.chain.get_or_insert_with(|| {
+                softsense::pipeline::Pipeline::new(softsense::pipeline::ChainParams {
+                    crop: vec![PassThroughParams::new(
+                        Field::Z,
+                        f("min", 0.0) as f32,
+                        f("max", 1.5) as f32,
+                    )],
+                    voxel: Some(VoxelGridParams::new(f("leaf", 0.005))),
+                    radius_outlier: Some(RadiusOutlierParams {
+                        radius: f("radius", 0.01),
+                        min_neighbors: u("min_neighbors", 5),
+                        ..Default::default()
+                    }),
+                    statistical_outlier: None,
+                    normals: None,
+                })
             });
             chain
                 .step(cloud)
@@ -211,9 +233,10 @@ fn main() -> ExitCode {
     match cloud {
         Err(e) => error = Some(e),
         Ok(cloud) => {
+            let mut state = State::default();
             for _ in 0..repeat {
                 let t0 = Instant::now();
-                let out = run_stage(stage, input, &cloud, &params);
+                let out = run_stage(stage, input, &cloud, &params, &mut state);
                 let ms = t0.elapsed().as_secs_f64() * 1e3;
                 match out {
                     Ok(n) => {

@@ -243,6 +243,33 @@ impl PointCloud {
         })
     }
 
+    /// [`PointCloud::select`] into `out`, reusing its column buffers (a stream of frames
+    /// allocates nothing once they have grown). `out`'s columns become those of `self`.
+    /// Panics if an index is out of range (a programmer error).
+    pub fn select_into(&self, indices: &[usize], out: &mut PointCloud) {
+        fn pick<T: Copy>(col: &Option<Vec<T>>, idx: &[usize], dst: &mut Option<Vec<T>>) {
+            match col {
+                None => *dst = None,
+                Some(c) => {
+                    let d = dst.get_or_insert_with(Vec::new);
+                    d.clear();
+                    d.extend(idx.iter().map(|&i| c[i]));
+                }
+            }
+        }
+        out.positions.clear();
+        out.positions
+            .extend(indices.iter().map(|&i| self.positions[i]));
+        pick(&self.colors, indices, &mut out.colors);
+        pick(&self.alpha, indices, &mut out.alpha);
+        pick(&self.normals, indices, &mut out.normals);
+        pick(&self.curvature, indices, &mut out.curvature);
+        pick(&self.labels, indices, &mut out.labels);
+        out.width = u32::try_from(indices.len()).unwrap_or(u32::MAX);
+        out.height = 1;
+        out.viewpoint = self.viewpoint;
+    }
+
     /// The same cloud with non-finite points removed, and the kept indices.
     /// The result is unorganized unless every point was finite, in which case the
     /// organization is kept (PCL's `removeNaNFromPointCloud` does the same).

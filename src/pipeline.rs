@@ -29,9 +29,9 @@
 use crate::cloud::{remap, PointCloud};
 use crate::features::{estimate_normals, FeatureError, NormalParams};
 use crate::filter::{
-    pass_through, radius_outlier_removal, statistical_outlier_removal, voxel_grid, Field,
-    FilterError, FilterOutput, PassThroughParams, RadiusOutlierParams, StatisticalOutlierParams,
-    VoxelGridParams,
+    pass_through, pass_through_indices_into, radius_outlier_removal, statistical_outlier_removal,
+    voxel_grid, voxel_grid_of, Field, FilterError, FilterOutput, PassThroughParams,
+    RadiusOutlierParams, StatisticalOutlierParams, VoxelGridParams,
 };
 use crate::io::{read_cloud, write_cloud, Encoding, IoError};
 use serde::{Deserialize, Serialize};
@@ -170,17 +170,60 @@ impl FrameResult {
     }
 }
 
-/// The chain, reused across frames.
+/// The chain, reused across frames (its index buffers are kept between frames).
 #[derive(Debug, Clone)]
 pub struct Pipeline {
     /// The chain's parameters.
     pub params: ChainParams,
+    /// The kept crop indices of the last frame (buffer reused).
+    crop_kept: Vec<usize>,
+    /// One crop's kept indices when there are several (buffer reused).
+    crop_one: Vec<usize>,
 }
 
 impl Pipeline {
     /// A chain with the given parameters.
     pub fn new(params: ChainParams) -> Self {
-        Pipeline { params }
+        Pipeline {
+            params,
+            crop_kept: Vec::new(),
+            crop_one: Vec::new(),
+        }
+    }
+
+    /// Crop then voxel without building the cropped cloud: the crops' kept indices of
+    /// `frame` (each crop tests the frame's own values, as it would test the cropped
+    /// cloud's), then the voxel grid of those points. Same output as the two stages run
+    /// one after the other (the cropped cloud is only ever read by the voxel grid).
+    fn crop_then_voxel(
+        &mut self,
+        frame: &PointCloud,
+        voxel: &VoxelGridParams,
+        timings: &mut Vec<StageTiming>,
+    ) -> Result<FilterOutput, PipelineError> {
+        let t = Instant::now();
+        let (kept, one) = (&mut self.crop_kept, &mut self.crop_one);
+        for (k, crop) in self.params.crop.iter().enumerate() {
+            if k == 0 {
+                pass_through_indices_into(frame, crop, kept)?;
+            } else {
+                pass_through_indices_into(frame, crop, one)?;
+                intersect_sorted(kept, one);
+            }
+        }
+        timings.push(StageTiming {
+            stage: "crop",
+            points_out: kept.len(),
+            elapsed: t.elapsed(),
+        });
+        let t = Instant::now();
+        let out = voxel_grid_of(frame, kept.iter().copied(), voxel)?;
+        timings.push(StageTiming {
+            stage: "voxel",
+            points_out: out.cloud.len(),
+            elapsed: t.elapsed(),
+        });
+        Ok(out)
     }
 
     /// Runs every configured stage on one frame.
@@ -190,6 +233,14 @@ impl Pipeline {
         let mut cloud: Option<PointCloud> = None;
         let mut indices: Option<Vec<usize>> = None;
         let mut timings = Vec::new();
+        let fuse = !self.params.crop.is_empty()
+            && self.params.crop.iter().all(|c| !c.keep_organized)
+            && self.params.voxel.is_some();
+        if let (true, Some(v)) = (fuse, self.params.voxel) {
+            let out = self.crop_then_voxel(frame, &v, &mut timings)?;
+            cloud = Some(out.cloud);
+            indices = Some(out.indices);
+        }
         let mut apply = |stage: &'static str,
                          cloud: &mut Option<PointCloud>,
                          f: &dyn Fn(&PointCloud) -> Result<FilterOutput, FilterError>|
@@ -209,7 +260,7 @@ impl Pipeline {
             Ok(())
         };
         let p = &self.params;
-        if !p.crop.is_empty() {
+        if !p.crop.is_empty() && !fuse {
             apply("crop", &mut cloud, &|c| {
                 let mut acc: Option<FilterOutput> = None;
                 for crop in &p.crop {
@@ -226,7 +277,7 @@ impl Pipeline {
                 Ok(acc.expect("at least one crop"))
             })?;
         }
-        if let Some(v) = &p.voxel {
+        if let (false, Some(v)) = (fuse, &p.voxel) {
             apply("voxel", &mut cloud, &|c| voxel_grid(c, v))?;
         }
         if let Some(r) = &p.radius_outlier {
@@ -255,6 +306,17 @@ impl Pipeline {
             timings,
         })
     }
+}
+
+/// Keeps in `a` (ascending) only the values also in `b` (ascending).
+fn intersect_sorted(a: &mut Vec<usize>, b: &[usize]) {
+    let mut j = 0;
+    a.retain(|&v| {
+        while j < b.len() && b[j] < v {
+            j += 1;
+        }
+        j < b.len() && b[j] == v
+    });
 }
 
 /// One frame of a sequence: a cloud file, or an RGB-D image pair with its camera.

@@ -157,42 +157,75 @@ pub fn pass_through(
     cloud: &PointCloud,
     params: &PassThroughParams,
 ) -> Result<FilterOutput, FilterError> {
-    cloud.validate()?;
-    let pos = &cloud.positions;
-    let finite = |i: usize| PointCloud::is_finite_point(&pos[i]);
-    let (lo, hi, negative) = (params.min, params.max, params.negative);
-    let test = |v: f32| v.is_finite() & ((lo <= v && v <= hi) != negative);
-    let indices: Vec<usize> = match params.field {
-        None => indices_where(pos.len(), finite),
-        Some(field @ (Field::X | Field::Y | Field::Z)) => {
-            let a = field as usize;
-            indices_where(pos.len(), |i| finite(i) & test(pos[i][a]))
-        }
-        Some(field) => {
-            let values = field.values(cloud)?;
-            indices_where(pos.len(), |i| finite(i) & test(values[i]))
-        }
-    };
-    let out = if params.keep_organized {
-        let mut out = cloud.clone();
+    let mut out = FilterOutput::default();
+    pass_through_into(cloud, params, &mut out)?;
+    Ok(out)
+}
+
+/// [`pass_through`] into `out`, reusing its buffers (for a stream of frames: no
+/// allocation once they have grown to the frame size). On error `out` is unspecified.
+pub fn pass_through_into(
+    cloud: &PointCloud,
+    params: &PassThroughParams,
+    out: &mut FilterOutput,
+) -> Result<(), FilterError> {
+    pass_through_indices_into(cloud, params, &mut out.indices)?;
+    let indices = &out.indices;
+    if params.keep_organized {
+        out.cloud.clone_from(cloud);
         let mut keep = vec![false; cloud.len()];
         indices.iter().for_each(|&i| keep[i] = true);
         let v = params.user_filter_value;
-        for (p, k) in out.positions.iter_mut().zip(&keep) {
+        for (p, k) in out.cloud.positions.iter_mut().zip(&keep) {
             if !k {
                 *p = [v, v, v];
             }
         }
-        out
     } else if indices.len() == cloud.len() {
-        cloud.clone()
+        out.cloud.clone_from(cloud);
     } else {
-        cloud.select(&indices)
-    };
-    Ok(FilterOutput {
-        cloud: out,
-        indices,
-    })
+        cloud.select_into(indices, &mut out.cloud);
+    }
+    Ok(())
+}
+
+/// The kept indices of [`pass_through`] alone (the work PCL's `PassThrough::filter(indices)`
+/// does), written into `out` (cleared first, its allocation reused), without building the
+/// output cloud.
+pub fn pass_through_indices_into(
+    cloud: &PointCloud,
+    params: &PassThroughParams,
+    out: &mut Vec<usize>,
+) -> Result<(), FilterError> {
+    cloud.validate()?;
+    let pos = &cloud.positions;
+    let (lo, hi, negative) = (params.min, params.max, params.negative);
+    // Non-short-circuit `&`: no branches, so the per-64-points mask loop stays straight.
+    let test = |v: f32| finite(v) & ((lo <= v) & (v <= hi) != negative);
+    let point_ok = |p: &[f32; 3]| finite(p[0]) & finite(p[1]) & finite(p[2]);
+    match params.field {
+        None => indices_where(pos, point_ok, out),
+        Some(field @ (Field::X | Field::Y | Field::Z)) => {
+            let a = field as usize;
+            indices_where(pos, |p| point_ok(p) & test(p[a]), out)
+        }
+        Some(field) => {
+            let values = field.values(cloud)?;
+            let ok: Vec<bool> = pos
+                .iter()
+                .zip(&values)
+                .map(|(p, &v)| point_ok(p) & test(v))
+                .collect();
+            indices_where(&ok, |&k| k, out)
+        }
+    }
+    Ok(())
+}
+
+/// `v.is_finite()` as a bit test (no branch).
+#[inline]
+fn finite(v: f32) -> bool {
+    v.to_bits() & 0x7fff_ffff < 0x7f80_0000
 }
 
 /// Parameters of [`crop_box`] (Open3D `crop` with an axis-aligned box).
@@ -222,25 +255,43 @@ impl Default for CropBoxParams {
 /// when `invert`. Output is unorganized, in input order. Unlike Open3D, a zero-thickness
 /// box is allowed; `min > max` or a NaN bound is an error (Open3D swaps silently).
 pub fn crop_box(cloud: &PointCloud, params: &CropBoxParams) -> Result<FilterOutput, FilterError> {
+    let mut out = FilterOutput::default();
+    crop_box_into(cloud, params, &mut out)?;
+    Ok(out)
+}
+
+/// [`crop_box`] into `out`, reusing its buffers. On error `out` is unspecified.
+pub fn crop_box_into(
+    cloud: &PointCloud,
+    params: &CropBoxParams,
+    out: &mut FilterOutput,
+) -> Result<(), FilterError> {
     cloud.validate()?;
-    let indices = crop_box_indices(&cloud.positions, params)?;
-    Ok(FilterOutput {
-        cloud: cloud.select(&indices),
-        indices,
-    })
+    crop_box_indices_into(&cloud.positions, params, &mut out.indices)?;
+    cloud.select_into(&out.indices, &mut out.cloud);
+    Ok(())
 }
 
 /// The kept indices of [`crop_box`] alone (the work PCL's `CropBox::filter(indices)`
 /// does), without building the output cloud.
-///
-/// PERF: the `f64` bounds are replaced by the equivalent `f32` bounds (the smallest
-/// `f32` ≥ `min`, the largest `f32` ≤ `max`), so the test is exact in `f32`, and the
-/// loop writes every index and advances the output cursor by the test's outcome
-/// (no branch to mispredict on a cloud where inside and outside alternate).
 pub fn crop_box_indices(
     positions: &[[f32; 3]],
     params: &CropBoxParams,
 ) -> Result<Vec<usize>, FilterError> {
+    let mut out = Vec::new();
+    crop_box_indices_into(positions, params, &mut out)?;
+    Ok(out)
+}
+
+/// [`crop_box_indices`] into `out` (cleared first, its allocation reused).
+///
+/// PERF: the `f64` bounds are replaced by the equivalent `f32` bounds (the smallest
+/// `f32` ≥ `min`, the largest `f32` ≤ `max`), so the test is exact in `f32`.
+pub fn crop_box_indices_into(
+    positions: &[[f32; 3]],
+    params: &CropBoxParams,
+    out: &mut Vec<usize>,
+) -> Result<(), FilterError> {
     let (lo, hi) = (params.min, params.max);
     if (0..3).any(|a| lo[a].is_nan() || hi[a].is_nan() || lo[a] > hi[a]) {
         return Err(FilterError::InvalidBox { min: lo, max: hi });
@@ -248,30 +299,75 @@ pub fn crop_box_indices(
     let lo32: [f32; 3] = std::array::from_fn(|a| f32_at_least(lo[a]));
     let hi32: [f32; 3] = std::array::from_fn(|a| f32_at_most(hi[a]));
     let invert = params.invert;
-    Ok(indices_where(positions.len(), |i| {
-        let p = &positions[i];
-        let inside = (lo32[0] <= p[0])
-            & (p[0] <= hi32[0])
-            & (lo32[1] <= p[1])
-            & (p[1] <= hi32[1])
-            & (lo32[2] <= p[2])
-            & (p[2] <= hi32[2]);
-        inside != invert
-    }))
+    indices_where(
+        positions,
+        |p| {
+            let inside = (lo32[0] <= p[0])
+                & (p[0] <= hi32[0])
+                & (lo32[1] <= p[1])
+                & (p[1] <= hi32[1])
+                & (lo32[2] <= p[2])
+                & (p[2] <= hi32[2]);
+            inside != invert
+        },
+        out,
+    );
+    Ok(())
 }
 
-/// `(0..n).filter(keep).collect()`, without a branch on `keep`'s outcome: every index is
-/// written and the output cursor advances by the outcome (filters whose inside and
-/// outside points alternate do not pay branch mispredictions).
-fn indices_where(n: usize, keep: impl Fn(usize) -> bool) -> Vec<usize> {
-    let mut out = vec![0usize; n];
-    let mut m = 0;
-    for i in 0..n {
-        out[m] = i;
-        m += usize::from(keep(i));
+/// Points per parallel chunk of [`indices_where`]; smaller inputs run on one thread.
+const CHUNK: usize = 1 << 15;
+
+/// `*out = (0..n).filter(|&i| keep(&items[i])).collect()`, reusing `out`'s allocation.
+///
+/// PERF: `keep` is evaluated for 64 points at a time into a bit mask (a loop without
+/// branches or stores that the compiler can vectorise), then the mask's set bits are
+/// written out. A reused `out` is not cleared first: every slot below the final length
+/// is written before it is kept. With rayon, chunks of [`CHUNK`] points are compacted in
+/// place in parallel, each at its own offset, then moved together in chunk order, so
+/// the result does not depend on the thread count.
+fn indices_where<T: Sync>(items: &[T], keep: impl Fn(&T) -> bool + Sync, out: &mut Vec<usize>) {
+    let n = items.len();
+    if out.len() < n {
+        out.resize(n, 0);
+    } else {
+        out.truncate(n);
     }
+    let compact = |start: usize, dst: &mut [usize]| -> usize {
+        let mut m = 0;
+        let chunk = &items[start..start + dst.len()];
+        for (b, block) in chunk.chunks(64).enumerate() {
+            let mut mask = 0u64;
+            for (k, item) in block.iter().enumerate() {
+                mask |= u64::from(keep(item)) << k;
+            }
+            let base = start + 64 * b;
+            while mask != 0 {
+                dst[m] = base + mask.trailing_zeros() as usize; // m ≤ that - start
+                m += 1;
+                mask &= mask - 1;
+            }
+        }
+        m
+    };
+    #[cfg(feature = "parallel")]
+    if n > CHUNK {
+        use rayon::prelude::*;
+        let counts: Vec<usize> = out
+            .par_chunks_mut(CHUNK)
+            .enumerate()
+            .map(|(c, dst)| compact(c * CHUNK, dst))
+            .collect();
+        let mut m = counts[0];
+        for (c, &k) in counts.iter().enumerate().skip(1) {
+            out.copy_within(c * CHUNK..c * CHUNK + k, m);
+            m += k;
+        }
+        out.truncate(m);
+        return;
+    }
+    let m = compact(0, out);
     out.truncate(m);
-    out
 }
 
 /// The smallest `f32` whose value is ≥ `v` (`v` not NaN); `x as f64 >= v` ⇔ `x >= it`.

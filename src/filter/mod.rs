@@ -27,18 +27,22 @@ mod crop;
 mod outlier;
 mod voxel;
 
-pub use crop::{crop_box, crop_box_indices, pass_through, CropBoxParams, Field, PassThroughParams};
+pub use crop::{
+    crop_box, crop_box_indices, crop_box_indices_into, crop_box_into, pass_through,
+    pass_through_indices_into, pass_through_into, CropBoxParams, Field, PassThroughParams,
+};
 pub use outlier::{
     radius_outlier_removal, statistical_outlier_removal, OutlierMode, RadiusOutlierParams,
     StatisticalOutlierParams,
 };
+pub(crate) use voxel::voxel_grid_of;
 pub use voxel::{voxel_grid, VoxelGridParams, VoxelMode};
 
 use crate::cloud::PointCloud;
 use thiserror::Error;
 
 /// The result of a filter: the filtered cloud and where each output point came from.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct FilterOutput {
     /// The filtered cloud.
     pub cloud: PointCloud,

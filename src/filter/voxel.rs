@@ -73,14 +73,28 @@ pub fn voxel_grid(
     params: &VoxelGridParams,
 ) -> Result<FilterOutput, FilterError> {
     cloud.validate()?;
+    voxel_grid_of(cloud, 0..cloud.len(), params)
+}
+
+/// [`voxel_grid`] of the points `members` of `cloud` (ascending input indices, in range),
+/// as if run on `cloud.select(members)`, but with `indices` into `cloud`: the chain uses it
+/// to down-sample a crop without building the cropped cloud. `cloud` must be valid.
+pub(crate) fn voxel_grid_of<I>(
+    cloud: &PointCloud,
+    members: I,
+    params: &VoxelGridParams,
+) -> Result<FilterOutput, FilterError>
+where
+    I: Iterator<Item = usize> + Clone,
+{
     for &leaf in &params.leaf_size {
         let leaf32 = leaf as f32;
         if !(leaf.is_finite() && leaf > 0.0 && leaf32 > 0.0 && (1.0f32 / leaf32).is_finite()) {
             return Err(FilterError::InvalidLeafSize { leaf });
         }
     }
-    let finite = cloud.finite_indices();
-    let Some((lo, hi)) = cloud.bounds() else {
+    let pos = &cloud.positions;
+    let Some((lo, hi, finite)) = bounds_of(pos, members.clone()) else {
         return Ok(FilterOutput {
             cloud: empty_like(cloud),
             indices: Vec::new(),
@@ -119,66 +133,126 @@ pub fn voxel_grid(
         cmin[a] = c0 as i64;
         dims[a] = (c1 as i64 - c0 as i64 + 1) as u128;
     }
-    // Cell coordinates are monotone in p, so min/max points bound every key.
-    let rel = |p: &[f32; 3]| -> [u64; 3] {
-        std::array::from_fn(|a| (cell(p, a) as i64 - cmin[a]) as u64)
-    };
+    // Cell coordinates are monotone in p, so min/max points bound every key, and every
+    // finite point's cell is within ±2^61: the fast floors below are exact.
+    // PERF: `floor` is a libm call without SSE4.1; truncation plus a correction is not,
+    // and each mode gets its own key loop.
+    let finite_members = members.filter(|&i| PointCloud::is_finite_point(&pos[i]));
+    let grid = Grid { cmin, dims, finite };
+    Ok(match mode {
+        VoxelMode::Pcl => group_and_average(cloud, finite_members, &grid, params, |p| {
+            std::array::from_fn(|a| floor_f32(p[a] * inv32[a]))
+        }),
+        VoxelMode::Open3d => group_and_average(cloud, finite_members, &grid, params, |p| {
+            std::array::from_fn(|a| floor_f64((p[a] as f64 - origin[a]) / leaf[a]))
+        }),
+    })
+}
 
-    // Sort (key, index) pairs; keys are unique with the index, so the order is total
-    // and independent of the sort's stability or thread count.
+/// The occupied cell range: smallest cell per axis, cells per axis, finite point count.
+struct Grid {
+    cmin: [i64; 3],
+    dims: [u128; 3],
+    finite: usize,
+}
+
+/// Sorts `members` (finite, ascending) by the voxel key of `cell(p)` and averages each
+/// voxel. Keys are unique with the index, so the order is total and independent of the
+/// sort's stability or thread count.
+fn group_and_average(
+    cloud: &PointCloud,
+    members: impl Iterator<Item = usize>,
+    grid: &Grid,
+    params: &VoxelGridParams,
+    cell: impl Fn(&[f32; 3]) -> [i64; 3],
+) -> FilterOutput {
+    let (pos, cmin, dims) = (&cloud.positions, grid.cmin, grid.dims);
+    let rel = |p: &[f32; 3]| -> [u64; 3] {
+        let c = cell(p);
+        std::array::from_fn(|a| (c[a] - cmin[a]) as u64)
+    };
     let total = dims[0]
         .checked_mul(dims[1])
         .and_then(|d| d.checked_mul(dims[2]));
-    let groups: Vec<std::ops::Range<usize>>;
-    let order: Vec<u32>;
     match total {
-        Some(t) if t <= 1u128 << 32 => {
+        Some(t) if t <= 1u128 << 32 && pos.len() <= 1 << 32 => {
             // PERF: the common case: keys fit in 32 bits, packed above the index and
             // radix-sorted (stable, so indices stay ascending within a voxel).
             let (dx, dxy) = (dims[0] as u64, (dims[0] * dims[1]) as u64);
-            let mut words: Vec<u64> = Vec::with_capacity(finite.len());
-            words.extend(finite.iter().map(|&i| {
-                let r = rel(&cloud.positions[i]);
+            let mut words: Vec<u64> = Vec::with_capacity(grid.finite);
+            words.extend(members.map(|i| {
+                let r = rel(&pos[i]);
                 ((r[0] + r[1] * dx + r[2] * dxy) << 32) | i as u64
             }));
             radix_sort_packed(&mut words, bits_for(t as u64));
-            groups = runs_by(&words, |w| w >> 32);
-            order = words.into_iter().map(|w| w as u32).collect();
+            average_sorted(
+                cloud,
+                &words,
+                |w| w >> 32,
+                |w| (w & 0xffff_ffff) as usize,
+                params,
+            )
         }
         Some(t) if t <= u64::MAX as u128 => {
             let (dx, dxy) = (dims[0] as u64, (dims[0] * dims[1]) as u64);
-            let mut pairs: Vec<(u64, u32)> = finite
-                .iter()
-                .map(|&i| {
-                    let r = rel(&cloud.positions[i]);
-                    (r[0] + r[1] * dx + r[2] * dxy, i as u32)
+            let mut pairs: Vec<(u64, usize)> = members
+                .map(|i| {
+                    let r = rel(&pos[i]);
+                    (r[0] + r[1] * dx + r[2] * dxy, i)
                 })
                 .collect();
             sort_pairs(&mut pairs, params.parallelism);
-            groups = runs_by(&pairs, |p| p.0);
-            order = pairs.into_iter().map(|(_, i)| i).collect();
+            average_sorted(cloud, &pairs, |p| p.0, |p| p.1, params)
         }
         _ => {
-            let mut pairs: Vec<([u64; 3], u32)> = finite
-                .iter()
-                .map(|&i| {
-                    let r = rel(&cloud.positions[i]);
-                    ([r[2], r[1], r[0]], i as u32)
+            let mut pairs: Vec<([u64; 3], usize)> = members
+                .map(|i| {
+                    let r = rel(&pos[i]);
+                    ([r[2], r[1], r[0]], i)
                 })
                 .collect();
             sort_pairs(&mut pairs, params.parallelism);
-            groups = runs_by(&pairs, |p| p.0);
-            order = pairs.into_iter().map(|(_, i)| i).collect();
+            average_sorted(cloud, &pairs, |p| p.0, |p| p.1, params)
         }
     }
-    let groups: Vec<_> = groups
-        .into_iter()
-        .filter(|g| g.len() >= params.min_points_per_voxel)
-        .collect();
-    Ok(average_groups(cloud, &order, &groups, params))
 }
 
-fn sort_pairs<K: Ord + Copy + Send>(pairs: &mut [(K, u32)], par: Parallelism) {
+/// `floor(v)` as an integer, exact for finite `|v| < 2^63`.
+#[inline]
+fn floor_f32(v: f32) -> i64 {
+    let t = v as i64;
+    t - i64::from(t as f32 > v)
+}
+
+/// `floor(v)` as an integer, exact for finite `|v| < 2^63`.
+#[inline]
+fn floor_f64(v: f64) -> i64 {
+    let t = v as i64;
+    t - i64::from(t as f64 > v)
+}
+
+/// Bounds `(min, max, count)` of the finite points among `members`, or `None` if there
+/// are none.
+fn bounds_of(
+    pos: &[[f32; 3]],
+    members: impl Iterator<Item = usize>,
+) -> Option<([f32; 3], [f32; 3], usize)> {
+    let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+    let mut n = 0;
+    for i in members {
+        let p = &pos[i];
+        if PointCloud::is_finite_point(p) {
+            n += 1;
+            for a in 0..3 {
+                lo[a] = lo[a].min(p[a]);
+                hi[a] = hi[a].max(p[a]);
+            }
+        }
+    }
+    (n > 0).then_some((lo, hi, n))
+}
+
+fn sort_pairs<K: Ord + Copy + Send>(pairs: &mut [(K, usize)], par: Parallelism) {
     #[cfg(feature = "parallel")]
     if par == Parallelism::Rayon {
         use rayon::prelude::*;
@@ -189,105 +263,168 @@ fn sort_pairs<K: Ord + Copy + Send>(pairs: &mut [(K, u32)], par: Parallelism) {
     pairs.sort_unstable();
 }
 
-/// Ranges of equal keys in a sorted slice.
-fn runs_by<T, K: PartialEq>(items: &[T], key: impl Fn(&T) -> K) -> Vec<std::ops::Range<usize>> {
-    let mut out = Vec::new();
-    let mut start = 0;
-    for i in 1..=items.len() {
-        if i == items.len() || key(&items[i]) != key(&items[start]) {
-            out.push(start..i);
-            start = i;
-        }
-    }
-    out
+/// The output cloud's columns, filled voxel by voxel.
+#[derive(Default)]
+struct Columns {
+    positions: Vec<[f32; 3]>,
+    colors: Vec<[u8; 3]>,
+    alpha: Vec<u8>,
+    normals: Vec<[f32; 3]>,
+    curvature: Vec<f32>,
+    labels: Vec<u32>,
+    indices: Vec<usize>,
 }
 
-/// The output cloud: one averaged point per group of `order` (input indices, ascending
-/// within a group).
-fn average_groups(
+impl Columns {
+    fn append(&mut self, mut other: Columns) {
+        self.positions.append(&mut other.positions);
+        self.colors.append(&mut other.colors);
+        self.alpha.append(&mut other.alpha);
+        self.normals.append(&mut other.normals);
+        self.curvature.append(&mut other.curvature);
+        self.labels.append(&mut other.labels);
+        self.indices.append(&mut other.indices);
+    }
+}
+
+/// The output cloud from `items` sorted by voxel key: one averaged point per run of equal
+/// keys with at least `min_points_per_voxel` members (input indices ascending within a
+/// run). PERF: one pass per run over all fields; with rayon, the items are cut at run
+/// boundaries into chunks averaged in parallel and concatenated in order, so the result
+/// (every sum in ascending index order) does not depend on the thread count.
+fn average_sorted<T, K>(
     cloud: &PointCloud,
-    order: &[u32],
-    groups: &[std::ops::Range<usize>],
+    items: &[T],
+    key: impl Fn(&T) -> K + Sync,
+    index: impl Fn(&T) -> usize + Sync,
     params: &VoxelGridParams,
-) -> FilterOutput {
-    let pcl = params.mode == VoxelMode::Pcl;
-    let members = |g: usize| order[groups[g].clone()].iter().map(|&i| i as usize);
-    let par = params.parallelism;
-    let m = groups.len();
-    let positions = crate::search::map_indices(m, par, |g| {
-        let mut s = [0f64; 3];
-        for i in members(g) {
-            let p = cloud.positions[i];
-            (0..3).for_each(|a| s[a] += p[a] as f64);
-        }
-        let n = groups[g].len() as f64;
-        s.map(|v| (v / n) as f32)
-    });
-    let byte_mean = |sum: u64, n: usize| -> u8 {
-        if pcl {
-            // PCL: float sum / n, truncated.
-            (sum as f32 / n as f32) as u8
-        } else {
-            (sum as f64 / n as f64).round() as u8
-        }
+) -> FilterOutput
+where
+    T: Sync,
+    K: PartialEq,
+{
+    let run_end = |s: usize| {
+        let k = key(&items[s]);
+        s + 1 + items[s + 1..].iter().take_while(|t| key(t) == k).count()
     };
-    let colors = cloud.colors.as_ref().map(|c| {
-        crate::search::map_indices(m, par, |g| {
-            let mut s = [0u64; 3];
-            for i in members(g) {
-                (0..3).for_each(|a| s[a] += c[i][a] as u64);
+    let chunk = |range: std::ops::Range<usize>| -> Columns {
+        let mut cols = Columns::default();
+        let mut members: Vec<usize> = Vec::new();
+        let mut s = range.start;
+        while s < range.end {
+            let e = run_end(s);
+            if e - s >= params.min_points_per_voxel {
+                members.clear();
+                members.extend(items[s..e].iter().map(&index));
+                average_one(cloud, &members, params.mode, &mut cols);
             }
-            s.map(|v| byte_mean(v, groups[g].len()))
-        })
-    });
-    let alpha = cloud.alpha.as_ref().map(|c| {
-        crate::search::map_indices(m, par, |g| {
-            byte_mean(members(g).map(|i| c[i] as u64).sum(), groups[g].len())
-        })
-    });
-    let normals = cloud.normals.as_ref().map(|nrm| {
-        crate::search::map_indices(m, par, |g| {
-            let mut s = [0f64; 3];
-            for i in members(g) {
-                let v = nrm[i];
-                if pcl || v.iter().all(|c| c.is_finite()) {
-                    (0..3).for_each(|a| s[a] += v[a] as f64);
-                }
+            s = e;
+        }
+        cols
+    };
+    let n = items.len();
+    // Chunk starts: about `parts` equal slices, each moved forward to a run start.
+    let parts = match params.parallelism {
+        #[cfg(feature = "parallel")]
+        Parallelism::Rayon if n >= 1 << 14 => 4 * rayon::current_num_threads(),
+        _ => 1,
+    };
+    let mut starts: Vec<usize> = (0..parts)
+        .map(|p| {
+            let mut s = p * n / parts;
+            while s > 0 && s < n && key(&items[s]) == key(&items[s - 1]) {
+                s += 1;
             }
-            let d = if pcl {
-                (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt()
-            } else {
-                groups[g].len() as f64
-            };
-            s.map(|v| (v / d) as f32)
+            s
         })
-    });
-    let curvature = cloud.curvature.as_ref().map(|c| {
-        crate::search::map_indices(m, par, |g| {
-            (members(g).map(|i| c[i] as f64).sum::<f64>() / groups[g].len() as f64) as f32
-        })
-    });
-    let labels = cloud.labels.as_ref().map(|l| {
-        crate::search::map_indices(m, par, |g| {
-            let mut v: Vec<u32> = members(g).map(|i| l[i]).collect();
-            v.sort_unstable();
-            majority(&v)
-        })
-    });
-    let indices: Vec<usize> = (0..m).map(|g| order[groups[g].start] as usize).collect();
+        .collect();
+    starts.push(n);
+    starts.dedup();
+    let ranges: Vec<_> = starts.windows(2).map(|w| w[0]..w[1]).collect();
+    #[cfg(feature = "parallel")]
+    let pieces: Vec<Columns> = if ranges.len() > 1 {
+        use rayon::prelude::*;
+        ranges.into_par_iter().map(chunk).collect()
+    } else {
+        ranges.into_iter().map(chunk).collect()
+    };
+    #[cfg(not(feature = "parallel"))]
+    let pieces: Vec<Columns> = ranges.into_iter().map(chunk).collect();
+    let mut cols = Columns::default();
+    for p in pieces {
+        cols.append(p);
+    }
+    let m = cols.positions.len();
     FilterOutput {
         cloud: PointCloud {
-            positions,
-            colors,
-            alpha,
-            normals,
-            curvature,
-            labels,
+            positions: cols.positions,
+            colors: cloud.colors.as_ref().map(|_| cols.colors),
+            alpha: cloud.alpha.as_ref().map(|_| cols.alpha),
+            normals: cloud.normals.as_ref().map(|_| cols.normals),
+            curvature: cloud.curvature.as_ref().map(|_| cols.curvature),
+            labels: cloud.labels.as_ref().map(|_| cols.labels),
             width: u32::try_from(m).unwrap_or(u32::MAX),
             height: 1,
             viewpoint: cloud.viewpoint,
         },
-        indices,
+        indices: cols.indices,
+    }
+}
+
+/// Appends the averaged point of one voxel (`members`: input indices, ascending) to `out`.
+fn average_one(cloud: &PointCloud, members: &[usize], mode: VoxelMode, out: &mut Columns) {
+    let pcl = mode == VoxelMode::Pcl;
+    let len = members.len();
+    let n = len as f64;
+    let mut s = [0f64; 3];
+    for &i in members {
+        let p = cloud.positions[i];
+        (0..3).for_each(|a| s[a] += p[a] as f64);
+    }
+    out.positions.push(s.map(|v| (v / n) as f32));
+    out.indices.push(members[0]);
+    let byte_mean = |sum: u64| -> u8 {
+        if pcl {
+            // PCL: float sum / n, truncated.
+            (sum as f32 / len as f32) as u8
+        } else {
+            (sum as f64 / n).round() as u8
+        }
+    };
+    if let Some(c) = &cloud.colors {
+        let mut s = [0u64; 3];
+        for &i in members {
+            (0..3).for_each(|a| s[a] += c[i][a] as u64);
+        }
+        out.colors.push(s.map(byte_mean));
+    }
+    if let Some(c) = &cloud.alpha {
+        out.alpha
+            .push(byte_mean(members.iter().map(|&i| c[i] as u64).sum()));
+    }
+    if let Some(nrm) = &cloud.normals {
+        let mut s = [0f64; 3];
+        for &i in members {
+            let v = nrm[i];
+            if pcl || v.iter().all(|c| c.is_finite()) {
+                (0..3).for_each(|a| s[a] += v[a] as f64);
+            }
+        }
+        let d = if pcl {
+            (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt()
+        } else {
+            n
+        };
+        out.normals.push(s.map(|v| (v / d) as f32));
+    }
+    if let Some(c) = &cloud.curvature {
+        out.curvature
+            .push((members.iter().map(|&i| c[i] as f64).sum::<f64>() / n) as f32);
+    }
+    if let Some(l) = &cloud.labels {
+        let mut v: Vec<u32> = members.iter().map(|&i| l[i]).collect();
+        v.sort_unstable();
+        out.labels.push(majority(&v));
     }
 }
 

@@ -470,3 +470,69 @@ fn open3d_statistical_removal_drops_exact_duplicates_and_pcl_keeps_nan() {
         vec![0, 1, 2, 3, 4]
     );
 }
+
+/// A Kinect-sized cloud (307200 points, every 20th NaN), large enough for the parallel
+/// paths of the crop and voxel filters.
+fn big_cloud() -> PointCloud {
+    let mut c = crate::filter_golden::data::synthetic_cloud(3, 640 * 480);
+    c.positions
+        .iter_mut()
+        .step_by(20)
+        .for_each(|p| *p = [f32::NAN; 3]);
+    c.labels = Some((0..c.len()).map(|i| (i % 3) as u32).collect());
+    c
+}
+
+#[test]
+fn large_clouds_give_brute_force_crops_and_thread_independent_voxels() {
+    let cloud = big_cloud();
+    let pos = &cloud.positions;
+    // Pass-through and crop box against a plain filter, and the `_into` variants reusing
+    // a buffer that held a different result.
+    let pt = PassThroughParams::new(Field::Z, 0.75, 0.85);
+    let want: Vec<usize> = (0..pos.len())
+        .filter(|&i| finite(&pos[i]) && (0.75..=0.85).contains(&pos[i][2]))
+        .collect();
+    assert!(want.len() > 1000 && want.len() < pos.len() / 2);
+    let mut reused = FilterOutput::default();
+    crop_box_into(&cloud, &CropBoxParams::default(), &mut reused).unwrap();
+    pass_through_into(&cloud, &pt, &mut reused).unwrap();
+    assert_eq!(reused.indices, want);
+    assert_eq!(reused, pass_through(&cloud, &pt).unwrap());
+    assert_eq!(reused.cloud, cloud.select(&want));
+    let mut idx = vec![7; 3];
+    pass_through_indices_into(&cloud, &pt, &mut idx).unwrap();
+    assert_eq!(idx, want);
+    let cb = CropBoxParams {
+        min: [-0.05, -0.1, 0.7],
+        max: [0.1, 0.05, 0.85],
+        invert: false,
+    };
+    let want: Vec<usize> = (0..pos.len())
+        .filter(|&i| (0..3).all(|a| cb.min[a] <= pos[i][a] as f64 && pos[i][a] as f64 <= cb.max[a]))
+        .collect();
+    assert!(want.len() > 1000 && want.len() < pos.len() / 2);
+    crop_box_into(&cloud, &cb, &mut reused).unwrap();
+    assert_eq!(reused.indices, want);
+    assert_eq!(reused.cloud, cloud.select(&want));
+    // Voxels: the parallel averaging cuts the sorted points into chunks; same output as
+    // one thread, and as the voxel grid of an explicitly selected sub-cloud.
+    for mode in [VoxelMode::Pcl, VoxelMode::Open3d] {
+        for leaf in [0.002, 0.01] {
+            let p = VoxelGridParams {
+                mode,
+                ..VoxelGridParams::new(leaf)
+            };
+            let s = voxel_grid(
+                &cloud,
+                &VoxelGridParams {
+                    parallelism: Parallelism::Serial,
+                    ..p
+                },
+            )
+            .unwrap();
+            assert!(s.cloud.len() > 1000);
+            assert_eq!(s, voxel_grid(&cloud, &p).unwrap());
+        }
+    }
+}

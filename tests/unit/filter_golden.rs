@@ -8,7 +8,7 @@ use softsense::features::{estimate_normals, Neighbourhood, NormalParams};
 use softsense::filter::*;
 
 #[path = "filter_golden_data.rs"]
-mod data;
+pub(crate) mod data;
 use data::*;
 
 fn golden() -> Value {

@@ -121,3 +121,40 @@ fn a_sequence_is_streamed_to_one_output_per_frame() {
         assert_eq!(s.points_out, single.cloud.len());
     }
 }
+
+#[test]
+fn fused_crop_and_voxel_equal_the_stages_run_one_after_the_other_frame_after_frame() {
+    // Two crops (their kept indices are intersected without building the cropped cloud),
+    // a voxel grid, and the same Pipeline reused on two frames (buffers kept between them).
+    let mut frame = scene();
+    frame.colors = Some((0..frame.len()).map(|i| [(i % 251) as u8, 7, 9]).collect());
+    let params = ChainParams {
+        crop: vec![
+            PassThroughParams::new(Field::Z, 0.5, 2.0),
+            PassThroughParams::new(Field::X, 0.0, 0.012),
+        ],
+        voxel: Some(VoxelGridParams::new(0.0015)),
+        radius_outlier: None,
+        statistical_outlier: None,
+        normals: None,
+    };
+    let by_hand = |c: &PointCloud| {
+        let a = pass_through(c, &params.crop[0]).unwrap();
+        let b = pass_through(&a.cloud, &params.crop[1]).unwrap();
+        let v = voxel_grid(&b.cloud, params.voxel.as_ref().unwrap()).unwrap();
+        let idx: Vec<usize> = v.indices.iter().map(|&k| a.indices[b.indices[k]]).collect();
+        (v.cloud, idx)
+    };
+    let mut chain = Pipeline::new(params.clone());
+    let mut second = frame.clone();
+    second.positions.truncate(900);
+    second.colors.as_mut().unwrap().truncate(900);
+    second.width = 900;
+    for f in [&frame, &second, &frame] {
+        let out = chain.step(f).unwrap();
+        let (cloud, idx) = by_hand(f);
+        assert!(cloud.len() > 10);
+        assert_eq!(out.cloud, cloud);
+        assert_eq!(out.indices, idx);
+    }
+}

@@ -342,6 +342,15 @@ void maybe_flatten(pcl::PointCloud<PointT>& cloud, const Json& params) {
   }
 }
 
+// What a selecting stage's timing covers: "indices" (default) or "cloud".
+std::string timing_of(const Json& params) {
+  const Json* t = params.get("time");
+  if (!t) return "indices";
+  if (t->kind != Json::String || (t->str != "indices" && t->str != "cloud"))
+    throw std::runtime_error("`time` must be \"indices\" or \"cloud\"");
+  return t->str;
+}
+
 // ---------------------------------------------------------------------------------------
 // Stages on typed clouds (PointXYZRGBA when the input has colour, else PointXYZ).
 
@@ -365,7 +374,11 @@ void stage_filters(const std::string& stage, const pcl::PCLPointCloud2& blob,
                        static_cast<float>(num_param(params, "max")));
     pt.setNegative(bool_param_or(params, "negative", false));
     pt.setKeepOrganized(bool_param_or(params, "keep_organized", false));
-    timed(repeat, r, [&] { pt.filter(kept); });
+    // "time": "cloud" times filter(out), the output cloud with every field (the caller's
+    // `out` reused across repetitions); the default times filter(kept), indices only.
+    if (timing_of(params) == "cloud") timed(repeat, r, [&] { pt.filter(out); });
+    else timed(repeat, r, [&] { pt.filter(kept); });
+    pt.filter(kept);
     pt.filter(out);
   } else if (stage == "crop_box") {
     std::vector<double> mn = vec3_param(params, "min"), mx = vec3_param(params, "max");
@@ -374,7 +387,9 @@ void stage_filters(const std::string& stage, const pcl::PCLPointCloud2& blob,
     cb.setMin(Eigen::Vector4f(mn[0], mn[1], mn[2], 1.0f));
     cb.setMax(Eigen::Vector4f(mx[0], mx[1], mx[2], 1.0f));
     cb.setNegative(bool_param_or(params, "invert", false));
-    timed(repeat, r, [&] { cb.filter(kept); });
+    if (timing_of(params) == "cloud") timed(repeat, r, [&] { cb.filter(out); });
+    else timed(repeat, r, [&] { cb.filter(kept); });
+    cb.filter(kept);
     pcl::copyPointCloud(*cloud, kept, out);
   } else if (stage == "voxel") {
     float leaf = static_cast<float>(num_param(params, "leaf"));
