@@ -9,7 +9,8 @@
 //! `load`, where reading is the stage). To add a stage, add an arm to [`run_stage`] and an
 //! entry to `tools/bench/stages.json`. The `sense` stage is special: INPUT is a recording
 //! folder, there is one timing per frame and pass, and the line also has `stage_ms`, the
-//! median milliseconds of each stage of the chain (see [`run_sense`]).
+//! median milliseconds of each stage of the chain as `[name, ms]` pairs in chain order (see
+//! [`run_sense`]).
 
 use serde_json::{json, Value};
 use softsense::cloud::PointCloud;
@@ -183,7 +184,7 @@ fn run_stage(
 /// mapping, QP, FE updates) on every frame of the recording folder `dir`, `repeat` passes
 /// with one [`Sensor`](softsense::sense::Sensor) (a stream: its caches persist, the
 /// first frame pays the free FE solve). One timing per frame and pass, plus the median
-/// milliseconds of each stage over them (`stage_ms`).
+/// milliseconds of each stage over them (`stage_ms`, `[name, ms]` pairs in chain order).
 fn run_sense(dir: &Path, repeat: usize) -> Result<(Vec<f64>, Value, usize), String> {
     use softsense::sense::{median_timings, FrameStatus, Recording, SenseParams, Sensor};
     let rec = Recording::open(dir).map_err(|e| e.to_string())?;
@@ -205,11 +206,12 @@ fn run_sense(dir: &Path, repeat: usize) -> Result<(Vec<f64>, Value, usize), Stri
             sensed += usize::from(report.status == FrameStatus::Sensed);
         }
     }
-    let medians: serde_json::Map<String, Value> = median_timings(&stages)
+    // [name, ms] pairs: a JSON object would lose the chain order.
+    let medians: Vec<Value> = median_timings(&stages)
         .into_iter()
-        .map(|(k, v)| (k.to_string(), json!(v)))
+        .map(|(k, v)| json!([k, v]))
         .collect();
-    Ok((timings, Value::Object(medians), sensed))
+    Ok((timings, Value::Array(medians), sensed))
 }
 
 fn main() -> ExitCode {

@@ -30,7 +30,7 @@ def run_softsense(binary, spec, path, repeat):
     except (IndexError, json.JSONDecodeError):
         return None, f"bench_stages failed: {p.stderr.strip()[-300:]}"
     if r.get("stage_ms"):
-        STAGE_MS[path] = r["stage_ms"]
+        STAGE_MS[path] = dict(r["stage_ms"])  # [name, ms] pairs, chain order
     return (r["timings_ms"], None) if r["ok"] else (None, r["error"])
 
 
