@@ -7,7 +7,10 @@
 //! Prints one JSON line: `{"stage", "input", "ok", "error", "points", "timings_ms"}`, one
 //! timing per repetition, the stage alone (the input is read once beforehand, except for
 //! `load`, where reading is the stage). To add a stage, add an arm to [`run_stage`] and an
-//! entry to `tools/bench/stages.json`.
+//! entry to `tools/bench/stages.json`. The `sense` stage is special: INPUT is a recording
+//! folder, there is one timing per frame and pass, and the line also has `stage_ms`, the
+//! median milliseconds of each stage of the chain as `[name, ms]` pairs in chain order (see
+//! [`run_sense`]).
 //!
 //! Like the oracles' timing loops (PCL's `filter(kept)` / `filter(out)` reuse the caller's
 //! `kept` / `out` across repetitions), the selecting filters write into one output reused
@@ -199,6 +202,40 @@ fn run_stage(
     }
 }
 
+/// The `sense` stage: the whole chain (read, crop, segment, contacts, registration, location
+/// mapping, QP, FE updates) on every frame of the recording folder `dir`, `repeat` passes
+/// with one [`Sensor`](softsense::sense::Sensor) (a stream: its caches persist, the
+/// first frame pays the free FE solve). One timing per frame and pass, plus the median
+/// milliseconds of each stage over them (`stage_ms`, `[name, ms]` pairs in chain order).
+fn run_sense(dir: &Path, repeat: usize) -> Result<(Vec<f64>, Value, usize), String> {
+    use softsense::sense::{median_timings, FrameStatus, Recording, SenseParams, Sensor};
+    let rec = Recording::open(dir).map_err(|e| e.to_string())?;
+    let model_path = rec
+        .model_path()
+        .ok_or_else(|| format!("{}: no truth.json naming the model", dir.display()))?;
+    let model = softsense::fem::model::Model::load(&model_path, None).map_err(|e| e.to_string())?;
+    let sensor = Sensor::new(model, rec.robot_from_camera, SenseParams::default());
+    let mut timings = Vec::new();
+    let mut stages = Vec::new();
+    let mut sensed = 0;
+    for _ in 0..repeat {
+        for &frame in &rec.frames {
+            let t0 = Instant::now();
+            let obs = sensor.observe(&rec, frame).map_err(|e| e.to_string())?;
+            let report = sensor.sense(frame, &obs, rec.actuators_of(frame));
+            timings.push(t0.elapsed().as_secs_f64() * 1e3);
+            stages.push(report.timings);
+            sensed += usize::from(report.status == FrameStatus::Sensed);
+        }
+    }
+    // [name, ms] pairs: a JSON object would lose the chain order.
+    let medians: Vec<Value> = median_timings(&stages)
+        .into_iter()
+        .map(|(k, v)| json!([k, v]))
+        .collect();
+    Ok((timings, Value::Array(medians), sensed))
+}
+
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     if args.len() < 3 || args.len() > 4 {
@@ -221,6 +258,26 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    if stage == "sense" {
+        let (ok, line) = match run_sense(input, repeat) {
+            Ok((timings, stage_ms, sensed)) => (
+                true,
+                json!({"stage": stage, "input": input, "ok": true, "error": null,
+                       "points": sensed, "timings_ms": timings, "stage_ms": stage_ms}),
+            ),
+            Err(e) => (
+                false,
+                json!({"stage": stage, "input": input, "ok": false, "error": e,
+                       "points": null, "timings_ms": []}),
+            ),
+        };
+        println!("{line}");
+        return if ok {
+            ExitCode::SUCCESS
+        } else {
+            ExitCode::FAILURE
+        };
+    }
     let mut timings = Vec::with_capacity(repeat);
     let mut points = None;
     let mut error = None;

@@ -29,18 +29,23 @@
 //! ```
 
 use crate::contact::{detect_contacts, ContactParams};
+use crate::fem::mesh::Surface;
 use crate::fem::model::Model;
-use crate::fem::solve::{CableControl, MappedPoint};
-use crate::inverse::frame::{choose_locations, estimate, Candidate, FrameEstimate, FrameParams};
+use crate::fem::solve::{CableControl, MappedPoint, Solution};
+use crate::inverse::frame::{
+    choose_locations, estimate, Candidate, FrameEstimate, FrameParams, LoopTimings,
+};
 use crate::inverse::intensity::Identifiability;
+use crate::inverse::par_map;
 use crate::io::intrinsics::{read_camera_model, CameraModel};
 use crate::io::rgbd::read_frame;
 use crate::math::{cross, dot, norm, sub, unit};
-use crate::register::{surface_features, vertex_normals, FeatureParams, SurfaceFeature};
+use crate::register::{surface_features, vertex_normals, FeatureParams, Registrar, SurfaceFeature};
 use crate::scene::{ActuatorTruth, FrameTruth, Truth};
 use crate::segment::color::rgb_to_lab;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 use thiserror::Error;
 
 /// Errors of the sensing stage (per recording; per-frame failures are [`FrameStatus`]es).
@@ -194,6 +199,89 @@ pub struct Observation {
     pub height: u32,
     /// The colour frame, row-major.
     pub color: Vec<[u8; 3]>,
+    /// Time spent reading, cropping and segmenting this frame (the other stages are zero).
+    pub timings: StageTimings,
+}
+
+/// Milliseconds of a duration.
+fn ms(d: std::time::Duration) -> f64 {
+    d.as_secs_f64() * 1e3
+}
+
+/// Where the time of one frame went (ms). Stage times add up the work done in each stage:
+/// where candidate estimates run in parallel (rayon) they are summed over threads, so their
+/// sum can exceed `total`, the wall time of the frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct StageTimings {
+    /// Decoding the depth and colour PNGs and back-projecting depth into points.
+    pub read: f64,
+    /// Filter: transform to the robot frame and crop to the working box.
+    pub crop: f64,
+    /// Segment: the colour model splitting robot and object points.
+    pub segment: f64,
+    /// The free FE solve at the frame's actuator inputs (near zero when cached).
+    pub free_solve: f64,
+    /// Contact detection (KD-tree) and Euclidean grouping.
+    pub contacts: f64,
+    /// Location mapping: options per contact, their linearisation and the QPs choosing one.
+    pub mapping: f64,
+    /// Registration of the features along their normal lines (KD-tree build included).
+    pub register: f64,
+    /// FE updates: Newton solves under the estimated forces.
+    pub fe_update: f64,
+    /// Compliance: tangent factorisation at the updated state and W = H K⁻¹ Hᵀ.
+    pub compliance: f64,
+    /// Intensity QPs (clarabel), identifiability and uncertainty included.
+    pub qp: f64,
+    /// Wall time of the whole frame: read to report.
+    pub total: f64,
+}
+
+impl StageTimings {
+    /// Stage names and values, in chain order (`total` last).
+    pub fn named(&self) -> [(&'static str, f64); 11] {
+        [
+            ("read", self.read),
+            ("crop", self.crop),
+            ("segment", self.segment),
+            ("free_solve", self.free_solve),
+            ("contacts", self.contacts),
+            ("mapping", self.mapping),
+            ("register", self.register),
+            ("fe_update", self.fe_update),
+            ("compliance", self.compliance),
+            ("qp", self.qp),
+            ("total", self.total),
+        ]
+    }
+
+    /// Adds the loop timings of one frame estimate.
+    fn add_loop(&mut self, t: &LoopTimings) {
+        self.register += t.register;
+        self.fe_update += t.fe_update;
+        self.compliance += t.compliance;
+        self.qp += t.qp;
+    }
+}
+
+/// Per-stage medians over frames (ms), in [`StageTimings::named`] order.
+pub fn median_timings(timings: &[StageTimings]) -> Vec<(&'static str, f64)> {
+    let named: Vec<_> = timings.iter().map(|t| t.named()).collect();
+    StageTimings::default()
+        .named()
+        .iter()
+        .enumerate()
+        .map(|(k, (name, _))| {
+            let mut v: Vec<f64> = named.iter().map(|n| n[k].1).collect();
+            v.sort_by(f64::total_cmp);
+            let m = match v.len() {
+                0 => f64::NAN,
+                n if n % 2 == 1 => v[n / 2],
+                n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
+            };
+            (*name, m)
+        })
+        .collect()
 }
 
 impl Recording {
@@ -283,10 +371,30 @@ impl Recording {
         params: &SenseParams,
         bounds: Option<[[f64; 3]; 2]>,
     ) -> SenseResult<Observation> {
+        let t0 = std::time::Instant::now();
         let (dp, cp) = self.frame_paths(frame);
         let cloud = read_frame(&dp, cp.exists().then_some(cp.as_path()), &self.camera)?;
         let colors = cloud.colors.clone().unwrap_or_default();
+        let t1 = std::time::Instant::now();
+        // Filter: to the robot frame, cropped to the working box.
         let t = &self.robot_from_camera;
+        let kept: Vec<(usize, [f64; 3])> = cloud
+            .positions
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| p.iter().all(|c| c.is_finite()))
+            .filter_map(|(i, p)| {
+                let pc = p.map(|c| c as f64);
+                let q = [0, 1, 2]
+                    .map(|r| t[r][0] * pc[0] + t[r][1] * pc[1] + t[r][2] * pc[2] + t[r][3]);
+                match bounds {
+                    Some([lo, hi]) if (0..3).any(|k| q[k] < lo[k] || q[k] > hi[k]) => None,
+                    _ => Some((i, q)),
+                }
+            })
+            .collect();
+        let t2 = std::time::Instant::now();
+        // Segment: robot points by the colour model, the rest are objects.
         let reference = rgb_to_lab(params.robot_color);
         let ref_hue = reference[2].atan2(reference[1]);
         let tol = params.hue_tolerance_deg.to_radians();
@@ -296,18 +404,7 @@ impl Recording {
             color: colors.clone(),
             ..Default::default()
         };
-        for (i, p) in cloud.positions.iter().enumerate() {
-            if !p.iter().all(|c| c.is_finite()) {
-                continue;
-            }
-            let pc = p.map(|c| c as f64);
-            let q =
-                [0, 1, 2].map(|r| t[r][0] * pc[0] + t[r][1] * pc[1] + t[r][2] * pc[2] + t[r][3]);
-            if let Some([lo, hi]) = bounds {
-                if (0..3).any(|k| q[k] < lo[k] || q[k] > hi[k]) {
-                    continue;
-                }
-            }
+        for (i, q) in kept {
             let robot = colors.get(i).is_some_and(|&c| {
                 let lab = rgb_to_lab(c);
                 let chroma = (lab[1] * lab[1] + lab[2] * lab[2]).sqrt();
@@ -324,6 +421,10 @@ impl Recording {
                 obs.object_pixels.push(i);
             }
         }
+        let t3 = std::time::Instant::now();
+        obs.timings.read = ms(t1 - t0);
+        obs.timings.crop = ms(t2 - t1);
+        obs.timings.segment = ms(t3 - t2);
         Ok(obs)
     }
 }
@@ -412,8 +513,10 @@ pub struct FrameReport {
     pub warnings: Vec<String>,
     /// Errors against the truth, when the recording has one.
     pub errors: Option<Vec<LoadError>>,
-    /// Wall time of the frame (ms).
+    /// Wall time of sensing the frame, reading excluded (ms).
     pub ms: f64,
+    /// Where the time went, per stage (ms; reading included in `total`).
+    pub timings: StageTimings,
     /// Node positions of the final FE state (m, robot frame; empty if none), for pictures.
     #[serde(skip)]
     pub positions: Vec<[f64; 3]>,
@@ -437,6 +540,7 @@ impl FrameReport {
             warnings: Vec::new(),
             errors: None,
             ms: 0.0,
+            timings: StageTimings::default(),
             positions: Vec::new(),
         }
     }
@@ -457,7 +561,18 @@ pub struct Sensor {
     pub eye: [f64; 3],
     /// Crop box in the robot frame (m).
     pub bounds: [[f64; 3]; 2],
+    /// The model's surface (triangles and nodes), computed once.
+    pub surface: Surface,
+    /// Free solves of the latest distinct actuator inputs (a stream repeats them).
+    free_cache: Mutex<Vec<(Vec<CableControl>, Solution)>>,
 }
+
+/// Free solves kept by a [`Sensor`]: one per distinct actuator input, the latest ones.
+const FREE_CACHE: usize = 8;
+
+/// Cable inputs closer than this (m or N) are the same input for the free-solve cache: far
+/// below what moves the FE state by more than the Newton tolerance.
+pub const SAME_INPUT: f64 = 1e-12;
 
 impl Sensor {
     /// Prepares the features (flat patches the camera at `robot_from_camera` sees).
@@ -495,12 +610,52 @@ impl Sensor {
             local_pool,
             eye,
             bounds,
+            surface,
+            free_cache: Mutex::new(Vec::new()),
         }
     }
 
     /// Reads `frame` of `rec`, cropped to the robot's box, split by the colour model.
     pub fn observe(&self, rec: &Recording, frame: usize) -> SenseResult<Observation> {
         rec.observe(frame, &self.params, Some(self.bounds))
+    }
+
+    /// The free solve (no loads) of `model`, cached per distinct cable inputs. Inputs equal
+    /// within [`SAME_INPUT`] share a solve (recorded shortenings differ by round-off from
+    /// frame to frame); a new input is solved warm from the latest cached one.
+    fn free_solve(&self, model: &Model) -> crate::fem::FemResult<Solution> {
+        let key: Vec<CableControl> = model.problem.cables.iter().map(|c| c.control).collect();
+        let same = |a: &[CableControl]| {
+            a.len() == key.len()
+                && a.iter().zip(&key).all(|(a, b)| match (a, b) {
+                    (CableControl::Force(a), CableControl::Force(b))
+                    | (CableControl::Displacement(a), CableControl::Displacement(b)) => {
+                        (a - b).abs() <= SAME_INPUT
+                    }
+                    _ => false,
+                })
+        };
+        let (hit, latest) = match self.free_cache.lock() {
+            Ok(cache) => (
+                cache.iter().find(|e| same(&e.0)).map(|e| e.1.clone()),
+                cache.last().map(|e| e.1.clone()),
+            ),
+            Err(_) => (None, None),
+        };
+        if let Some(s) = hit {
+            return Ok(s);
+        }
+        let s = match &latest {
+            Some(start) => model.problem.solve_static_from(&model.newton, start)?,
+            None => model.problem.solve_static(&model.newton)?,
+        };
+        if let Ok(mut cache) = self.free_cache.lock() {
+            if cache.len() >= FREE_CACHE {
+                cache.remove(0);
+            }
+            cache.push((key, s.clone()));
+        }
+        Ok(s)
     }
 
     /// The candidate forces at surface node `node` with outward normal `normal`: a pushing
@@ -554,10 +709,13 @@ impl Sensor {
                 .warnings
                 .push("no recorded actuator inputs: the model file's are used".into());
         }
+        report.timings = obs.timings;
         if let Err(status) = self.sense_into(obs, actuators, &mut report) {
             report.status = status;
         }
-        report.ms = t0.elapsed().as_secs_f64() * 1e3;
+        report.ms = ms(t0.elapsed());
+        let t = &mut report.timings;
+        t.total = t.read + t.crop + t.segment + report.ms;
         report
     }
 
@@ -572,17 +730,18 @@ impl Sensor {
         }
         let model = self.actuated(actuators);
         let fail = |e: &dyn std::fmt::Display| FrameStatus::NotSolved(e.to_string());
-        let free = model
-            .problem
-            .solve_static(&model.newton)
-            .map_err(|e| fail(&e))?;
+        let clock = std::time::Instant::now();
+        let free = self.free_solve(&model).map_err(|e| fail(&e))?;
+        report.timings.free_solve = ms(clock.elapsed());
+        let clock = std::time::Instant::now();
         let robot_f32: Vec<[f32; 3]> = obs.robot.iter().map(|p| p.map(|c| c as f32)).collect();
         let contacts = if obs.objects.is_empty() {
             Vec::new()
         } else {
             detect_contacts(&robot_f32, &obs.objects, &self.params.contact).map_err(|e| fail(&e))?
         };
-        let surface = model.problem.mesh.surface();
+        report.timings.contacts = ms(clock.elapsed());
+        let surface = &self.surface;
         let mut features = self.features.clone();
         let r2 = self.params.local_features_radius.powi(2);
         features.extend(self.local_pool.iter().filter(|f| {
@@ -594,10 +753,13 @@ impl Sensor {
         }));
         report.features = features.len();
         let features = &features;
+        let clock = std::time::Instant::now();
+        let registrar = Registrar::new(&obs.robot);
+        report.timings.register += ms(clock.elapsed());
         let solve = |cands: &[Candidate]| {
             estimate(
                 &model,
-                &obs.robot,
+                &registrar,
                 features,
                 cands,
                 Some(&free),
@@ -605,7 +767,8 @@ impl Sensor {
             )
         };
         let (est, cands, groups) = if contacts.is_empty() {
-            // Declared force points: the one explaining the frame best.
+            // Declared force points: the one explaining the frame best (estimated in
+            // parallel, chosen in model order).
             if !model.force_points.is_empty() {
                 report.warnings.push(format!(
                     "no contact seen: the model's {} declared force point(s) are the candidates",
@@ -613,21 +776,30 @@ impl Sensor {
                 ));
             }
             let mut best: Option<(FrameEstimate, Vec<Candidate>, Vec<Group>)> = None;
-            for fp in &model.force_points {
-                let cands: Vec<Candidate> = fp
-                    .rows
-                    .iter()
-                    .map(|r| Candidate {
-                        at: fp.point,
-                        direction: r.entries.iter().fold([0.0; 3], |a, e| {
-                            [a[0] + e.1[0], a[1] + e.1[1], a[2] + e.1[2]]
-                        }),
-                        push_only: true,
-                    })
-                    .collect();
+            let sets: Vec<Vec<Candidate>> = model
+                .force_points
+                .iter()
+                .map(|fp| {
+                    fp.rows
+                        .iter()
+                        .map(|r| Candidate {
+                            at: fp.point,
+                            direction: r.entries.iter().fold([0.0; 3], |a, e| {
+                                [a[0] + e.1[0], a[1] + e.1[1], a[2] + e.1[2]]
+                            }),
+                            push_only: true,
+                        })
+                        .collect()
+                })
+                .collect();
+            let results = par_map(&sets, |c| solve(c));
+            for ((fp, cands), result) in model.force_points.iter().zip(sets).zip(results) {
                 let n = cands.len();
-                let est = match solve(&cands) {
-                    Ok(e) => e,
+                let est = match result {
+                    Ok(e) => {
+                        report.timings.add_loop(&e.timings);
+                        e
+                    }
                     Err(e) => {
                         report
                             .warnings
@@ -656,6 +828,7 @@ impl Sensor {
                         "no contact seen and the model declares no force points: only the actuators are estimated".into(),
                     );
                     let est = solve(&[]).map_err(|e| fail(&e))?;
+                    report.timings.add_loop(&est.timings);
                     (est, Vec::new(), Vec::new())
                 }
                 None => return Err(FrameStatus::NotSolved("every force point failed".into())),
@@ -668,6 +841,7 @@ impl Sensor {
             let mut chosen: Vec<usize> = Vec::new();
             let mut out = None;
             for _round in 0..2 {
+                let clock = std::time::Instant::now();
                 let normals = vertex_normals(&x, &surface.triangles);
                 let options: Vec<(Vec<usize>, Vec<Vec<Candidate>>)> = contacts
                     .iter()
@@ -689,7 +863,7 @@ impl Sensor {
                 let all: Vec<Vec<Vec<Candidate>>> = options.iter().map(|o| o.1.clone()).collect();
                 let pick = choose_locations(
                     &model,
-                    &obs.robot,
+                    &registrar,
                     features,
                     &all,
                     &x,
@@ -697,6 +871,7 @@ impl Sensor {
                     self.params.max_combinations,
                 )
                 .map_err(|e| fail(&e))?;
+                report.timings.mapping += ms(clock.elapsed());
                 if pick == chosen && out.is_some() {
                     break;
                 }
@@ -715,6 +890,7 @@ impl Sensor {
                     });
                 }
                 let est = solve(&cands).map_err(|e| fail(&e))?;
+                report.timings.add_loop(&est.timings);
                 x = est.positions.clone();
                 out = Some((est, cands, groups));
             }

@@ -5,7 +5,8 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use softsense::fem::model::Model;
 use softsense::sense::{
-    compare, FrameReport, FrameStatus, Observation, Recording, SenseParams, Sensor,
+    compare, median_timings, FrameReport, FrameStatus, Observation, Recording, SenseParams, Sensor,
+    StageTimings,
 };
 use std::path::PathBuf;
 
@@ -202,6 +203,18 @@ fn summary(reports: &[FrameReport]) {
     eprintln!(
         "{sensed}/{} frames sensed, {ms:.0} ms per frame",
         reports.len()
+    );
+    let timings: Vec<StageTimings> = reports.iter().map(|r| r.timings).collect();
+    let medians = median_timings(&timings);
+    let stages: Vec<String> = medians
+        .iter()
+        .map(|(name, v)| format!("{name} {v:.1}"))
+        .collect();
+    let total = medians.last().map_or(f64::NAN, |m| m.1);
+    eprintln!(
+        "median ms per frame by stage: {} ({:.1} frames/s; thesis: 10 Hz image processing, 7 Hz FE update)",
+        stages.join(", "),
+        1e3 / total
     );
     if !errors.is_empty() {
         let n = errors.len() as f64;

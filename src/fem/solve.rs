@@ -15,6 +15,7 @@ use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, Mat, Side};
 use serde::Serialize;
+use std::sync::{Arc, OnceLock};
 
 /// Small-strain linear or corotational tetrahedra.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
@@ -197,6 +198,94 @@ pub struct Problem {
     pub cables: Vec<Cable>,
     /// Per-tetrahedron factor on Young's modulus (regional stiffness); empty means all 1.
     pub young_scale: Vec<f64>,
+    /// The solver setup of the first [`Problem::solver`] call, shared by clones: reused by
+    /// later solvers while the mesh, held nodes and cable attachments are unchanged.
+    setup_cache: Arc<OnceLock<Arc<SolverSetup>>>,
+}
+
+/// What a [`Solver`] prepares from the mesh, the held nodes and the cable attachments alone
+/// (support and quality checks, element rest data, free-DOF map, sparsity pattern, AMD
+/// ordering and symbolic Cholesky). Problems differing only in loads, cable controls,
+/// material or gravity share it: computing it was a fifth of a sensed frame.
+pub struct SolverSetup {
+    nodes: Vec<[f64; 3]>,
+    tets: Vec<[usize; 4]>,
+    held: Vec<usize>,
+    groups: Vec<Vec<usize>>,
+    rest: Arc<Vec<TetRest>>,
+    dofs: Arc<DofMap>,
+    pattern: Arc<Pattern>,
+    symbolic: Arc<SymbolicCholesky<usize>>,
+}
+
+impl std::fmt::Debug for SolverSetup {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SolverSetup")
+            .field("nodes", &self.nodes.len())
+            .field("tets", &self.tets.len())
+            .field("ndof", &self.dofs.ndof)
+            .finish_non_exhaustive()
+    }
+}
+
+fn cable_groups(problem: &Problem) -> Vec<Vec<usize>> {
+    problem
+        .cables
+        .iter()
+        .map(|c| c.attach.iter().flat_map(|a| a.nodes).collect())
+        .collect()
+}
+
+impl SolverSetup {
+    /// Checks supports and mesh, builds the pattern and the symbolic factorization.
+    pub fn new(problem: &Problem) -> FemResult<Self> {
+        problem.check_supports()?;
+        let rest = (0..problem.mesh.tets.len())
+            .map(|t| TetRest::new(t, problem.mesh.corners(t)))
+            .collect::<FemResult<Vec<_>>>()?;
+        problem.mesh.quality()?;
+        let held = problem.held_nodes();
+        let dofs = DofMap::new(problem.mesh.num_nodes(), &held);
+        let groups = cable_groups(problem);
+        let pattern = Pattern::new(&problem.mesh, &dofs, &groups)?;
+        let sym = SymbolicSparseColMatRef::new_checked(
+            dofs.ndof,
+            dofs.ndof,
+            &pattern.col_ptr,
+            None,
+            &pattern.row_idx,
+        );
+        // Always supernodal: the constraint-space forward solves (constraint.rs) walk the
+        // supernodes, and the diamond-sized systems are supernodal under AUTO anyway.
+        let symbolic = factorize_symbolic_cholesky(
+            sym,
+            Side::Upper,
+            Default::default(),
+            CholeskySymbolicParams {
+                supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+                ..Default::default()
+            },
+        )
+        .map_err(|e| FemError::Linalg(format!("{e:?}")))?;
+        Ok(Self {
+            nodes: problem.mesh.nodes_in_rest.clone(),
+            tets: problem.mesh.tets.clone(),
+            held,
+            groups,
+            rest: Arc::new(rest),
+            dofs: Arc::new(dofs),
+            pattern: Arc::new(pattern),
+            symbolic: Arc::new(symbolic),
+        })
+    }
+
+    /// Whether this setup was made for `problem`'s mesh, held nodes and cable attachments.
+    pub fn fits(&self, problem: &Problem) -> bool {
+        self.nodes == problem.mesh.nodes_in_rest
+            && self.tets == problem.mesh.tets
+            && self.held == problem.held_nodes()
+            && self.groups == cable_groups(problem)
+    }
 }
 
 /// The result of a static solve.
@@ -238,6 +327,7 @@ impl Problem {
             loads: Vec::new(),
             cables: Vec::new(),
             young_scale: Vec::new(),
+            setup_cache: Arc::default(),
         }
     }
 
@@ -337,8 +427,8 @@ impl Problem {
         m
     }
 
-    /// External forces from gravity and point loads (node-major 3n).
-    pub fn external_forces(&self) -> Vec<f64> {
+    /// Body forces: gravity on the lumped masses (node-major 3n).
+    pub fn body_forces(&self) -> Vec<f64> {
         let mut f = vec![0.0; 3 * self.mesh.num_nodes()];
         if self.density != 0.0 && self.gravity != [0.0; 3] {
             for (v, m) in self.lumped_masses().iter().enumerate() {
@@ -347,6 +437,12 @@ impl Problem {
                 }
             }
         }
+        f
+    }
+
+    /// External forces from gravity and point loads (node-major 3n).
+    pub fn external_forces(&self) -> Vec<f64> {
+        let mut f = self.body_forces();
         for l in &self.loads {
             for (n, w) in l.at.nodes.iter().zip(l.at.weights) {
                 for k in 0..3 {
@@ -357,9 +453,21 @@ impl Problem {
         f
     }
 
-    /// Prepares a solver (checks, rest data, pattern, symbolic factorization).
+    /// Prepares a solver (checks, rest data, pattern, symbolic factorization). The setup is
+    /// computed once and shared by clones of this problem while it still fits them (same
+    /// mesh, held nodes and cable attachments; see [`SolverSetup::fits`]).
     pub fn solver(&self) -> FemResult<Solver<'_>> {
-        Solver::new(self)
+        let setup = match self.setup_cache.get() {
+            Some(s) if s.fits(self) => s.clone(),
+            Some(_) => Arc::new(SolverSetup::new(self)?),
+            None => {
+                let s = Arc::new(SolverSetup::new(self)?);
+                // Another thread may have set it meanwhile: either is the same setup.
+                let _ = self.setup_cache.set(s.clone());
+                s
+            }
+        };
+        Solver::with_setup(self, setup)
     }
 
     /// Static equilibrium under the loads and cable actuation.
@@ -405,12 +513,12 @@ pub struct Solver<'p> {
     /// The problem.
     pub problem: &'p Problem,
     /// Free-DOF numbering.
-    pub dofs: DofMap,
+    pub dofs: Arc<DofMap>,
     /// Sparsity pattern of K.
-    pub pattern: Pattern,
-    rest: Vec<TetRest>,
+    pub pattern: Arc<Pattern>,
+    rest: Arc<Vec<TetRest>>,
     /// Symbolic Cholesky (AMD ordering and supernodal structure), computed once.
-    pub(crate) symbolic: SymbolicCholesky<usize>,
+    pub(crate) symbolic: Arc<SymbolicCholesky<usize>>,
     /// Values of the supernodal factor L (reused between factorizations).
     pub(crate) l_values: Vec<f64>,
     /// Values of K (upper triangle) after the last assembly.
@@ -426,7 +534,17 @@ pub struct Solver<'p> {
 impl<'p> Solver<'p> {
     /// Checks supports and mesh, builds the pattern and the symbolic factorization.
     pub fn new(problem: &'p Problem) -> FemResult<Self> {
-        problem.check_supports()?;
+        Self::with_setup(problem, Arc::new(SolverSetup::new(problem)?))
+    }
+
+    /// A solver on a prepared `setup` (rebuilt if it does not fit `problem`); only the loads,
+    /// cables and prescribed displacements are checked again.
+    pub fn with_setup(problem: &'p Problem, setup: Arc<SolverSetup>) -> FemResult<Self> {
+        let setup = if setup.fits(problem) {
+            setup
+        } else {
+            Arc::new(SolverSetup::new(problem)?)
+        };
         let n = problem.mesh.num_nodes();
         let points = problem
             .loads
@@ -449,44 +567,14 @@ impl<'p> Solver<'p> {
                 "prescribed displacement of node {v} is invalid"
             )));
         }
-        let rest = (0..problem.mesh.tets.len())
-            .map(|t| TetRest::new(t, problem.mesh.corners(t)))
-            .collect::<FemResult<Vec<_>>>()?;
-        problem.mesh.quality()?;
-        let dofs = DofMap::new(problem.mesh.num_nodes(), &problem.held_nodes());
-        let groups: Vec<Vec<usize>> = problem
-            .cables
-            .iter()
-            .map(|c| c.attach.iter().flat_map(|a| a.nodes).collect())
-            .collect();
-        let pattern = Pattern::new(&problem.mesh, &dofs, &groups)?;
-        let sym = SymbolicSparseColMatRef::new_checked(
-            dofs.ndof,
-            dofs.ndof,
-            &pattern.col_ptr,
-            None,
-            &pattern.row_idx,
-        );
-        // Always supernodal: the constraint-space forward solves (constraint.rs) walk the
-        // supernodes, and the diamond-sized systems are supernodal under AUTO anyway.
-        let symbolic = factorize_symbolic_cholesky(
-            sym,
-            Side::Upper,
-            Default::default(),
-            CholeskySymbolicParams {
-                supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
-                ..Default::default()
-            },
-        )
-        .map_err(|e| FemError::Linalg(format!("{e:?}")))?;
-        let l_values = vec![0.0; symbolic.len_val()];
-        let nnz = pattern.nnz();
+        let l_values = vec![0.0; setup.symbolic.len_val()];
+        let nnz = setup.pattern.nnz();
         Ok(Self {
             problem,
-            dofs,
-            pattern,
-            rest,
-            symbolic,
+            dofs: setup.dofs.clone(),
+            pattern: setup.pattern.clone(),
+            rest: setup.rest.clone(),
+            symbolic: setup.symbolic.clone(),
             l_values,
             values: vec![0.0; nnz],
             internal_force: Vec::new(),
@@ -630,6 +718,14 @@ impl<'p> Solver<'p> {
     /// consistent one is not positive definite.
     pub fn tangent_at(&mut self, x: &[[f64; 3]], tangent: Tangent) -> FemResult<()> {
         self.assemble(x, tangent)?;
+        self.factorize_assembled(x, tangent)
+    }
+
+    /// Factorizes the tangent the last [`Solver::assemble`] left at `x` with `tangent`, with
+    /// the fallback of [`Solver::tangent_at`]. A converged [`Solver::solve_static_from`]
+    /// ends with exactly that assembly (at its solution, `params.tangent`, no cable
+    /// stiffness), so the linearisation there needs no second assembly.
+    pub fn factorize_assembled(&mut self, x: &[[f64; 3]], tangent: Tangent) -> FemResult<()> {
         match self.factorize() {
             Err(FemError::Singular(_))
                 if tangent == Tangent::Consistent
@@ -807,7 +903,9 @@ impl<'p> Solver<'p> {
                 // (ill-conditioned systems cannot reduce the residual further).
                 let small =
                     rn <= params.abs_tol + params.rel_tol * scale || last_step <= params.step_tol;
-                if small && gaps_ok && iterations > 0 {
+                // A cold start takes at least one step; a warm start already in equilibrium
+                // (e.g. the free state when the loads added to it are still zero) is kept.
+                if small && gaps_ok && (iterations > 0 || warm.is_some()) {
                     // A cable can only pull (lambda >= 0): a displacement-controlled cable
                     // that would have to push goes slack (zero tension) and Newton goes on.
                     if let Some(pos) = disp_cables.iter().position(|&ci| tension[ci] < 0.0) {

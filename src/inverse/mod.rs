@@ -41,3 +41,17 @@ pub enum InverseError {
 
 /// `Result` of the inverse stage.
 pub type InverseResult<T> = std::result::Result<T, InverseError>;
+
+/// `items.map(f)` in order, on rayon's pool with the `parallel` feature: each result depends
+/// only on its item, so the output is the same for any number of threads.
+pub(crate) fn par_map<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync + Send) -> Vec<R> {
+    #[cfg(feature = "parallel")]
+    {
+        use rayon::prelude::*;
+        items.par_iter().map(f).collect()
+    }
+    #[cfg(not(feature = "parallel"))]
+    {
+        items.iter().map(f).collect()
+    }
+}

@@ -15,6 +15,13 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
 
 
+# Stage medians of softsense's `sense` stage (whole chain), per input: filled by run_softsense.
+STAGE_MS = {}
+
+# The thesis's rates (section 4.6): image processing at 10 Hz, FE update at 7 Hz.
+THESIS = "thesis: image processing 10 Hz (100 ms), FE update 7 Hz (143 ms)"
+
+
 def run_softsense(binary, spec, path, repeat):
     cmd = [binary, spec["stage"], path, str(repeat), json.dumps(spec.get("params", {}))]
     p = subprocess.run(cmd, capture_output=True, text=True)
@@ -22,7 +29,23 @@ def run_softsense(binary, spec, path, repeat):
         r = json.loads(p.stdout.strip().splitlines()[-1])
     except (IndexError, json.JSONDecodeError):
         return None, f"bench_stages failed: {p.stderr.strip()[-300:]}"
+    if r.get("stage_ms"):
+        STAGE_MS[path] = dict(r["stage_ms"])  # [name, ms] pairs, chain order
     return (r["timings_ms"], None) if r["ok"] else (None, r["error"])
+
+
+def print_stage_table():
+    """Per-stage medians of the whole-chain (`sense`) inputs, with frames per second."""
+    if not STAGE_MS:
+        return
+    names = list(next(iter(STAGE_MS.values())).keys())
+    print(f"\nsoftsense whole chain per frame (`sense`), median ms per stage; {THESIS}\n")
+    print("| scene | " + " | ".join(names) + " | frames/s |")
+    print("| --- | " + " | ".join("---:" for _ in names) + " | ---: |")
+    for path, st in STAGE_MS.items():
+        total = st.get("total")
+        fps = f"{1e3 / total:.1f}" if total else "n/a"
+        print(f"| {os.path.basename(path)} | " + " | ".join(fmt(st[n]) for n in names) + f" | {fps} |")
 
 
 def run_oracle(cmd_prefix, spec, path, repeat):
@@ -71,8 +94,11 @@ def main():
     for st in cfg["stages"]:
         if only and st["name"] not in only:
             continue
-        for rel in cfg["files"]:
-            path = os.path.join(a.data, rel)
+        # A stage may name its own inputs ("scenes": folders relative to the repository).
+        inputs = ([os.path.join(ROOT, rel) for rel in st["scenes"]] if "scenes" in st
+                  else [os.path.join(a.data, rel) for rel in cfg["files"]])
+        for path in inputs:
+            rel = os.path.relpath(path, ROOT) if "scenes" in st else os.path.relpath(path, a.data)
             med = {}
             for lib, fn in libs.items():
                 spec = st.get(lib)
@@ -96,6 +122,7 @@ def main():
     for name, cloud, med, ratio in rows:
         r = "n/a" if ratio is None else f"{ratio:.2f}x"
         print(f"| {name} | {cloud} | {fmt(med['softsense'])} | {fmt(med['pcl'])} | {fmt(med['open3d'])} | {r} |")
+    print_stage_table()
     if notes:
         print("\nNot measured:")
         for n in notes:
