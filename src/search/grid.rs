@@ -1,18 +1,21 @@
-//! k nearest neighbours of every point of a cloud at once, on a uniform grid.
+//! Exact k nearest neighbours of every point of a cloud at once, on a uniform grid: the
+//! one grid k-NN of the crate ([`map_knn`], [`knn_all`] and the region growing use it).
 //!
 //! Dense sensor clouds put a handful of points in every cell of a grid whose edge is a
 //! little more than the k-th neighbour distance. The points are sorted by cell (radix
 //! sort of packed keys); for each occupied cell, the points of the 3x3x3 block around
-//! it are gathered once and every point of the cell picks its k closest among them.
-//! That answer is used only when it is provably exact: the k-th squared distance must
-//! be below the squared distance from the query to the block's boundary, with a
-//! relative margin far above `f32` rounding. Otherwise (isolated points, cells too
-//! small) a KD-tree built on first need answers, with the same tie rule.
+//! it are gathered once into a structure-of-arrays copy and every point of the cell
+//! computes its distances to all of them and picks its k closest. Only candidates
+//! closer than the block boundary (with a relative margin far above `f32` rounding)
+//! compete: when at least k of them exist, they are provably the k nearest of the whole
+//! cloud, since every point outside the block is farther. Otherwise the point is tried
+//! again on the 5x5x5 block, and so on up to [`RINGS`], and then a KD-tree built on
+//! first need answers, with the same tie rule.
 //!
-//! Result: for each point, its k nearest finite points (itself included), sorted by
+//! Result: for each point, its k nearest finite points (itself included) by
 //! `(squared distance, index)`; a tie at the k-th place goes to the smaller index, so
-//! the answer is unique, equal to a brute-force selection, and independent of threads.
-//! Distances are [`squared_distance`] (`f32`, FLANN's order).
+//! the answer is unique, equal to a brute-force selection, and independent of threads
+//! and of the chunking. Distances are [`squared_distance`] (`f32`, FLANN's order).
 
 use super::sort::{bits_for, radix_sort_packed};
 use super::{squared_distance, KdTree, Neighbour, Parallelism, RadiusQuery};
@@ -21,10 +24,71 @@ use std::sync::OnceLock;
 
 /// Relative margin between the k-th squared distance and the squared distance to the
 /// block boundary; `f32` distance rounding is below 1e-6 relative.
-const MARGIN: f64 = 1e-4;
+pub(crate) const MARGIN: f64 = 1e-4;
 
 /// Largest block radius (in cells) tried before asking the tree.
 const RINGS: u64 = 4;
+
+/// A neighbour as one word, `(d² bits << 32) | index`. A squared distance is `≥ +0` and
+/// never NaN here, so its bits order like its value and the words order like
+/// `(squared distance, index)`: one `u64` comparison replaces a tuple comparison.
+#[inline]
+pub(crate) fn pack(d2: f32, index: u32) -> u64 {
+    ((d2.to_bits() as u64) << 32) | index as u64
+}
+
+/// The index of a packed neighbour word.
+#[inline]
+pub(crate) fn word_index(w: u64) -> u32 {
+    w as u32
+}
+
+/// The squared distance of a packed neighbour word.
+#[inline]
+pub(crate) fn word_d2(w: u64) -> f32 {
+    f32::from_bits((w >> 32) as u32)
+}
+
+/// Row-major `n x k` neighbour indices and squared distances.
+pub struct KnnTable {
+    /// Neighbours per row.
+    pub k: usize,
+    /// Indices, `n * k`.
+    pub idx: Vec<u32>,
+    /// Squared distances, `n * k`.
+    pub d2: Vec<f32>,
+}
+
+/// k nearest neighbours (self included) of every point of `pts`, as a table sorted by
+/// `(squared distance, index)` per row (`k` is capped at the number of finite points;
+/// rows of non-finite points hold index 0 at distance `f32::MAX`).
+///
+/// ```
+/// use softsense::search::{knn_all, Parallelism};
+/// let pts = [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [3.0, 0.0, 0.0]];
+/// let t = knn_all(&pts, 2, Parallelism::Serial);
+/// assert_eq!(t.idx, vec![0, 1, 1, 0, 2, 1]);
+/// ```
+pub fn knn_all(pts: &[[f32; 3]], k: usize, par: Parallelism) -> KnnTable {
+    let search = KnnSearch::new(pts, k);
+    let k = search.k();
+    let parts = search.knn(par, Vec::new, |rows: &mut Vec<(u32, u64)>, i, words| {
+        words.sort_unstable();
+        rows.extend(words.iter().map(|&w| (i, w)));
+    });
+    let mut idx = vec![0u32; pts.len() * k];
+    let mut d2 = vec![f32::MAX; pts.len() * k];
+    for part in parts {
+        for row in part.chunks(k.max(1)) {
+            let i = row[0].0 as usize;
+            for (j, &(_, w)) in row.iter().enumerate() {
+                idx[i * k + j] = word_index(w);
+                d2[i * k + j] = word_d2(w);
+            }
+        }
+    }
+    KnnTable { k, idx, d2 }
+}
 
 /// Calls `f(i, neighbours)` for every point `i` of `positions` with its `k` nearest
 /// finite points sorted by `(squared distance, index)` (fewer when the cloud has fewer
@@ -41,36 +105,301 @@ where
     T: Send,
     F: Fn(usize, &[Neighbour]) -> T + Sync + Send,
 {
-    let n = positions.len();
-    let finite: Vec<u32> = (0..n as u32)
-        .filter(|&i| PointCloud::is_finite_point(&positions[i as usize]))
-        .collect();
-    let k = k.min(finite.len());
+    let search = KnnSearch::new(positions, k);
     // Every point starts with the answer for "no neighbours" (what non-finite points
     // keep); finite points are overwritten below.
-    let mut out: Vec<T> = (0..n).map(|i| f(i, &[])).collect();
-    let tree_cell: OnceLock<KdTree> = OnceLock::new();
-    let tree = || tree_cell.get_or_init(|| KdTree::build(positions));
-    let grid = if k == 0 {
-        None
-    } else {
-        Grid::build(positions, &finite, k)
-    };
-    let Some(grid) = grid else {
-        // No usable grid: the tree answers every query.
-        return super::map_indices(n, par, |i| f(i, &tree_knn(tree(), &positions[i], k)));
-    };
-    // Chunks of cells, processed in parallel; each yields (point, result) pairs.
-    let chunk = 512;
-    let n_chunks = grid.cell_keys.len().div_ceil(chunk);
-    let parts: Vec<Vec<(u32, T)>> = super::map_indices(n_chunks, par, |c| {
-        let cells = c * chunk..((c + 1) * chunk).min(grid.cell_keys.len());
-        grid.knn_chunk(positions, cells, k, &tree, &f)
-    });
-    for (i, t) in parts.into_iter().flatten() {
+    let mut out: Vec<T> = (0..positions.len()).map(|i| f(i, &[])).collect();
+    let parts = search.knn(
+        par,
+        || (Vec::new(), Vec::new()),
+        |(res, nb): &mut (Vec<(u32, T)>, Vec<Neighbour>), i, words| {
+            words.sort_unstable();
+            nb.clear();
+            nb.extend(words.iter().map(|&w| Neighbour {
+                index: word_index(w) as usize,
+                squared_distance: word_d2(w),
+            }));
+            res.push((i, f(i as usize, nb)));
+        },
+    );
+    for (i, t) in parts.into_iter().flat_map(|p| p.0) {
         out[i as usize] = t;
     }
     out
+}
+
+/// The points of a block of cells as a structure of arrays (distances to all of them
+/// vectorise), with a counter that changes whenever the block is refilled.
+pub(crate) struct Block {
+    /// x coordinates.
+    pub x: Vec<f32>,
+    /// y coordinates.
+    pub y: Vec<f32>,
+    /// z coordinates.
+    pub z: Vec<f32>,
+    /// Point indices.
+    pub id: Vec<u32>,
+    /// Incremented on every refill: callers may cache per-block data under it.
+    pub generation: u64,
+}
+
+impl Block {
+    fn new() -> Block {
+        Block {
+            x: Vec::new(),
+            y: Vec::new(),
+            z: Vec::new(),
+            id: Vec::new(),
+            generation: 0,
+        }
+    }
+
+    fn clear(&mut self) {
+        self.x.clear();
+        self.y.clear();
+        self.z.clear();
+        self.id.clear();
+        self.generation += 1;
+    }
+
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.id.len()
+    }
+
+    /// [`squared_distance`] from `q` to every point, into `out`.
+    pub fn distances(&self, q: &[f32; 3], out: &mut Vec<f32>) {
+        out.clear();
+        out.extend(
+            self.x
+                .iter()
+                .zip(&self.y)
+                .zip(&self.z)
+                .map(|((&x, &y), &z)| squared_distance(q, &[x, y, z])),
+        );
+    }
+}
+
+/// Per-chunk scratch of the k-NN kernel.
+#[derive(Default)]
+struct Scratch {
+    d2: Vec<f32>,
+    words: Vec<u64>,
+    /// The last point answered from a block: the block's generation plus one, the
+    /// point, and its k-th distance (not squared).
+    last: (u64, [f32; 3], f64),
+}
+
+/// The exact k nearest neighbours of every finite point of a cloud, chunk by chunk of
+/// grid cells; the grid (or, without one, the tree) is built once and serves several
+/// passes ([`KnnSearch::knn`], [`KnnSearch::scan`]).
+pub(crate) struct KnnSearch<'a> {
+    positions: &'a [[f32; 3]],
+    finite: Vec<u32>,
+    k: usize,
+    grid: Option<Grid>,
+    tree: OnceLock<KdTree>,
+}
+
+impl<'a> KnnSearch<'a> {
+    /// Indexes the finite points of `positions` for `k`-NN queries (`k` is capped at
+    /// the number of finite points).
+    pub(crate) fn new(positions: &'a [[f32; 3]], k: usize) -> KnnSearch<'a> {
+        let finite: Vec<u32> = (0..positions.len() as u32)
+            .filter(|&i| PointCloud::is_finite_point(&positions[i as usize]))
+            .collect();
+        let k = k.min(finite.len());
+        let grid = if k == 0 {
+            None
+        } else {
+            Grid::build(positions, &finite, k)
+        };
+        KnnSearch {
+            positions,
+            finite,
+            k,
+            grid,
+            tree: OnceLock::new(),
+        }
+    }
+
+    /// The number of neighbours each finite point gets.
+    pub(crate) fn k(&self) -> usize {
+        self.k
+    }
+
+    fn tree(&self) -> &KdTree {
+        self.tree.get_or_init(|| KdTree::build(self.positions))
+    }
+
+    /// Calls `visit(state, i, words)` for every finite point `i` with its k nearest as
+    /// packed words ([`pack`]), in no particular order (the slice may be reordered);
+    /// `make` gives each chunk its state, and the states come back in chunk order (the
+    /// chunking depends on the cloud only, never on the thread count).
+    pub(crate) fn knn<S, M, V>(&self, par: Parallelism, make: M, visit: V) -> Vec<S>
+    where
+        S: Send,
+        M: Fn() -> S + Sync,
+        V: Fn(&mut S, u32, &mut [u64]) + Sync,
+    {
+        let k = self.k;
+        let parts = self.scan(
+            par,
+            || (make(), Scratch::default()),
+            |(s, sc), i, blk, margin| {
+                let q = &self.positions[i as usize];
+                let Some(found) = block_knn(q, blk, k, margin, sc) else {
+                    return false;
+                };
+                visit(s, i, &mut sc.words[..found]);
+                true
+            },
+            |(s, sc), i, tree| {
+                sc.words.clear();
+                sc.words.extend(
+                    tree_knn(tree, &self.positions[i as usize], k)
+                        .iter()
+                        .map(|nb| pack(nb.squared_distance, nb.index as u32)),
+                );
+                visit(s, i, &mut sc.words);
+            },
+        );
+        parts.into_iter().map(|p| p.0).collect()
+    }
+
+    /// The building block of every pass: for every finite point `i`, in chunks of
+    /// cells, `try_point(state, i, block, margin)` is called with the points of the
+    /// block of cells around `i`'s and the distance `margin` from `i` to the block's
+    /// boundary (every point outside is at least that far; `≤ 0`: no guarantee). When
+    /// it returns false, the point is tried again with the next larger block, and after
+    /// [`RINGS`] blocks `fallback(state, i, tree)` answers it. Without a grid, every
+    /// point goes to the fallback.
+    pub(crate) fn scan<S, M, T, F>(
+        &self,
+        par: Parallelism,
+        make: M,
+        try_point: T,
+        fallback: F,
+    ) -> Vec<S>
+    where
+        S: Send,
+        M: Fn() -> S + Sync,
+        T: Fn(&mut S, u32, &Block, f64) -> bool + Sync,
+        F: Fn(&mut S, u32, &KdTree) + Sync,
+    {
+        let Some(grid) = &self.grid else {
+            let chunk = 1024;
+            return super::map_range(self.finite.len().div_ceil(chunk), par, 1, |c| {
+                let mut s = make();
+                let end = ((c + 1) * chunk).min(self.finite.len());
+                for &i in &self.finite[c * chunk..end] {
+                    fallback(&mut s, i, self.tree());
+                }
+                s
+            });
+        };
+        let cells = grid.cell_keys.len();
+        // Enough chunks for load balance on any machine; the split depends on the cloud
+        // only.
+        let chunk = (cells / 256).clamp(64, 2048);
+        super::map_range(cells.div_ceil(chunk), par, 1, |c| {
+            let mut s = make();
+            let range = c * chunk..((c + 1) * chunk).min(cells);
+            let pending = grid.rings(self.positions, range, |i, blk, m| {
+                try_point(&mut s, i, blk, m)
+            });
+            for i in pending {
+                fallback(&mut s, i, self.tree());
+            }
+            s
+        })
+    }
+}
+
+/// The k nearest of `q` among the block's points when they are provably its k nearest
+/// in the whole cloud: the candidates closer than the block boundary (`margin`, with
+/// [`MARGIN`] to spare) are kept and, when there are at least k, the k smallest words
+/// are moved to the front of `sc.words`. Returns `Some(k)`, or `None` when the block
+/// cannot prove the answer.
+///
+/// PERF: the previous point `p` of the same block bounds the k-th distance of `q` by
+/// `d_k(p) + |p − q|` (its k neighbours are that close to `q`), so only candidates
+/// within that bound (widened for rounding) enter the selection. The bound is only a
+/// filter: when fewer than k candidates pass it, the block bound alone is used.
+fn block_knn(q: &[f32; 3], blk: &Block, k: usize, margin: f64, sc: &mut Scratch) -> Option<usize> {
+    let n = blk.len();
+    if n < k || margin <= 0.0 {
+        return None;
+    }
+    // Rounding the bound to f32 moves it by 6e-8 relative, far inside MARGIN.
+    let bound = (margin * margin / (1.0 + MARGIN)) as f32;
+    blk.distances(q, &mut sc.d2);
+    if sc.words.len() < n {
+        sc.words.resize(n, 0);
+    }
+    let (generation, p, dk) = sc.last;
+    let mut found = 0;
+    if generation == blk.generation + 1 {
+        let reach = (dk + squared_distance(&p, q).sqrt() as f64) * (1.0 + 1e-5) + 1e-30;
+        let hint = ((reach * reach) as f32).min(bound);
+        found = compact(&sc.d2, &blk.id, &mut sc.words, |d| d <= hint && d < bound);
+    }
+    if found < k {
+        found = compact(&sc.d2, &blk.id, &mut sc.words, |d| d < bound);
+    }
+    if found < k {
+        return None;
+    }
+    if found > k {
+        sc.words[..found].select_nth_unstable(k - 1);
+    }
+    let kth = word_d2(sc.words[k - 1]) as f64;
+    sc.last = (blk.generation + 1, *q, kth.sqrt());
+    Some(k)
+}
+
+/// Packs the candidates whose distance passes `keep` to the front of `words` (long
+/// enough for all), branch-free; returns their number.
+#[inline]
+fn compact(d2: &[f32], id: &[u32], words: &mut [u64], keep: impl Fn(f32) -> bool) -> usize {
+    let mut c = 0;
+    for (&d, &i) in d2.iter().zip(id) {
+        words[c] = pack(d, i);
+        c += usize::from(keep(d));
+    }
+    c
+}
+
+/// The `k` nearest points by `(squared distance, index)` from the tree: kiddo's k
+/// nearest give the k-th distance, then every point within it (inclusive, so tied
+/// points are all seen) is ranked.
+pub(crate) fn tree_knn(tree: &KdTree, q: &[f32; 3], k: usize) -> Vec<Neighbour> {
+    let Some(last) = tree.nearest_n(q, k).last().copied() else {
+        return Vec::new();
+    };
+    let mut all = tree_within_d2(tree, q, last.squared_distance);
+    all.truncate(k);
+    all
+}
+
+/// Every point at squared distance `≤ d2` from `q` (inclusive), sorted by
+/// `(squared distance, index)`.
+pub(crate) fn tree_within_d2(tree: &KdTree, q: &[f32; 3], d2: f32) -> Vec<Neighbour> {
+    // A radius whose f32 square is ≥ d2: the widened candidate search then sees every
+    // point at d² ≤ d2, and the inclusive test keeps exactly those.
+    let r = (d2 as f64).sqrt() * (1.0 + 1e-6) + f64::MIN_POSITIVE;
+    tree.within_radius(
+        q,
+        r,
+        RadiusQuery {
+            sorted: true,
+            inclusive: true,
+            ..Default::default()
+        },
+    )
+    .into_iter()
+    .filter(|nb| nb.squared_distance <= d2)
+    .collect()
 }
 
 /// For every point `i` of `positions`, whether at least `need` finite points `p`
@@ -113,18 +442,19 @@ where
     let r2 = radius * radius * (1.0 + MARGIN);
     let chunk = 512;
     let n_chunks = grid.cell_keys.len().div_ceil(chunk);
-    let parts: Vec<Vec<(u32, bool)>> = super::map_indices(n_chunks, par, |c| {
+    let parts: Vec<Vec<(u32, bool)>> = super::map_range(n_chunks, par, 1, |c| {
         let cells = c * chunk..((c + 1) * chunk).min(grid.cell_keys.len());
         let mut out = Vec::new();
         let cells: Vec<usize> = cells.collect();
-        grid.blocks(positions, 1, &cells, |c, cand| {
+        let mut blk = Block::new();
+        grid.blocks(1, &cells, &mut blk, |c, blk| {
             for &i in grid.cell(c) {
                 let q = &positions[i as usize];
-                let m = grid.margin(q);
+                let m = grid.margin_r(q, 1.0);
                 let ok = if m > 0.0 && r2 < m * m {
                     let mut count = 0;
-                    for (p, _) in cand {
-                        count += usize::from(inside(q, p));
+                    for j in 0..blk.len() {
+                        count += usize::from(inside(q, &[blk.x[j], blk.y[j], blk.z[j]]));
                         if count >= need {
                             break;
                         }
@@ -145,34 +475,6 @@ where
     keep
 }
 
-/// The `k` nearest points by `(squared distance, index)` from the tree: kiddo's k
-/// nearest give the k-th distance, then every point within it (inclusive, so tied
-/// points are all seen) is ranked.
-fn tree_knn(tree: &KdTree, q: &[f32; 3], k: usize) -> Vec<Neighbour> {
-    let Some(last) = tree.nearest_n(q, k).last().copied() else {
-        return Vec::new();
-    };
-    let d = last.squared_distance;
-    // A radius whose f32 square is ≥ d: the widened candidate search then sees every
-    // point at d² ≤ d, and the inclusive test keeps exactly those.
-    let r = (d as f64).sqrt() * (1.0 + 1e-6) + f64::MIN_POSITIVE;
-    let mut all: Vec<Neighbour> = tree
-        .within_radius(
-            q,
-            r,
-            RadiusQuery {
-                sorted: true,
-                inclusive: true,
-                ..Default::default()
-            },
-        )
-        .into_iter()
-        .filter(|nb| nb.squared_distance <= d)
-        .collect();
-    all.truncate(k);
-    all
-}
-
 /// Points sorted by cell, with the occupied cells' keys and start offsets.
 struct Grid {
     /// Cell edge, metres.
@@ -187,6 +489,9 @@ struct Grid {
     cell_start: Vec<u32>,
     /// Point indices sorted by cell, ascending within a cell.
     sorted: Vec<u32>,
+    /// The coordinates of `sorted`, axis by axis, so that a block is gathered by
+    /// copying whole ranges.
+    coords: [Vec<f32>; 3],
 }
 
 impl Grid {
@@ -281,7 +586,9 @@ impl Grid {
             }
         }
         cell_start.push(words.len() as u32);
-        let sorted = words.into_iter().map(|w| w as u32).collect();
+        let sorted: Vec<u32> = words.into_iter().map(|w| w as u32).collect();
+        let coords =
+            std::array::from_fn(|a| sorted.iter().map(|&i| positions[i as usize][a]).collect());
         Some(Grid {
             h,
             origin,
@@ -289,19 +596,20 @@ impl Grid {
             cell_keys,
             cell_start,
             sorted,
+            coords,
         })
     }
 
-    /// Calls `visit(cell, candidates)` for every cell of `cells` (indices into
-    /// `cell_keys`, ascending) with the points (position, index) of the block of cells
-    /// within `r` cells of it (`(2r+1)³` cells; near the grid's edge a row may wrap
-    /// into the next one, which only adds candidates).
+    /// Calls `visit(cell, block)` for every cell of `cells` (indices into `cell_keys`,
+    /// ascending) with the points of the block of cells within `r` cells of it
+    /// (`(2r+1)³` cells; near the grid's edge a row may wrap into the next one, which
+    /// only adds candidates).
     fn blocks(
         &self,
-        positions: &[[f32; 3]],
         r: i64,
         cells: &[usize],
-        mut visit: impl FnMut(usize, &[([f32; 3], u32)]),
+        blk: &mut Block,
+        mut visit: impl FnMut(usize, &Block),
     ) {
         let keys = &self.cell_keys;
         let Some(&first) = cells.first() else {
@@ -319,7 +627,6 @@ impl Grid {
             .iter()
             .map(|off| keys.partition_point(|&c| (c as i64) < first + off))
             .collect();
-        let mut cand: Vec<([f32; 3], u32)> = Vec::new();
         let mut ranges: Vec<(usize, usize)> = Vec::with_capacity(offsets.len());
         for &c in cells {
             let key = keys[c] as i64;
@@ -342,18 +649,20 @@ impl Grid {
             // Wrapped rows of a narrow grid can overlap: merge the cell ranges so no
             // point is a candidate twice.
             ranges.sort_unstable();
-            cand.clear();
+            blk.clear();
             let mut done = 0;
             for &(a, b) in &ranges {
                 let a = a.max(done);
                 if a < b {
-                    let pts =
-                        &self.sorted[self.cell_start[a] as usize..self.cell_start[b] as usize];
-                    cand.extend(pts.iter().map(|&i| (positions[i as usize], i)));
+                    let pts = self.cell_start[a] as usize..self.cell_start[b] as usize;
+                    blk.x.extend_from_slice(&self.coords[0][pts.clone()]);
+                    blk.y.extend_from_slice(&self.coords[1][pts.clone()]);
+                    blk.z.extend_from_slice(&self.coords[2][pts.clone()]);
+                    blk.id.extend_from_slice(&self.sorted[pts]);
                     done = b;
                 }
             }
-            visit(c, &cand);
+            visit(c, blk);
         }
     }
 
@@ -362,31 +671,24 @@ impl Grid {
         &self.sorted[self.cell_start[c] as usize..self.cell_start[c + 1] as usize]
     }
 
-    /// The k-NN results of the points of cells `cells`, block radius 1, then the
-    /// points not yet proven exact with radius 2, 3, ... [`RINGS`], then the tree.
-    fn knn_chunk<'t, T, F, G>(
+    /// Offers every point of cells `cells` to `try_point(i, block, margin)` with the
+    /// block of radius 1 around its cell, then the points it refused with radius 2, 3,
+    /// ... [`RINGS`]; returns the points refused by all.
+    fn rings(
         &self,
         positions: &[[f32; 3]],
         cells: std::ops::Range<usize>,
-        k: usize,
-        tree: &G,
-        f: &F,
-    ) -> Vec<(u32, T)>
-    where
-        F: Fn(usize, &[Neighbour]) -> T,
-        G: Fn() -> &'t KdTree,
-    {
-        let mut best: Vec<Neighbour> = Vec::with_capacity(k + 1);
-        let mut packed: Vec<u64> = Vec::new();
-        let mut out = Vec::new();
+        mut try_point: impl FnMut(u32, &Block, f64) -> bool,
+    ) -> Vec<u32> {
+        let mut blk = Block::new();
         let mut todo: Vec<usize> = cells.collect();
-        // Points not proven exact yet (ascending cell order), and their cells.
+        // Points refused so far (ascending cell order), and their cells.
         let mut pending: Vec<u32> = Vec::new();
         for r in 1..=RINGS {
             let mut next: Vec<u32> = Vec::new();
             let mut next_cells: Vec<usize> = Vec::new();
             let mut from = 0;
-            self.blocks(positions, r as i64, &todo, |c, cand| {
+            self.blocks(r as i64, &todo, &mut blk, |c, blk| {
                 let members: &[u32] = if r == 1 {
                     self.cell(c)
                 } else {
@@ -398,15 +700,8 @@ impl Grid {
                     &pending[from - n..from]
                 };
                 for &i in members {
-                    let q = &positions[i as usize];
-                    k_smallest(q, cand, k, &mut packed, &mut best);
-                    let margin = self.margin_r(q, r as f64);
-                    let exact = best.len() == k
-                        && margin > 0.0
-                        && (best[k - 1].squared_distance as f64) * (1.0 + MARGIN) < margin * margin;
-                    if exact {
-                        out.push((i, f(i as usize, &best)));
-                    } else {
+                    let margin = self.margin_r(&positions[i as usize], r as f64);
+                    if !try_point(i, blk, margin) {
                         if next_cells.last() != Some(&c) {
                             next_cells.push(c);
                         }
@@ -420,22 +715,11 @@ impl Grid {
                 break;
             }
         }
-        for &i in &pending {
-            out.push((
-                i,
-                f(i as usize, &tree_knn(tree(), &positions[i as usize], k)),
-            ));
-        }
-        out
+        pending
     }
 
-    /// Distance from `q` to the boundary of the 3x3x3 block around its cell (shrunk by
-    /// a hair for the rounding of the cell computation).
-    fn margin(&self, q: &[f32; 3]) -> f64 {
-        self.margin_r(q, 1.0)
-    }
-
-    /// Distance from `q` to the boundary of the block of cells within `r` of its cell.
+    /// Distance from `q` to the boundary of the block of cells within `r` of its cell
+    /// (shrunk by a hair for the rounding of the cell computation).
     fn margin_r(&self, q: &[f32; 3], r: f64) -> f64 {
         let c = cell_of(q, self.origin, self.h);
         let mut m = f64::INFINITY;
@@ -447,36 +731,6 @@ impl Grid {
         }
         m - self.h * 1e-9
     }
-}
-
-/// The `k` smallest `(squared distance, index)` from `q` among `cand`, sorted, into
-/// `best`.
-///
-/// PERF: a squared distance is ≥ +0 and never NaN here, so its bits order like its
-/// value; packed above the 32-bit index, one `u64` compares as `(d, index)`, and a
-/// selection plus a sort of k words replaces ordered insertion.
-fn k_smallest(
-    q: &[f32; 3],
-    cand: &[([f32; 3], u32)],
-    k: usize,
-    packed: &mut Vec<u64>,
-    best: &mut Vec<Neighbour>,
-) {
-    packed.clear();
-    packed.extend(
-        cand.iter()
-            .map(|(p, i)| ((squared_distance(q, p).to_bits() as u64) << 32) | *i as u64),
-    );
-    if packed.len() > k {
-        packed.select_nth_unstable(k - 1);
-        packed.truncate(k);
-    }
-    packed.sort_unstable();
-    best.clear();
-    best.extend(packed.iter().map(|&w| Neighbour {
-        index: (w & 0xffff_ffff) as usize,
-        squared_distance: f32::from_bits((w >> 32) as u32),
-    }));
 }
 
 /// Cell coordinates of a finite point (`≥ 1` thanks to the padding).

@@ -28,15 +28,14 @@
 
 pub mod flann_order;
 mod grid;
-pub mod grid_knn;
 mod kdtree;
 pub(crate) mod sort;
 
 pub use flann_order::FlannTree;
-pub use grid_knn::{knn_all, KnnTable};
-
-pub(crate) use grid::map_has_neighbours;
-pub use grid::map_knn;
+pub use grid::{knn_all, map_knn, KnnTable};
+pub(crate) use grid::{
+    map_has_neighbours, pack, tree_within_d2, word_d2, word_index, Block, KnnSearch, MARGIN,
+};
 pub(crate) use kdtree::squared_radius_f32;
 pub use kdtree::{squared_distance, squared_distance_f64, KdTree, Neighbour, RadiusQuery};
 
@@ -57,11 +56,25 @@ where
     T: Send,
     F: Fn(usize) -> T + Sync + Send,
 {
+    map_range(n, par, 256, f)
+}
+
+/// [`map_indices`] with tasks of at least `min_len` items (1 for coarse items such as
+/// chunks of cells: a larger minimum would run a short list of chunks on one thread).
+pub(crate) fn map_range<T, F>(n: usize, par: Parallelism, min_len: usize, f: F) -> Vec<T>
+where
+    T: Send,
+    F: Fn(usize) -> T + Sync + Send,
+{
     #[cfg(feature = "parallel")]
     if par == Parallelism::Rayon {
         use rayon::prelude::*;
-        return (0..n).into_par_iter().with_min_len(256).map(f).collect();
+        return (0..n)
+            .into_par_iter()
+            .with_min_len(min_len)
+            .map(f)
+            .collect();
     }
-    let _ = par;
+    let _ = (par, min_len);
     (0..n).map(f).collect()
 }

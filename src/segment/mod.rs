@@ -23,9 +23,9 @@
 pub mod color;
 pub mod euclidean;
 pub mod geometric;
-/// Moved to [`crate::search::grid_knn`]; re-exported here for existing callers.
+/// Moved to [`crate::search`]; re-exported here for existing callers.
 pub mod knn {
-    pub use crate::search::grid_knn::{knn_all, KnnTable};
+    pub use crate::search::{knn_all, KnnTable};
 }
 pub mod metrics;
 pub mod region_growing_rgb;

@@ -29,7 +29,9 @@
 
 use super::{check_distance, check_threshold, SegmentError, UNSEGMENTED};
 use crate::cloud::PointCloud;
-use crate::search::Parallelism;
+use crate::search::{
+    pack, tree_within_d2, word_d2, word_index, Block, KnnSearch, Parallelism, MARGIN,
+};
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
@@ -144,6 +146,102 @@ fn color_dist2(a: [u32; 3], b: [u32; 3]) -> f32 {
     (d(0) + d(1) + d(2)) as f32
 }
 
+/// Padding of a growth row after its colour-compatible neighbours.
+const NONE: u32 = u32::MAX;
+
+/// Per-chunk state of [`segment_adjacency`].
+#[derive(Default)]
+struct Adjacency {
+    /// (segment, other segment, squared distance) found so far.
+    out: Vec<(u32, u32, f32)>,
+    /// The block the cached segments belong to (its generation, plus one).
+    block: u64,
+    /// Segment of every point of that block.
+    tags: Vec<u32>,
+    /// The segment of all of them, or `u32::MAX` when they differ.
+    uniform: u32,
+    /// One point's other segments with their smallest distance.
+    local: Vec<(u32, f32)>,
+    /// Distances from the current point to the block's points.
+    d2: Vec<f32>,
+}
+
+impl Adjacency {
+    fn add(&mut self, t: u32, d: f32) {
+        match self.local.iter_mut().find(|e| e.0 == t) {
+            Some(e) => e.1 = e.1.min(d),
+            None => self.local.push((t, d)),
+        }
+    }
+
+    fn flush(&mut self, s: u32) {
+        self.out
+            .extend(self.local.drain(..).map(|(t, d)| (s, t, d)));
+    }
+}
+
+/// Every `(segment of p, segment of q, d²)` for the points `q` of each point `p`'s K
+/// list (the points whose packed word from `p` is at most `kth[p]`) that lie in another
+/// segment, each pair of segments at most once per point with its smallest distance.
+/// Blocks whose points all lie in the query's segment are skipped whole.
+fn segment_adjacency(
+    search: &KnnSearch,
+    pts: &[[f32; 3]],
+    seg: &[u32],
+    kth: &[u64],
+    par: Parallelism,
+) -> Vec<(u32, u32, f32)> {
+    let parts = search.scan(
+        par,
+        Adjacency::default,
+        |st: &mut Adjacency, i, blk: &Block, margin| {
+            let w = kth[i as usize];
+            if !(margin > 0.0 && word_d2(w) as f64 * (1.0 + MARGIN) < margin * margin) {
+                return false; // the K list may reach outside the block
+            }
+            if st.block != blk.generation + 1 {
+                st.block = blk.generation + 1;
+                st.tags.clear();
+                st.tags.extend(blk.id.iter().map(|&j| seg[j as usize]));
+                let first = st.tags.first().copied().unwrap_or(u32::MAX);
+                st.uniform = if st.tags.iter().all(|&t| t == first) {
+                    first
+                } else {
+                    u32::MAX
+                };
+            }
+            let s = seg[i as usize];
+            if st.uniform == s {
+                return true;
+            }
+            let mut d2 = std::mem::take(&mut st.d2);
+            blk.distances(&pts[i as usize], &mut d2);
+            let dk = word_d2(w);
+            for (j, &d) in d2.iter().enumerate() {
+                let t = st.tags[j];
+                if d <= dk && t != s && pack(d, blk.id[j]) <= w {
+                    st.add(t, d);
+                }
+            }
+            st.d2 = d2;
+            st.flush(s);
+            true
+        },
+        |st, i, tree| {
+            let w = kth[i as usize];
+            let s = seg[i as usize];
+            for nb in tree_within_d2(tree, &pts[i as usize], word_d2(w)) {
+                let t = seg[nb.index];
+                if t != s && pack(nb.squared_distance, nb.index as u32) <= w {
+                    st.add(t, nb.squared_distance);
+                }
+            }
+            st.flush(s);
+        },
+    );
+    parts.into_iter().flat_map(|p| p.out).collect()
+}
+
 /// Segments `cloud` by colour (see the module docs). Needs colours; non-finite points get
 /// [`UNSEGMENTED`].
 pub fn region_growing_rgb(
@@ -192,11 +290,45 @@ pub fn region_growing_rgb(
         t * t
     };
 
-    // Step 1: K nearest neighbours of every point (rows of equal length k).
-    let table = crate::search::knn_all(&pts, params.region_neighbours, params.parallelism);
-    let k = table.k;
-    let (nb_idx, nb_d2) = (table.idx, table.d2);
+    // Step 1: the K nearest neighbours of every point, kept as two facts per point: the
+    // first `grow_n` as a set, already filtered by the point colour test (which points
+    // the growth reaches does not depend on their order), and the K-th as a packed
+    // word (the K list is every point whose word is at most that one). PERF: no table
+    // of n*K entries is written or walked.
+    let par = params.parallelism;
+    let search = KnnSearch::new(&pts, params.region_neighbours);
+    let k = search.k();
     let grow_n = params.neighbours.min(k);
+    type Step1 = (Vec<u32>, Vec<u32>, Vec<u64>);
+    let parts = search.knn(
+        par,
+        || (Vec::new(), Vec::new(), Vec::new()),
+        |(ids, rows, kth): &mut Step1, i, words| {
+            kth.push(words.iter().copied().max().unwrap_or(0));
+            if grow_n > 0 && grow_n < words.len() {
+                words.select_nth_unstable(grow_n - 1);
+            }
+            ids.push(i);
+            let c = cols[i as usize];
+            let start = rows.len();
+            rows.extend(
+                words[..grow_n]
+                    .iter()
+                    .map(|&w| word_index(w))
+                    .filter(|&q| color_dist2(c, cols[q as usize]) <= p_thr),
+            );
+            rows.resize(start + grow_n, NONE);
+        },
+    );
+    let mut grow = vec![NONE; m * grow_n];
+    let mut kth = vec![0u64; m];
+    for (ids, rows, kw) in parts {
+        for (j, &i) in ids.iter().enumerate() {
+            let i = i as usize;
+            grow[i * grow_n..(i + 1) * grow_n].copy_from_slice(&rows[j * grow_n..(j + 1) * grow_n]);
+            kth[i] = kw[j];
+        }
+    }
 
     // Step 2: region growing.
     let mut seg = vec![u32::MAX; m];
@@ -211,12 +343,12 @@ pub fn region_growing_rgb(
         let mut count = 1u32;
         queue.push_back(seed);
         while let Some(cur) = queue.pop_front() {
-            for &q in &nb_idx[cur * k..cur * k + grow_n] {
+            for &q in &grow[cur * grow_n..(cur + 1) * grow_n] {
+                if q == NONE {
+                    break;
+                }
                 let q = q as usize;
                 if seg[q] != u32::MAX {
-                    continue;
-                }
-                if color_dist2(cols[cur], cols[q]) > p_thr {
                     continue;
                 }
                 seg[q] = s;
@@ -226,43 +358,40 @@ pub fn region_growing_rgb(
         }
         seg_count.push(count);
     }
+    drop(grow);
     let n_seg = seg_count.len();
 
-    // Points grouped by segment (ascending within a segment).
-    let mut seg_start = vec![0usize; n_seg + 1];
-    for &s in &seg {
-        seg_start[s as usize + 1] += 1;
+    // Step 3: segment adjacency, K nearest segments, stored descending by (d², segment).
+    // Only the K-list entries in another segment matter: they are found again on the
+    // grid, as (segment, other segment, d²), each point's own duplicates merged.
+    let adjacent = segment_adjacency(&search, &pts, &seg, &kth, par);
+    let mut adj_start = vec![0usize; n_seg + 1];
+    for &(s, _, _) in &adjacent {
+        adj_start[s as usize + 1] += 1;
     }
     for s in 0..n_seg {
-        seg_start[s + 1] += seg_start[s];
+        adj_start[s + 1] += adj_start[s];
     }
-    let mut seg_points = vec![0u32; m];
+    let mut adj = vec![(0u32, 0f32); adjacent.len()];
     {
-        let mut fill = seg_start.clone();
-        for (p, &s) in seg.iter().enumerate() {
-            seg_points[fill[s as usize]] = p as u32;
+        let mut fill = adj_start.clone();
+        for &(s, t, d) in &adjacent {
+            adj[fill[s as usize]] = (t, d);
             fill[s as usize] += 1;
         }
     }
-
-    // Step 3: segment adjacency, K nearest segments, stored descending by (d², segment).
+    drop(adjacent);
     let mut best = vec![f32::MAX; n_seg];
     let mut touched: Vec<u32> = Vec::new();
     let mut seg_nb: Vec<Vec<(f32, u32)>> = Vec::with_capacity(n_seg);
     for s in 0..n_seg {
-        for &p in &seg_points[seg_start[s]..seg_start[s + 1]] {
-            let p = p as usize;
-            for j in 0..k {
-                let t = seg[nb_idx[p * k + j] as usize] as usize;
-                if t != s {
-                    let d = nb_d2[p * k + j];
-                    if best[t] == f32::MAX {
-                        touched.push(t as u32);
-                    }
-                    if best[t] > d {
-                        best[t] = d;
-                    }
-                }
+        for &(t, d) in &adj[adj_start[s]..adj_start[s + 1]] {
+            let t = t as usize;
+            if best[t] == f32::MAX {
+                touched.push(t as u32);
+            }
+            if best[t] > d {
+                best[t] = d;
             }
         }
         let mut list: Vec<(f32, u32)> = touched
@@ -430,8 +559,14 @@ fn small_region_merge(
     let mut heaps: Vec<BinaryHeap<HeapEntry>> = (0..n_reg).map(|_| BinaryHeap::new()).collect();
     let mut seq = 0u64;
     // PCL concatenates the segments' lists region by region, in segment order.
+    // PERF: sizes only grow, so a region at least `min_size` large is never examined:
+    // its heap is never read and is not built (entries keep their global sequence
+    // numbers, so every heap orders its entries as before).
     for (s, list) in seg_nb.iter().enumerate() {
         let r = seg_region[s];
+        if region_count[r as usize] >= min_size {
+            continue;
+        }
         for &(d, t) in list {
             if seg_region[t as usize] != r {
                 heaps[r as usize].push(Reverse((OrdF32(d), seq, t)));
@@ -463,6 +598,9 @@ fn small_region_merge(
         region_count[target as usize] += region_count[r];
         region_count[r] = 0;
         let mut moved = std::mem::take(&mut heaps[r]);
+        if (target as usize) < r || region_count[target as usize] >= min_size {
+            continue; // the target is never examined again: its heap is dead
+        }
         let tgt = &mut heaps[target as usize];
         if moved.len() > tgt.len() {
             std::mem::swap(&mut moved, tgt);

@@ -2,7 +2,7 @@
 
 use proptest::prelude::*;
 use softsense::search::{
-    map_knn, squared_distance, squared_distance_f64, KdTree, Parallelism, RadiusQuery,
+    knn_all, map_knn, squared_distance, squared_distance_f64, KdTree, Parallelism, RadiusQuery,
 };
 
 /// Random clouds on a coarse lattice (many exact duplicates and exact boundary
@@ -214,5 +214,33 @@ proptest! {
             nb.iter().map(|n| (n.index, n.squared_distance)).collect::<Vec<_>>()
         });
         prop_assert_eq!(lists, par);
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(32))]
+    /// The table form (the region growing's K = 100 and beyond) on clouds full of exact
+    /// duplicates and distance ties: every finite row is the brute-force selection, the
+    /// same with any thread count.
+    #[test]
+    fn knn_tables_match_brute_force_for_large_k_with_duplicates_and_ties(
+        points in prop_oneof![cloud_strategy(), surface_strategy()],
+        k in 1usize..130,
+    ) {
+        let t = knn_all(&points, k, Parallelism::Serial);
+        let finite = points.iter().filter(|p| p.iter().all(|c| c.is_finite())).count();
+        prop_assert_eq!(t.k, k.min(finite));
+        for i in 0..points.len() {
+            let want = brute_knn(&points, i, t.k);
+            if want.is_empty() {
+                continue; // a NaN point: its row is padding
+            }
+            let got: Vec<(usize, f32)> = (0..t.k)
+                .map(|j| (t.idx[i * t.k + j] as usize, t.d2[i * t.k + j]))
+                .collect();
+            prop_assert_eq!(got, want, "point {}", i);
+        }
+        let par = knn_all(&points, k, Parallelism::Rayon);
+        prop_assert_eq!(t.idx, par.idx);
     }
 }

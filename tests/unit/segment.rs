@@ -137,6 +137,43 @@ fn region_growing_separates_colours_and_reports_segments() {
     assert_eq!(region_growing_rgb(&cloud, &p).unwrap().segments.len(), 1);
 }
 
+/// A noisy coloured height field with many small segments: the partition does not
+/// depend on the thread count (the neighbour search runs in parallel chunks).
+#[test]
+fn region_growing_is_the_same_serial_and_parallel() {
+    use softsense::search::Parallelism;
+    let (w, h) = (120usize, 90usize);
+    let mut pos = Vec::new();
+    let mut col = Vec::new();
+    for j in 0..w * h {
+        let (u, v) = ((j % w) as f32, (j / w) as f32);
+        let r = (j * 2654435761) % 1000;
+        pos.push([u * 0.002, v * 0.002, 1.0 + (r % 5) as f32 * 0.0004]);
+        col.push([(r % 7 * 40) as u8, (u as usize % 40 + r % 4) as u8, 50]);
+    }
+    let mut cloud = PointCloud::from_positions(pos);
+    cloud.colors = Some(col);
+    for p in [
+        RegionGrowingParams::default(),
+        RegionGrowingParams::thesis(),
+    ] {
+        let serial = region_growing_rgb(
+            &cloud,
+            &RegionGrowingParams {
+                parallelism: Parallelism::Serial,
+                ..p
+            },
+        )
+        .unwrap();
+        let parallel = region_growing_rgb(&cloud, &p).unwrap();
+        assert!(
+            serial.grown_segments > 10,
+            "too few segments to mean anything"
+        );
+        assert_eq!(serial, parallel);
+    }
+}
+
 #[test]
 fn small_segments_merge_into_the_nearest_unless_switched_off() {
     let mut cloud = two_colour_scene();
