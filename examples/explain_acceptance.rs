@@ -1,8 +1,14 @@
 //! Acceptance harness of the discrepancy workflow (issue 7): generates hidden-effect
 //! datasets, runs `explain` on each and scores the answer against the hidden truth.
 //!
-//! Usage: cargo run --example explain_acceptance -- [SHARD COUNT] [OUT_DIR]
-//! (runs the datasets i with i % COUNT == SHARD; one JSON line per dataset on stdout).
+//! Usage: cargo run --example explain_acceptance -- [SHARD COUNT] [OUT_DIR] [ONLY]
+//! (runs the datasets i with i % COUNT == SHARD, or only those in the comma list ONLY;
+//! one JSON line per dataset on stdout).
+//!
+//! Dataset i has seed 100 + i. The first 28 are the original set (8 library effects at
+//! magnitudes 0.2 and 0.7, 4 null, 4 out-of-library, 4 pairs); 28.. extend it to the
+//! issue's counts without changing the earlier seeds: the 8 effects at magnitudes 0.1,
+//! 0.45 and 0.9 (40 single-effect sets in all), 6 more null sets (10), 6 more pairs (10).
 use softsense::discrepancy::data::load_frames;
 use softsense::discrepancy::effects::{Effect, EffectKind};
 use softsense::discrepancy::generate::{
@@ -47,10 +53,36 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     ] {
         sets.push((pair.to_vec(), 0.6));
     }
+    let pairs2 = [
+        ["young", "depth"],
+        ["poisson", "camera_pose"],
+        ["gravity", "point_load"],
+        ["actuator_offset", "camera_pose"],
+        ["leg_stiffness", "depth"],
+        ["young", "point_load"],
+    ];
+    for m in [0.1, 0.45, 0.9] {
+        for e in lib {
+            sets.push((vec![e], m));
+        }
+    }
+    for _ in 0..6 {
+        sets.push((vec![], 0.0));
+    }
+    for pair in pairs2 {
+        sets.push((pair.to_vec(), 0.6));
+    }
+    let only: Option<Vec<usize>> = args
+        .get(4)
+        .map(|s| s.split(',').filter_map(|v| v.parse().ok()).collect());
     let model_path = Path::new("meshes/models/robot.toml");
     let model = Model::load(model_path, None)?;
     for (i, (effects, m)) in sets.iter().enumerate() {
-        if i % count != shard {
+        let chosen = match &only {
+            Some(list) => list.contains(&i),
+            None => i % count == shard,
+        };
+        if !chosen {
             continue;
         }
         let dir = out.join(format!("ds{i:03}"));
@@ -111,13 +143,28 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let extra = claimed
             .len()
             .saturating_sub(named.iter().filter(|n| **n).count());
+        let steps: Vec<serde_json::Value> = x
+            .steps
+            .iter()
+            .map(|s| {
+                let top: Vec<String> = s
+                    .candidates
+                    .iter()
+                    .take(4)
+                    .map(|c| format!("{} k={} chi2={:.1} bic={:.1}", c.name, c.k, c.chi2, c.bic))
+                    .collect();
+                serde_json::json!({"action": s.action, "bic_current": s.bic_current, "holdout_chi2": s.holdout_chi2,
+                    "accepted": s.accepted, "top": top})
+            })
+            .collect();
         let reduced = ra <= 0.2 * rb || ra <= 1.2 * noise;
         let line = serde_json::json!({
             "dataset": i, "effects": effects, "magnitude": m, "status": status,
             "named": named, "param_rel_err": errs, "extra_effects": extra,
             "size_over_noise": size, "rms_before_mm": rb * 1e3, "rms_after_mm": ra * 1e3,
             "noise_mm": noise * 1e3, "reduced": reduced, "seconds": secs,
-            "claimed": claimed, "truth": truth.hidden,
+            "claimed": claimed, "truth": truth.hidden, "steps": steps,
+            "after_z": x.after.last().map(|a| a.z),
         });
         println!("{line}");
     }
