@@ -22,6 +22,23 @@ fn same(a: &EffectKind, b: &EffectKind) -> bool {
     a == b
 }
 
+/// CPU time of this process (user + system, s) from /proc/self/stat (Linux; NaN
+/// elsewhere): the machine is shared, so wall time alone says little.
+fn cpu_seconds() -> f64 {
+    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else {
+        return f64::NAN;
+    };
+    // Fields after the parenthesised command: utime and stime are the 12th and 13th.
+    let rest = stat.rsplit(')').next().unwrap_or("");
+    let f: Vec<f64> = rest
+        .split_whitespace()
+        .skip(11)
+        .take(2)
+        .filter_map(|v| v.parse().ok())
+        .collect();
+    f.iter().sum::<f64>() / 100.0
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     let shard: usize = args.get(1).map_or(Ok(0), |s| s.parse())?;
@@ -97,6 +114,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let truth = generate_dataset(&spec, &frames, &truth_path)?;
         let rec = load_frames(&frames)?;
         let t0 = std::time::Instant::now();
+        let c0 = cpu_seconds();
         let x = match explain(&model, &rec, &DiscrepancyParams::default()) {
             Ok(x) => x,
             Err(e) => {
@@ -105,6 +123,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
         };
         let secs = t0.elapsed().as_secs_f64();
+        let cpu = cpu_seconds() - c0;
         let (b, a) = (x.before.last().cloned(), x.after.last().cloned());
         let (rb, ra, noise) = match (b, a) {
             (Some(b), Some(a)) => (b.rms, a.rms, b.noise_rms),
@@ -162,7 +181,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "dataset": i, "effects": effects, "magnitude": m, "status": status,
             "named": named, "param_rel_err": errs, "extra_effects": extra,
             "size_over_noise": size, "rms_before_mm": rb * 1e3, "rms_after_mm": ra * 1e3,
-            "noise_mm": noise * 1e3, "reduced": reduced, "seconds": secs,
+            "noise_mm": noise * 1e3, "reduced": reduced, "seconds": secs, "cpu_seconds": cpu,
             "claimed": claimed, "truth": truth.hidden, "steps": steps,
             "after_z": x.after.last().map(|a| a.z),
         });

@@ -101,7 +101,8 @@ pub struct DiscrepancyParams {
     pub max_effects: usize,
     /// Chord (fixed-Jacobian Gauss-Newton) iterations with exact FE re-solves per step.
     pub refine_iterations: usize,
-    /// Candidates (best by the linear fit) refined exactly before choosing.
+    /// Candidates (best by the linear fit) refined exactly before choosing, besides the
+    /// best of every effect type.
     pub refine_candidates: usize,
     /// Huber threshold of the linear fits (in σ; 0 for plain least squares).
     pub huber: f64,
@@ -852,8 +853,24 @@ impl Search<'_, '_> {
             }
         }
         cands.sort_by(|a, b| a.1.bic.total_cmp(&b.1.bic));
+        // Refined: the best few by the linear fit and the best of every effect type (the
+        // linearisation about the nominal solution can rank a right effect low once a
+        // large kept effect has moved the robot, e.g. cable offsets after +40 % weight).
+        let mut seen = Vec::new();
+        let chosen: Vec<bool> = cands
+            .iter()
+            .enumerate()
+            .map(|(i, (c, _, _))| {
+                let kind = std::mem::discriminant(&wf.kinds[*c]);
+                let first = !seen.contains(&kind);
+                if first {
+                    seen.push(kind);
+                }
+                i < params.refine_candidates || first
+            })
+            .collect();
         let mut best: Option<(f64, Kept, DMatrix<f64>)> = None;
-        for (c, score, theta) in cands.iter_mut().take(params.refine_candidates) {
+        for ((c, score, theta), _) in cands.iter_mut().zip(&chosen).filter(|(_, &ch)| ch) {
             let mut trial = base.clone();
             trial.push((
                 *c,
