@@ -836,9 +836,10 @@ impl Search<'_, '_> {
             let mut idx: Vec<usize> = base.iter().map(|(k, _)| *k).collect();
             idx.push(c);
             if let Some((theta, chi2, _, _)) = wf.fit(res, self.train, &idx) {
-                let mut trial = base.clone();
-                trial.push((c, theta.clone()));
-                let k = self.k_of(&trial);
+                let kind = wf.kinds[c];
+                let k = self.k_of(&base)
+                    + kind.n_params(wf.model.problem.cables.len())
+                    + kind.choice_params();
                 cands.push((
                     c,
                     CandidateScore {
