@@ -2,7 +2,7 @@
 //! datasets, runs `explain` on each and scores the answer against the hidden truth.
 //!
 //! Usage: cargo run --example explain_acceptance -- [SHARD COUNT] [OUT_DIR] [ONLY]
-//! (runs the datasets i with i % COUNT == SHARD, or only those in the comma list ONLY;
+//! (runs the datasets i with i % COUNT == SHARD, or those in the comma list ONLY in its order;
 //! one JSON line per dataset on stdout).
 //!
 //! Dataset i has seed 100 + i. The first 28 are the original set (8 library effects at
@@ -94,14 +94,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .map(|s| s.split(',').filter_map(|v| v.parse().ok()).collect());
     let model_path = Path::new("meshes/models/robot.toml");
     let model = Model::load(model_path, None)?;
-    for (i, (effects, m)) in sets.iter().enumerate() {
-        let chosen = match &only {
-            Some(list) => list.contains(&i),
-            None => i % count == shard,
-        };
-        if !chosen {
-            continue;
-        }
+    // ONLY runs the listed datasets in the listed order (seeds stay 100 + i).
+    let order: Vec<usize> = match &only {
+        Some(list) => list.iter().copied().filter(|&i| i < sets.len()).collect(),
+        None => (0..sets.len()).filter(|i| i % count == shard).collect(),
+    };
+    for i in order {
+        let (effects, m) = &sets[i];
         let dir = out.join(format!("ds{i:03}"));
         let spec = DatasetSpec {
             model: model_path.to_path_buf(),
