@@ -11,7 +11,10 @@
 //! (finite differences of FE solves for material, gravity and actuators; compliance rows
 //! for point loads; closed forms for camera pose and depth), fitted on training frames by
 //! least squares, compared by BIC, refined with exact FE re-solves (chord iterations),
-//! and kept only if they also lower the held-out χ². Greedy: repeat for a second effect.
+//! and kept only if they also lower the held-out χ². Stepwise: add the best candidate
+//! (refitted jointly with the kept effects) while BIC and held-out χ² improve, drop kept
+//! effects a later one made redundant, then try swapping each kept effect for another
+//! candidate. Every re-solve is warm-started from the frame's nominal solution.
 //!
 //! ```
 //! use softsense::discrepancy::effects::{rotation, rotation_vector};
@@ -28,7 +31,7 @@ pub mod report;
 
 use crate::fem::constraint::{ConstraintRow, RowKind};
 use crate::fem::model::Model;
-use crate::fem::solve::{CableControl, MappedPoint, PointLoad, Problem};
+use crate::fem::solve::{CableControl, MappedPoint, PointLoad, Problem, Solution};
 use crate::register::{farthest_point_sampling, RegisterParams, Registrar};
 use crate::scene::raycast::Bvh;
 use crate::scene::FrameInput;
@@ -96,9 +99,11 @@ pub struct DiscrepancyParams {
     pub load_candidates: usize,
     /// Largest number of effects added greedily.
     pub max_effects: usize,
-    /// Chord (fixed-Jacobian Gauss-Newton) iterations with exact FE re-solves per step.
+    /// Most chord (fixed-Jacobian Gauss-Newton) iterations with exact FE re-solves per
+    /// step (they stop early once a step lowers χ² by less than 0.2 %).
     pub refine_iterations: usize,
-    /// Candidates (best by the linear fit) refined exactly before choosing.
+    /// Candidates (best by the linear fit) refined exactly before choosing, besides the
+    /// best of every effect type.
     pub refine_candidates: usize,
     /// Huber threshold of the linear fits (in σ; 0 for plain least squares).
     pub huber: f64,
@@ -121,7 +126,7 @@ impl Default for DiscrepancyParams {
             holdout_gain: 0.02,
             load_candidates: 24,
             max_effects: 3,
-            refine_iterations: 3,
+            refine_iterations: 8,
             refine_candidates: 5,
             huber: 3.0,
         }
@@ -192,16 +197,19 @@ pub struct CandidateScore {
     pub refined: bool,
 }
 
-/// One greedy step.
+/// One step of the model selection.
 #[derive(Clone, Debug, Serialize)]
 pub struct Step {
+    /// What the step tried: `add` a candidate, `swap out` a kept effect for a candidate,
+    /// or `drop` a kept effect (candidates are then the kept sets without one effect).
+    pub action: String,
     /// BIC with the effects kept so far.
     pub bic_current: f64,
     /// Candidates, best first.
     pub candidates: Vec<CandidateScore>,
-    /// Held-out χ² before and after adding the best candidate.
+    /// Held-out χ² before and after the best candidate (NaN when not tried).
     pub holdout_chi2: [f64; 2],
-    /// Whether the best candidate was kept.
+    /// Whether the best candidate was taken.
     pub accepted: bool,
 }
 
@@ -321,6 +329,8 @@ type Kept = Vec<(usize, Vec<f64>)>;
 /// Per-frame context: recorded problem, nominal solution, sensitivities.
 struct FrameCtx {
     problem: Problem,
+    /// Nominal solution (the warm start of every re-solve).
+    nominal: Solution,
     /// Sensitivity rows per candidate: [feature][param].
     sens: Vec<Vec<Vec<f64>>>,
 }
@@ -337,14 +347,24 @@ struct Workflow<'a> {
     register: RegisterParams,
 }
 
-fn solve_positions(model: &Model, p: &Problem, frame: usize) -> DiscrepancyResult<Vec<[f64; 3]>> {
-    let sol = p.solve_static(&model.newton)?;
+/// Solves a frame's problem, warm-started from the frame's nominal solution when given
+/// (the effects change it a little: Newton then needs a few iterations from there).
+fn solve_frame(
+    model: &Model,
+    p: &Problem,
+    frame: usize,
+    start: Option<&Solution>,
+) -> DiscrepancyResult<Solution> {
+    let sol = match start {
+        Some(s) => p.solve_static_from(&model.newton, s)?,
+        None => p.solve_static(&model.newton)?,
+    };
     if !sol.converged {
         return Err(DiscrepancyError::Data(format!(
             "frame {frame}: the FE solve did not converge"
         )));
     }
-    Ok(sol.positions)
+    Ok(sol)
 }
 
 impl<'a> Workflow<'a> {
@@ -400,7 +420,8 @@ impl<'a> Workflow<'a> {
 
     fn frame_ctx(&self, index: usize, input: &FrameInput) -> DiscrepancyResult<FrameCtx> {
         let problem = frame_problem(self.model, input)?;
-        let x0 = solve_positions(self.model, &problem, index)?;
+        let nominal = solve_frame(self.model, &problem, index, None)?;
+        let x0 = nominal.positions.clone();
         let pn0 = self.feature_rows(&x0);
         let dispc: Vec<bool> = problem
             .cables
@@ -471,7 +492,7 @@ impl<'a> Workflow<'a> {
                             }],
                             &self.legs,
                         )?;
-                        let xj = solve_positions(self.model, &prob, index)?;
+                        let xj = solve_frame(self.model, &prob, index, Some(&nominal))?.positions;
                         let col: Vec<f64> = self
                             .features
                             .iter()
@@ -490,25 +511,36 @@ impl<'a> Workflow<'a> {
             };
             sens.push(rows_k);
         }
-        Ok(FrameCtx { problem, sens })
+        Ok(FrameCtx {
+            problem,
+            nominal,
+            sens,
+        })
     }
 
     /// Exact residuals of frame `i` with the effects applied.
     fn residuals(&self, i: usize, effects: &[Effect]) -> DiscrepancyResult<Vec<Residual>> {
         let ctx = &self.frames[i];
-        let mut prob = ctx.problem.clone();
-        apply_model(&mut prob, effects, &self.legs)?;
-        let x = solve_positions(self.model, &prob, i)?;
+        // Measurement effects alone leave the nominal solution as it is.
+        let solved;
+        let x = if effects.iter().any(|e| e.kind.is_model()) {
+            let mut prob = ctx.problem.clone();
+            apply_model(&mut prob, effects, &self.legs)?;
+            solved = solve_frame(self.model, &prob, i, Some(&ctx.nominal))?;
+            &solved.positions
+        } else {
+            &ctx.nominal.positions
+        };
         let cam = &self.rec.camera;
         let pts = correct_points(&self.rec.frames[i].points, effects, cam);
         let registrar = Registrar::new(&pts);
-        let bvh = Bvh::new(&x, &self.triangles);
+        let bvh = Bvh::new(x, &self.triangles);
         let eye = cam.eye();
         let s = &self.rec.sensor;
         let cos_max = self.params.max_view_angle_deg.to_radians().cos();
         let mut out = Vec::new();
         for (fi, f) in self.features.iter().enumerate() {
-            let (p, n) = f.at(&x);
+            let (p, n) = f.at(x);
             let d = [0, 1, 2].map(|k| p[k] - eye[k]);
             let dl = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
             let facing = -(0..3).map(|k| n[k] * d[k]).sum::<f64>() / dl.max(1e-12);
@@ -693,6 +725,260 @@ impl<'a> Workflow<'a> {
     }
 }
 
+/// The effects kept so far with their covariance and the residuals of all frames.
+struct State {
+    kept: Kept,
+    cov: DMatrix<f64>,
+    res: Vec<Vec<Residual>>,
+}
+
+/// The model selection: BIC on training frames, confirmation on held-out frames.
+struct Search<'w, 'a> {
+    wf: &'w Workflow<'a>,
+    train: &'w [usize],
+    hold: &'w [usize],
+    ln_n: f64,
+}
+
+impl Search<'_, '_> {
+    /// Penalised parameters of a set of effects (a load's location counts as one more).
+    fn k_of(&self, kept: &[(usize, Vec<f64>)]) -> usize {
+        kept.iter()
+            .map(|(c, p)| p.len() + self.wf.kinds[*c].choice_params())
+            .sum()
+    }
+
+    fn bic(&self, chi2: f64, kept: &[(usize, Vec<f64>)]) -> f64 {
+        chi2 + self.k_of(kept) as f64 * self.ln_n
+    }
+
+    /// Chord iterations (fixed-Jacobian Gauss-Newton with exact FE re-solves and
+    /// re-registration) of all parameters of `trial` on the training frames, keeping the
+    /// best iterate (a chord step can overshoot): returns its χ² and the covariance.
+    fn refine(&self, trial: &mut Kept) -> DiscrepancyResult<(f64, DMatrix<f64>)> {
+        let wf = self.wf;
+        let idx: Vec<usize> = trial.iter().map(|(k, _)| *k).collect();
+        let mut res_t = wf.some_residuals(self.train, &wf.effects_of(trial))?;
+        let mut cov = DMatrix::zeros(0, 0);
+        let mut best_chi = wf.chi2(&res_t, self.train).0;
+        for _ in 0..wf.params.refine_iterations {
+            let Some((d, _, cv, _)) = wf.fit(&res_t, self.train, &idx) else {
+                break;
+            };
+            cov = cv;
+            let mut next = trial.clone();
+            add_increments(&mut next, &d);
+            let res_n = wf.some_residuals(self.train, &wf.effects_of(&next))?;
+            let chi = wf.chi2(&res_n, self.train).0;
+            if std::env::var_os("SOFTSENSE_DEBUG").is_some() {
+                eprintln!("refine {next:?} chi2 {chi:.1}");
+            }
+            if chi >= best_chi {
+                break;
+            }
+            // Chord steps converge linearly: stop once they no longer pay (a strongly
+            // nonlinear effect such as a Poisson ratio far below the nominal one needs
+            // several; most candidates stop after one or two).
+            let small = best_chi - chi < 2e-3 * best_chi;
+            best_chi = chi;
+            *trial = next;
+            res_t = res_n;
+            if small {
+                break;
+            }
+        }
+        Ok((best_chi, cov))
+    }
+
+    /// The state with `trial` (residuals of all frames, covariance scaled by the
+    /// training χ² per degree of freedom when above 1).
+    fn state_of(&self, trial: Kept, cov: DMatrix<f64>) -> DiscrepancyResult<State> {
+        let res = self.wf.all_residuals(&self.wf.effects_of(&trial))?;
+        let (chi_t, n_t) = self.wf.chi2(&res, self.train);
+        let scale = (chi_t / (n_t.saturating_sub(cov.nrows()).max(1)) as f64).max(1.0);
+        Ok(State {
+            kept: trial,
+            cov: cov * scale,
+            res,
+        })
+    }
+
+    /// Whether the held-out χ² of `res` is lower than the state's by the required gain.
+    fn holdout_gain(&self, state: &State, res: &[Vec<Residual>]) -> (f64, f64, bool) {
+        let (h_cur, n_hold) = self.wf.chi2(&state.res, self.hold);
+        let (h_new, _) = self.wf.chi2(res, self.hold);
+        let ok =
+            self.hold.is_empty() || h_cur - h_new > self.wf.params.holdout_gain * n_hold as f64;
+        (h_cur, h_new, ok)
+    }
+
+    /// One step: add the best candidate to the kept effects (or, with `replace`, to the
+    /// kept effects without that one: a swap), all refitted jointly. The linear fits rank
+    /// the candidates; the best few are refined exactly and the choice is made on their
+    /// exact χ². Returns the step and the new state when the step is accepted (BIC lower
+    /// by the margin and held-out χ² lower).
+    fn try_add(
+        &self,
+        state: &State,
+        replace: Option<usize>,
+    ) -> DiscrepancyResult<(Step, Option<State>)> {
+        let wf = self.wf;
+        let params = wf.params;
+        let bic_current = self.bic(wf.chi2(&state.res, self.train).0, &state.kept);
+        let mut base = state.kept.clone();
+        let (action, base_res) = match replace {
+            None => ("add".to_string(), None),
+            Some(j) => {
+                let (c, _) = base.remove(j);
+                let res = wf.some_residuals(self.train, &wf.effects_of(&base))?;
+                (format!("swap out {}", wf.kinds[c].name()), Some((c, res)))
+            }
+        };
+        let res = base_res.as_ref().map_or(&state.res, |(_, r)| r);
+        let removed = base_res.as_ref().map(|(c, _)| *c);
+        let mut cands: Vec<(usize, CandidateScore, Vec<f64>)> = Vec::new();
+        for c in 0..wf.kinds.len() {
+            if base.iter().any(|(k, _)| *k == c) || removed == Some(c) {
+                continue;
+            }
+            let mut idx: Vec<usize> = base.iter().map(|(k, _)| *k).collect();
+            idx.push(c);
+            if let Some((theta, chi2, _, _)) = wf.fit(res, self.train, &idx) {
+                let kind = wf.kinds[c];
+                let k = self.k_of(&base)
+                    + kind.n_params(wf.model.problem.cables.len())
+                    + kind.choice_params();
+                cands.push((
+                    c,
+                    CandidateScore {
+                        name: wf.kinds[c].name(),
+                        k,
+                        chi2,
+                        bic: chi2 + k as f64 * self.ln_n,
+                        refined: false,
+                    },
+                    theta,
+                ));
+            }
+        }
+        cands.sort_by(|a, b| a.1.bic.total_cmp(&b.1.bic));
+        // Refined: the best few by the linear fit and the best of every effect type (the
+        // linearisation about the nominal solution can rank a right effect low once a
+        // large kept effect has moved the robot, e.g. cable offsets after +40 % weight).
+        let mut seen = Vec::new();
+        let chosen: Vec<bool> = cands
+            .iter()
+            .enumerate()
+            .map(|(i, (c, _, _))| {
+                let kind = std::mem::discriminant(&wf.kinds[*c]);
+                let first = !seen.contains(&kind);
+                if first {
+                    seen.push(kind);
+                }
+                i < params.refine_candidates || first
+            })
+            .collect();
+        let mut best: Option<(f64, Kept, DMatrix<f64>)> = None;
+        for ((c, score, theta), _) in cands.iter_mut().zip(&chosen).filter(|(_, &ch)| ch) {
+            let mut trial = base.clone();
+            trial.push((
+                *c,
+                vec![0.0; wf.kinds[*c].n_params(wf.model.problem.cables.len())],
+            ));
+            add_increments(&mut trial, theta);
+            score.refined = true;
+            // A trial the FE model cannot solve (absurd parameters) is not a candidate.
+            let Ok((chi2, cov)) = self.refine(&mut trial) else {
+                score.chi2 = f64::INFINITY;
+                score.bic = f64::INFINITY;
+                continue;
+            };
+            score.chi2 = chi2;
+            score.bic = chi2 + score.k as f64 * self.ln_n;
+            if best.as_ref().is_none_or(|b| score.bic < b.0) {
+                best = Some((score.bic, trial, cov));
+            }
+        }
+        cands.sort_by(|a, b| {
+            b.1.refined
+                .cmp(&a.1.refined)
+                .then(a.1.bic.total_cmp(&b.1.bic))
+        });
+        let mut step = Step {
+            action,
+            bic_current,
+            candidates: cands.iter().map(|c| c.1.clone()).collect(),
+            holdout_chi2: [wf.chi2(&state.res, self.hold).0, f64::NAN],
+            accepted: false,
+        };
+        let Some((best_bic, trial, cov)) = best else {
+            return Ok((step, None));
+        };
+        if best_bic > bic_current - params.bic_margin {
+            return Ok((step, None));
+        }
+        let next = self.state_of(trial, cov)?;
+        let (_, h_new, ok) = self.holdout_gain(state, &next.res);
+        step.holdout_chi2[1] = h_new;
+        step.accepted = ok;
+        Ok((step, ok.then_some(next)))
+    }
+
+    /// Drops kept effects whose removal (the others refitted) lowers the BIC without
+    /// raising the held-out χ² by more than the holdout gain.
+    fn prune(&self, state: &mut State, steps: &mut Vec<Step>) -> DiscrepancyResult<()> {
+        let wf = self.wf;
+        while state.kept.len() >= 2 {
+            let bic_current = self.bic(wf.chi2(&state.res, self.train).0, &state.kept);
+            let mut scores = Vec::new();
+            let mut best: Option<(f64, Kept, DMatrix<f64>)> = None;
+            for j in 0..state.kept.len() {
+                let mut trial = state.kept.clone();
+                let (c, _) = trial.remove(j);
+                let Ok((chi2, cov)) = self.refine(&mut trial) else {
+                    continue;
+                };
+                let bic = self.bic(chi2, &trial);
+                scores.push(CandidateScore {
+                    name: format!("without {}", wf.kinds[c].name()),
+                    k: self.k_of(&trial),
+                    chi2,
+                    bic,
+                    refined: true,
+                });
+                if best.as_ref().is_none_or(|b| bic < b.0) {
+                    best = Some((bic, trial, cov));
+                }
+            }
+            scores.sort_by(|a, b| a.bic.total_cmp(&b.bic));
+            let mut step = Step {
+                action: "drop".into(),
+                bic_current,
+                candidates: scores,
+                holdout_chi2: [wf.chi2(&state.res, self.hold).0, f64::NAN],
+                accepted: false,
+            };
+            let Some((bic, trial, cov)) = best.filter(|b| b.0 < bic_current) else {
+                steps.push(step);
+                return Ok(());
+            };
+            let _ = bic;
+            let next = self.state_of(trial, cov)?;
+            let (h_cur, h_new, _) = self.holdout_gain(state, &next.res);
+            let (_, n_hold) = wf.chi2(&state.res, self.hold);
+            step.holdout_chi2[1] = h_new;
+            step.accepted = h_new <= h_cur + wf.params.holdout_gain * n_hold as f64;
+            let accepted = step.accepted;
+            steps.push(step);
+            if !accepted {
+                return Ok(());
+            }
+            *state = next;
+        }
+        Ok(())
+    }
+}
+
 fn significant(stats: &[RegionStats], z: f64) -> Vec<String> {
     let mut v: Vec<&RegionStats> = stats[..stats.len().saturating_sub(1)]
         .iter()
@@ -721,137 +1007,62 @@ pub fn explain(
     let before = wf.stats(&res0, hold);
     let all: Vec<usize> = (0..rec.frames.len()).collect();
     let start = wf.stats(&res0, &all);
-    let mut kept: Vec<(usize, Vec<f64>)> = Vec::new();
-    let mut cov_kept = DMatrix::<f64>::zeros(0, 0);
-    let mut res = res0.clone();
+    let search = Search {
+        wf: &wf,
+        train,
+        hold,
+        ln_n: (wf.chi2(&res0, train).1.max(2) as f64).ln(),
+    };
+    let mut state = State {
+        kept: Vec::new(),
+        cov: DMatrix::<f64>::zeros(0, 0),
+        res: res0.clone(),
+    };
     let mut steps = Vec::new();
     let at_floor = |s: &[RegionStats]| {
         significant(s, params.z_significant).is_empty()
             && s.last().is_some_and(|a| a.z <= params.z_significant)
     };
     if !at_floor(&start) {
-        while kept.len() < params.max_effects {
-            let (chi_cur, n) = wf.chi2(&res, train);
-            let ln_n = (n.max(2) as f64).ln();
-            let k_cur: usize = kept
-                .iter()
-                .map(|(c, p)| p.len() + wf.kinds[*c].choice_params())
-                .sum();
-            let bic_current = chi_cur + k_cur as f64 * ln_n;
-            let mut cands: Vec<(usize, CandidateScore, Vec<f64>)> = Vec::new();
-            for c in 0..wf.kinds.len() {
-                if kept.iter().any(|(k, _)| *k == c) {
-                    continue;
-                }
-                let mut idx: Vec<usize> = kept.iter().map(|(k, _)| *k).collect();
-                idx.push(c);
-                if let Some((theta, chi2, _, _)) = wf.fit(&res, train, &idx) {
-                    let kept_params: usize = kept.iter().map(|(_, p)| p.len()).sum();
-                    let k = k_cur + theta.len() - kept_params + wf.kinds[c].choice_params();
-                    cands.push((
-                        c,
-                        CandidateScore {
-                            name: wf.kinds[c].name(),
-                            k,
-                            chi2,
-                            bic: chi2 + k as f64 * ln_n,
-                            refined: false,
-                        },
-                        theta,
-                    ));
-                }
-            }
-            cands.sort_by(|a, b| a.1.bic.total_cmp(&b.1.bic));
-            // The linear fits rank the candidates; the best few are refined with exact FE
-            // re-solves and re-registration (chord iterations) on the training frames, and
-            // the choice is made on their exact χ².
-            let mut best: Option<(f64, Kept, DMatrix<f64>)> = None;
-            for (c, score, theta) in cands.iter_mut().take(params.refine_candidates) {
-                let mut trial: Vec<(usize, Vec<f64>)> = kept.clone();
-                trial.push((
-                    *c,
-                    vec![0.0; wf.kinds[*c].n_params(model.problem.cables.len())],
-                ));
-                add_increments(&mut trial, theta);
-                let idx: Vec<usize> = trial.iter().map(|(k, _)| *k).collect();
-                // A trial the FE model cannot solve (absurd parameters) is not a candidate.
-                let refine = |trial: &mut Vec<(usize, Vec<f64>)>| -> DiscrepancyResult<(Vec<Vec<Residual>>, DMatrix<f64>)> {
-                    let mut res_t = wf.some_residuals(train, &wf.effects_of(trial))?;
-                    let mut cov = DMatrix::zeros(0, 0);
-                    // Keep the best iterate: a chord step can overshoot.
-                    let mut best_chi = wf.chi2(&res_t, train).0;
-                    for _ in 0..params.refine_iterations {
-                        let Some((d, _, cv, _)) = wf.fit(&res_t, train, &idx) else { break };
-                        cov = cv;
-                        let mut next = trial.clone();
-                        add_increments(&mut next, &d);
-                        let res_n = wf.some_residuals(train, &wf.effects_of(&next))?;
-                        let chi = wf.chi2(&res_n, train).0;
-                        if std::env::var_os("SOFTSENSE_DEBUG").is_some() {
-                            eprintln!("refine {next:?} chi2 {chi:.1}");
-                        }
-                        if chi >= best_chi {
-                            break;
-                        }
-                        best_chi = chi;
-                        *trial = next;
-                        res_t = res_n;
-                    }
-                    Ok((res_t, cov))
-                };
-                let Ok((res_t, cov)) = refine(&mut trial) else {
-                    score.chi2 = f64::INFINITY;
-                    score.bic = f64::INFINITY;
-                    score.refined = true;
-                    continue;
-                };
-                let (chi2, _) = wf.chi2(&res_t, train);
-                score.chi2 = chi2;
-                score.bic = chi2 + score.k as f64 * ln_n;
-                score.refined = true;
-                if best.as_ref().is_none_or(|b| score.bic < b.0) {
-                    best = Some((score.bic, trial, cov));
-                }
-            }
-            cands.sort_by(|a, b| {
-                b.1.refined
-                    .cmp(&a.1.refined)
-                    .then(a.1.bic.total_cmp(&b.1.bic))
-            });
-            let Some((best_bic, trial, cov)) = best else {
-                break;
-            };
-            let mut step = Step {
-                bic_current,
-                candidates: cands.iter().map(|c| c.1.clone()).collect(),
-                holdout_chi2: [wf.chi2(&res, hold).0, f64::NAN],
-                accepted: false,
-            };
-            if best_bic > bic_current - params.bic_margin {
-                steps.push(step);
-                break;
-            }
-            let res_t = wf.all_residuals(&wf.effects_of(&trial))?;
-            let (h_new, n_hold) = wf.chi2(&res_t, hold);
-            step.holdout_chi2[1] = h_new;
-            let gain_ok = hold.is_empty()
-                || step.holdout_chi2[0] - h_new > params.holdout_gain * n_hold as f64;
-            if !gain_ok {
-                steps.push(step);
-                break;
-            }
-            step.accepted = true;
+        // Forward: add the best candidate (refitted jointly with the kept ones) while it
+        // lowers the BIC and the held-out χ²; after each addition drop kept effects the
+        // new one made redundant (a wrong first pick that absorbed part of two effects).
+        while state.kept.len() < params.max_effects {
+            let (step, accepted) = search.try_add(&state, None)?;
             steps.push(step);
-            let (chi_t, n_t) = wf.chi2(&res_t, train);
-            let scale = (chi_t / (n_t.saturating_sub(cov.nrows()).max(1)) as f64).max(1.0);
-            cov_kept = cov * scale;
-            kept = trial;
-            res = res_t;
-            if at_floor(&wf.stats(&res, &all)) {
+            let Some(next) = accepted else { break };
+            state = next;
+            search.prune(&mut state, &mut steps)?;
+            if at_floor(&wf.stats(&state.res, &all)) {
+                break;
+            }
+        }
+        // Swap: replace a kept effect by another candidate when that lowers the BIC (the
+        // forward order can lock in an effect that only mimics the missing one).
+        let mut rounds = 0;
+        while state.kept.len() >= 2 && rounds < params.max_effects {
+            rounds += 1;
+            let mut swapped = false;
+            for j in 0..state.kept.len() {
+                let (step, accepted) = search.try_add(&state, Some(j))?;
+                steps.push(step);
+                if let Some(next) = accepted {
+                    state = next;
+                    search.prune(&mut state, &mut steps)?;
+                    swapped = true;
+                    break;
+                }
+            }
+            if !swapped {
                 break;
             }
         }
     }
+    let State {
+        kept,
+        cov: cov_kept,
+        res,
+    } = state;
     let after = wf.stats(&res, hold);
     let mut fitted = Vec::new();
     let mut o = 0;

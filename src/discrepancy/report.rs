@@ -170,12 +170,13 @@ pub fn markdown(x: &Explanation) -> String {
         x.features.len()
     );
     stats_table(&mut s, &x.before, &x.after);
-    s.push_str("\n## Greedy steps (candidates by BIC, best first)\n\n");
+    s.push_str("\n## Selection steps (candidates by BIC, best first)\n\n");
     for (i, st) in x.steps.iter().enumerate() {
         let _ = writeln!(
             s,
-            "Step {}: BIC with the effects kept so far {:.1}; held-out χ² {:.1} → {:.1}; {}\n\n| candidate | k | χ² | BIC | exact |\n| --- | --- | --- | --- | --- |",
+            "Step {} ({}): BIC with the effects kept so far {:.1}; held-out χ² {:.1} → {:.1}; {}\n\n| candidate | k | χ² | BIC | exact |\n| --- | --- | --- | --- | --- |",
             i + 1,
+            st.action,
             st.bic_current,
             st.holdout_chi2[0],
             st.holdout_chi2[1],
