@@ -445,6 +445,18 @@ pub enum FrameStatus {
     NotSolved(String),
 }
 
+impl std::fmt::Display for FrameStatus {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            FrameStatus::Sensed => write!(f, "sensed"),
+            FrameStatus::NoRobot => write!(f, "no robot (too few points of the robot's colour)"),
+            FrameStatus::NoFeatures => write!(f, "no feature point registered"),
+            FrameStatus::Unreadable(e) => write!(f, "unreadable: {e}"),
+            FrameStatus::NotSolved(e) => write!(f, "not solved: {e}"),
+        }
+    }
+}
+
 /// One estimated force.
 #[derive(Clone, Debug, Serialize)]
 pub struct ForceEstimate {

@@ -132,10 +132,7 @@ pub fn run(args: &SenseArgs) -> CliResult {
 }
 
 fn print_human(r: &FrameReport) {
-    let status = match &r.status {
-        FrameStatus::Sensed => "sensed".to_string(),
-        other => format!("{other:?}"),
-    };
+    let status = r.status.to_string();
     println!(
         "frame {:>4}: {status}, robot {} pts, objects {} pts, features {}/{}, residual {:.3} mm, {} FE updates, {:.0} ms",
         r.frame,

@@ -162,4 +162,9 @@ fn bad_frames_get_their_own_status_and_the_stream_goes_on() {
         frames[3]
     );
     assert!(stderr.contains("1/4 frames sensed"), "{stderr}");
+    // The human-readable stream says the same in words.
+    let out = sense(&[dir.path().to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("frame    1: no robot"), "{text}");
+    assert!(text.contains("frame    3: unreadable: "), "{text}");
 }
