@@ -96,7 +96,7 @@ fn errors_with_young_scaled(scale: f64) -> Vec<(f64, f64, f64, f64)> {
 }
 
 #[test]
-fn a_wrong_youngs_modulus_shows_in_the_residual_and_its_force_errors_are_reported() {
+fn a_wrong_youngs_modulus_gives_force_errors_that_grow_with_its_error_on_each_side() {
     // Thesis section 4.6.3 (Tables 4.2-4.3): the inverse model's E at 280, 260 and 240 kPa
     // against a true 300 kPa, i.e. 7%, 13% and 20% low; and as much too high. The errors
     // are printed (README table). What must hold: the right model is best, and the force
