@@ -5,7 +5,7 @@
 //! Usage: cargo run --example explain_diag -- DATASET_DIR (as written by explain_acceptance)
 use softsense::discrepancy::data::load_frames;
 use softsense::discrepancy::effects::Effect;
-use softsense::discrepancy::generate::{layout, DatasetTruth, Hidden};
+use softsense::discrepancy::generate::{layout, DatasetTruth};
 use softsense::discrepancy::{evaluate, DiscrepancyParams};
 use softsense::fem::model::Model;
 use std::path::PathBuf;
@@ -17,14 +17,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let model = Model::load(&truth.spec.model, None)?;
     let rec = load_frames(&frames)?;
     let params = DiscrepancyParams::default();
-    let lib: Vec<Effect> = truth
-        .hidden
-        .iter()
-        .filter_map(|h| match h {
-            Hidden::Library(e) => Some(e.clone()),
-            _ => None,
-        })
-        .collect();
+    let lib: Vec<Effect> = truth.library_effects();
     let mut sets: Vec<(String, Vec<Effect>)> =
         vec![("none".into(), vec![]), ("truth".into(), lib.clone())];
     for e in &lib {

@@ -1,7 +1,7 @@
 //! Diagnostic: residual statistics of a hidden-effect dataset at nominal and at the truth.
 //! Usage: cargo run --example explain_probe -- DATASET_DIR [MODEL]
 use softsense::discrepancy::data::load_frames;
-use softsense::discrepancy::generate::{layout, DatasetTruth, Hidden};
+use softsense::discrepancy::generate::{layout, DatasetTruth};
 use softsense::discrepancy::{evaluate, DiscrepancyParams};
 use softsense::fem::model::Model;
 use std::path::PathBuf;
@@ -17,14 +17,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (frames, truth) = layout(&dir);
     let rec = load_frames(&frames)?;
     let truth: DatasetTruth = serde_json::from_str(&std::fs::read_to_string(truth)?)?;
-    let effects: Vec<_> = truth
-        .hidden
-        .iter()
-        .filter_map(|h| match h {
-            Hidden::Library(e) => Some(e.clone()),
-            _ => None,
-        })
-        .collect();
+    let effects = truth.library_effects();
     let p = DiscrepancyParams::default();
     let mut cases = vec![
         ("nominal".to_string(), vec![]),

@@ -105,6 +105,19 @@ pub struct DatasetTruth {
     pub applied: Vec<FrameInput>,
 }
 
+impl DatasetTruth {
+    /// The hidden effects that are in the library (out-of-library ones left out).
+    pub fn library_effects(&self) -> Vec<Effect> {
+        self.hidden
+            .iter()
+            .filter_map(|h| match h {
+                Hidden::Library(e) => Some(e.clone()),
+                _ => None,
+            })
+            .collect()
+    }
+}
+
 struct Rng {
     seed: u64,
     n: u64,
