@@ -1,5 +1,6 @@
 //! Pass-through (PCL `PassThrough`) and the axis-aligned crop box (Open3D `crop`).
 
+use super::mask::Mask;
 use super::{FilterError, FilterOutput};
 use crate::cloud::PointCloud;
 use serde::{Deserialize, Serialize};
@@ -169,7 +170,8 @@ pub fn pass_through_into(
     params: &PassThroughParams,
     out: &mut FilterOutput,
 ) -> Result<(), FilterError> {
-    pass_through_indices_into(cloud, params, &mut out.indices)?;
+    let mask = pass_through_mask(cloud, params)?;
+    mask.indices_into(&mut out.indices);
     let indices = &out.indices;
     if params.keep_organized {
         out.cloud.clone_from(cloud);
@@ -184,7 +186,7 @@ pub fn pass_through_into(
     } else if indices.len() == cloud.len() {
         out.cloud.clone_from(cloud);
     } else {
-        cloud.select_into(indices, &mut out.cloud);
+        mask.select_into(cloud, &mut out.cloud);
     }
     Ok(())
 }
@@ -197,17 +199,37 @@ pub fn pass_through_indices_into(
     params: &PassThroughParams,
     out: &mut Vec<usize>,
 ) -> Result<(), FilterError> {
+    pass_through_mask(cloud, params)?.indices_into(out);
+    Ok(())
+}
+
+/// The points [`pass_through`] keeps, as a bit mask.
+fn pass_through_mask(cloud: &PointCloud, params: &PassThroughParams) -> Result<Mask, FilterError> {
     cloud.validate()?;
     let pos = &cloud.positions;
     let (lo, hi, negative) = (params.min, params.max, params.negative);
     // Non-short-circuit `&`: no branches, so the per-64-points mask loop stays straight.
     let test = |v: f32| finite(v) & ((lo <= v) & (v <= hi) != negative);
     let point_ok = |p: &[f32; 3]| finite(p[0]) & finite(p[1]) & finite(p[2]);
-    match params.field {
-        None => indices_where(pos, point_ok, out),
+    // `-MAX ≤ v ≤ MAX` is `v.is_finite()`, and `finite(v) & lo ≤ v ≤ hi` is
+    // `max(lo, -MAX) ≤ v ≤ min(hi, MAX)` (a NaN bound stays NaN: nothing passes).
+    let finite_within = |lo: f32, hi: f32| {
+        let clamp = |b: f32, f: fn(f32, f32) -> f32, l: f32| if b.is_nan() { b } else { f(b, l) };
+        (
+            clamp(lo, f32::max, -f32::MAX),
+            clamp(hi, f32::min, f32::MAX),
+        )
+    };
+    Ok(match params.field {
+        None => Mask::in_box(pos, [-f32::MAX; 3], [f32::MAX; 3], false),
+        Some(field @ (Field::X | Field::Y | Field::Z)) if !negative => {
+            let (mut lo3, mut hi3) = ([-f32::MAX; 3], [f32::MAX; 3]);
+            (lo3[field as usize], hi3[field as usize]) = finite_within(lo, hi);
+            Mask::in_box(pos, lo3, hi3, false)
+        }
         Some(field @ (Field::X | Field::Y | Field::Z)) => {
             let a = field as usize;
-            indices_where(pos, |p| point_ok(p) & test(p[a]), out)
+            Mask::from_fn(pos, |p| point_ok(p) & test(p[a]))
         }
         Some(field) => {
             let values = field.values(cloud)?;
@@ -216,10 +238,9 @@ pub fn pass_through_indices_into(
                 .zip(&values)
                 .map(|(p, &v)| point_ok(p) & test(v))
                 .collect();
-            indices_where(&ok, |&k| k, out)
+            Mask::from_fn(&ok, |&k| k)
         }
-    }
-    Ok(())
+    })
 }
 
 /// `v.is_finite()` as a bit test (no branch).
@@ -267,8 +288,9 @@ pub fn crop_box_into(
     out: &mut FilterOutput,
 ) -> Result<(), FilterError> {
     cloud.validate()?;
-    crop_box_indices_into(&cloud.positions, params, &mut out.indices)?;
-    cloud.select_into(&out.indices, &mut out.cloud);
+    let mask = crop_box_mask(&cloud.positions, params)?;
+    mask.indices_into(&mut out.indices);
+    mask.select_into(cloud, &mut out.cloud);
     Ok(())
 }
 
@@ -284,90 +306,27 @@ pub fn crop_box_indices(
 }
 
 /// [`crop_box_indices`] into `out` (cleared first, its allocation reused).
-///
-/// PERF: the `f64` bounds are replaced by the equivalent `f32` bounds (the smallest
-/// `f32` ≥ `min`, the largest `f32` ≤ `max`), so the test is exact in `f32`.
 pub fn crop_box_indices_into(
     positions: &[[f32; 3]],
     params: &CropBoxParams,
     out: &mut Vec<usize>,
 ) -> Result<(), FilterError> {
+    crop_box_mask(positions, params)?.indices_into(out);
+    Ok(())
+}
+
+/// The points [`crop_box`] keeps, as a bit mask.
+///
+/// PERF: the `f64` bounds are replaced by the equivalent `f32` bounds (the smallest
+/// `f32` ≥ `min`, the largest `f32` ≤ `max`), so the test is exact in `f32`.
+fn crop_box_mask(positions: &[[f32; 3]], params: &CropBoxParams) -> Result<Mask, FilterError> {
     let (lo, hi) = (params.min, params.max);
     if (0..3).any(|a| lo[a].is_nan() || hi[a].is_nan() || lo[a] > hi[a]) {
         return Err(FilterError::InvalidBox { min: lo, max: hi });
     }
     let lo32: [f32; 3] = std::array::from_fn(|a| f32_at_least(lo[a]));
     let hi32: [f32; 3] = std::array::from_fn(|a| f32_at_most(hi[a]));
-    let invert = params.invert;
-    indices_where(
-        positions,
-        |p| {
-            let inside = (lo32[0] <= p[0])
-                & (p[0] <= hi32[0])
-                & (lo32[1] <= p[1])
-                & (p[1] <= hi32[1])
-                & (lo32[2] <= p[2])
-                & (p[2] <= hi32[2]);
-            inside != invert
-        },
-        out,
-    );
-    Ok(())
-}
-
-/// Points per parallel chunk of [`indices_where`]; smaller inputs run on one thread.
-const CHUNK: usize = 1 << 15;
-
-/// `*out = (0..n).filter(|&i| keep(&items[i])).collect()`, reusing `out`'s allocation.
-///
-/// PERF: `keep` is evaluated for 64 points at a time into a bit mask (a loop without
-/// branches or stores that the compiler can vectorise), then the mask's set bits are
-/// written out. A reused `out` is not cleared first: every slot below the final length
-/// is written before it is kept. With rayon, chunks of [`CHUNK`] points are compacted in
-/// place in parallel, each at its own offset, then moved together in chunk order, so
-/// the result does not depend on the thread count.
-fn indices_where<T: Sync>(items: &[T], keep: impl Fn(&T) -> bool + Sync, out: &mut Vec<usize>) {
-    let n = items.len();
-    if out.len() < n {
-        out.resize(n, 0);
-    } else {
-        out.truncate(n);
-    }
-    let compact = |start: usize, dst: &mut [usize]| -> usize {
-        let mut m = 0;
-        let chunk = &items[start..start + dst.len()];
-        for (b, block) in chunk.chunks(64).enumerate() {
-            let mut mask = 0u64;
-            for (k, item) in block.iter().enumerate() {
-                mask |= u64::from(keep(item)) << k;
-            }
-            let base = start + 64 * b;
-            while mask != 0 {
-                dst[m] = base + mask.trailing_zeros() as usize; // m ≤ that - start
-                m += 1;
-                mask &= mask - 1;
-            }
-        }
-        m
-    };
-    #[cfg(feature = "parallel")]
-    if n > CHUNK {
-        use rayon::prelude::*;
-        let counts: Vec<usize> = out
-            .par_chunks_mut(CHUNK)
-            .enumerate()
-            .map(|(c, dst)| compact(c * CHUNK, dst))
-            .collect();
-        let mut m = counts[0];
-        for (c, &k) in counts.iter().enumerate().skip(1) {
-            out.copy_within(c * CHUNK..c * CHUNK + k, m);
-            m += k;
-        }
-        out.truncate(m);
-        return;
-    }
-    let m = compact(0, out);
-    out.truncate(m);
+    Ok(Mask::in_box(positions, lo32, hi32, params.invert))
 }
 
 /// The smallest `f32` whose value is ≥ `v` (`v` not NaN); `x as f64 >= v` ⇔ `x >= it`.

@@ -24,6 +24,7 @@
 //! ```
 
 mod crop;
+mod mask;
 mod outlier;
 mod voxel;
 

@@ -48,6 +48,18 @@ fn with_attributes(pos: Vec<[f32; 3]>) -> PointCloud {
     c
 }
 
+/// Clouds equal with positions compared bit for bit (NaN points included).
+fn same_bits(a: &PointCloud, b: &PointCloud) -> bool {
+    let bits = |c: &PointCloud| -> Vec<[u32; 3]> {
+        c.positions.iter().map(|p| p.map(f32::to_bits)).collect()
+    };
+    let rest = |c: &PointCloud| PointCloud {
+        positions: Vec::new(),
+        ..c.clone()
+    };
+    bits(a) == bits(b) && rest(a) == rest(b)
+}
+
 fn finite(p: &[f32; 3]) -> bool {
     p.iter().all(|c| c.is_finite())
 }
@@ -222,6 +234,53 @@ proptest! {
         let got = statistical_outlier_removal(&cloud, &StatisticalOutlierParams { k, std_ratio: ratio, mode: OutlierMode::Open3d, ..Default::default() }).unwrap();
         // A k-th neighbour tie in f32 vs f64 cannot change the sum of distances, so exact.
         prop_assert_eq!(got.indices, want);
+    }
+
+    #[test]
+    fn selecting_filters_match_brute_force_on_runs_of_kept_and_removed_points(
+        runs in prop::collection::vec((1usize..90, 0u8..5), 0..12),
+        lo in -0.3f32..0.1, w in 0.0f32..0.5, axis in 0usize..3, negative in any::<bool>(),
+        infinite_bounds in any::<bool>(),
+    ) {
+        // Runs as in a depth frame (rows of valid depth between NaN holes) crossing the
+        // 64-point mask words, plus infinite coordinates, which only a test of every axis
+        // (not of z alone) rejects.
+        let mut pos = Vec::new();
+        for (k, &(len, kind)) in runs.iter().enumerate() {
+            for i in 0..len {
+                let t = ((k * 131 + i * 17) % 97) as f32 / 97.0 - 0.5;
+                pos.push(match kind {
+                    0 => [f32::NAN; 3],
+                    1 => [t, -t, 0.5 * t],
+                    2 => [t, 0.1, 0.1],
+                    3 => [[f32::INFINITY, 0.0, 0.0], [0.0, f32::NEG_INFINITY, 0.0], [0.0, 0.0, f32::INFINITY]][i % 3],
+                    _ => [0.2 * t, 0.05, t],
+                });
+            }
+        }
+        let cloud = with_attributes(pos.clone());
+        let field = [Field::X, Field::Y, Field::Z][axis];
+        let (lo, hi) = if infinite_bounds { (f32::NEG_INFINITY, f32::INFINITY) } else { (lo, lo + w) };
+        let p = PassThroughParams { negative, ..PassThroughParams::new(field, lo, hi) };
+        let want: Vec<usize> = (0..pos.len()).filter(|&i| {
+            let v = pos[i][axis];
+            finite(&pos[i]) && ((lo <= v && v <= hi) != negative)
+        }).collect();
+        let out = pass_through(&cloud, &p).unwrap();
+        prop_assert_eq!(&out.indices, &want);
+        if want.len() < pos.len() {
+            prop_assert!(same_bits(&out.cloud, &cloud.select(&want)));
+        }
+        let all_finite = pass_through(&cloud, &PassThroughParams::default()).unwrap();
+        prop_assert_eq!(all_finite.indices, (0..pos.len()).filter(|&i| finite(&pos[i])).collect::<Vec<_>>());
+        let b = CropBoxParams { min: [lo as f64; 3], max: [hi as f64; 3], invert: negative };
+        let want: Vec<usize> = (0..pos.len()).filter(|&i| {
+            let inside = pos[i].iter().all(|&c| b.min[0] <= c as f64 && c as f64 <= b.max[0]);
+            inside != negative
+        }).collect();
+        let out = crop_box(&cloud, &b).unwrap();
+        prop_assert_eq!(&out.indices, &want);
+        prop_assert!(same_bits(&out.cloud, &cloud.select(&want)));
     }
 
     #[test]
