@@ -13,7 +13,7 @@
 use crate::cloud::PointCloud;
 
 /// Points per parallel chunk (a multiple of 64); smaller inputs run on one thread.
-const CHUNK: usize = 1 << 16;
+const CHUNK: usize = 1 << 14;
 
 /// A tested cloud: one bit per point, and how many bits are set per chunk of [`CHUNK`].
 #[derive(Debug, Default)]
