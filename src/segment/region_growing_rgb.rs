@@ -483,21 +483,13 @@ fn find(parent: &mut [u32], mut x: u32) -> u32 {
     root
 }
 
-/// One entry of a region's neighbour heap: nearest first, ties by insertion order.
-type HeapEntry = Reverse<(OrdF32, u64, u32)>;
+/// One entry of a region's neighbour heap, nearest first, ties by insertion order: the
+/// squared distance's bits (a distance is `≥ +0`, so its bits order like its value),
+/// the insertion number and the segment, packed so that one comparison orders them.
+type HeapEntry = Reverse<u128>;
 
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct OrdF32(f32);
-impl PartialOrd for OrdF32 {
-    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
-        Some(self.cmp(other))
-    }
-}
-impl Eq for OrdF32 {}
-impl Ord for OrdF32 {
-    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
-        self.0.total_cmp(&other.0)
-    }
+fn heap_entry(d: f32, seq: u64, t: u32) -> HeapEntry {
+    Reverse(((d.to_bits() as u128) << 96) | ((seq as u128) << 32) | t as u128)
 }
 
 /// PCL's step 8. Each region's neighbour list (segments outside the region, with their
@@ -511,7 +503,7 @@ fn small_region_merge(
     min_size: u64,
 ) {
     let n_reg = region_count.len();
-    let mut heaps: Vec<BinaryHeap<HeapEntry>> = (0..n_reg).map(|_| BinaryHeap::new()).collect();
+    let mut entries: Vec<Vec<HeapEntry>> = vec![Vec::new(); n_reg];
     let mut seq = 0u64;
     // PCL concatenates the segments' lists region by region, in segment order.
     // PERF: sizes only grow, so a region at least `min_size` large is never examined:
@@ -524,11 +516,13 @@ fn small_region_merge(
         }
         for &(d, t) in list {
             if seg_region[t as usize] != r {
-                heaps[r as usize].push(Reverse((OrdF32(d), seq, t)));
+                entries[r as usize].push(heap_entry(d, seq, t));
                 seq += 1;
             }
         }
     }
+    // PERF: one linear heapify per region instead of a push per entry.
+    let mut heaps: Vec<BinaryHeap<HeapEntry>> = entries.into_iter().map(BinaryHeap::from).collect();
     for r in 0..n_reg {
         if region_count[r] >= min_size {
             continue;
@@ -536,10 +530,10 @@ fn small_region_merge(
         // Nearest entry whose segment is not in r (r is a root: only earlier regions
         // have merged away).
         let target = loop {
-            let Some(Reverse((_, _, t))) = heaps[r].peek() else {
+            let Some(&Reverse(e)) = heaps[r].peek() else {
                 break None;
             };
-            let owner = find(parent, seg_region[*t as usize]);
+            let owner = find(parent, seg_region[e as u32 as usize]);
             if owner as usize == r {
                 heaps[r].pop();
             } else {
