@@ -156,7 +156,12 @@ struct KLists {
     ids: Vec<u32>,
     /// Growth candidates at the start of each row.
     grow: Vec<u16>,
+    /// A copy of one K list for selecting in it.
+    scratch: Vec<u64>,
 }
+
+/// Most colour-compatible neighbours whose ranks in a K list are counted one by one.
+const RANK_DIRECTLY: usize = 8;
 
 /// Step 3 for the segments `range`: for each, every other segment seen in its points'
 /// K lists with the smallest squared distance, the K nearest kept, stored descending by
@@ -257,7 +262,7 @@ pub fn region_growing_rgb(
     // point and neighbour; PCL stores 8). The first `grow_n` of a K list are the
     // `grow_n` nearest (the order is total); the growth only needs them as a set
     // filtered by the point colour test (which points it reaches does not depend on
-    // their order), so they are moved to the front, filtered, with their number.
+    // their order), so those are moved to the front, and their number kept.
     let par = params.parallelism;
     let search = KnnSearch::new(&pts, params.region_neighbours);
     let k = search.k();
@@ -268,30 +273,50 @@ pub fn region_growing_rgb(
             rows: Vec::new(),
             ids: Vec::new(),
             grow: Vec::new(),
+            scratch: Vec::new(),
         },
         |out: &mut KLists, i, words| {
-            if grow_n > 0 && grow_n < words.len() {
-                words.select_nth_unstable(grow_n - 1);
-            }
             let c = cols[i as usize];
-            let near = grow_n.min(words.len());
-            let passes = |w: &u64| color_dist2(c, cols[word_index(*w) as usize]) <= p_thr;
+            let passes = |w: u64| color_dist2(c, cols[word_index(w) as usize]) <= p_thr;
+            // Colour-compatible words first (their order does not matter).
+            let mut cp = 0;
+            for j in 0..words.len() {
+                if passes(words[j]) {
+                    words.swap(cp, j);
+                    cp += 1;
+                }
+            }
+            // A compatible word grows when fewer than `grow_n` words precede it. PERF:
+            // with few compatible words, ranking them beats selecting the `grow_n`
+            // nearest (words are distinct, so the ranks are exact).
+            let n_grow = if grow_n >= words.len() {
+                cp
+            } else if cp <= RANK_DIRECTLY {
+                let mut g = 0;
+                for j in 0..cp {
+                    let w = words[j];
+                    if words.iter().filter(|&&x| x < w).count() < grow_n {
+                        words.swap(g, j);
+                        g += 1;
+                    }
+                }
+                g
+            } else {
+                out.scratch.clear();
+                out.scratch.extend_from_slice(words);
+                let (_, &mut nth, _) = out.scratch.select_nth_unstable(grow_n - 1);
+                let mut g = 0;
+                for j in 0..cp {
+                    if words[j] <= nth {
+                        words.swap(g, j);
+                        g += 1;
+                    }
+                }
+                g
+            };
+            out.grow.push(n_grow as u16);
             let start = out.rows.len();
-            out.rows.extend(
-                words[..near]
-                    .iter()
-                    .filter(|w| passes(w))
-                    .map(|&w| word_index(w)),
-            );
-            out.grow.push((out.rows.len() - start) as u16);
-            out.rows.extend(
-                words[..near]
-                    .iter()
-                    .filter(|w| !passes(w))
-                    .map(|&w| word_index(w)),
-            );
-            out.rows
-                .extend(words[near..].iter().map(|&w| word_index(w)));
+            out.rows.extend(words.iter().map(|&w| word_index(w)));
             // Every finite point has k neighbours; pad defensively with itself.
             out.rows.resize(start + k, i);
             out.ids.push(i);
