@@ -2,10 +2,11 @@
 //!
 //! The steps follow `../shared/docs/oracle-semantics.md` section 5 literally; two of PCL's
 //! quadratic parts are replaced by near-linear equivalents that give the same result:
-//! segment adjacency uses a scratch array reset through a touched list (PCL allocates one
-//! entry per segment for every segment), and the small-region merge keeps each region's
-//! neighbour list as a heap with lazy deletion and merges regions with a union-find
-//! (PCL rewrites and re-sorts whole lists on every merge).
+//! segment adjacency is computed segment by segment (in parallel) with a scratch array
+//! reset through a touched list (PCL allocates one entry per segment for every segment),
+//! and the small-region merge keeps each region's neighbour list as a heap with lazy
+//! deletion and merges regions with a union-find (PCL rewrites and re-sorts whole lists
+//! on every merge).
 //!
 //! 1. every finite point gets its `region_neighbours` (K = 100) nearest neighbours, self
 //!    included, sorted by (`f32` squared distance, index);
@@ -29,9 +30,7 @@
 
 use super::{check_distance, check_threshold, SegmentError, UNSEGMENTED};
 use crate::cloud::PointCloud;
-use crate::search::{
-    pack, tree_within_d2, word_d2, word_index, Block, KnnSearch, Parallelism, MARGIN,
-};
+use crate::search::{squared_distance, word_index, KnnSearch, Parallelism};
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
@@ -90,7 +89,8 @@ impl RegionGrowingParams {
     }
 }
 
-/// Largest `region_neighbours` accepted (bounds memory at 8 bytes per point and neighbour).
+/// Largest `region_neighbours` accepted (the K lists take 4 bytes per point and
+/// neighbour).
 pub const MAX_REGION_NEIGHBOURS: usize = 1000;
 
 /// One output segment.
@@ -146,100 +146,68 @@ fn color_dist2(a: [u32; 3], b: [u32; 3]) -> f32 {
     (d(0) + d(1) + d(2)) as f32
 }
 
-/// Padding of a growth row after its colour-compatible neighbours.
-const NONE: u32 = u32::MAX;
-
-/// Per-chunk state of [`segment_adjacency`].
-#[derive(Default)]
-struct Adjacency {
-    /// (segment, other segment, squared distance) found so far.
-    out: Vec<(u32, u32, f32)>,
-    /// The block the cached segments belong to (its generation, plus one).
-    block: u64,
-    /// Segment of every point of that block.
-    tags: Vec<u32>,
-    /// The segment of all of them, or `u32::MAX` when they differ.
-    uniform: u32,
-    /// One point's other segments with their smallest distance.
-    local: Vec<(u32, f32)>,
-    /// Distances from the current point to the block's points.
-    d2: Vec<f32>,
+/// Every point's K list as point indices, chunk by chunk as the search returns them.
+/// Each row's first entries are the growth candidates: the `grow_n` nearest that pass
+/// the point colour test (their number is kept per point), then the rest in any order.
+struct KLists {
+    /// Rows of K indices.
+    rows: Vec<u32>,
+    /// The points of the rows, in row order.
+    ids: Vec<u32>,
+    /// Growth candidates at the start of each row.
+    grow: Vec<u16>,
+    /// A copy of one K list for selecting in it.
+    scratch: Vec<u64>,
 }
 
-impl Adjacency {
-    fn add(&mut self, t: u32, d: f32) {
-        match self.local.iter_mut().find(|e| e.0 == t) {
-            Some(e) => e.1 = e.1.min(d),
-            None => self.local.push((t, d)),
-        }
-    }
+/// Most colour-compatible neighbours whose ranks in a K list are counted one by one.
+const RANK_DIRECTLY: usize = 8;
 
-    fn flush(&mut self, s: u32) {
-        self.out
-            .extend(self.local.drain(..).map(|(t, d)| (s, t, d)));
-    }
-}
-
-/// Every `(segment of p, segment of q, d²)` for the points `q` of each point `p`'s K
-/// list (the points whose packed word from `p` is at most `kth[p]`) that lie in another
-/// segment, each pair of segments at most once per point with its smallest distance.
-/// Blocks whose points all lie in the query's segment are skipped whole.
-fn segment_adjacency(
-    search: &KnnSearch,
-    pts: &[[f32; 3]],
+/// Step 3 for the segments `range`: for each, every other segment seen in its points'
+/// K lists with the smallest squared distance, the K nearest kept, stored descending by
+/// `(d², segment)`. `members` lists the points of segment `s` at
+/// `seg_start[s]..seg_start[s + 1]`; `row(p)` is point `p`'s K list.
+fn segment_neighbours<'r>(
+    range: std::ops::Range<usize>,
+    members: &[u32],
+    seg_start: &[u32],
     seg: &[u32],
-    kth: &[u64],
-    par: Parallelism,
-) -> Vec<(u32, u32, f32)> {
-    let parts = search.scan(
-        par,
-        Adjacency::default,
-        |st: &mut Adjacency, i, blk: &Block, margin| {
-            let w = kth[i as usize];
-            if !(margin > 0.0 && word_d2(w) as f64 * (1.0 + MARGIN) < margin * margin) {
-                return false; // the K list may reach outside the block
-            }
-            if st.block != blk.generation + 1 {
-                st.block = blk.generation + 1;
-                st.tags.clear();
-                st.tags.extend(blk.id.iter().map(|&j| seg[j as usize]));
-                let first = st.tags.first().copied().unwrap_or(u32::MAX);
-                st.uniform = if st.tags.iter().all(|&t| t == first) {
-                    first
-                } else {
-                    u32::MAX
-                };
-            }
-            let s = seg[i as usize];
-            if st.uniform == s {
-                return true;
-            }
-            let mut d2 = std::mem::take(&mut st.d2);
-            blk.distances(&pts[i as usize], &mut d2);
-            let dk = word_d2(w);
-            for (j, &d) in d2.iter().enumerate() {
-                let t = st.tags[j];
-                if d <= dk && t != s && pack(d, blk.id[j]) <= w {
-                    st.add(t, d);
+    pts: &[[f32; 3]],
+    row: impl Fn(usize) -> &'r [u32],
+    keep: usize,
+) -> Vec<Vec<(f32, u32)>> {
+    let mut best = vec![f32::MAX; seg_start.len() - 1];
+    let mut touched: Vec<u32> = Vec::new();
+    range
+        .map(|s| {
+            for &p in &members[seg_start[s] as usize..seg_start[s + 1] as usize] {
+                let p = p as usize;
+                for &q in row(p) {
+                    let t = seg[q as usize];
+                    if t as usize == s {
+                        continue;
+                    }
+                    let d = squared_distance(&pts[p], &pts[q as usize]);
+                    let b = &mut best[t as usize];
+                    if *b == f32::MAX {
+                        touched.push(t);
+                    }
+                    if d < *b {
+                        *b = d;
+                    }
                 }
             }
-            st.d2 = d2;
-            st.flush(s);
-            true
-        },
-        |st, i, tree| {
-            let w = kth[i as usize];
-            let s = seg[i as usize];
-            for nb in tree_within_d2(tree, &pts[i as usize], word_d2(w)) {
-                let t = seg[nb.index];
-                if t != s && pack(nb.squared_distance, nb.index as u32) <= w {
-                    st.add(t, nb.squared_distance);
-                }
-            }
-            st.flush(s);
-        },
-    );
-    parts.into_iter().flat_map(|p| p.out).collect()
+            let mut list: Vec<(f32, u32)> = touched
+                .iter()
+                .map(|&t| (std::mem::replace(&mut best[t as usize], f32::MAX), t))
+                .collect();
+            touched.clear();
+            list.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            list.truncate(keep);
+            list.reverse();
+            list
+        })
+        .collect()
 }
 
 /// Segments `cloud` by colour (see the module docs). Needs colours; non-finite points get
@@ -290,124 +258,136 @@ pub fn region_growing_rgb(
         t * t
     };
 
-    // Step 1: the K nearest neighbours of every point, kept as two facts per point: the
-    // first `grow_n` as a set, already filtered by the point colour test (which points
-    // the growth reaches does not depend on their order), and the K-th as a packed
-    // word (the K list is every point whose word is at most that one). PERF: no table
-    // of n*K entries is written or walked.
+    // Step 1: the K nearest neighbours of every point, stored as indices (4 bytes per
+    // point and neighbour; PCL stores 8). The first `grow_n` of a K list are the
+    // `grow_n` nearest (the order is total); the growth only needs them as a set
+    // filtered by the point colour test (which points it reaches does not depend on
+    // their order), so those are moved to the front, and their number kept.
     let par = params.parallelism;
     let search = KnnSearch::new(&pts, params.region_neighbours);
     let k = search.k();
     let grow_n = params.neighbours.min(k);
-    type Step1 = (Vec<u32>, Vec<u32>, Vec<u64>);
-    let parts = search.knn(
+    let lists = search.knn(
         par,
-        || (Vec::new(), Vec::new(), Vec::new()),
-        |(ids, rows, kth): &mut Step1, i, words| {
-            kth.push(words.iter().copied().max().unwrap_or(0));
-            if grow_n > 0 && grow_n < words.len() {
-                words.select_nth_unstable(grow_n - 1);
-            }
-            ids.push(i);
+        || KLists {
+            rows: Vec::new(),
+            ids: Vec::new(),
+            grow: Vec::new(),
+            scratch: Vec::new(),
+        },
+        |out: &mut KLists, i, words| {
             let c = cols[i as usize];
-            let start = rows.len();
-            rows.extend(
-                words[..grow_n]
-                    .iter()
-                    .map(|&w| word_index(w))
-                    .filter(|&q| color_dist2(c, cols[q as usize]) <= p_thr),
-            );
-            rows.resize(start + grow_n, NONE);
+            let passes = |w: u64| color_dist2(c, cols[word_index(w) as usize]) <= p_thr;
+            // Colour-compatible words first (their order does not matter).
+            let mut cp = 0;
+            for j in 0..words.len() {
+                if passes(words[j]) {
+                    words.swap(cp, j);
+                    cp += 1;
+                }
+            }
+            // A compatible word grows when fewer than `grow_n` words precede it. PERF:
+            // with few compatible words, ranking them beats selecting the `grow_n`
+            // nearest (words are distinct, so the ranks are exact).
+            let n_grow = if grow_n >= words.len() {
+                cp
+            } else if cp <= RANK_DIRECTLY {
+                let mut g = 0;
+                for j in 0..cp {
+                    let w = words[j];
+                    if words.iter().filter(|&&x| x < w).count() < grow_n {
+                        words.swap(g, j);
+                        g += 1;
+                    }
+                }
+                g
+            } else {
+                out.scratch.clear();
+                out.scratch.extend_from_slice(words);
+                let (_, &mut nth, _) = out.scratch.select_nth_unstable(grow_n - 1);
+                let mut g = 0;
+                for j in 0..cp {
+                    if words[j] <= nth {
+                        words.swap(g, j);
+                        g += 1;
+                    }
+                }
+                g
+            };
+            out.grow.push(n_grow as u16);
+            let start = out.rows.len();
+            out.rows.extend(words.iter().map(|&w| word_index(w)));
+            // Every finite point has k neighbours; pad defensively with itself.
+            out.rows.resize(start + k, i);
+            out.ids.push(i);
         },
     );
-    let mut grow = vec![NONE; m * grow_n];
-    let mut kth = vec![0u64; m];
-    for (ids, rows, kw) in parts {
-        for (j, &i) in ids.iter().enumerate() {
-            let i = i as usize;
-            grow[i * grow_n..(i + 1) * grow_n].copy_from_slice(&rows[j * grow_n..(j + 1) * grow_n]);
-            kth[i] = kw[j];
+    // Where each point's row is: (chunk, row within the chunk).
+    let mut loc = vec![(0u32, 0u32); m];
+    for (c, l) in lists.iter().enumerate() {
+        for (r, &i) in l.ids.iter().enumerate() {
+            loc[i as usize] = (c as u32, r as u32);
         }
     }
+    let row = |p: usize| -> &[u32] {
+        let (c, r) = loc[p];
+        let r = r as usize;
+        &lists[c as usize].rows[r * k..(r + 1) * k]
+    };
+    let grow_row = |p: usize| -> &[u32] {
+        let (c, r) = loc[p];
+        let l = &lists[c as usize];
+        let r = r as usize;
+        &l.rows[r * k..r * k + l.grow[r] as usize]
+    };
 
-    // Step 2: region growing.
+    // Step 2: region growing, breadth first; `members` is the queue, and ends up
+    // holding every segment's points together.
     let mut seg = vec![u32::MAX; m];
-    let mut seg_count: Vec<u32> = Vec::new();
-    let mut queue = std::collections::VecDeque::new();
+    let mut members: Vec<u32> = Vec::with_capacity(m);
+    let mut seg_start: Vec<u32> = Vec::new();
     for seed in 0..m {
         if seg[seed] != u32::MAX {
             continue;
         }
-        let s = seg_count.len() as u32;
+        let s = seg_start.len() as u32;
+        let mut head = members.len();
+        seg_start.push(head as u32);
         seg[seed] = s;
-        let mut count = 1u32;
-        queue.push_back(seed);
-        while let Some(cur) = queue.pop_front() {
-            for &q in &grow[cur * grow_n..(cur + 1) * grow_n] {
-                if q == NONE {
-                    break;
+        members.push(seed as u32);
+        while head < members.len() {
+            let cur = members[head] as usize;
+            head += 1;
+            for &q in grow_row(cur) {
+                if seg[q as usize] == u32::MAX {
+                    seg[q as usize] = s;
+                    members.push(q);
                 }
-                let q = q as usize;
-                if seg[q] != u32::MAX {
-                    continue;
-                }
-                seg[q] = s;
-                count += 1;
-                queue.push_back(q);
             }
         }
-        seg_count.push(count);
     }
-    drop(grow);
-    let n_seg = seg_count.len();
+    seg_start.push(m as u32);
+    let n_seg = seg_start.len() - 1;
+    let seg_count: Vec<u32> = seg_start.windows(2).map(|w| w[1] - w[0]).collect();
 
     // Step 3: segment adjacency, K nearest segments, stored descending by (d², segment).
-    // Only the K-list entries in another segment matter: they are found again on the
-    // grid, as (segment, other segment, d²), each point's own duplicates merged.
-    let adjacent = segment_adjacency(&search, &pts, &seg, &kth, par);
-    let mut adj_start = vec![0usize; n_seg + 1];
-    for &(s, _, _) in &adjacent {
-        adj_start[s as usize + 1] += 1;
-    }
-    for s in 0..n_seg {
-        adj_start[s + 1] += adj_start[s];
-    }
-    let mut adj = vec![(0u32, 0f32); adjacent.len()];
-    {
-        let mut fill = adj_start.clone();
-        for &(s, t, d) in &adjacent {
-            adj[fill[s as usize]] = (t, d);
-            fill[s as usize] += 1;
-        }
-    }
-    drop(adjacent);
-    let mut best = vec![f32::MAX; n_seg];
-    let mut touched: Vec<u32> = Vec::new();
-    let mut seg_nb: Vec<Vec<(f32, u32)>> = Vec::with_capacity(n_seg);
-    for s in 0..n_seg {
-        for &(t, d) in &adj[adj_start[s]..adj_start[s + 1]] {
-            let t = t as usize;
-            if best[t] == f32::MAX {
-                touched.push(t as u32);
-            }
-            if best[t] > d {
-                best[t] = d;
-            }
-        }
-        let mut list: Vec<(f32, u32)> = touched
-            .iter()
-            .filter(|&&t| best[t as usize] < f32::MAX)
-            .map(|&t| (best[t as usize], t))
-            .collect();
-        for &t in &touched {
-            best[t as usize] = f32::MAX;
-        }
-        touched.clear();
-        list.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        list.truncate(params.region_neighbours);
-        list.reverse();
-        seg_nb.push(list);
-    }
+    let chunk = 1024;
+    let seg_nb: Vec<Vec<(f32, u32)>> =
+        crate::search::map_range(n_seg.div_ceil(chunk), par, 1, |c| {
+            segment_neighbours(
+                c * chunk..((c + 1) * chunk).min(n_seg),
+                &members,
+                &seg_start,
+                &seg,
+                &pts,
+                row,
+                params.region_neighbours,
+            )
+        })
+        .into_iter()
+        .flatten()
+        .collect();
+    drop(lists);
 
     // Step 4: truncated mean colours.
     let mut sums = vec![[0u32; 3]; n_seg];
@@ -528,21 +508,13 @@ fn find(parent: &mut [u32], mut x: u32) -> u32 {
     root
 }
 
-/// One entry of a region's neighbour heap: nearest first, ties by insertion order.
-type HeapEntry = Reverse<(OrdF32, u64, u32)>;
+/// One entry of a region's neighbour heap, nearest first, ties by insertion order: the
+/// squared distance's bits (a distance is `≥ +0`, so its bits order like its value),
+/// the insertion number and the segment, packed so that one comparison orders them.
+type HeapEntry = Reverse<u128>;
 
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct OrdF32(f32);
-impl PartialOrd for OrdF32 {
-    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
-        Some(self.cmp(other))
-    }
-}
-impl Eq for OrdF32 {}
-impl Ord for OrdF32 {
-    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
-        self.0.total_cmp(&other.0)
-    }
+fn heap_entry(d: f32, seq: u64, t: u32) -> HeapEntry {
+    Reverse(((d.to_bits() as u128) << 96) | ((seq as u128) << 32) | t as u128)
 }
 
 /// PCL's step 8. Each region's neighbour list (segments outside the region, with their
@@ -556,7 +528,7 @@ fn small_region_merge(
     min_size: u64,
 ) {
     let n_reg = region_count.len();
-    let mut heaps: Vec<BinaryHeap<HeapEntry>> = (0..n_reg).map(|_| BinaryHeap::new()).collect();
+    let mut entries: Vec<Vec<HeapEntry>> = vec![Vec::new(); n_reg];
     let mut seq = 0u64;
     // PCL concatenates the segments' lists region by region, in segment order.
     // PERF: sizes only grow, so a region at least `min_size` large is never examined:
@@ -569,11 +541,13 @@ fn small_region_merge(
         }
         for &(d, t) in list {
             if seg_region[t as usize] != r {
-                heaps[r as usize].push(Reverse((OrdF32(d), seq, t)));
+                entries[r as usize].push(heap_entry(d, seq, t));
                 seq += 1;
             }
         }
     }
+    // PERF: one linear heapify per region instead of a push per entry.
+    let mut heaps: Vec<BinaryHeap<HeapEntry>> = entries.into_iter().map(BinaryHeap::from).collect();
     for r in 0..n_reg {
         if region_count[r] >= min_size {
             continue;
@@ -581,10 +555,10 @@ fn small_region_merge(
         // Nearest entry whose segment is not in r (r is a root: only earlier regions
         // have merged away).
         let target = loop {
-            let Some(Reverse((_, _, t))) = heaps[r].peek() else {
+            let Some(&Reverse(e)) = heaps[r].peek() else {
                 break None;
             };
-            let owner = find(parent, seg_region[*t as usize]);
+            let owner = find(parent, seg_region[e as u32 as usize]);
             if owner as usize == r {
                 heaps[r].pop();
             } else {
