@@ -895,7 +895,16 @@ impl Search<'_, '_> {
             None => ("add".to_string(), None),
             Some(j) => {
                 let (c, _) = base.remove(j);
-                let res = wf.some_residuals(self.train, &wf.effects_of(&base))?;
+                // The others alone may not solve (they compensated the one taken out).
+                let Ok(res) = wf.some_residuals(self.train, &wf.effects_of(&base)) else {
+                    let step = self.step(
+                        format!("swap out {}", wf.kinds[c].name()),
+                        bic_current,
+                        [],
+                        state,
+                    );
+                    return Ok((step, None));
+                };
                 (format!("swap out {}", wf.kinds[c].name()), Some((c, res)))
             }
         };
@@ -970,7 +979,10 @@ impl Search<'_, '_> {
         if best_bic > bic_current - params.bic_margin {
             return Ok((step, None));
         }
-        let next = self.state_of(trial, cov)?;
+        // Effects the FE model cannot solve on the held-out frames are not confirmed.
+        let Ok(next) = self.state_of(trial, cov) else {
+            return Ok((step, None));
+        };
         let (_, h_new, ok) = self.holdout_gain(state, &next.res);
         step.holdout_chi2[1] = h_new;
         step.accepted = ok;
@@ -1033,7 +1045,10 @@ impl Search<'_, '_> {
         if best_bic >= bic_current - margin {
             return Ok((step, None));
         }
-        let next = self.state_of(trial, cov)?;
+        // Effects the FE model cannot solve on the held-out frames are not confirmed.
+        let Ok(next) = self.state_of(trial, cov) else {
+            return Ok((step, None));
+        };
         let (h_cur, h_new, ok) = self.holdout_gain(state, &next.res);
         let (_, n_hold) = wf.chi2(&state.res, self.hold);
         step.holdout_chi2[1] = h_new;
@@ -1124,7 +1139,10 @@ impl Search<'_, '_> {
                 return Ok(());
             };
             let _ = bic;
-            let next = self.state_of(trial, cov)?;
+            let Ok(next) = self.state_of(trial, cov) else {
+                steps.push(step);
+                return Ok(());
+            };
             let (h_cur, h_new, _) = self.holdout_gain(state, &next.res);
             let (_, n_hold) = wf.chi2(&state.res, self.hold);
             step.holdout_chi2[1] = h_new;
