@@ -77,7 +77,7 @@ impl Default for DatasetSpec {
             magnitude: 0.5,
             camera: small_camera(),
             sensor: SensorModel::default(),
-            tension: [0.0, 1.0],
+            tension: [0.0, 2.0],
         }
     }
 }
@@ -278,17 +278,42 @@ pub fn generate_dataset(
         .iter()
         .map(|e| draw(e, &mut rng, spec.magnitude, &nominal, spec.frames))
         .collect::<DiscrepancyResult<Vec<_>>>()?;
-    // Recorded inputs: force-controlled cables with random tensions.
-    let recorded: Vec<FrameInput> = (0..spec.frames)
-        .map(|_| FrameInput {
+    // Recorded inputs: force-controlled cables, tensions from a Latin hypercube: every
+    // cable sweeps the whole range once (one frame per stratum, in its own random order),
+    // so the cables vary independently and the design stays well conditioned for any
+    // number of frames (independent uniform draws can leave a cable nearly constant or
+    // two cables nearly collinear over 8 frames, hiding per-cable effects).
+    let n = spec.frames;
+    let tensions: Vec<Vec<f64>> = nominal
+        .problem
+        .cables
+        .iter()
+        .map(|_| {
+            let mut order: Vec<usize> = (0..n).collect();
+            for i in (1..n).rev() {
+                let j = ((rng.u() * (i + 1) as f64) as usize).min(i);
+                order.swap(i, j);
+            }
+            order
+                .iter()
+                .map(|&s| {
+                    let t = (s as f64 + rng.u()) / n as f64;
+                    lerp(spec.tension[0], spec.tension[1], t)
+                })
+                .collect()
+        })
+        .collect();
+    let recorded: Vec<FrameInput> = (0..n)
+        .map(|i| FrameInput {
             cables: nominal
                 .problem
                 .cables
                 .iter()
-                .map(|c| CableInput {
+                .zip(&tensions)
+                .map(|(c, t)| CableInput {
                     name: c.name.clone(),
                     shorten: None,
-                    force: Some(rng.range(spec.tension[0], spec.tension[1])),
+                    force: Some(t[i]),
                 })
                 .collect(),
             loads: Vec::new(),

@@ -14,7 +14,11 @@
 //! and kept only if they also lower the held-out χ². Stepwise: add the best candidate
 //! (refitted jointly with the kept effects) while BIC and held-out χ² improve, drop kept
 //! effects a later one made redundant, then try swapping each kept effect for another
-//! candidate. Every re-solve is warm-started from the frame's nominal solution.
+//! candidate. When that path ends above the noise floor or with more than two effects,
+//! every pair of candidates is fitted jointly (two effects at once can make the first
+//! pick wrong) and the best pair, if it beats the path's answer by the same BIC and
+//! held-out tests, is the new start. Every re-solve is warm-started from the frame's
+//! nominal solution; a chord step that overshoots is halved.
 //!
 //! ```
 //! use softsense::discrepancy::effects::{rotation, rotation_vector};
@@ -107,6 +111,9 @@ pub struct DiscrepancyParams {
     pub refine_candidates: usize,
     /// Huber threshold of the linear fits (in σ; 0 for plain least squares).
     pub huber: f64,
+    /// Pairs of candidates (best by the joint linear fit) refined exactly when the
+    /// forward path ends above the noise floor or with more than two effects (0: none).
+    pub pair_candidates: usize,
 }
 
 impl Default for DiscrepancyParams {
@@ -129,6 +136,7 @@ impl Default for DiscrepancyParams {
             refine_iterations: 8,
             refine_candidates: 5,
             huber: 3.0,
+            pair_candidates: 6,
         }
     }
 }
@@ -766,16 +774,34 @@ impl Search<'_, '_> {
                 break;
             };
             cov = cv;
-            let mut next = trial.clone();
-            add_increments(&mut next, &d);
-            let res_n = wf.some_residuals(self.train, &wf.effects_of(&next))?;
-            let chi = wf.chi2(&res_n, self.train).0;
-            if std::env::var_os("SOFTSENSE_DEBUG").is_some() {
-                eprintln!("refine {next:?} chi2 {chi:.1}");
+            // A chord step can overshoot where the effect is strongly nonlinear (a large
+            // load bending a leg): halve it before giving up. A step the FE model cannot
+            // solve counts as an overshoot (the start solved).
+            let mut found = None;
+            let mut scale = 1.0;
+            for _ in 0..3 {
+                let mut next = trial.clone();
+                add_increments(&mut next, &d.iter().map(|v| v * scale).collect::<Vec<_>>());
+                let res_n = match wf.some_residuals(self.train, &wf.effects_of(&next)) {
+                    Ok(r) => r,
+                    Err(_) => {
+                        scale *= 0.5;
+                        continue;
+                    }
+                };
+                let chi = wf.chi2(&res_n, self.train).0;
+                if std::env::var_os("SOFTSENSE_DEBUG").is_some() {
+                    eprintln!("refine {next:?} scale {scale} chi2 {chi:.1}");
+                }
+                if chi < best_chi {
+                    found = Some((next, res_n, chi));
+                    break;
+                }
+                scale *= 0.5;
             }
-            if chi >= best_chi {
+            let Some((next, res_n, chi)) = found else {
                 break;
-            }
+            };
             // Chord steps converge linearly: stop once they no longer pay (a strongly
             // nonlinear effect such as a Poisson ratio far below the nominal one needs
             // several; most candidates stop after one or two).
@@ -788,6 +814,45 @@ impl Search<'_, '_> {
             }
         }
         Ok((best_chi, cov))
+    }
+
+    /// A step not yet decided: its candidates and the state's held-out χ².
+    fn step(
+        &self,
+        action: String,
+        bic_current: f64,
+        candidates: impl IntoIterator<Item = CandidateScore>,
+        state: &State,
+    ) -> Step {
+        Step {
+            action,
+            bic_current,
+            candidates: candidates.into_iter().collect(),
+            holdout_chi2: [self.wf.chi2(&state.res, self.hold).0, f64::NAN],
+            accepted: false,
+        }
+    }
+
+    /// Refines `trial` exactly, records its χ² and BIC in `score` and keeps it in `best`
+    /// when its BIC is the lowest so far. A trial the FE model cannot solve (absurd
+    /// parameters) is not a candidate: its score becomes infinite.
+    fn refine_scored(
+        &self,
+        score: &mut CandidateScore,
+        mut trial: Kept,
+        best: &mut Option<(f64, Kept, DMatrix<f64>)>,
+    ) {
+        score.refined = true;
+        let Ok((chi2, cov)) = self.refine(&mut trial) else {
+            score.chi2 = f64::INFINITY;
+            score.bic = f64::INFINITY;
+            return;
+        };
+        score.chi2 = chi2;
+        score.bic = chi2 + score.k as f64 * self.ln_n;
+        if best.as_ref().is_none_or(|b| score.bic < b.0) {
+            *best = Some((score.bic, trial, cov));
+        }
     }
 
     /// The state with `trial` (residuals of all frames, covariance scaled by the
@@ -830,7 +895,16 @@ impl Search<'_, '_> {
             None => ("add".to_string(), None),
             Some(j) => {
                 let (c, _) = base.remove(j);
-                let res = wf.some_residuals(self.train, &wf.effects_of(&base))?;
+                // The others alone may not solve (they compensated the one taken out).
+                let Ok(res) = wf.some_residuals(self.train, &wf.effects_of(&base)) else {
+                    let step = self.step(
+                        format!("swap out {}", wf.kinds[c].name()),
+                        bic_current,
+                        [],
+                        state,
+                    );
+                    return Ok((step, None));
+                };
                 (format!("swap out {}", wf.kinds[c].name()), Some((c, res)))
             }
         };
@@ -886,42 +960,150 @@ impl Search<'_, '_> {
                 vec![0.0; wf.kinds[*c].n_params(wf.model.problem.cables.len())],
             ));
             add_increments(&mut trial, theta);
-            score.refined = true;
-            // A trial the FE model cannot solve (absurd parameters) is not a candidate.
-            let Ok((chi2, cov)) = self.refine(&mut trial) else {
-                score.chi2 = f64::INFINITY;
-                score.bic = f64::INFINITY;
-                continue;
-            };
-            score.chi2 = chi2;
-            score.bic = chi2 + score.k as f64 * self.ln_n;
-            if best.as_ref().is_none_or(|b| score.bic < b.0) {
-                best = Some((score.bic, trial, cov));
-            }
+            self.refine_scored(score, trial, &mut best);
         }
         cands.sort_by(|a, b| {
             b.1.refined
                 .cmp(&a.1.refined)
                 .then(a.1.bic.total_cmp(&b.1.bic))
         });
-        let mut step = Step {
+        let mut step = self.step(
             action,
             bic_current,
-            candidates: cands.iter().map(|c| c.1.clone()).collect(),
-            holdout_chi2: [wf.chi2(&state.res, self.hold).0, f64::NAN],
-            accepted: false,
-        };
+            cands.iter().map(|c| c.1.clone()),
+            state,
+        );
         let Some((best_bic, trial, cov)) = best else {
             return Ok((step, None));
         };
         if best_bic > bic_current - params.bic_margin {
             return Ok((step, None));
         }
-        let next = self.state_of(trial, cov)?;
+        // Effects the FE model cannot solve on the held-out frames are not confirmed.
+        let Ok(next) = self.state_of(trial, cov) else {
+            return Ok((step, None));
+        };
         let (_, h_new, ok) = self.holdout_gain(state, &next.res);
         step.holdout_chi2[1] = h_new;
         step.accepted = ok;
         Ok((step, ok.then_some(next)))
+    }
+
+    /// Every pair of candidates fitted jointly from the nominal model (`res0`: residuals
+    /// with no effect): the forward path can start from a wrong first pick when two
+    /// effects combine (one effect alone fits neither). The linear fits rank the pairs; the
+    /// best few are refined exactly. The best pair replaces the state when it has a lower
+    /// BIC (by the margin unless it has fewer parameters) and, on held-out frames, a lower
+    /// χ² (by the holdout gain; with fewer parameters: not higher by more than it).
+    fn try_pairs(
+        &self,
+        state: &State,
+        res0: &[Vec<Residual>],
+    ) -> DiscrepancyResult<(Step, Option<State>)> {
+        let wf = self.wf;
+        let params = wf.params;
+        let nc = wf.model.problem.cables.len();
+        let bic_current = self.bic(wf.chi2(&state.res, self.train).0, &state.kept);
+        let mut cands: Vec<(Kept, CandidateScore, Vec<f64>)> = Vec::new();
+        for a in 0..wf.kinds.len() {
+            for b in a + 1..wf.kinds.len() {
+                let Some((theta, chi2, _, _)) = wf.fit(res0, self.train, &[a, b]) else {
+                    continue;
+                };
+                let trial: Kept = [a, b]
+                    .iter()
+                    .map(|&c| (c, vec![0.0; wf.kinds[c].n_params(nc)]))
+                    .collect();
+                let k = self.k_of(&trial);
+                let name = format!("{} + {}", wf.kinds[a].name(), wf.kinds[b].name());
+                let score = CandidateScore {
+                    name,
+                    k,
+                    chi2,
+                    bic: chi2 + k as f64 * self.ln_n,
+                    refined: false,
+                };
+                cands.push((trial, score, theta));
+            }
+        }
+        cands.sort_by(|a, b| a.1.bic.total_cmp(&b.1.bic));
+        cands.truncate(params.pair_candidates);
+        let mut best: Option<(f64, Kept, DMatrix<f64>)> = None;
+        for (trial, score, theta) in cands.iter_mut() {
+            let mut trial = trial.clone();
+            add_increments(&mut trial, theta);
+            self.refine_scored(score, trial, &mut best);
+        }
+        cands.sort_by(|a, b| a.1.bic.total_cmp(&b.1.bic));
+        let candidates = cands.iter().map(|c| c.1.clone());
+        let mut step = self.step("pair".into(), bic_current, candidates, state);
+        let Some((best_bic, trial, cov)) = best else {
+            return Ok((step, None));
+        };
+        let simpler = self.k_of(&trial) < self.k_of(&state.kept);
+        let margin = if simpler { 0.0 } else { params.bic_margin };
+        if best_bic >= bic_current - margin {
+            return Ok((step, None));
+        }
+        // Effects the FE model cannot solve on the held-out frames are not confirmed.
+        let Ok(next) = self.state_of(trial, cov) else {
+            return Ok((step, None));
+        };
+        let (h_cur, h_new, ok) = self.holdout_gain(state, &next.res);
+        let (_, n_hold) = wf.chi2(&state.res, self.hold);
+        step.holdout_chi2[1] = h_new;
+        step.accepted = if simpler {
+            h_new <= h_cur + params.holdout_gain * n_hold as f64
+        } else {
+            ok
+        };
+        let accepted = step.accepted;
+        Ok((step, accepted.then_some(next)))
+    }
+
+    /// Whether the residuals of all frames are at the noise floor (no significant region,
+    /// overall z below the threshold).
+    fn at_floor(&self, res: &[Vec<Residual>]) -> bool {
+        let all: Vec<usize> = (0..self.wf.frames.len()).collect();
+        let s = self.wf.stats(res, &all);
+        let z = self.wf.params.z_significant;
+        significant(&s, z).is_empty() && s.last().is_some_and(|a| a.z <= z)
+    }
+
+    /// Forward selection then swaps from `state`. Forward: add the best candidate
+    /// (refitted jointly with the kept ones) while it lowers the BIC and the held-out χ²;
+    /// after each addition drop kept effects the new one made redundant (a wrong first
+    /// pick that absorbed part of two effects). Swap: replace a kept effect by another
+    /// candidate when that lowers the BIC (the forward order can lock in an effect that
+    /// only mimics the missing one).
+    fn greedy(&self, mut state: State, steps: &mut Vec<Step>) -> DiscrepancyResult<State> {
+        let max = self.wf.params.max_effects;
+        while state.kept.len() < max && !self.at_floor(&state.res) {
+            let (step, accepted) = self.try_add(&state, None)?;
+            steps.push(step);
+            let Some(next) = accepted else { break };
+            state = next;
+            self.prune(&mut state, steps)?;
+        }
+        let mut rounds = 0;
+        while state.kept.len() >= 2 && rounds < max {
+            rounds += 1;
+            let mut swapped = false;
+            for j in 0..state.kept.len() {
+                let (step, accepted) = self.try_add(&state, Some(j))?;
+                steps.push(step);
+                if let Some(next) = accepted {
+                    state = next;
+                    self.prune(&mut state, steps)?;
+                    swapped = true;
+                    break;
+                }
+            }
+            if !swapped {
+                break;
+            }
+        }
+        Ok(state)
     }
 
     /// Drops kept effects whose removal (the others refitted) lowers the BIC without
@@ -951,19 +1133,16 @@ impl Search<'_, '_> {
                 }
             }
             scores.sort_by(|a, b| a.bic.total_cmp(&b.bic));
-            let mut step = Step {
-                action: "drop".into(),
-                bic_current,
-                candidates: scores,
-                holdout_chi2: [wf.chi2(&state.res, self.hold).0, f64::NAN],
-                accepted: false,
-            };
+            let mut step = self.step("drop".into(), bic_current, scores, state);
             let Some((bic, trial, cov)) = best.filter(|b| b.0 < bic_current) else {
                 steps.push(step);
                 return Ok(());
             };
             let _ = bic;
-            let next = self.state_of(trial, cov)?;
+            let Ok(next) = self.state_of(trial, cov) else {
+                steps.push(step);
+                return Ok(());
+            };
             let (h_cur, h_new, _) = self.holdout_gain(state, &next.res);
             let (_, n_hold) = wf.chi2(&state.res, self.hold);
             step.holdout_chi2[1] = h_new;
@@ -1005,8 +1184,6 @@ pub fn explain(
     let [train, hold] = &split;
     let res0 = wf.all_residuals(&[])?;
     let before = wf.stats(&res0, hold);
-    let all: Vec<usize> = (0..rec.frames.len()).collect();
-    let start = wf.stats(&res0, &all);
     let search = Search {
         wf: &wf,
         train,
@@ -1019,42 +1196,17 @@ pub fn explain(
         res: res0.clone(),
     };
     let mut steps = Vec::new();
-    let at_floor = |s: &[RegionStats]| {
-        significant(s, params.z_significant).is_empty()
-            && s.last().is_some_and(|a| a.z <= params.z_significant)
-    };
-    if !at_floor(&start) {
-        // Forward: add the best candidate (refitted jointly with the kept ones) while it
-        // lowers the BIC and the held-out χ²; after each addition drop kept effects the
-        // new one made redundant (a wrong first pick that absorbed part of two effects).
-        while state.kept.len() < params.max_effects {
-            let (step, accepted) = search.try_add(&state, None)?;
+    if !search.at_floor(&res0) {
+        state = search.greedy(state, &mut steps)?;
+        // Two effects at once can defeat the forward path (its first pick fits neither):
+        // when it ends above the noise floor or with more than two effects (a sign that
+        // it pieced the answer together), fit every pair jointly and continue from the
+        // best pair if it does better.
+        if params.pair_candidates > 0 && (state.kept.len() > 2 || !search.at_floor(&state.res)) {
+            let (step, accepted) = search.try_pairs(&state, &res0)?;
             steps.push(step);
-            let Some(next) = accepted else { break };
-            state = next;
-            search.prune(&mut state, &mut steps)?;
-            if at_floor(&wf.stats(&state.res, &all)) {
-                break;
-            }
-        }
-        // Swap: replace a kept effect by another candidate when that lowers the BIC (the
-        // forward order can lock in an effect that only mimics the missing one).
-        let mut rounds = 0;
-        while state.kept.len() >= 2 && rounds < params.max_effects {
-            rounds += 1;
-            let mut swapped = false;
-            for j in 0..state.kept.len() {
-                let (step, accepted) = search.try_add(&state, Some(j))?;
-                steps.push(step);
-                if let Some(next) = accepted {
-                    state = next;
-                    search.prune(&mut state, &mut steps)?;
-                    swapped = true;
-                    break;
-                }
-            }
-            if !swapped {
-                break;
+            if let Some(next) = accepted {
+                state = search.greedy(next, &mut steps)?;
             }
         }
     }

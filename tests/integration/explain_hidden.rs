@@ -77,8 +77,9 @@ fn explain_names_a_hidden_camera_pose_error_and_its_size() {
 }
 
 /// A stiffness error and a camera pose error at once (the acceptance harness's dataset 24,
-/// seed 124, magnitude 0.6): the forward selection first picks a point load that mimics
-/// part of both; the drop step must remove it once the two true effects are in.
+/// seed 124, magnitude 0.6): a point load mimics part of both, so the forward selection can
+/// pick it first; the drop step (or the pair search) must leave it out once the two true
+/// effects are in.
 #[test]
 fn explain_names_two_hidden_effects_and_drops_a_mimicking_load() {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
