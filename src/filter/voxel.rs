@@ -311,19 +311,7 @@ where
         let mut cols = Columns::default();
         let mut members: Vec<usize> = Vec::new();
         let mut s = range.start;
-        // PERF: a voxel's points are far apart in the input (rows of a frame), so the
-        // gathers miss the cache; touching the points a few voxels ahead hides that.
-        let mut ahead = range.start;
         while s < range.end {
-            let horizon = (s + PREFETCH_AHEAD).min(range.end);
-            while ahead < horizon {
-                let i = index(&items[ahead]);
-                prefetch(&cloud.positions, i);
-                if let Some(c) = &cloud.colors {
-                    prefetch(c, i);
-                }
-                ahead += 1;
-            }
             let e = run_end(s);
             if e - s >= params.min_points_per_voxel {
                 members.clear();
@@ -381,23 +369,6 @@ where
         },
         indices: cols.indices,
     }
-}
-
-/// Input points [`average_sorted`] prefetches ahead of the one it averages.
-const PREFETCH_AHEAD: usize = 24;
-
-/// Hints the CPU to bring `column[i]` into the cache (a no-op off x86-64 or out of range).
-#[inline]
-fn prefetch<T>(column: &[T], i: usize) {
-    #[cfg(target_arch = "x86_64")]
-    if let Some(v) = column.get(i) {
-        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        // SAFETY: SSE (x86-64 baseline) has `prefetcht0`; a prefetch never faults and
-        // does not change memory, and the pointer is to an element of `column`.
-        unsafe { _mm_prefetch::<_MM_HINT_T0>((v as *const T).cast::<i8>()) };
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = (column, i);
 }
 
 /// Appends the averaged point of one voxel (`members`: input indices, ascending) to `out`.
