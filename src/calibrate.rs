@@ -39,8 +39,7 @@
 
 use crate::fem::constraint::{ConstraintRow, RowKind};
 use crate::fem::model::Model;
-use crate::fem::solve::{CableControl, MappedPoint, Problem, Solver};
-use crate::fem::tet4::Tangent;
+use crate::fem::solve::{CableControl, MappedPoint, Problem};
 use crate::fem::FemError;
 use crate::inverse::qp::{QpParams, QpProblem};
 use crate::inverse::InverseError;
@@ -673,26 +672,6 @@ fn coarse_align(
     }
 }
 
-/// Factorizes the tangent at `x` including the cables' geometric stiffness.
-fn factorize_at(
-    solver: &mut Solver<'_>,
-    problem: &Problem,
-    x: &[[f64; 3]],
-    tensions: &[f64],
-) -> CalibrateResult<()> {
-    for tangent in [Tangent::Consistent, Tangent::Rotated] {
-        solver.assemble(x, tangent)?;
-        for (c, t) in problem.cables.iter().zip(tensions) {
-            solver.add_cable_stiffness(c, *t, x);
-        }
-        match solver.factorize() {
-            Err(FemError::Singular(_)) if tangent == Tangent::Consistent => continue,
-            r => return Ok(r?),
-        }
-    }
-    Ok(())
-}
-
 /// The actuator QP (3.17)-(3.18) at FE state `x` with tensions `tensions`: effector rows
 /// along the face normals of the matched surface points, targets the measured points.
 /// With `joint`, the rigid motion (rotation vector about the matched points' centroid and
@@ -710,7 +689,7 @@ fn solve_step(
     let na = problem.cables.len();
     let np = if joint { 6 } else { 0 };
     let mut solver = problem.solver()?;
-    factorize_at(&mut solver, problem, x, tensions)?;
+    solver.factorize_with_cables(x, tensions)?;
     let nd = solver.ndof();
     // K⁻¹ H_aᵀ: one solve per cable; W_ea = H_e K⁻¹ H_aᵀ then costs a dot product per row.
     let mut b = faer::Mat::<f64>::zeros(nd, na);

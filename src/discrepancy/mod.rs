@@ -333,6 +333,8 @@ pub fn candidate_kinds(problem: &Problem, params: &DiscrepancyParams) -> Vec<Eff
 
 /// Effects kept or tried: candidate index and parameters.
 type Kept = Vec<(usize, Vec<f64>)>;
+/// Sensitivity rows ([feature][param]) replacing a candidate's nominal ones, per kept effect.
+type Sens = Vec<Option<Vec<Vec<f64>>>>;
 
 /// Per-frame context: recorded problem, nominal solution, sensitivities.
 struct FrameCtx {
@@ -426,6 +428,77 @@ impl<'a> Workflow<'a> {
         self.features.iter().map(|f| f.at(x)).collect()
     }
 
+    /// Compliance at the solution `sol` (with the cables' geometric stiffness: under
+    /// tensions of a newton or two it is far from negligible) of the feature rows (along
+    /// the normals of `pn`), then 3 force rows per node of `nodes`: column nf + 3j + k is
+    /// the motion of every feature along its normal per unit force k at node j.
+    fn load_compliance(
+        &self,
+        problem: &Problem,
+        sol: &Solution,
+        pn: &[([f64; 3], [f64; 3])],
+        nodes: &[usize],
+    ) -> DiscrepancyResult<DMatrix<f64>> {
+        let mut rows = Vec::with_capacity(self.features.len() + 3 * nodes.len());
+        for (f, (_, n)) in self.features.iter().zip(pn) {
+            let n = if n.iter().all(|c| *c == 0.0) {
+                [0.0, 0.0, 1.0]
+            } else {
+                *n
+            };
+            rows.push(ConstraintRow::along(RowKind::Effector, &f.mapped(), n)?);
+        }
+        for &node in nodes {
+            rows.extend(ConstraintRow::point3(
+                RowKind::Force,
+                &MappedPoint::node(node),
+            ));
+        }
+        let x = &sol.positions;
+        let mut solver = problem.solver()?;
+        solver.factorize_with_cables(x, &sol.cable_tension)?;
+        let zero = vec![0.0; solver.ndof()];
+        Ok(solver.compliance(&rows, x, &zero)?.w)
+    }
+
+    /// Sensitivity rows ([feature][force component]) of the point loads among `kept`
+    /// (None for the other effects) re-linearised at the state the kept effects deform
+    /// frame `i` into: a large load bends the robot enough that the compliance at the
+    /// nominal state points a chord step away from the true force (Gauss-Newton instead).
+    fn load_sens_at(&self, i: usize, kept: &[(usize, Vec<f64>)]) -> DiscrepancyResult<Sens> {
+        let nodes: Vec<Option<usize>> = kept
+            .iter()
+            .map(|(c, _)| match self.kinds[*c] {
+                EffectKind::PointLoad { node } => Some(node),
+                _ => None,
+            })
+            .collect();
+        let list: Vec<usize> = nodes.iter().flatten().copied().collect();
+        if list.is_empty() {
+            return Ok(vec![None; kept.len()]);
+        }
+        let ctx = &self.frames[i];
+        let mut prob = ctx.problem.clone();
+        apply_model(&mut prob, &self.effects_of(kept), &self.legs)?;
+        let sol = solve_frame(self.model, &prob, i, Some(&ctx.nominal))?;
+        let pn = self.feature_rows(&sol.positions);
+        let w = self.load_compliance(&prob, &sol, &pn, &list)?;
+        let nf = self.features.len();
+        let mut j = 0;
+        Ok(nodes
+            .iter()
+            .map(|n| {
+                n.map(|_| {
+                    let c0 = nf + 3 * j;
+                    j += 1;
+                    (0..nf)
+                        .map(|r| (0..3).map(|k| w[(r, c0 + k)]).collect())
+                        .collect()
+                })
+            })
+            .collect())
+    }
+
     fn frame_ctx(&self, index: usize, input: &FrameInput) -> DiscrepancyResult<FrameCtx> {
         let problem = frame_problem(self.model, input)?;
         let nominal = solve_frame(self.model, &problem, index, None)?;
@@ -436,16 +509,6 @@ impl<'a> Workflow<'a> {
             .iter()
             .map(|c| matches!(c.control, CableControl::Displacement(_)))
             .collect();
-        // Compliance rows: features along their normals, then 3 rows per load candidate.
-        let mut rows = Vec::with_capacity(self.features.len());
-        for (f, (_, n)) in self.features.iter().zip(&pn0) {
-            let n = if n.iter().all(|c| *c == 0.0) {
-                [0.0, 0.0, 1.0]
-            } else {
-                *n
-            };
-            rows.push(ConstraintRow::along(RowKind::Effector, &f.mapped(), n)?);
-        }
         let load_nodes: Vec<usize> = self
             .kinds
             .iter()
@@ -454,18 +517,11 @@ impl<'a> Workflow<'a> {
                 _ => None,
             })
             .collect();
-        for &node in &load_nodes {
-            rows.extend(ConstraintRow::point3(
-                RowKind::Force,
-                &MappedPoint::node(node),
-            ));
-        }
         let nf = self.features.len();
         let w = if load_nodes.is_empty() {
             None
         } else {
-            let mut solver = problem.solver()?;
-            Some(solver.compliance_at(&x0, &rows)?.w)
+            Some(self.load_compliance(&problem, &nominal, &pn0, &load_nodes)?)
         };
         let mut sens = Vec::with_capacity(self.kinds.len());
         let mut load_i = 0;
@@ -647,6 +703,7 @@ impl<'a> Workflow<'a> {
         res: &[Vec<Residual>],
         frames: &[usize],
         kinds: &[usize],
+        over: Option<&[Sens]>,
     ) -> Option<(Vec<f64>, f64, DMatrix<f64>, usize)> {
         let k: usize = kinds
             .iter()
@@ -656,12 +713,11 @@ impl<'a> Workflow<'a> {
         let mut ys: Vec<f64> = Vec::new();
         for &i in frames {
             for r in &res[i] {
-                for &c in kinds {
-                    rows.extend(
-                        self.frames[i].sens[c][r.feature]
-                            .iter()
-                            .map(|v| v / r.sigma),
-                    );
+                for (j, &c) in kinds.iter().enumerate() {
+                    let s = over
+                        .and_then(|o| o.get(i)?.get(j)?.as_ref())
+                        .unwrap_or(&self.frames[i].sens[c]);
+                    rows.extend(s[r.feature].iter().map(|v| v / r.sigma));
                 }
                 ys.push(r.r / r.sigma);
             }
@@ -770,7 +826,25 @@ impl Search<'_, '_> {
         let mut cov = DMatrix::zeros(0, 0);
         let mut best_chi = wf.chi2(&res_t, self.train).0;
         for _ in 0..wf.params.refine_iterations {
-            let Some((d, _, cv, _)) = wf.fit(&res_t, self.train, &idx) else {
+            // Point loads away from zero: their Jacobian at the current estimate.
+            let moved = trial.iter().any(|(c, p)| {
+                matches!(wf.kinds[*c], EffectKind::PointLoad { .. }) && p.iter().any(|v| *v != 0.0)
+            });
+            let over: Option<Vec<Sens>> = if moved {
+                (0..wf.frames.len())
+                    .map(|i| {
+                        if self.train.contains(&i) {
+                            wf.load_sens_at(i, trial)
+                        } else {
+                            Ok(Vec::new())
+                        }
+                    })
+                    .collect::<DiscrepancyResult<_>>()
+                    .ok()
+            } else {
+                None
+            };
+            let Some((d, _, cv, _)) = wf.fit(&res_t, self.train, &idx, over.as_deref()) else {
                 break;
             };
             cov = cv;
@@ -917,7 +991,7 @@ impl Search<'_, '_> {
             }
             let mut idx: Vec<usize> = base.iter().map(|(k, _)| *k).collect();
             idx.push(c);
-            if let Some((theta, chi2, _, _)) = wf.fit(res, self.train, &idx) {
+            if let Some((theta, chi2, _, _)) = wf.fit(res, self.train, &idx, None) {
                 let kind = wf.kinds[c];
                 let k = self.k_of(&base)
                     + kind.n_params(wf.model.problem.cables.len())
@@ -1007,7 +1081,7 @@ impl Search<'_, '_> {
         let mut cands: Vec<(Kept, CandidateScore, Vec<f64>)> = Vec::new();
         for a in 0..wf.kinds.len() {
             for b in a + 1..wf.kinds.len() {
-                let Some((theta, chi2, _, _)) = wf.fit(res0, self.train, &[a, b]) else {
+                let Some((theta, chi2, _, _)) = wf.fit(res0, self.train, &[a, b], None) else {
                     continue;
                 };
                 let trial: Kept = [a, b]

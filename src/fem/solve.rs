@@ -738,6 +738,24 @@ impl<'p> Solver<'p> {
         }
     }
 
+    /// Assembles and factorizes the tangent at `x` including the geometric stiffness of the
+    /// cables under `tensions` (one per cable), falling back to the rotated tangent when
+    /// the consistent one is not positive definite.
+    pub fn factorize_with_cables(&mut self, x: &[[f64; 3]], tensions: &[f64]) -> FemResult<()> {
+        let cables = &self.problem.cables;
+        for tangent in [Tangent::Consistent, Tangent::Rotated] {
+            self.assemble(x, tangent)?;
+            for (c, t) in cables.iter().zip(tensions) {
+                self.add_cable_stiffness(c, *t, x);
+            }
+            match self.factorize() {
+                Err(FemError::Singular(_)) if tangent == Tangent::Consistent => continue,
+                r => return r,
+            }
+        }
+        Ok(())
+    }
+
     /// Adds the geometric stiffness of a cable under tension `t` at positions `x`:
     /// t d2L/dx2, with (I - u u^T) / l for each straight segment of length l.
     pub fn add_cable_stiffness(&mut self, cable: &Cable, t: f64, x: &[[f64; 3]]) {
