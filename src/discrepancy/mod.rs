@@ -8,9 +8,11 @@
 //! the normal, averaged over the points the line gathers). Per region a chi-square-like
 //! score z = (χ² − n)/√(2n) says whether the disagreement is above the noise floor.
 //! Candidate effects ([`effects`]) are linearised about the nominal solution of every frame
-//! (finite differences of FE solves for material, gravity and actuators; compliance rows
-//! for point loads; closed forms for camera pose and depth), fitted on training frames by
-//! least squares, compared by BIC, refined with exact FE re-solves (chord iterations),
+//! (finite differences of FE solves for material, gravity and actuators; compliance rows,
+//! with the cables' geometric stiffness, for point loads; closed forms for camera pose and
+//! depth), fitted on training frames by least squares, compared by BIC, refined with
+//! exact FE re-solves (chord iterations; Gauss-Newton for point loads, whose compliance is
+//! re-linearised at the current estimate),
 //! and kept only if they also lower the held-out χ². Stepwise: add the best candidate
 //! (refitted jointly with the kept effects) while BIC and held-out χ² improve, drop kept
 //! effects a later one made redundant, then try swapping each kept effect for another
@@ -817,8 +819,9 @@ impl Search<'_, '_> {
     }
 
     /// Chord iterations (fixed-Jacobian Gauss-Newton with exact FE re-solves and
-    /// re-registration) of all parameters of `trial` on the training frames, keeping the
-    /// best iterate (a chord step can overshoot): returns its χ² and the covariance.
+    /// re-registration; point loads' rows re-linearised at every iterate) of all parameters
+    /// of `trial` on the training frames, keeping the best iterate (a step can overshoot):
+    /// returns its χ² and the covariance.
     fn refine(&self, trial: &mut Kept) -> DiscrepancyResult<(f64, DMatrix<f64>)> {
         let wf = self.wf;
         let idx: Vec<usize> = trial.iter().map(|(k, _)| *k).collect();
