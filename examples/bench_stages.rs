@@ -76,6 +76,7 @@ fn run_stage(
                     .get("max")
                     .and_then(Value::as_u64)
                     .map_or(usize::MAX, |m| m as usize),
+                ..Default::default()
             };
             softsense::segment::euclidean_clusters(&cloud.positions, &p)
                 .map(|c| c.len())

@@ -199,6 +199,7 @@ pub fn detect_contacts(
             tolerance: params.tolerance_m,
             min_size: params.min_group,
             max_size: params.max_group,
+            ..Default::default()
         },
     )?;
     Ok(groups

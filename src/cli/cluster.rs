@@ -46,6 +46,7 @@ pub fn run(args: &ClusterArgs) -> CliResult {
         tolerance: args.tolerance,
         min_size: args.min,
         max_size: args.max.unwrap_or(usize::MAX),
+        ..Default::default()
     };
     let t0 = Instant::now();
     let clusters =

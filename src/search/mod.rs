@@ -33,7 +33,7 @@ pub(crate) mod sort;
 
 pub use flann_order::FlannTree;
 pub use grid::{knn_all, map_knn, KnnTable};
-pub(crate) use grid::{map_has_neighbours, word_index, KnnSearch};
+pub(crate) use grid::{map_has_neighbours, radius_scan, word_index, KnnSearch};
 pub(crate) use kdtree::squared_radius_f32;
 pub use kdtree::{squared_distance, squared_distance_f64, KdTree, Neighbour, RadiusQuery};
 

@@ -491,6 +491,7 @@ pub fn segment_geometric(
                 tolerance: params.connect_radius_m,
                 min_size: min_points,
                 max_size: usize::MAX,
+                ..Default::default()
             },
         )?;
         for part in parts {

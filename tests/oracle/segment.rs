@@ -78,6 +78,7 @@ fn euclidean_clusters_equal_pcl_partitions_on_real_clouds() {
                     tolerance: tol,
                     min_size: min,
                     max_size: max,
+                    ..Default::default()
                 },
             )
             .expect("ece");

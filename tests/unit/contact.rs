@@ -91,6 +91,7 @@ fn label_contacts(
                 tolerance: 0.005,
                 min_size: 10,
                 max_size: usize::MAX,
+                ..Default::default()
             },
         )
         .unwrap();

@@ -2,8 +2,11 @@
 //! hand-made scenes, the colour model, robot selection and the metrics.
 
 use proptest::prelude::*;
+use softsense::search::{KdTree, Parallelism};
 use softsense::segment::color::{delta_e, rgb_to_lab};
-use softsense::segment::euclidean::{euclidean_clusters, EuclideanParams};
+use softsense::segment::euclidean::{
+    euclidean_clusters, euclidean_clusters_with_tree, EuclideanParams,
+};
 use softsense::segment::metrics::{adjusted_rand_index, object_scores, singletons_for};
 use softsense::segment::robot::{select_robot, ChosenBy, RobotRule};
 use softsense::segment::{region_growing_rgb, RegionGrowingParams, SegmentError, UNSEGMENTED};
@@ -45,7 +48,7 @@ proptest! {
         min in 1usize..5,
         max in 3usize..60,
     ) {
-        let ours = euclidean_clusters(&pts, &EuclideanParams { tolerance: tol, min_size: min, max_size: max }).unwrap();
+        let ours = euclidean_clusters(&pts, &EuclideanParams { tolerance: tol, min_size: min, max_size: max, ..Default::default() }).unwrap();
         let mut expected: Vec<Vec<usize>> = brute_components(&pts, tol)
             .into_iter()
             .filter(|c| c.len() >= min && c.len() <= max)
@@ -54,6 +57,59 @@ proptest! {
         expected.sort_by_key(|c| c[0]);
         expected.sort_by_key(|c| std::cmp::Reverse(c.len()));
         prop_assert_eq!(ours, expected);
+    }
+}
+
+/// Clouds that stress the grid path: clumps, exact duplicates, NaN points and points on
+/// a lattice whose spacing is the tolerance itself (pairs exactly at the tolerance,
+/// which must not connect, and points on cell boundaries).
+fn tricky_cloud() -> impl Strategy<Value = (Vec<[f32; 3]>, f64)> {
+    (
+        prop::collection::vec(
+            (0u8..10, prop::array::uniform3(0.0f32..0.05), 0u32..40),
+            0..600,
+        ),
+        prop::sample::select(vec![0.0025f64, 0.004, 0.005, 0.01]),
+    )
+        .prop_map(|(spec, tol)| {
+            let mut pts: Vec<[f32; 3]> = Vec::new();
+            for (kind, p, lattice) in spec {
+                let q = match kind {
+                    0 => [f32::NAN, p[1], p[2]],
+                    1 if !pts.is_empty() => pts[lattice as usize % pts.len()],
+                    2 | 3 => {
+                        let t = tol as f32;
+                        let (a, b) = (lattice % 7, lattice / 7);
+                        [a as f32 * t, b as f32 * t, 0.25]
+                    }
+                    _ => p,
+                };
+                pts.push(q);
+            }
+            (pts, tol)
+        })
+}
+
+proptest! {
+    #[test]
+    fn grid_clusters_equal_the_breadth_first_search_for_any_thread_count(
+        (pts, tol) in tricky_cloud(),
+        min in 1usize..4,
+        max in 2usize..400,
+    ) {
+        let params = |parallelism| EuclideanParams {
+            tolerance: tol,
+            min_size: min,
+            max_size: max,
+            parallelism,
+        };
+        let reference =
+            euclidean_clusters_with_tree(&pts, &KdTree::build(&pts), &params(Parallelism::Serial))
+                .unwrap();
+        let serial = euclidean_clusters(&pts, &params(Parallelism::Serial)).unwrap();
+        let parallel = euclidean_clusters(&pts, &params(Parallelism::Rayon)).unwrap();
+        prop_assert_eq!(&serial, &reference);
+        prop_assert_eq!(&parallel, &reference);
     }
 }
 
@@ -83,6 +139,7 @@ fn euclidean_tolerance_is_strict_and_oversized_clusters_vanish() {
             tolerance: 0.015,
             min_size: 1,
             max_size: 10,
+            ..Default::default()
         },
     )
     .unwrap();
