@@ -66,8 +66,12 @@ pub struct Pattern {
     pub col_ptr: Vec<usize>,
     /// Row indices, ascending within each column.
     pub row_idx: Vec<usize>,
-    /// For each element, the value slot of each local entry (row-major 12x12), or SKIP.
-    slots: Vec<[u32; 144]>,
+    /// For each element, its stored local entries as (value slot, local index 12 row + col
+    /// of the row-major 12x12), from `entry_ptr[e]` to `entry_ptr[e + 1]`, in local order.
+    entries: Vec<(u32, u8)>,
+    entry_ptr: Vec<usize>,
+    /// For each element, bit 4a + b set when its 3x3 block (a, b) has a stored entry.
+    blocks: Vec<u16>,
 }
 
 impl Pattern {
@@ -119,7 +123,10 @@ impl Pattern {
                 "matrix too large for the slot index".into(),
             ));
         }
-        let mut slots = Vec::with_capacity(mesh.tets.len());
+        let mut entries = Vec::new();
+        let mut entry_ptr = Vec::with_capacity(mesh.tets.len() + 1);
+        entry_ptr.push(0);
+        let mut blocks = Vec::with_capacity(mesh.tets.len());
         for t in &mesh.tets {
             let mut s = [SKIP; 144];
             for a in 0..4 {
@@ -139,13 +146,30 @@ impl Pattern {
                     }
                 }
             }
-            slots.push(s);
+            let mut mask = 0u16;
+            for (local, &slot) in s.iter().enumerate() {
+                if slot != SKIP {
+                    entries.push((slot, local as u8));
+                    let (row, col) = (local / 12, local % 12);
+                    mask |= 1 << (4 * (row / 3) + col / 3);
+                }
+            }
+            entry_ptr.push(entries.len());
+            blocks.push(mask);
         }
         Ok(Self {
             col_ptr,
             row_idx,
-            slots,
+            entries,
+            entry_ptr,
+            blocks,
         })
+    }
+
+    /// The 3x3 blocks of element `e` that hold stored entries: bit 4a + b for block
+    /// (a, b) (the upper triangle in DOF order, free nodes only).
+    pub fn block_mask(&self, e: usize) -> u16 {
+        self.blocks[e]
     }
 
     /// Number of stored entries.
@@ -178,27 +202,23 @@ impl Pattern {
         }
     }
 
-    /// Adds element `e`'s tangent into `values`.
+    /// Adds element `e`'s tangent into `values` (only the entries in the blocks of
+    /// [`Pattern::block_mask`] are read).
     pub fn scatter(&self, e: usize, k: &super::tet4::Mat12, values: &mut [f64]) {
-        let s = &self.slots[e];
-        for p in 0..12 {
-            for q in 0..12 {
-                let slot = s[p * 12 + q];
-                if slot != SKIP {
-                    values[slot as usize] += k[p][q];
-                }
-            }
+        let flat = k.as_flattened();
+        for &(slot, local) in &self.entries[self.entry_ptr[e]..self.entry_ptr[e + 1]] {
+            values[slot as usize] += flat[local as usize];
         }
     }
 }
 
 /// Evaluates `kernel` on every element (in parallel with the `parallel` feature) into
-/// `out` (reused between calls, resized to the element count); an error if any element
-/// fails. The scatter that follows is serial in element order, so assembled values do not
-/// depend on the thread count.
+/// `out` (reused between calls, resized to the element count; the kernel writes each state
+/// in place); an error if any element fails. The scatter that follows is serial in element
+/// order, so assembled values do not depend on the thread count.
 pub fn eval_elements<F>(rest: &[TetRest], out: &mut Vec<ElementState>, kernel: F) -> FemResult<()>
 where
-    F: Fn(usize, &TetRest) -> FemResult<ElementState> + Sync + Send,
+    F: Fn(usize, &TetRest, &mut ElementState) -> FemResult<()> + Sync + Send,
 {
     if out.len() != rest.len() {
         out.clear();
@@ -208,6 +228,7 @@ where
                 force: [0.0; 12],
                 tangent: [[0.0; 12]; 12],
                 stress: nalgebra::Matrix3::zeros(),
+                rotation: nalgebra::Matrix3::identity(),
             },
         );
     }
@@ -217,15 +238,12 @@ where
         out.par_iter_mut()
             .zip(rest.par_iter())
             .enumerate()
-            .try_for_each(|(e, (o, r))| {
-                *o = kernel(e, r)?;
-                Ok(())
-            })
+            .try_for_each(|(e, (o, r))| kernel(e, r, o))
     }
     #[cfg(not(feature = "parallel"))]
     {
         for (e, (o, r)) in out.iter_mut().zip(rest).enumerate() {
-            *o = kernel(e, r)?;
+            kernel(e, r, o)?;
         }
         Ok(())
     }

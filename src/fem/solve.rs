@@ -470,6 +470,32 @@ impl Problem {
         Solver::with_setup(self, setup)
     }
 
+    /// A solver for this problem that takes over `state` (left by a solver of a problem
+    /// with the same mesh, held nodes, cable attachments, material, formulation and
+    /// regional stiffness; otherwise only the setup, or nothing, is reused): assembling at
+    /// the positions the state's elements were evaluated at gives the same values without
+    /// evaluating them again.
+    pub fn solver_from(&self, state: SolverState) -> FemResult<Solver<'_>> {
+        if !state.setup.fits(self) {
+            return self.solver();
+        }
+        let mut solver = Solver::with_setup(self, state.setup)?;
+        if state.material == self.material
+            && state.formulation == self.formulation
+            && state.young_scale == self.young_scale
+            && state.values.len() == solver.values.len()
+            && state.l_values.len() == solver.l_values.len()
+        {
+            solver.l_values = state.l_values;
+            solver.values = state.values;
+            solver.internal_force = state.internal_force;
+            solver.elements = state.elements;
+            solver.elements_at = state.elements_at;
+            solver.elements_tangent = state.elements_tangent;
+        }
+        Ok(solver)
+    }
+
     /// Static equilibrium under the loads and cable actuation.
     pub fn solve_static(&self, params: &NewtonParams) -> FemResult<Solution> {
         self.solver()?.solve_static(params)
@@ -519,16 +545,39 @@ pub struct Solver<'p> {
     rest: Arc<Vec<TetRest>>,
     /// Symbolic Cholesky (AMD ordering and supernodal structure), computed once.
     pub(crate) symbolic: Arc<SymbolicCholesky<usize>>,
+    setup: Arc<SolverSetup>,
     /// Values of the supernodal factor L (reused between factorizations).
     pub(crate) l_values: Vec<f64>,
     /// Values of K (upper triangle) after the last assembly.
     pub values: Vec<f64>,
     /// Internal forces (node-major 3n) after the last assembly.
     pub internal_force: Vec<f64>,
-    /// Element states of the last assembly.
+    /// Element states of the last assembly (corotational: only the tangent blocks of
+    /// [`Pattern::block_mask`] are computed, the others are zero).
     pub elements: Vec<ElementState>,
+    /// Node positions at which `elements` and `internal_force` were evaluated, and with
+    /// which tangent (empty: none yet).
+    elements_at: Vec<[f64; 3]>,
+    elements_tangent: Tangent,
     /// Whether `l_values` holds the factor of the current `values`.
     factored: bool,
+}
+
+/// What a [`Solver`] leaves for the next solver of a problem that differs only in its
+/// loads, cable controls or prescribed displacements ([`Solver::into_state`],
+/// [`Problem::solver_from`]): the element states at the last assembled positions (so a
+/// Newton solve warm-started there does not evaluate the elements again) and the buffers.
+pub struct SolverState {
+    setup: Arc<SolverSetup>,
+    material: Material,
+    formulation: Formulation,
+    young_scale: Vec<f64>,
+    l_values: Vec<f64>,
+    values: Vec<f64>,
+    internal_force: Vec<f64>,
+    elements: Vec<ElementState>,
+    elements_at: Vec<[f64; 3]>,
+    elements_tangent: Tangent,
 }
 
 impl<'p> Solver<'p> {
@@ -575,12 +624,31 @@ impl<'p> Solver<'p> {
             pattern: setup.pattern.clone(),
             rest: setup.rest.clone(),
             symbolic: setup.symbolic.clone(),
+            setup,
             l_values,
             values: vec![0.0; nnz],
             internal_force: Vec::new(),
             elements: Vec::new(),
+            elements_at: Vec::new(),
+            elements_tangent: Tangent::default(),
             factored: false,
         })
+    }
+
+    /// The element states and buffers of this solver, for [`Problem::solver_from`].
+    pub fn into_state(self) -> SolverState {
+        SolverState {
+            setup: self.setup,
+            material: self.problem.material,
+            formulation: self.problem.formulation,
+            young_scale: self.problem.young_scale.clone(),
+            l_values: self.l_values,
+            values: self.values,
+            internal_force: self.internal_force,
+            elements: self.elements,
+            elements_at: self.elements_at,
+            elements_tangent: self.elements_tangent,
+        }
     }
 
     /// Number of free DOFs.
@@ -605,22 +673,62 @@ impl<'p> Solver<'p> {
         self.symbolic.len_val()
     }
 
-    /// Assembles internal forces and the tangent at node positions `x`.
+    /// Assembles internal forces and the tangent at node positions `x`. At the positions
+    /// of the previous assembly the element states are reused (the same values, bit for
+    /// bit): with the same tangent they are only scattered again, and the rotated tangent
+    /// after a consistent one is built from the stored rotations (no polar decomposition),
+    /// leaving the element states as they were.
     pub fn assemble(&mut self, x: &[[f64; 3]], tangent: Tangent) -> FemResult<()> {
+        let same_x = self.elements.len() == self.rest.len()
+            && self.elements_at.len() == x.len()
+            && self
+                .elements_at
+                .iter()
+                .flatten()
+                .zip(x.iter().flatten())
+                .all(|(a, b)| a.to_bits() == b.to_bits());
+        if same_x {
+            if tangent == self.elements_tangent {
+                self.scatter_elements();
+                return Ok(());
+            }
+            if tangent == Tangent::Rotated && self.problem.formulation == Formulation::Corotational
+            {
+                self.scatter_rotated();
+                return Ok(());
+            }
+        }
+        self.evaluate(x, tangent)?;
+        self.scatter_elements();
+        self.elements_at.clear();
+        self.elements_at.extend_from_slice(x);
+        self.elements_tangent = tangent;
+        Ok(())
+    }
+
+    /// Evaluates every element at `x` (forces, stress, rotation, `tangent`) into
+    /// `elements` and sums the internal forces.
+    fn evaluate(&mut self, x: &[[f64; 3]], tangent: Tangent) -> FemResult<()> {
+        self.elements_at.clear();
         let p = self.problem;
         let tets = &p.mesh.tets;
         let rest_nodes = &p.mesh.nodes_in_rest;
         let m = &p.material;
         let form = p.formulation;
         let mut states = std::mem::take(&mut self.elements);
-        eval_elements(&self.rest, &mut states, |e, r| {
+        let pattern = &self.pattern;
+        eval_elements(&self.rest, &mut states, |e, r, out| {
             let t = tets[e];
             match form {
                 Formulation::SmallStrain => {
                     let u = [0, 1, 2, 3].map(|a| sub(x[t[a]], rest_nodes[t[a]]));
-                    Ok(r.small_strain(m, &u))
+                    *out = r.small_strain(m, &u);
+                    Ok(())
                 }
-                Formulation::Corotational => r.corotational(e, m, &t.map(|a| x[a]), tangent),
+                // Only the stored (upper-triangle, free) blocks: the scatter reads no others.
+                Formulation::Corotational => {
+                    r.corotational_into(e, m, &t.map(|a| x[a]), tangent, pattern.block_mask(e), out)
+                }
             }
         })?;
         // Linear elasticity: force, tangent and stress all scale with Young's modulus.
@@ -631,12 +739,10 @@ impl<'p> Solver<'p> {
                 s.stress *= f;
             }
         }
-        self.values.iter_mut().for_each(|v| *v = 0.0);
         self.internal_force.clear();
         self.internal_force.resize(3 * p.mesh.num_nodes(), 0.0);
-        for (e, s) in states.iter().enumerate() {
-            self.pattern.scatter(e, &s.tangent, &mut self.values);
-            for (a, &v) in tets[e].iter().enumerate() {
+        for (t, s) in tets.iter().zip(&states) {
+            for (a, &v) in t.iter().enumerate() {
                 for k in 0..3 {
                     self.internal_force[3 * v + k] += s.force[3 * a + k];
                 }
@@ -644,6 +750,32 @@ impl<'p> Solver<'p> {
         }
         self.elements = states;
         Ok(())
+    }
+
+    /// K from the element tangents of the last evaluation (serial, in element order).
+    fn scatter_elements(&mut self) {
+        self.values.iter_mut().for_each(|v| *v = 0.0);
+        for (e, s) in self.elements.iter().enumerate() {
+            self.pattern.scatter(e, &s.tangent, &mut self.values);
+        }
+    }
+
+    /// K from the rotated tangents R K0 Rᵀ of the stored element rotations (the values
+    /// [`Solver::evaluate`] gives with [`Tangent::Rotated`]); the element states are kept.
+    fn scatter_rotated(&mut self) {
+        let m = &self.problem.material;
+        let scale = &self.problem.young_scale;
+        self.values.iter_mut().for_each(|v| *v = 0.0);
+        let mut k = [[0.0; 12]; 12];
+        for (e, (s, r)) in self.elements.iter().zip(self.rest.iter()).enumerate() {
+            r.rotated_tangent(m, &s.rotation, self.pattern.block_mask(e), &mut k);
+            if let Some(&f) = scale.get(e) {
+                if f != 1.0 {
+                    k.iter_mut().flatten().for_each(|v| *v *= f);
+                }
+            }
+            self.pattern.scatter(e, &k, &mut self.values);
+        }
     }
 
     /// Numeric Cholesky of the assembled tangent (reusing the symbolic analysis).

@@ -24,6 +24,12 @@ pub struct TetRest {
 /// An element's 12x12 matrix (node-major: row 3a+i).
 pub type Mat12 = [[f64; 12]; 12];
 
+/// The factors (p_a, q_b) of the consistent tangent's rotation-derivative blocks p_a q_b.
+type RotationTerms = ([Matrix3<f64>; 4], [Matrix3<f64>; 4]);
+
+/// Every 3x3 block of a [`Mat12`] (bit 4a + b for block (a, b)).
+pub const ALL_BLOCKS: u16 = u16::MAX;
+
 impl TetRest {
     /// Rest data from the four corners; `tet` names the element in errors.
     pub fn new(tet: usize, c: [[f64; 3]; 4]) -> FemResult<Self> {
@@ -96,6 +102,7 @@ impl TetRest {
             force: self.forces(&sigma),
             tangent: self.stiffness(m),
             stress: sigma,
+            rotation: Matrix3::identity(),
         }
     }
 
@@ -108,6 +115,29 @@ impl TetRest {
         x: &[[f64; 3]; 4],
         tangent: Tangent,
     ) -> FemResult<ElementState> {
+        let mut out = ElementState {
+            force: [0.0; 12],
+            tangent: [[0.0; 12]; 12],
+            stress: Matrix3::zeros(),
+            rotation: Matrix3::identity(),
+        };
+        self.corotational_into(tet, m, x, tangent, ALL_BLOCKS, &mut out)?;
+        Ok(out)
+    }
+
+    /// As [`TetRest::corotational`], written into `out`, with only the 3x3 tangent blocks
+    /// (a, b) whose bit 4a + b is set in `blocks` (e.g. the stored upper triangle, see
+    /// [`crate::fem::assembly::Pattern::block_mask`]); the other blocks of `out.tangent`
+    /// are left as they were. The computed entries equal those of the full tangent.
+    pub fn corotational_into(
+        &self,
+        tet: usize,
+        m: &Material,
+        x: &[[f64; 3]; 4],
+        tangent: Tangent,
+        blocks: u16,
+        out: &mut ElementState,
+    ) -> FemResult<()> {
         let f = self.deformation_gradient(x);
         let det = f.determinant();
         if !(det > 0.0) {
@@ -142,13 +172,41 @@ impl TetRest {
             }
             Tangent::Rotated => None,
         };
-        let mut k = [[0.0; 12]; 12];
+        out.force = force;
+        self.rotated_blocks(m, &h, rot.as_ref(), blocks, &mut out.tangent);
+        out.stress = r * sigma * r.transpose();
+        out.rotation = r;
+        Ok(())
+    }
+
+    /// The blocks `blocks` (as in [`TetRest::corotational_into`]) of the rotated tangent
+    /// R K0 Rᵀ for the rotation `r` of a corotational state (e.g.
+    /// [`ElementState::rotation`]) into `k`: equal to the tangent `corotational` returns
+    /// with [`Tangent::Rotated`] at the positions that gave `r`, without the polar
+    /// decomposition.
+    pub fn rotated_tangent(&self, m: &Material, r: &Matrix3<f64>, blocks: u16, k: &mut Mat12) {
+        self.rotated_blocks(m, &self.grads.map(|g| r * g), None, blocks, k);
+    }
+
+    /// R K0 Rᵀ from h_a = R g_a, plus the rotation derivative p_a q_b when given, in the
+    /// blocks `blocks` of `k`.
+    fn rotated_blocks(
+        &self,
+        m: &Material,
+        h: &[Vector3<f64>; 4],
+        rot: Option<&RotationTerms>,
+        blocks: u16,
+        k: &mut Mat12,
+    ) {
         let (vl, vm) = (self.volume * m.lambda, self.volume * m.mu);
         for a in 0..4 {
             for b in 0..4 {
+                if blocks & (1 << (4 * a + b)) == 0 {
+                    continue;
+                }
                 let gab = vm * self.grads[a].dot(&self.grads[b]);
                 let mut blk = h[a] * h[b].transpose() * vl + h[b] * h[a].transpose() * vm;
-                if let Some((p, q)) = &rot {
+                if let Some((p, q)) = rot {
                     blk += p[a] * q[b];
                 }
                 for i in 0..3 {
@@ -158,11 +216,6 @@ impl TetRest {
                 }
             }
         }
-        Ok(ElementState {
-            force,
-            tangent: k,
-            stress: r * sigma * r.transpose(),
-        })
     }
 }
 
@@ -185,6 +238,9 @@ pub struct ElementState {
     pub tangent: Mat12,
     /// Cauchy stress in world axes (Pa).
     pub stress: Matrix3<f64>,
+    /// Rotation of the polar decomposition F = R S (corotational; the identity for small
+    /// strain).
+    pub rotation: Matrix3<f64>,
 }
 
 /// Rotation of the polar decomposition F = R S (det F > 0), by scaled Newton iteration.

@@ -125,6 +125,9 @@ pub fn estimate(
     let mut prev: Option<Solution> = None;
     let mut omega = 1.0;
     let mut r_prev: Option<Vec<f64>> = None;
+    // The previous update's solver state: its last element evaluation is at `x`, where
+    // the next Newton solve starts.
+    let mut carry = None;
     for _ in 0..params.max_updates {
         // FE state under the current forces.
         let mut problem = base.clone();
@@ -136,7 +139,10 @@ pub fn estimate(
         }
         // Warm start from the previous state (or the caller's), from rest otherwise.
         let clock = std::time::Instant::now();
-        let mut solver = problem.solver()?;
+        let mut solver = match carry.take() {
+            Some(state) => problem.solver_from(state)?,
+            None => problem.solver()?,
+        };
         let sol = solver.solve_static_from(&newton, prev.as_ref().or(start))?;
         x = sol.positions.clone();
         prev = Some(sol);
@@ -159,6 +165,7 @@ pub fn estimate(
             params,
             &mut timings,
         )?;
+        carry = Some(solver.into_state());
         let clock = std::time::Instant::now();
         let est = prob.solve(&params.intensity)?;
         timings.qp += ms_since(clock);
