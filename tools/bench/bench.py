@@ -74,11 +74,18 @@ def main():
     ap.add_argument("--pcl", required=True, help="path of pcl_oracle")
     ap.add_argument("--python", default=sys.executable)
     ap.add_argument("--repeat", type=int, default=11)
+    ap.add_argument("--rounds", type=int, default=1,
+                    help="run the libraries in turn this many times per stage and file, each with "
+                         "--repeat repetitions, and pool the timings: a slow minute then hits every "
+                         "library, not just one (this machine drifts by 20-40%%); with more than one "
+                         "round the table also shows the range of the per-round speed-ups")
     ap.add_argument("--stages", default=os.path.join(HERE, "stages.json"))
     ap.add_argument("--only", action="append",
                     help="a stage name as in stages.json (exact; names may contain commas); repeatable")
     ap.add_argument("--json", help="also write all timings to this file")
     a = ap.parse_args()
+    if a.repeat < 1 or a.rounds < 1:
+        ap.error("--repeat and --rounds must be at least 1")
 
     cfg = json.load(open(a.stages))
     libs = {
@@ -99,29 +106,57 @@ def main():
                   else [os.path.join(a.data, rel) for rel in cfg["files"]])
         for path in inputs:
             rel = os.path.relpath(path, ROOT) if "scenes" in st else os.path.relpath(path, a.data)
+            # Per library: the timings of each round (libraries alternate within a round).
+            per_round = {lib: [] for lib in libs}
+            errors = {}
+            for rnd in range(a.rounds):
+                for lib, fn in libs.items():
+                    spec = st.get(lib)
+                    if spec is None or lib in errors:
+                        continue
+                    times, err = fn(spec, path)
+                    if err:
+                        errors[lib] = err
+                        notes.append(f"{st['name']} / {os.path.basename(rel)} / {lib}: {err}")
+                        continue
+                    per_round[lib].append(times)
+                    tag = f" (round {rnd + 1}/{a.rounds})" if a.rounds > 1 else ""
+                    print(f"  {st['name']:<22} {os.path.basename(rel):<40} {lib:<9} "
+                          f"{fmt(statistics.median(times))} ms{tag}", file=sys.stderr)
             med = {}
-            for lib, fn in libs.items():
-                spec = st.get(lib)
-                if spec is None:
+            for lib in libs:
+                if st.get(lib) is None:
                     med[lib] = None
                     continue
-                times, err = fn(spec, path)
-                if err:
-                    notes.append(f"{st['name']} / {os.path.basename(rel)} / {lib}: {err}")
-                med[lib] = statistics.median(times) if times else None
-                raw.append({"stage": st["name"], "file": rel, "lib": lib, "timings_ms": times, "error": err})
-                print(f"  {st['name']:<22} {os.path.basename(rel):<40} {lib:<9} {fmt(med[lib])} ms", file=sys.stderr)
+                pooled = [t for r in per_round[lib] for t in r] if lib not in errors else []
+                med[lib] = statistics.median(pooled) if pooled else None
+                raw.append({"stage": st["name"], "file": rel, "lib": lib,
+                            "timings_ms": pooled or None, "rounds": per_round[lib],
+                            "error": errors.get(lib)})
             others = [m for m in (med["pcl"], med["open3d"]) if m is not None]
             ratio = (min(others) / med["softsense"]) if others and med["softsense"] else None
-            rows.append((st["name"], os.path.basename(rel), med, ratio))
+            # The speed-up of each round on its own, from that round's medians.
+            spread = []
+            if a.rounds > 1 and ratio is not None:
+                for rnd in range(a.rounds):
+                    ours = statistics.median(per_round["softsense"][rnd])
+                    theirs = [statistics.median(per_round[o][rnd]) for o in ("pcl", "open3d")
+                              if med[o] is not None]
+                    spread.append(min(theirs) / ours)
+            rows.append((st["name"], os.path.basename(rel), med, ratio, spread))
 
-    print(f"softsense vs PCL 1.13 / Open3D 0.20: median of {a.repeat} runs, ms, {os.cpu_count()} cores; "
+    runs = f"{a.repeat} runs" if a.rounds == 1 else f"{a.rounds} alternating rounds of {a.repeat} runs"
+    print(f"softsense vs PCL 1.13 / Open3D 0.20: median of {runs}, ms, {os.cpu_count()} cores; "
           "speed-up = faster of PCL and Open3D divided by softsense (> 1: softsense is faster)\n")
-    print("| stage | cloud | softsense ms | PCL ms | Open3D ms | speed-up vs faster |")
-    print("| --- | --- | ---: | ---: | ---: | ---: |")
-    for name, cloud, med, ratio in rows:
+    extra = " per-round speed-ups |" if a.rounds > 1 else ""
+    print("| stage | cloud | softsense ms | PCL ms | Open3D ms | speed-up vs faster |" + extra)
+    print("| --- | --- | ---: | ---: | ---: | ---: |" + (" ---: |" if extra else ""))
+    for name, cloud, med, ratio, spread in rows:
         r = "n/a" if ratio is None else f"{ratio:.2f}x"
-        print(f"| {name} | {cloud} | {fmt(med['softsense'])} | {fmt(med['pcl'])} | {fmt(med['open3d'])} | {r} |")
+        line = f"| {name} | {cloud} | {fmt(med['softsense'])} | {fmt(med['pcl'])} | {fmt(med['open3d'])} | {r} |"
+        if extra:
+            line += (f" {min(spread):.2f}-{max(spread):.2f}x |" if spread else " n/a |")
+        print(line)
     print_stage_table()
     if notes:
         print("\nNot measured:")
