@@ -222,15 +222,7 @@ where
 {
     if out.len() != rest.len() {
         out.clear();
-        out.resize(
-            rest.len(),
-            ElementState {
-                force: [0.0; 12],
-                tangent: [[0.0; 12]; 12],
-                stress: nalgebra::Matrix3::zeros(),
-                rotation: nalgebra::Matrix3::identity(),
-            },
-        );
+        out.resize(rest.len(), ElementState::default());
     }
     #[cfg(feature = "parallel")]
     {

@@ -700,7 +700,7 @@ impl<'p> Solver<'p> {
         }
         self.evaluate(x, tangent)?;
         self.scatter_elements();
-        self.elements_at.clear();
+        // `evaluate` emptied it (a failed evaluation leaves no reusable states).
         self.elements_at.extend_from_slice(x);
         self.elements_tangent = tangent;
         Ok(())

@@ -115,12 +115,7 @@ impl TetRest {
         x: &[[f64; 3]; 4],
         tangent: Tangent,
     ) -> FemResult<ElementState> {
-        let mut out = ElementState {
-            force: [0.0; 12],
-            tangent: [[0.0; 12]; 12],
-            stress: Matrix3::zeros(),
-            rotation: Matrix3::identity(),
-        };
+        let mut out = ElementState::default();
         self.corotational_into(tet, m, x, tangent, ALL_BLOCKS, &mut out)?;
         Ok(out)
     }
@@ -241,6 +236,18 @@ pub struct ElementState {
     /// Rotation of the polar decomposition F = R S (corotational; the identity for small
     /// strain).
     pub rotation: Matrix3<f64>,
+}
+
+impl Default for ElementState {
+    /// Zero force, tangent and stress; the identity rotation.
+    fn default() -> Self {
+        ElementState {
+            force: [0.0; 12],
+            tangent: [[0.0; 12]; 12],
+            stress: Matrix3::zeros(),
+            rotation: Matrix3::identity(),
+        }
+    }
 }
 
 /// Rotation of the polar decomposition F = R S (det F > 0), by scaled Newton iteration.

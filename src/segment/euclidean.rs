@@ -18,6 +18,7 @@
 //! stored: memory is O(n) besides the grid.
 
 use super::{check_distance, SegmentError};
+use crate::cloud::PointCloud;
 use crate::search::{radius_scan, squared_radius_f32, KdTree, Parallelism, RadiusQuery};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::OnceLock;
@@ -93,13 +94,20 @@ pub fn euclidean_clusters(
         // No finite point, or too spread out for a grid: the breadth-first search.
         return euclidean_clusters_with_tree(positions, tree(), params);
     }
-    // Components in order of their smallest index (PCL's discovery order).
-    let roots: Vec<u32> = (0..positions.len() as u32).map(|i| dsu.find(i)).collect();
+    // Components in order of their smallest index (PCL's discovery order); non-finite
+    // points are in none.
+    let roots: Vec<u32> = (0..positions.len() as u32)
+        .map(|i| {
+            if PointCloud::is_finite_point(&positions[i as usize]) {
+                dsu.find(i)
+            } else {
+                u32::MAX
+            }
+        })
+        .collect();
     let mut size = vec![0u32; positions.len()];
-    for (i, &r) in roots.iter().enumerate() {
-        if crate::cloud::PointCloud::is_finite_point(&positions[i]) {
-            size[r as usize] += 1;
-        }
+    for &r in roots.iter().filter(|&&r| r != u32::MAX) {
+        size[r as usize] += 1;
     }
     let mut slot = vec![u32::MAX; positions.len()];
     let mut clusters: Vec<Vec<usize>> = Vec::new();
@@ -111,9 +119,8 @@ pub fn euclidean_clusters(
         }
     }
     for (i, &r) in roots.iter().enumerate() {
-        let c = slot[r as usize];
-        if c != u32::MAX && crate::cloud::PointCloud::is_finite_point(&positions[i]) {
-            clusters[c as usize].push(i);
+        if r != u32::MAX && slot[r as usize] != u32::MAX {
+            clusters[slot[r as usize] as usize].push(i);
         }
     }
     // Stable: equal sizes keep discovery order.
