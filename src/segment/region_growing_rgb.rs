@@ -4,9 +4,9 @@
 //! quadratic parts are replaced by near-linear equivalents that give the same result:
 //! segment adjacency is computed segment by segment (in parallel) with a scratch array
 //! reset through a touched list (PCL allocates one entry per segment for every segment),
-//! and the small-region merge keeps each region's neighbour list as a heap with lazy
-//! deletion and merges regions with a union-find (PCL rewrites and re-sorts whole lists
-//! on every merge).
+//! and the small-region merge keeps, per region, a heap over its segments' sorted
+//! neighbour lists with lazy deletion and merges regions with a union-find (PCL rewrites
+//! and re-sorts whole lists on every merge).
 //!
 //! 1. every finite point gets its `region_neighbours` (K = 100) nearest neighbours, self
 //!    included, sorted by (`f32` squared distance, index);
@@ -32,6 +32,7 @@ use super::{check_distance, check_threshold, SegmentError, UNSEGMENTED};
 use crate::cloud::PointCloud;
 use crate::search::{squared_distance, word_index, KnnSearch, Parallelism};
 use std::cmp::Reverse;
+use std::collections::binary_heap::PeekMut;
 use std::collections::BinaryHeap;
 
 /// Parameters of [`region_growing_rgb`]. `Default` is PCL 1.13's defaults.
@@ -156,16 +157,12 @@ struct KLists {
     ids: Vec<u32>,
     /// Growth candidates at the start of each row.
     grow: Vec<u16>,
-    /// A copy of one K list for selecting in it.
-    scratch: Vec<u64>,
 }
 
-/// Most colour-compatible neighbours whose ranks in a K list are counted one by one.
-const RANK_DIRECTLY: usize = 8;
-
 /// Step 3 for the segments `range`: for each, every other segment seen in its points'
-/// K lists with the smallest squared distance, the K nearest kept, stored descending by
-/// `(d², segment)`. `members` lists the points of segment `s` at
+/// K lists with the smallest squared distance, the K nearest by `(d², segment)` kept,
+/// stored in the order step 6 pops them from the end: descending by d², and among
+/// equal d² ascending by segment. `members` lists the points of segment `s` at
 /// `seg_start[s]..seg_start[s + 1]`; `row(p)` is point `p`'s K list.
 fn segment_neighbours<'r>(
     range: std::ops::Range<usize>,
@@ -204,7 +201,13 @@ fn segment_neighbours<'r>(
             touched.clear();
             list.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
             list.truncate(keep);
+            // Stored as a stack for step 6, which takes entries from the end in PCL's
+            // order: ascending distance, and among equal distances the larger segment
+            // first (PCL's list is the K nearest by (d², segment) reversed).
             list.reverse();
+            for run in list.chunk_by_mut(|a, b| a.0 == b.0) {
+                run.reverse();
+            }
             list
         })
         .collect()
@@ -231,10 +234,8 @@ pub fn region_growing_rgb(
     let colors = cloud.colors.as_ref().ok_or(SegmentError::NoColors)?;
     let finite = cloud.finite_indices();
     let pts: Vec<[f32; 3]> = finite.iter().map(|&i| cloud.positions[i]).collect();
-    let cols: Vec<[u32; 3]> = finite
-        .iter()
-        .map(|&i| colors[i].map(|c| c as u32))
-        .collect();
+    // PERF: 3 bytes per point keep the colour lookups of the K lists in cache.
+    let cols: Vec<[u8; 3]> = finite.iter().map(|&i| colors[i]).collect();
     let m = pts.len();
     let mut labels = vec![UNSEGMENTED; cloud.len()];
     if m == 0 {
@@ -273,47 +274,26 @@ pub fn region_growing_rgb(
             rows: Vec::new(),
             ids: Vec::new(),
             grow: Vec::new(),
-            scratch: Vec::new(),
         },
         |out: &mut KLists, i, words| {
-            let c = cols[i as usize];
-            let passes = |w: u64| color_dist2(c, cols[word_index(w) as usize]) <= p_thr;
-            // Colour-compatible words first (their order does not matter).
-            let mut cp = 0;
-            for j in 0..words.len() {
+            let c = cols[i as usize].map(u32::from);
+            let passes =
+                |w: u64| color_dist2(c, cols[word_index(w) as usize].map(u32::from)) <= p_thr;
+            // The `grow_n` nearest first (words are distinct, so they are exact), then
+            // the colour-compatible among them first (their order does not matter).
+            let near = if grow_n < words.len() {
+                words.select_nth_unstable(grow_n - 1);
+                grow_n
+            } else {
+                words.len()
+            };
+            let mut n_grow = 0;
+            for j in 0..near {
                 if passes(words[j]) {
-                    words.swap(cp, j);
-                    cp += 1;
+                    words.swap(n_grow, j);
+                    n_grow += 1;
                 }
             }
-            // A compatible word grows when fewer than `grow_n` words precede it. PERF:
-            // with few compatible words, ranking them beats selecting the `grow_n`
-            // nearest (words are distinct, so the ranks are exact).
-            let n_grow = if grow_n >= words.len() {
-                cp
-            } else if cp <= RANK_DIRECTLY {
-                let mut g = 0;
-                for j in 0..cp {
-                    let w = words[j];
-                    if words.iter().filter(|&&x| x < w).count() < grow_n {
-                        words.swap(g, j);
-                        g += 1;
-                    }
-                }
-                g
-            } else {
-                out.scratch.clear();
-                out.scratch.extend_from_slice(words);
-                let (_, &mut nth, _) = out.scratch.select_nth_unstable(grow_n - 1);
-                let mut g = 0;
-                for j in 0..cp {
-                    if words[j] <= nth {
-                        words.swap(g, j);
-                        g += 1;
-                    }
-                }
-                g
-            };
             out.grow.push(n_grow as u16);
             let start = out.rows.len();
             out.rows.extend(words.iter().map(|&w| word_index(w)));
@@ -370,9 +350,10 @@ pub fn region_growing_rgb(
     let n_seg = seg_start.len() - 1;
     let seg_count: Vec<u32> = seg_start.windows(2).map(|w| w[1] - w[0]).collect();
 
-    // Step 3: segment adjacency, K nearest segments, stored descending by (d², segment).
+    // Step 3: segment adjacency, K nearest segments, stored as stacks (see
+    // `segment_neighbours`).
     let chunk = 1024;
-    let seg_nb: Vec<Vec<(f32, u32)>> =
+    let mut seg_nb: Vec<Vec<(f32, u32)>> =
         crate::search::map_range(n_seg.div_ceil(chunk), par, 1, |c| {
             segment_neighbours(
                 c * chunk..((c + 1) * chunk).min(n_seg),
@@ -393,7 +374,7 @@ pub fn region_growing_rgb(
     let mut sums = vec![[0u32; 3]; n_seg];
     for (p, &s) in seg.iter().enumerate() {
         for c in 0..3 {
-            sums[s as usize][c] = sums[s as usize][c].wrapping_add(cols[p][c]);
+            sums[s as usize][c] = sums[s as usize][c].wrapping_add(u32::from(cols[p][c]));
         }
     }
     let seg_color: Vec<[u32; 3]> = sums
@@ -431,7 +412,7 @@ pub fn region_growing_rgb(
     let mut parent: Vec<u32> = (0..n_reg as u32).collect();
     if params.merge_small {
         small_region_merge(
-            &seg_nb,
+            &mut seg_nb,
             &seg_region,
             &mut region_count,
             &mut parent,
@@ -508,45 +489,42 @@ fn find(parent: &mut [u32], mut x: u32) -> u32 {
     root
 }
 
-/// One entry of a region's neighbour heap, nearest first, ties by insertion order: the
-/// squared distance's bits (a distance is `≥ +0`, so its bits order like its value),
-/// the insertion number and the segment, packed so that one comparison orders them.
-type HeapEntry = Reverse<u128>;
+/// One entry of a region's heap: a segment of the region whose stack of neighbours is not
+/// empty, keyed by the squared distance of its stack's top entry and then by the segment
+/// (a distance is `≥ +0`, so its bits order like its value), packed into one integer.
+type HeapEntry = Reverse<u64>;
 
-fn heap_entry(d: f32, seq: u64, t: u32) -> HeapEntry {
-    Reverse(((d.to_bits() as u128) << 96) | ((seq as u128) << 32) | t as u128)
+fn heap_entry(d: f32, s: usize) -> HeapEntry {
+    Reverse(((d.to_bits() as u64) << 32) | s as u64)
 }
 
-/// PCL's step 8. Each region's neighbour list (segments outside the region, with their
-/// distances, ascending) is a heap; entries that point into their own region are the
-/// ones PCL replaces by its `(FLT_MAX, 0)` sentinel, and are skipped lazily instead.
+/// PCL's step 8. PCL gives every region the concatenation of its segments' neighbour
+/// lists (in segment order), sorted by distance with ties in that order, and replaces
+/// entries that point into the region by a `(FLT_MAX, 0)` sentinel. The same order
+/// comes from a heap over the region's segments, each segment's list a stack popped in
+/// that order (see `segment_neighbours`): the heap's top is the region's nearest entry,
+/// entries into the region itself are popped lazily, and merging regions appends heaps.
+/// PERF: the heaps hold one entry per segment, not one per neighbour entry.
 fn small_region_merge(
-    seg_nb: &[Vec<(f32, u32)>],
+    seg_nb: &mut [Vec<(f32, u32)>],
     seg_region: &[u32],
     region_count: &mut [u64],
     parent: &mut [u32],
     min_size: u64,
 ) {
     let n_reg = region_count.len();
+    // Sizes only grow, so a region at least `min_size` large is never examined: its
+    // heap is never read and is not built.
     let mut entries: Vec<Vec<HeapEntry>> = vec![Vec::new(); n_reg];
-    let mut seq = 0u64;
-    // PCL concatenates the segments' lists region by region, in segment order.
-    // PERF: sizes only grow, so a region at least `min_size` large is never examined:
-    // its heap is never read and is not built (entries keep their global sequence
-    // numbers, so every heap orders its entries as before).
     for (s, list) in seg_nb.iter().enumerate() {
-        let r = seg_region[s];
-        if region_count[r as usize] >= min_size {
+        let r = seg_region[s] as usize;
+        if region_count[r] >= min_size {
             continue;
         }
-        for &(d, t) in list {
-            if seg_region[t as usize] != r {
-                entries[r as usize].push(heap_entry(d, seq, t));
-                seq += 1;
-            }
+        if let Some(&(d, _)) = list.last() {
+            entries[r].push(heap_entry(d, s));
         }
     }
-    // PERF: one linear heapify per region instead of a push per entry.
     let mut heaps: Vec<BinaryHeap<HeapEntry>> = entries.into_iter().map(BinaryHeap::from).collect();
     for r in 0..n_reg {
         if region_count[r] >= min_size {
@@ -555,14 +533,25 @@ fn small_region_merge(
         // Nearest entry whose segment is not in r (r is a root: only earlier regions
         // have merged away).
         let target = loop {
-            let Some(&Reverse(e)) = heaps[r].peek() else {
+            let Some(mut top) = heaps[r].peek_mut() else {
                 break None;
             };
-            let owner = find(parent, seg_region[e as u32 as usize]);
-            if owner as usize == r {
-                heaps[r].pop();
-            } else {
+            let s = top.0 as u32 as usize;
+            let stack = &mut seg_nb[s];
+            let Some(&(_, t)) = stack.last() else {
+                PeekMut::pop(top); // not reached: a segment in a heap has entries left
+                continue;
+            };
+            let owner = find(parent, seg_region[t as usize]);
+            if owner as usize != r {
                 break Some(owner);
+            }
+            stack.pop();
+            match stack.last() {
+                Some(&(d, _)) => *top = heap_entry(d, s),
+                None => {
+                    PeekMut::pop(top);
+                }
             }
         };
         let Some(target) = target else {

@@ -364,3 +364,227 @@ fn knn_all_equals_brute_force() {
         assert_eq!(&t.idx[i * k..(i + 1) * k], &want[..], "point {i}");
     }
 }
+
+/// PCL's `RegionGrowingRGB` written out literally (oracle-semantics section 5): brute-force
+/// K lists, whole region neighbour lists gathered, sentinel-marked and re-sorted on every
+/// merge, as PCL does. PCL sorts the region lists with an unstable sort, so its order of
+/// equal distances is unspecified; ours (and this reference's) is the order of the
+/// segments' own lists, segment by segment.
+fn region_growing_reference(cloud: &PointCloud, p: &RegionGrowingParams) -> Vec<Vec<usize>> {
+    use softsense::search::squared_distance;
+    let pts = &cloud.positions;
+    let cols = cloud.colors.as_ref().unwrap();
+    let n = pts.len();
+    let sq = |t: f64| (t as f32) * (t as f32);
+    let (p_thr, r_thr, d_thr) = (sq(p.point_color), sq(p.region_color), sq(p.distance_m));
+    let cdist = |a: [u32; 3], b: [u32; 3]| -> f32 {
+        (0..3)
+            .map(|c| (a[c] as i64 - b[c] as i64).pow(2))
+            .sum::<i64>() as f32
+    };
+    let col = |i: usize| cols[i].map(u32::from);
+    let k = p.region_neighbours.min(n);
+    // Step 1: K nearest by (d², index), self included.
+    let knn: Vec<Vec<usize>> = (0..n)
+        .map(|i| {
+            let mut all: Vec<(f32, usize)> = (0..n)
+                .map(|j| (squared_distance(&pts[i], &pts[j]), j))
+                .collect();
+            all.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            all.into_iter().take(k).map(|x| x.1).collect()
+        })
+        .collect();
+    // Steps 2-3: breadth-first growth from seeds in index order.
+    let mut seg = vec![usize::MAX; n];
+    let mut segments: Vec<Vec<usize>> = Vec::new();
+    for seed in 0..n {
+        if seg[seed] != usize::MAX {
+            continue;
+        }
+        let s = segments.len();
+        seg[seed] = s;
+        let mut queue = vec![seed];
+        let mut head = 0;
+        while head < queue.len() {
+            let cur = queue[head];
+            head += 1;
+            for &q in knn[cur].iter().take(p.neighbours.min(k)) {
+                if seg[q] == usize::MAX && cdist(col(cur), col(q)) <= p_thr {
+                    seg[q] = s;
+                    queue.push(q);
+                }
+            }
+        }
+        queue.sort_unstable();
+        segments.push(queue);
+    }
+    let ns = segments.len();
+    // Step 4: each segment's K nearest segments, descending, larger segment first on ties.
+    let seg_nb: Vec<Vec<(f32, usize)>> = (0..ns)
+        .map(|s| {
+            let mut best = vec![f32::MAX; ns];
+            for &a in &segments[s] {
+                for &b in &knn[a] {
+                    if seg[b] != s {
+                        let d = squared_distance(&pts[a], &pts[b]);
+                        best[seg[b]] = best[seg[b]].min(d);
+                    }
+                }
+            }
+            let mut l: Vec<(f32, usize)> = (0..ns)
+                .filter(|&t| best[t] != f32::MAX)
+                .map(|t| (best[t], t))
+                .collect();
+            l.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            l.truncate(p.region_neighbours);
+            l.reverse();
+            l
+        })
+        .collect();
+    // Step 5: truncated mean colours.
+    let mean: Vec<[u32; 3]> = segments
+        .iter()
+        .map(|m| {
+            let mut sum = [0u32; 3];
+            for &i in m {
+                for (acc, v) in sum.iter_mut().zip(col(i)) {
+                    *acc += v;
+                }
+            }
+            sum.map(|v| (v as f32 / m.len() as f32) as u32)
+        })
+        .collect();
+    // Step 6: greedy colour merge.
+    let mut region = vec![usize::MAX; ns];
+    let mut count: Vec<usize> = Vec::new();
+    for i in 0..ns {
+        if region[i] == usize::MAX {
+            region[i] = count.len();
+            count.push(segments[i].len());
+        }
+        for &(d, j) in &seg_nb[i] {
+            if d <= d_thr && region[j] == usize::MAX && cdist(mean[i], mean[j]) < r_thr {
+                region[j] = region[i];
+                count[region[i]] += segments[j].len();
+            }
+        }
+    }
+    let nr = count.len();
+    if p.merge_small {
+        // Step 7: region lists; an entry is (d², order key, segment), the key being its
+        // position in the concatenation of the segments' lists.
+        let mut key = 0usize;
+        let mut lists: Vec<Vec<(f32, usize, usize)>> = vec![Vec::new(); nr];
+        for s in 0..ns {
+            for &(d, t) in &seg_nb[s] {
+                if region[t] != region[s] {
+                    lists[region[s]].push((d, key, t));
+                }
+                key += 1;
+            }
+        }
+        let sort = |l: &mut Vec<(f32, usize, usize)>| {
+            l.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
+        };
+        lists.iter_mut().for_each(sort);
+        // Step 8: small regions join the owner of their nearest entry.
+        for r in 0..nr {
+            if count[r] >= p.min_cluster_size {
+                continue;
+            }
+            let Some(&(d, _, t)) = lists[r].first() else {
+                continue;
+            };
+            if d == f32::MAX {
+                continue;
+            }
+            let target = region[t];
+            for owner in region.iter_mut().filter(|o| **o == r) {
+                *owner = target;
+            }
+            count[target] += count[r];
+            count[r] = 0;
+            for e in lists[target].iter_mut() {
+                if region[e.2] == target {
+                    *e = (f32::MAX, usize::MAX, 0);
+                }
+            }
+            let moved: Vec<_> = std::mem::take(&mut lists[r])
+                .into_iter()
+                .filter(|e| region[e.2] != target)
+                .collect();
+            lists[target].extend(moved);
+            sort(&mut lists[target]);
+        }
+    }
+    // Steps 9-10: assembly, PCL's empty-slot swaps, size filter.
+    let mut clusters: Vec<Vec<usize>> = vec![Vec::new(); nr];
+    for i in 0..n {
+        clusters[region[seg[i]]].push(i);
+    }
+    // The first empty slot takes the last non-empty cluster, until none is left behind
+    // an empty one; then the trailing empties go.
+    loop {
+        let first_empty = clusters.iter().position(|c| c.is_empty());
+        let last_full = clusters.iter().rposition(|c| !c.is_empty());
+        match (first_empty, last_full) {
+            (Some(e), Some(f)) if e < f => clusters.swap(e, f),
+            _ => break,
+        }
+    }
+    clusters.retain(|c| !c.is_empty());
+    clusters.retain(|c| c.len() >= p.min_cluster_size && c.len() <= p.max_cluster_size);
+    clusters
+}
+
+/// Points on a coarse integer grid (many exactly equal distances, some duplicates) in a
+/// few colours with small noise, and parameters that make many small segments merge.
+fn tie_heavy_scene() -> impl Strategy<Value = (PointCloud, RegionGrowingParams)> {
+    (
+        prop::collection::vec(((0u8..6, 0u8..6, 0u8..3), (0u8..3, 0u8..4)), 1..120),
+        (
+            2usize..10,
+            1usize..8,
+            1usize..12,
+            0.0f64..30.0,
+            any::<bool>(),
+        ),
+    )
+        .prop_map(|(raw, (k, n, min, region_color, merge))| {
+            let palette = [[200u8, 30, 30], [30, 200, 30], [30, 30, 200]];
+            let pos = raw
+                .iter()
+                .map(|&((x, y, z), _)| [x as f32 * 0.01, y as f32 * 0.01, 1.0 + z as f32 * 0.01])
+                .collect();
+            let mut cloud = PointCloud::from_positions(pos);
+            cloud.colors = Some(
+                raw.iter()
+                    .map(|&(_, (c, noise))| palette[c as usize].map(|v| v + 3 * noise))
+                    .collect(),
+            );
+            let params = RegionGrowingParams {
+                distance_m: 0.015,
+                point_color: 8.0,
+                region_color,
+                min_cluster_size: min,
+                neighbours: n,
+                region_neighbours: k,
+                merge_small: merge,
+                ..Default::default()
+            };
+            (cloud, params)
+        })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(300))]
+    #[test]
+    fn region_growing_equals_pcls_literal_algorithm_with_ties_and_duplicates(
+        (cloud, params) in tie_heavy_scene()
+    ) {
+        let ours = region_growing_rgb(&cloud, &params).unwrap();
+        prop_assert_eq!(ours.clusters(), region_growing_reference(&cloud, &params));
+        let serial = RegionGrowingParams { parallelism: Parallelism::Serial, ..params };
+        prop_assert_eq!(region_growing_rgb(&cloud, &serial).unwrap(), ours);
+    }
+}
