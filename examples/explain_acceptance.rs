@@ -137,13 +137,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 _ => None,
             })
             .collect();
-        let (claimed, status) = match &x.outcome {
-            Outcome::NoMissingEffect => (Vec::new(), "none"),
+        let (claimed, sigmas, status): (Vec<Effect>, Vec<Vec<f64>>, _) = match &x.outcome {
+            Outcome::NoMissingEffect => (Vec::new(), Vec::new(), "none"),
             Outcome::Explained { effects } => (
                 effects.iter().map(|f| f.effect.clone()).collect(),
+                effects.iter().map(|f| f.sigma.clone()).collect(),
                 "explained",
             ),
-            Outcome::UnexplainedResidual { .. } => (Vec::new(), "unexplained"),
+            Outcome::UnexplainedResidual { .. } => (Vec::new(), Vec::new(), "unexplained"),
         };
         let named: Vec<bool> = lib_truth
             .iter()
@@ -156,6 +157,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     .iter()
                     .find(|c| same(&c.kind, &t.kind))
                     .map_or(f64::NAN, |c| c.relative_error(t))
+            })
+            .collect();
+        // The fit's own 1-σ uncertainty on the same scale as the error: sqrt(Σ σ_i²) / ‖truth‖
+        // (the RMS of ‖fit − truth‖ / ‖truth‖ expected from the noise alone). Reported only:
+        // an error well inside it is noise-limited, one well outside it is not.
+        let rel_sigma: Vec<f64> = lib_truth
+            .iter()
+            .map(|t| {
+                claimed
+                    .iter()
+                    .position(|c| same(&c.kind, &t.kind))
+                    .map_or(f64::NAN, |j| {
+                        let s2: f64 = sigmas[j].iter().map(|s| s * s).sum();
+                        let n2: f64 = t.params.iter().map(|v| v * v).sum();
+                        (s2 / n2.max(1e-300)).sqrt()
+                    })
             })
             .collect();
         let extra = claimed
@@ -178,7 +195,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let reduced = ra <= 0.2 * rb || ra <= 1.2 * noise;
         let line = serde_json::json!({
             "dataset": i, "effects": effects, "magnitude": m, "status": status,
-            "named": named, "param_rel_err": errs, "extra_effects": extra,
+            "named": named, "param_rel_err": errs, "param_rel_sigma": rel_sigma,
+            "claimed_sigma": sigmas, "extra_effects": extra,
             "size_over_noise": size, "rms_before_mm": rb * 1e3, "rms_after_mm": ra * 1e3,
             "noise_mm": noise * 1e3, "reduced": reduced, "seconds": secs, "cpu_seconds": cpu,
             "claimed": claimed, "truth": truth.hidden, "steps": steps,

@@ -72,7 +72,8 @@ def main(paths):
         + [d for d in named if d not in params_all]
     for d in bad:
         print(f"  miss ds{d['dataset']:03} {d['effects']} m={d['magnitude']} status={d['status']} "
-              f"named={d['named']} err={d['param_rel_err']} size={d.get('size_over_noise', 0):.1f} "
+              f"named={d['named']} err={d['param_rel_err']} "
+              f"1sigma={d.get('param_rel_sigma', '-')} size={d.get('size_over_noise', 0):.1f} "
               f"claimed={[c['kind'] for c in d['claimed']]}")
     if want_table:
         table(rows)
