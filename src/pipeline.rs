@@ -217,7 +217,7 @@ impl Pipeline {
             elapsed: t.elapsed(),
         });
         let t = Instant::now();
-        let out = voxel_grid_of(frame, kept.iter().copied(), voxel)?;
+        let out = voxel_grid_of(frame, Some(kept), voxel)?;
         timings.push(StageTiming {
             stage: "voxel",
             points_out: out.cloud.len(),

@@ -2,7 +2,7 @@
 
 use super::{empty_like, FilterError, FilterOutput};
 use crate::cloud::PointCloud;
-use crate::search::sort::{bits_for, radix_sort_packed};
+use crate::search::sort::{bits_for, radix_sort_packed, with_word_buffers};
 use crate::search::Parallelism;
 use serde::{Deserialize, Serialize};
 
@@ -73,20 +73,53 @@ pub fn voxel_grid(
     params: &VoxelGridParams,
 ) -> Result<FilterOutput, FilterError> {
     cloud.validate()?;
-    voxel_grid_of(cloud, 0..cloud.len(), params)
+    voxel_grid_of(cloud, None, params)
 }
 
-/// [`voxel_grid`] of the points `members` of `cloud` (ascending input indices, in range),
-/// as if run on `cloud.select(members)`, but with `indices` into `cloud`: the chain uses it
-/// to down-sample a crop without building the cropped cloud. `cloud` must be valid.
-pub(crate) fn voxel_grid_of<I>(
+/// The points a voxel grid runs on: all of a cloud's, or a list of them.
+#[derive(Clone, Copy)]
+struct Members<'a> {
+    list: Option<&'a [usize]>,
+    count: usize,
+}
+
+impl Members<'_> {
+    /// Points per chunk of the parallel passes (fixed, so results never depend on the
+    /// thread count).
+    const CHUNK: usize = 1 << 15;
+
+    fn get(&self, j: usize) -> usize {
+        self.list.map_or(j, |l| l[j])
+    }
+
+    fn chunks(&self) -> usize {
+        self.count.div_ceil(Self::CHUNK)
+    }
+
+    /// The input indices of chunk `c`.
+    fn chunk(&self, c: usize) -> impl Iterator<Item = usize> + '_ {
+        let end = ((c + 1) * Self::CHUNK).min(self.count);
+        (c * Self::CHUNK..end).map(|j| self.get(j))
+    }
+
+    fn iter(&self) -> impl Iterator<Item = usize> + '_ {
+        (0..self.count).map(|j| self.get(j))
+    }
+}
+
+/// [`voxel_grid`] of the points `members` of `cloud` (ascending input indices, in range;
+/// `None`: all), as if run on `cloud.select(members)`, but with `indices` into `cloud`:
+/// the chain uses it to down-sample a crop without building the cropped cloud. `cloud`
+/// must be valid.
+pub(crate) fn voxel_grid_of(
     cloud: &PointCloud,
-    members: I,
+    members: Option<&[usize]>,
     params: &VoxelGridParams,
-) -> Result<FilterOutput, FilterError>
-where
-    I: Iterator<Item = usize> + Clone,
-{
+) -> Result<FilterOutput, FilterError> {
+    let members = Members {
+        list: members,
+        count: members.map_or(cloud.len(), <[usize]>::len),
+    };
     for &leaf in &params.leaf_size {
         let leaf32 = leaf as f32;
         if !(leaf.is_finite() && leaf > 0.0 && leaf32 > 0.0 && (1.0f32 / leaf32).is_finite()) {
@@ -94,7 +127,18 @@ where
         }
     }
     let pos = &cloud.positions;
-    let Some((lo, hi, finite)) = bounds_of(pos, members.clone()) else {
+    // PERF: bounds and finite counts per chunk, in parallel (min and max are exact in
+    // any order).
+    let chunk_bounds = crate::search::map_range(members.chunks(), params.parallelism, 1, |c| {
+        bounds_of(pos, members.chunk(c))
+    });
+    let Some((lo, hi, finite)) = chunk_bounds.iter().flatten().copied().reduce(|a, b| {
+        (
+            std::array::from_fn(|k| a.0[k].min(b.0[k])),
+            std::array::from_fn(|k| a.1[k].max(b.1[k])),
+            a.2 + b.2,
+        )
+    }) else {
         return Ok(FilterOutput {
             cloud: empty_like(cloud),
             indices: Vec::new(),
@@ -137,35 +181,42 @@ where
     // finite point's cell is within ±2^61: the fast floors below are exact.
     // PERF: `floor` is a libm call without SSE4.1; truncation plus a correction is not,
     // and each mode gets its own key loop.
-    let finite_members = members.filter(|&i| PointCloud::is_finite_point(&pos[i]));
-    let grid = Grid { cmin, dims, finite };
+    let grid = Grid {
+        cmin,
+        dims,
+        finite,
+        chunk_finite: chunk_bounds.iter().map(|b| b.map_or(0, |b| b.2)).collect(),
+    };
     Ok(match mode {
-        VoxelMode::Pcl => group_and_average(cloud, finite_members, &grid, params, |p| {
+        VoxelMode::Pcl => group_and_average(cloud, members, &grid, params, |p| {
             std::array::from_fn(|a| floor_f32(p[a] * inv32[a]))
         }),
-        VoxelMode::Open3d => group_and_average(cloud, finite_members, &grid, params, |p| {
+        VoxelMode::Open3d => group_and_average(cloud, members, &grid, params, |p| {
             std::array::from_fn(|a| floor_f64((p[a] as f64 - origin[a]) / leaf[a]))
         }),
     })
 }
 
-/// The occupied cell range: smallest cell per axis, cells per axis, finite point count.
+/// The occupied cell range: smallest cell per axis, cells per axis, finite point count
+/// (in all and per chunk of the members).
 struct Grid {
     cmin: [i64; 3],
     dims: [u128; 3],
     finite: usize,
+    chunk_finite: Vec<usize>,
 }
 
-/// Sorts `members` (finite, ascending) by the voxel key of `cell(p)` and averages each
+/// Sorts the finite `members` (ascending) by the voxel key of `cell(p)` and averages each
 /// voxel. Keys are unique with the index, so the order is total and independent of the
 /// sort's stability or thread count.
 fn group_and_average(
     cloud: &PointCloud,
-    members: impl Iterator<Item = usize>,
+    members: Members<'_>,
     grid: &Grid,
     params: &VoxelGridParams,
-    cell: impl Fn(&[f32; 3]) -> [i64; 3],
+    cell: impl Fn(&[f32; 3]) -> [i64; 3] + Sync,
 ) -> FilterOutput {
+    let finite = |i: &usize| PointCloud::is_finite_point(&cloud.positions[*i]);
     let (pos, cmin, dims) = (&cloud.positions, grid.cmin, grid.dims);
     let rel = |p: &[f32; 3]| -> [u64; 3] {
         let c = cell(p);
@@ -179,23 +230,38 @@ fn group_and_average(
             // PERF: the common case: keys fit in 32 bits, packed above the index and
             // radix-sorted (stable, so indices stay ascending within a voxel).
             let (dx, dxy) = (dims[0] as u64, (dims[0] * dims[1]) as u64);
-            let mut words: Vec<u64> = Vec::with_capacity(grid.finite);
-            words.extend(members.map(|i| {
-                let r = rel(&pos[i]);
-                ((r[0] + r[1] * dx + r[2] * dxy) << 32) | i as u64
-            }));
-            radix_sort_packed(&mut words, bits_for(t as u64));
-            average_sorted(
-                cloud,
-                &words,
-                |w| w >> 32,
-                |w| (w & 0xffff_ffff) as usize,
-                params,
-            )
+            with_word_buffers(|words, buf| {
+                // PERF: each chunk of members writes its finite points' words into its
+                // own slice, in parallel.
+                words.resize(grid.finite, 0);
+                let mut rest = &mut words[..];
+                let mut slices = Vec::with_capacity(grid.chunk_finite.len());
+                for (c, &n) in grid.chunk_finite.iter().enumerate() {
+                    let (mine, tail) = rest.split_at_mut(n);
+                    slices.push((c, mine));
+                    rest = tail;
+                }
+                for_each(slices, params.parallelism, |(c, out)| {
+                    for (w, i) in out.iter_mut().zip(members.chunk(c).filter(finite)) {
+                        let r = rel(&pos[i]);
+                        *w = ((r[0] + r[1] * dx + r[2] * dxy) << 32) | i as u64;
+                    }
+                });
+                radix_sort_packed(words, buf, bits_for(t as u64));
+                average_sorted(
+                    cloud,
+                    words,
+                    |w| w >> 32,
+                    |w| (w & 0xffff_ffff) as usize,
+                    params,
+                )
+            })
         }
         Some(t) if t <= u64::MAX as u128 => {
             let (dx, dxy) = (dims[0] as u64, (dims[0] * dims[1]) as u64);
             let mut pairs: Vec<(u64, usize)> = members
+                .iter()
+                .filter(finite)
                 .map(|i| {
                     let r = rel(&pos[i]);
                     (r[0] + r[1] * dx + r[2] * dxy, i)
@@ -206,6 +272,8 @@ fn group_and_average(
         }
         _ => {
             let mut pairs: Vec<([u64; 3], usize)> = members
+                .iter()
+                .filter(finite)
                 .map(|i| {
                     let r = rel(&pos[i]);
                     ([r[2], r[1], r[0]], i)
@@ -215,6 +283,14 @@ fn group_and_average(
             average_sorted(cloud, &pairs, |p| p.0, |p| p.1, params)
         }
     }
+}
+
+/// `v.round()` for `0 ≤ v < 2^52`. PERF: `round` is a libm call without SSE4.1; the
+/// fraction `v - trunc(v)` is exact, so this gives the same result.
+#[inline]
+fn round_half_away(v: f64) -> u64 {
+    let t = v as u64;
+    t + u64::from(v - t as f64 >= 0.5)
 }
 
 /// `floor(v)` as an integer, exact for finite `|v| < 2^63`.
@@ -250,6 +326,18 @@ fn bounds_of(
         }
     }
     (n > 0).then_some((lo, hi, n))
+}
+
+/// Calls `f` on every item, in parallel with rayon.
+fn for_each<T: Send>(items: Vec<T>, par: Parallelism, f: impl Fn(T) + Sync + Send) {
+    #[cfg(feature = "parallel")]
+    if par == Parallelism::Rayon {
+        use rayon::prelude::*;
+        items.into_par_iter().for_each(f);
+        return;
+    }
+    let _ = par;
+    items.into_iter().for_each(f);
 }
 
 fn sort_pairs<K: Ord + Copy + Send>(pairs: &mut [(K, usize)], par: Parallelism) {
@@ -388,7 +476,7 @@ fn average_one(cloud: &PointCloud, members: &[usize], mode: VoxelMode, out: &mut
             // PCL: float sum / n, truncated.
             (sum as f32 / len as f32) as u8
         } else {
-            (sum as f64 / n).round() as u8
+            round_half_away(sum as f64 / n) as u8
         }
     };
     if let Some(c) = &cloud.colors {

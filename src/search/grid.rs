@@ -17,7 +17,7 @@
 //! the answer is unique, equal to a brute-force selection, and independent of threads
 //! and of the chunking. Distances are [`squared_distance`] (`f32`, FLANN's order).
 
-use super::sort::{bits_for, radix_sort_packed};
+use super::sort::{bits_for, radix_sort_packed, with_word_buffers};
 use super::{squared_distance, KdTree, Neighbour, Parallelism, RadiusQuery};
 use crate::cloud::PointCloud;
 use std::sync::OnceLock;
@@ -600,25 +600,25 @@ impl Grid {
             return None;
         }
         let stride = [dims[0], dims[0] * dims[1]];
-        let mut words: Vec<u64> = finite
-            .iter()
-            .map(|&i| {
+        let (cell_keys, cell_start, sorted) = with_word_buffers(|words, buf| {
+            words.extend(finite.iter().map(|&i| {
                 let c = cell_of(&positions[i as usize], origin, h);
                 ((c[0] + c[1] * stride[0] + c[2] * stride[1]) << 32) | i as u64
-            })
-            .collect();
-        radix_sort_packed(&mut words, bits_for(total as u64));
-        let mut cell_keys = Vec::new();
-        let mut cell_start = Vec::new();
-        for (j, w) in words.iter().enumerate() {
-            let key = w >> 32;
-            if cell_keys.last() != Some(&key) {
-                cell_keys.push(key);
-                cell_start.push(j as u32);
+            }));
+            radix_sort_packed(words, buf, bits_for(total as u64));
+            let mut cell_keys = Vec::new();
+            let mut cell_start = Vec::new();
+            for (j, w) in words.iter().enumerate() {
+                let key = w >> 32;
+                if cell_keys.last() != Some(&key) {
+                    cell_keys.push(key);
+                    cell_start.push(j as u32);
+                }
             }
-        }
-        cell_start.push(words.len() as u32);
-        let sorted: Vec<u32> = words.into_iter().map(|w| w as u32).collect();
+            cell_start.push(words.len() as u32);
+            let sorted: Vec<u32> = words.iter().map(|&w| w as u32).collect();
+            (cell_keys, cell_start, sorted)
+        });
         let coords =
             std::array::from_fn(|a| sorted.iter().map(|&i| positions[i as usize][a]).collect());
         Some(Grid {

@@ -7,11 +7,12 @@
 //! thread count. Digits of at most 12 bits keep the scatter's output streams in cache;
 //! digits in which all keys agree are skipped.
 
-/// Sorts `words` by bits `32..32 + key_bits` (the key), stably. `key_bits ≤ 32`.
+/// Sorts `words` by bits `32..32 + key_bits` (the key), stably, with `buf` as the
+/// scatter's second buffer (its contents are overwritten). `key_bits ≤ 32`.
 ///
 /// PERF: digits of up to 12 bits (4096 buckets, whose counters and write cursors stay in
 /// L1/L2), as few passes as that allows: a 24-bit voxel key takes 2 passes instead of 3.
-pub(crate) fn radix_sort_packed(words: &mut Vec<u64>, key_bits: u32) {
+pub(crate) fn radix_sort_packed(words: &mut Vec<u64>, buf: &mut Vec<u64>, key_bits: u32) {
     debug_assert!(key_bits <= 32);
     let n = words.len();
     if n < 2 || key_bits == 0 {
@@ -29,7 +30,11 @@ pub(crate) fn radix_sort_packed(words: &mut Vec<u64>, key_bits: u32) {
             h[((key >> (digit * d as u32)) & mask) as usize] += 1;
         }
     }
-    let mut buf = vec![0u64; n];
+    // Only a buffer shorter than the input is extended (and that part zeroed).
+    if buf.len() < n {
+        buf.resize(n, 0);
+    }
+    buf.truncate(n);
     let mut start = vec![0usize; radix];
     for (d, h) in hist.chunks_exact(radix).enumerate() {
         if h.contains(&n) {
@@ -46,8 +51,38 @@ pub(crate) fn radix_sort_packed(words: &mut Vec<u64>, key_bits: u32) {
             buf[start[b]] = w;
             start[b] += 1;
         }
-        std::mem::swap(words, &mut buf);
+        std::mem::swap(words, buf);
     }
+}
+
+/// Words a thread's reusable buffers may keep between calls (32 MiB each).
+const RETAIN_WORDS: usize = 1 << 22;
+
+thread_local! {
+    static WORD_BUFFERS: std::cell::RefCell<(Vec<u64>, Vec<u64>)> =
+        const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
+}
+
+/// Runs `f` with two empty word buffers that this thread keeps between calls, so that a
+/// stream of frames does not fault its sort buffers into memory again on every frame
+/// (a 640x480 frame's two buffers are 4.9 MB, about 1200 fresh pages). A nested call
+/// (rayon may run another job on this thread meanwhile) gets fresh buffers; buffers
+/// that grew beyond [`RETAIN_WORDS`] are freed afterwards.
+pub(crate) fn with_word_buffers<R>(f: impl FnOnce(&mut Vec<u64>, &mut Vec<u64>) -> R) -> R {
+    WORD_BUFFERS.with(|cell| match cell.try_borrow_mut() {
+        Ok(mut bufs) => {
+            let (a, b) = &mut *bufs;
+            a.clear();
+            let r = f(a, b);
+            for v in [a, b] {
+                if v.capacity() > RETAIN_WORDS {
+                    *v = Vec::new();
+                }
+            }
+            r
+        }
+        Err(_) => f(&mut Vec::new(), &mut Vec::new()),
+    })
 }
 
 /// Widest digit of [`radix_sort_packed`], bits.
