@@ -68,6 +68,10 @@ const MAX_CELL: f64 = (1u64 << 61) as f64;
 /// linear-index order in PCL mode. Open3D's own order is its hash map's; compare
 /// against it after sorting. Positions are averaged in `f64` (PCL sums in `f32`; the
 /// difference is within a few ulp). `indices[v]` is the smallest input index in voxel `v`.
+///
+/// Memory: besides the output, 16 bytes per finite point for sorting. The calling thread
+/// keeps those buffers for its next call (a stream of frames then does not fault them
+/// into memory again every frame); buffers larger than 32 MiB each are freed after use.
 pub fn voxel_grid(
     cloud: &PointCloud,
     params: &VoxelGridParams,
