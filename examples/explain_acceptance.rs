@@ -146,33 +146,29 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             ),
             Outcome::UnexplainedResidual { .. } => (Vec::new(), Vec::new(), "unexplained"),
         };
-        let named: Vec<bool> = lib_truth
+        // Per hidden library effect, the claimed effect of the same kind.
+        let matched: Vec<Option<usize>> = lib_truth
             .iter()
-            .map(|t| claimed.iter().any(|c| same(&c.kind, &t.kind)))
+            .map(|t| claimed.iter().position(|c| same(&c.kind, &t.kind)))
             .collect();
+        let named: Vec<bool> = matched.iter().map(Option::is_some).collect();
         let errs: Vec<f64> = lib_truth
             .iter()
-            .map(|t| {
-                claimed
-                    .iter()
-                    .find(|c| same(&c.kind, &t.kind))
-                    .map_or(f64::NAN, |c| c.relative_error(t))
-            })
+            .zip(&matched)
+            .map(|(t, j)| j.map_or(f64::NAN, |j| claimed[j].relative_error(t)))
             .collect();
         // The fit's own 1-σ uncertainty on the same scale as the error: sqrt(Σ σ_i²) / ‖truth‖
         // (the RMS of ‖fit − truth‖ / ‖truth‖ expected from the noise alone). Reported only:
         // an error well inside it is noise-limited, one well outside it is not.
         let rel_sigma: Vec<f64> = lib_truth
             .iter()
-            .map(|t| {
-                claimed
-                    .iter()
-                    .position(|c| same(&c.kind, &t.kind))
-                    .map_or(f64::NAN, |j| {
-                        let s2: f64 = sigmas[j].iter().map(|s| s * s).sum();
-                        let n2: f64 = t.params.iter().map(|v| v * v).sum();
-                        (s2 / n2.max(1e-300)).sqrt()
-                    })
+            .zip(&matched)
+            .map(|(t, j)| {
+                j.map_or(f64::NAN, |j| {
+                    let s2: f64 = sigmas[j].iter().map(|s| s * s).sum();
+                    let n2: f64 = t.params.iter().map(|v| v * v).sum();
+                    (s2 / n2.max(1e-300)).sqrt()
+                })
             })
             .collect();
         let extra = claimed

@@ -2,7 +2,7 @@
 
 use super::{empty_like, FilterError, FilterOutput};
 use crate::cloud::PointCloud;
-use crate::search::sort::{bits_for, radix_sort_packed, with_word_buffers};
+use crate::search::sort::{bits_for, radix_sort_packed, set_len, with_word_buffers};
 use crate::search::Parallelism;
 use serde::{Deserialize, Serialize};
 
@@ -237,7 +237,7 @@ fn group_and_average(
             with_word_buffers(|words, buf| {
                 // PERF: each chunk of members writes its finite points' words into its
                 // own slice, in parallel.
-                words.resize(grid.finite, 0);
+                set_len(words, grid.finite);
                 let mut rest = &mut words[..];
                 let mut slices = Vec::with_capacity(grid.chunk_finite.len());
                 for (c, &n) in grid.chunk_finite.iter().enumerate() {

@@ -601,6 +601,7 @@ impl Grid {
         }
         let stride = [dims[0], dims[0] * dims[1]];
         let (cell_keys, cell_start, sorted) = with_word_buffers(|words, buf| {
+            words.clear();
             words.extend(finite.iter().map(|&i| {
                 let c = cell_of(&positions[i as usize], origin, h);
                 ((c[0] + c[1] * stride[0] + c[2] * stride[1]) << 32) | i as u64

@@ -30,11 +30,7 @@ pub(crate) fn radix_sort_packed(words: &mut Vec<u64>, buf: &mut Vec<u64>, key_bi
             h[((key >> (digit * d as u32)) & mask) as usize] += 1;
         }
     }
-    // Only a buffer shorter than the input is extended (and that part zeroed).
-    if buf.len() < n {
-        buf.resize(n, 0);
-    }
-    buf.truncate(n);
+    set_len(buf, n);
     let mut start = vec![0usize; radix];
     for (d, h) in hist.chunks_exact(radix).enumerate() {
         if h.contains(&n) {
@@ -55,6 +51,15 @@ pub(crate) fn radix_sort_packed(words: &mut Vec<u64>, buf: &mut Vec<u64>, key_bi
     }
 }
 
+/// Sets `v`'s length to `n`; only a part beyond its old length is written (zeroed), so a
+/// reused buffer is not cleared and refilled before being overwritten.
+pub(crate) fn set_len(v: &mut Vec<u64>, n: usize) {
+    if v.len() < n {
+        v.resize(n, 0);
+    }
+    v.truncate(n);
+}
+
 /// Words a thread's reusable buffers may keep between calls (32 MiB each).
 const RETAIN_WORDS: usize = 1 << 22;
 
@@ -63,7 +68,7 @@ thread_local! {
         const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
 }
 
-/// Runs `f` with two empty word buffers that this thread keeps between calls, so that a
+/// Runs `f` with two word buffers (contents unspecified) that this thread keeps between calls, so that a
 /// stream of frames does not fault its sort buffers into memory again on every frame
 /// (a 640x480 frame's two buffers are 4.9 MB, about 1200 fresh pages). A nested call
 /// (rayon may run another job on this thread meanwhile) gets fresh buffers; buffers
@@ -72,7 +77,6 @@ pub(crate) fn with_word_buffers<R>(f: impl FnOnce(&mut Vec<u64>, &mut Vec<u64>) 
     WORD_BUFFERS.with(|cell| match cell.try_borrow_mut() {
         Ok(mut bufs) => {
             let (a, b) = &mut *bufs;
-            a.clear();
             let r = f(a, b);
             for v in [a, b] {
                 if v.capacity() > RETAIN_WORDS {
