@@ -160,3 +160,67 @@ fn normals_stay_right_on_a_cloud_translated_far_from_the_origin_where_one_pass_f
     let naive_err = angle_deg(naive, n);
     assert!(naive_err > 10.0, "one-pass f32 error only {naive_err} deg");
 }
+
+/// The population covariance of `pts` in `f64`, de-meaned: the brute-force oracle.
+fn covariance(pts: &[[f32; 3]]) -> nalgebra::Matrix3<f64> {
+    let n = pts.len() as f64;
+    let mean = pts.iter().fold(nalgebra::Vector3::zeros(), |m, p| {
+        m + nalgebra::Vector3::new(p[0] as f64, p[1] as f64, p[2] as f64)
+    }) / n;
+    pts.iter().fold(nalgebra::Matrix3::zeros(), |c, p| {
+        let d = nalgebra::Vector3::new(p[0] as f64, p[1] as f64, p[2] as f64) - mean;
+        c + d * d.transpose()
+    }) / n
+}
+
+use proptest::prelude::*;
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(400))]
+    /// Every shape of neighbourhood (flat, noisy, elongated, nearly isotropic, from 3 to
+    /// 30 points, far from the origin or not): the normal is nalgebra's eigenvector of
+    /// the smallest eigenvalue (compared where that is well defined, a gap of 1e-3 of
+    /// the largest) and the curvature its eigenvalue over the trace.
+    #[test]
+    fn normals_and_curvature_equal_a_full_eigendecomposition_of_the_covariance(
+        pts in prop::collection::vec((-1.0f64..1.0, -1.0f64..1.0, -1.0f64..1.0), 3..30),
+        scale in (0.001f64..1.0, 1e-4f64..1.0, 0.0f64..1.0),
+        offset in prop_oneof![Just(0.0f64), -50.0f64..50.0],
+        open3d in any::<bool>(),
+    ) {
+        // Axis scales make planes (small z), lines (small y and z) and blobs.
+        let pts: Vec<[f32; 3]> = pts
+            .iter()
+            .map(|&(x, y, z)| {
+                [
+                    (offset + x * scale.0) as f32,
+                    (offset + y * scale.0 * scale.1) as f32,
+                    (1.0 + z * scale.0 * scale.1 * scale.2) as f32,
+                ]
+            })
+            .collect();
+        let cloud = PointCloud::from_positions(pts.clone());
+        let params = NormalParams {
+            mode: if open3d { NormalMode::Open3d } else { NormalMode::Pcl },
+            ..NormalParams::knn(pts.len())
+        };
+        let out = estimate_normals(&cloud, &params).unwrap();
+        let eig = covariance(&pts).symmetric_eigen();
+        let mut order = [0usize, 1, 2];
+        order.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
+        let ev = order.map(|a| eig.eigenvalues[a]);
+        let v = eig.eigenvectors.column(order[0]);
+        let trace = ev.iter().sum::<f64>();
+        // The same neighbourhood (all points) for every point: one answer.
+        let (nrm, curv) = (out.normals[0], out.curvature[0]);
+        if trace > 0.0 {
+            prop_assert!((curv as f64 - ev[0].max(0.0) / trace).abs() < 1e-6,
+                "curvature {} vs {}", curv, ev[0] / trace);
+        }
+        if ev[1] - ev[0] > 1e-3 * ev[2] && ev[1] > 1e-9 * ev[2] {
+            let angle = angle_deg(nrm, [v[0], v[1], v[2]]);
+            // f32 output, and nalgebra's own error of about 1e-16 / gap.
+            prop_assert!(angle < 1e-3, "angle {} deg, eigenvalues {:?}", angle, ev);
+        }
+    }
+}
