@@ -2,7 +2,7 @@
 
 use super::FeatureError;
 use crate::cloud::PointCloud;
-use crate::search::{map_indices, KdTree, Parallelism, RadiusQuery};
+use crate::search::{join, map_indices, map_knn_with, KdTree, KnnSearch, Parallelism, RadiusQuery};
 use crate::search::{map_knn, FlannTree};
 use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
@@ -130,25 +130,31 @@ pub fn estimate_normals(
             // which of them are kept. The grid asks for k + 1 neighbours to see the tie;
             // the untied points (almost all) are done in this pass, the tied ones by the
             // FLANN-order tree, built only when there is one.
-            let first = map_knn(
-                &cloud.positions,
-                k.saturating_add(1),
+            // PERF: sensor frames (organised clouds) nearly always tie somewhere (2-4% of
+            // the points of the Kinect frames at k = 10), so their FLANN tree is built
+            // while the grid is sorted on one thread, which leaves the other idle.
+            let speculate = cloud.is_organized() && params.parallelism == Parallelism::Rayon;
+            let (search, mut tree) = join(
                 params.parallelism,
-                |i, nbrs| {
-                    if nbrs.is_empty() {
-                        return Some(invalid);
-                    }
-                    if nbrs.len() > k && nbrs[k].squared_distance == nbrs[k - 1].squared_distance {
-                        return None;
-                    }
-                    Some(ctx.normal_of(i, nbrs.iter().take(k).map(|n| n.index)))
-                },
+                || KnnSearch::new(&cloud.positions, k.saturating_add(1)),
+                || speculate.then(|| FlannTree::build_with(&cloud.positions, params.parallelism)),
             );
+            let first = map_knn_with(&search, params.parallelism, |i, nbrs| {
+                if nbrs.is_empty() {
+                    return Some(invalid);
+                }
+                if nbrs.len() > k && nbrs[k].squared_distance == nbrs[k - 1].squared_distance {
+                    return None;
+                }
+                Some(ctx.normal_of(i, nbrs.iter().take(k).map(|n| n.index)))
+            });
             let tied: Vec<usize> = (0..first.len()).filter(|&i| first[i].is_none()).collect();
             let fixed = if tied.is_empty() {
                 Vec::new()
             } else {
-                let tree = FlannTree::build_with(&cloud.positions, params.parallelism);
+                let tree = tree.get_or_insert_with(|| {
+                    FlannTree::build_with(&cloud.positions, params.parallelism)
+                });
                 map_indices(tied.len(), params.parallelism, |t| {
                     let i = tied[t];
                     let nbrs = tree.nearest_k(&cloud.positions[i], k);

@@ -26,6 +26,9 @@ use std::sync::OnceLock;
 /// block boundary; `f32` distance rounding is below 1e-6 relative.
 pub(crate) const MARGIN: f64 = 1e-4;
 
+/// About how many points [`Grid::build`] samples to choose a large cloud's cell size.
+const SAMPLE: usize = 32_768;
+
 /// Largest block radius (in cells) tried before asking the tree.
 const RINGS: u64 = 4;
 
@@ -105,7 +108,17 @@ where
     T: Send,
     F: Fn(usize, &[Neighbour]) -> T + Sync + Send,
 {
-    let search = KnnSearch::new(positions, k);
+    map_knn_with(&KnnSearch::new(positions, k), par, f)
+}
+
+/// [`map_knn`] over an index built beforehand (for instance while another thread did
+/// other work).
+pub(crate) fn map_knn_with<T, F>(search: &KnnSearch, par: Parallelism, f: F) -> Vec<T>
+where
+    T: Send,
+    F: Fn(usize, &[Neighbour]) -> T + Sync + Send,
+{
+    let positions = search.positions;
     // Every point starts with the answer for "no neighbours" (what non-finite points
     // keep); finite points are overwritten below.
     let mut out: Vec<T> = (0..positions.len()).map(|i| f(i, &[])).collect();
@@ -625,23 +638,52 @@ impl Grid {
         if !(h.is_finite() && h > 0.0) {
             h = 1.0;
         }
+        // Points per cell as seen from a point (dense regions weigh as they cost): a
+        // surface crosses about 9 cells of a 3x3x3 block, so this many times 9
+        // candidates are scanned per query. About 1.5 k keeps nearly every k-th
+        // neighbour inside the block (at k/2, a third of the queries of a Kinect frame
+        // had to retry with a 5x5x5 block); the scan of the larger block is vectorised
+        // and only about k candidates are ranked (see `block_knn`).
+        let target = 1.5 * k as f64;
+        // PERF: a large cloud tries cell sizes on an even subsample (every `stride`-th
+        // finite point, about SAMPLE of them) and is sorted into cells once, at the
+        // chosen size. A cell holding `c` points holds about `f c` sampled ones, with
+        // binomial spread, so `c² ≈ (c_s² − (1 − f) c_s) / f²`.
+        let stride = finite.len() / SAMPLE;
+        if stride >= 2 {
+            let sample: Vec<u32> = finite.iter().step_by(stride).copied().collect();
+            let f = sample.len() as f64 / finite.len() as f64;
+            for _ in 0..3 {
+                let Some(g) = Grid::with_cell(positions, &sample, lo, hi, h) else {
+                    h *= 2.0;
+                    continue;
+                };
+                let sum_sq = (0..g.cell_keys.len())
+                    .map(|c| {
+                        let c = g.cell(c).len() as f64;
+                        c * c - (1.0 - f) * c
+                    })
+                    .sum::<f64>();
+                let occupancy = sum_sq / (f * f) / finite.len() as f64;
+                let ratio = target / occupancy.max(1.0);
+                if (0.7..=1.4).contains(&ratio) {
+                    break;
+                }
+                h *= ratio.sqrt().clamp(0.25, 4.0);
+            }
+            return Grid::with_cell(positions, finite, lo, hi, h);
+        }
         let mut best = None;
         for _ in 0..3 {
             let Some(g) = Grid::with_cell(positions, finite, lo, hi, h) else {
                 h *= 2.0;
                 continue;
             };
-            // Points per cell as seen from a point (dense regions weigh as they cost):
-            // a surface crosses about 9 cells of a 3x3x3 block, so this many times 9
-            // candidates are scanned per query. About 1.5 k keeps nearly every k-th
-            // neighbour inside the block (at k/2, a third of the queries of a Kinect
-            // frame had to retry with a 5x5x5 block); the scan of the larger block is
-            // vectorised and only about k candidates are ranked (see `block_knn`).
             let occupancy = (0..g.cell_keys.len())
                 .map(|c| (g.cell(c).len() as f64).powi(2))
                 .sum::<f64>()
                 / finite.len() as f64;
-            let ratio = 1.5 * k as f64 / occupancy;
+            let ratio = target / occupancy;
             best = Some(g);
             if (0.7..=1.4).contains(&ratio) {
                 break;

@@ -33,7 +33,7 @@ pub(crate) mod sort;
 
 pub use flann_order::FlannTree;
 pub use grid::{knn_all, map_knn, KnnTable};
-pub(crate) use grid::{map_has_neighbours, radius_scan, word_index, KnnSearch};
+pub(crate) use grid::{map_has_neighbours, map_knn_with, radius_scan, word_index, KnnSearch};
 pub(crate) use kdtree::squared_radius_f32;
 pub use kdtree::{squared_distance, squared_distance_f64, KdTree, Neighbour, RadiusQuery};
 
@@ -55,6 +55,24 @@ where
     F: Fn(usize) -> T + Sync + Send,
 {
     map_range(n, par, 256, f)
+}
+
+/// `(a(), b())`, on two threads when asked.
+pub(crate) fn join<A, B>(
+    par: Parallelism,
+    a: impl FnOnce() -> A + Send,
+    b: impl FnOnce() -> B + Send,
+) -> (A, B)
+where
+    A: Send,
+    B: Send,
+{
+    #[cfg(feature = "parallel")]
+    if par == Parallelism::Rayon {
+        return rayon::join(a, b);
+    }
+    let _ = par;
+    (a(), b())
 }
 
 /// [`map_indices`] with tasks of at least `min_len` items (1 for coarse items such as

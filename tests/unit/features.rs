@@ -224,3 +224,42 @@ proptest! {
         }
     }
 }
+
+/// An organised sensor-like frame (a pixel lattice with millimetre-quantised depth,
+/// full of ties at the k-th distance, and NaN holes): PCL-mode k-NN normals, whose
+/// FLANN tie tree is built alongside the grid on such clouds, are the same with one
+/// thread and with two, and equal those of the same points as an unorganised cloud.
+#[test]
+fn organised_frames_with_ties_give_the_same_normals_on_one_thread_and_on_two() {
+    let (w, h) = (64u32, 48u32);
+    let pts: Vec<[f32; 3]> = (0..w * h)
+        .map(|j| {
+            let (u, v) = ((j % w) as f32, (j / w) as f32);
+            if j % 97 == 5 {
+                return [f32::NAN; 3];
+            }
+            // Depth in whole millimetres, as a Kinect reports it.
+            let z = ((0.8 + 0.0004 * u + 0.1 * (v * 0.2).sin()) * 1000.0).round() / 1000.0;
+            [(u - 32.0) * 0.0015 * z, (v - 24.0) * 0.0015 * z, z]
+        })
+        .collect();
+    let mut organised = PointCloud::from_positions(pts.clone());
+    organised.width = w;
+    organised.height = h;
+    assert!(organised.is_organized());
+    let flat = PointCloud::from_positions(pts);
+    for k in [3, 10, 25] {
+        let par = estimate_normals(&organised, &NormalParams::knn(k)).unwrap();
+        let ser = estimate_normals(
+            &organised,
+            &NormalParams {
+                parallelism: Parallelism::Serial,
+                ..NormalParams::knn(k)
+            },
+        )
+        .unwrap();
+        let unorganised = estimate_normals(&flat, &NormalParams::knn(k)).unwrap();
+        assert_eq!(format!("{par:?}"), format!("{ser:?}"), "k {k}");
+        assert_eq!(format!("{par:?}"), format!("{unorganised:?}"), "k {k}");
+    }
+}

@@ -244,3 +244,44 @@ proptest! {
         prop_assert_eq!(t.idx, par.idx);
     }
 }
+
+/// A cloud large enough for the grid to choose its cell size on a subsample (over
+/// 65 536 points): a dense wavy sheet, a sparse far cluster and NaN; every sampled
+/// point's k nearest are the brute-force ones, and two threads agree with one.
+#[test]
+fn knn_on_a_large_cloud_sized_from_a_subsample_equals_brute_force() {
+    let mut s = 99u64;
+    let mut rnd = || {
+        s = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (s >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let mut pts: Vec<[f32; 3]> = Vec::new();
+    for v in 0..300 {
+        for u in 0..280 {
+            let (x, y) = (u as f32 * 0.002, v as f32 * 0.002);
+            pts.push([x, y, 1.0 + 0.01 * (x * 40.0).sin() + 0.0005 * rnd()]);
+        }
+    }
+    for _ in 0..2000 {
+        pts.push([3.0 + rnd(), 3.0 + rnd(), 5.0 + rnd()]);
+    }
+    pts.push([f32::NAN; 3]);
+    for k in [1, 11, 30] {
+        let lists = map_knn(&pts, k, Parallelism::Serial, |_, nb| {
+            nb.iter()
+                .map(|n| (n.index, n.squared_distance))
+                .collect::<Vec<_>>()
+        });
+        for i in (0..pts.len()).step_by(397) {
+            assert_eq!(lists[i], brute_knn(&pts, i, k), "k {k}, point {i}");
+        }
+        let par = map_knn(&pts, k, Parallelism::Rayon, |_, nb| {
+            nb.iter()
+                .map(|n| (n.index, n.squared_distance))
+                .collect::<Vec<_>>()
+        });
+        assert_eq!(lists, par, "k {k}");
+    }
+}
