@@ -144,7 +144,10 @@ pub fn estimate_normals(
                     return Some(invalid);
                 }
                 if nbrs.len() > k && nbrs[k].squared_distance == nbrs[k - 1].squared_distance {
-                    return None;
+                    // A tie: FLANN's order decides, here when its tree is already built.
+                    let t = tree.as_ref()?;
+                    let nbrs = t.nearest_k(&cloud.positions[i], k);
+                    return Some(ctx.normal_of(i, nbrs.iter().map(|n| n.index)));
                 }
                 Some(ctx.normal_of(i, nbrs.iter().take(k).map(|n| n.index)))
             });

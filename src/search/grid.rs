@@ -20,6 +20,7 @@
 use super::sort::{bits_for, radix_sort_packed, with_word_buffers};
 use super::{squared_distance, KdTree, Neighbour, Parallelism, RadiusQuery};
 use crate::cloud::PointCloud;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::OnceLock;
 
 /// Relative margin between the k-th squared distance and the squared distance to the
@@ -340,11 +341,21 @@ impl<'a> KnnSearch<'a> {
 #[inline]
 fn block_knn(q: &[f32; 3], blk: &Block, k: usize, margin: f64, sc: &mut Scratch) -> Option<usize> {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
+    if !PORTABLE.load(Ordering::Relaxed) && std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU supports AVX2 (checked just above).
         return unsafe { block_knn_avx2(q, blk, k, margin, sc) };
     }
-    block_knn_body(q, blk, k, margin, sc)
+    block_knn_body::<false>(q, blk, k, margin, sc)
+}
+
+/// Set: the k-NN kernel runs its portable code even where the CPU has AVX2.
+static PORTABLE: AtomicBool = AtomicBool::new(false);
+
+/// Makes the grid k-NN use its portable kernel (`true`) or the fastest the CPU supports
+/// (`false`, the default), for testing that both give the same answers.
+#[doc(hidden)]
+pub fn use_portable_kernels(portable: bool) {
+    PORTABLE.store(portable, Ordering::Relaxed);
 }
 
 /// [`block_knn`] compiled for AVX2: eight distances, comparisons and counts at once.
@@ -357,14 +368,15 @@ fn block_knn_avx2(
     margin: f64,
     sc: &mut Scratch,
 ) -> Option<usize> {
-    block_knn_body(q, blk, k, margin, sc)
+    block_knn_body::<true>(q, blk, k, margin, sc)
 }
 
 /// Thresholds tried by [`block_knn`], the last of them the block bound.
 const RUNGS: usize = 4;
 
+/// `AVX`: compiled into [`block_knn_avx2`], so AVX2 instructions may be used.
 #[inline(always)]
-fn block_knn_body(
+fn block_knn_body<const AVX: bool>(
     q: &[f32; 3],
     blk: &Block,
     k: usize,
@@ -411,22 +423,11 @@ fn block_knn_body(
     let counts = lanes.map(|l| l.iter().sum::<u32>());
     let j = counts.iter().position(|&c| c as usize >= k)?;
     let (t, found) = (rungs[j], counts[j] as usize);
-    if sc.words.len() < found {
-        sc.words.resize(found, 0);
+    // Room for a whole group of eight past the last word.
+    if sc.words.len() < found + 8 {
+        sc.words.resize(found + 8, 0);
     }
-    let mut c = 0;
-    for (g, group) in sc.d2.chunks_exact(8).enumerate() {
-        let mut m = 0u32;
-        for (b, &d) in group.iter().enumerate() {
-            m |= u32::from(d <= t) << b;
-        }
-        while m != 0 {
-            let b = m.trailing_zeros() as usize;
-            sc.words[c] = pack(group[b], blk.id[8 * g + b]);
-            c += 1;
-            m &= m - 1;
-        }
-    }
+    let c = compact_words::<AVX>(&sc.d2, &blk.id, t, &mut sc.words);
     debug_assert_eq!(c, found);
     if found <= RANK_MAX {
         rank_sort_body(&mut sc.words, found, k);
@@ -437,6 +438,90 @@ fn block_knn_body(
     sc.last = Some((*q, kth.sqrt()));
     Some(k)
 }
+
+/// Packs the candidates with `d2[j] ≤ t` as words ([`pack`], with `id[j]`) to the front
+/// of `words`, in order; returns their number. `d2` is padded with `+inf` to whole groups
+/// of eight (`id` is not), and `words` has room for eight past the last packed word.
+#[inline(always)]
+fn compact_words<const AVX: bool>(d2: &[f32], id: &[u32], t: f32, words: &mut [u64]) -> usize {
+    let full = id.len() / 8;
+    let mut c = 0;
+    #[cfg(target_arch = "x86_64")]
+    if AVX {
+        // SAFETY: `AVX` is true only inside `block_knn_avx2`, which runs after the CPU
+        // was found to support AVX2.
+        c = unsafe { compact_words_avx2(&d2[..8 * full], &id[..8 * full], t, words) };
+    }
+    let done = if AVX && cfg!(target_arch = "x86_64") {
+        full
+    } else {
+        0
+    };
+    for (g, group) in d2.chunks_exact(8).enumerate().skip(done) {
+        for (b, &d) in group.iter().enumerate() {
+            if d <= t {
+                words[c] = pack(d, id[8 * g + b]);
+                c += 1;
+            }
+        }
+    }
+    c
+}
+
+/// The whole groups of eight of [`compact_words`], by AVX2 left-packing: a comparison
+/// gives an 8-bit mask, a table turns it into the permutation that moves the kept lanes
+/// to the front, distances and indices are interleaved into words, and all eight are
+/// stored (the count advances by the number kept).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn compact_words_avx2(d2: &[f32], id: &[u32], t: f32, words: &mut [u64]) -> usize {
+    use std::arch::x86_64::*;
+    debug_assert_eq!(d2.len(), id.len());
+    debug_assert_eq!(d2.len() % 8, 0);
+    let tv = _mm256_set1_ps(t);
+    let mut c = 0;
+    for g in 0..d2.len() / 8 {
+        // SAFETY: `8 g + 7 < len` for both slices; `loadu` needs no alignment. `words`
+        // has room for eight words at `c` (c counts words kept so far, at most `found`).
+        let (dv, iv) = (
+            _mm256_loadu_ps(d2.as_ptr().add(8 * g)),
+            _mm256_loadu_si256(id.as_ptr().add(8 * g) as *const __m256i),
+        );
+        let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(dv, tv)) as usize;
+        let perm = _mm256_loadu_si256(LEFT_PACK[mask].as_ptr() as *const __m256i);
+        let dp = _mm256_castps_si256(_mm256_permutevar8x32_ps(dv, perm));
+        let ip = _mm256_permutevar8x32_epi32(iv, perm);
+        // Words 0, 1, 4, 5 and 2, 3, 6, 7 (index low, distance high), then in order.
+        let (lo, hi) = (_mm256_unpacklo_epi32(ip, dp), _mm256_unpackhi_epi32(ip, dp));
+        assert!(c + 8 <= words.len());
+        let out = words.as_mut_ptr().add(c) as *mut __m256i;
+        _mm256_storeu_si256(out, _mm256_permute2x128_si256::<0x20>(lo, hi));
+        _mm256_storeu_si256(out.add(1), _mm256_permute2x128_si256::<0x31>(lo, hi));
+        c += mask.count_ones() as usize;
+    }
+    c
+}
+
+/// For each 8-bit mask, the lanes of its set bits in ascending order, then zeros.
+#[cfg(target_arch = "x86_64")]
+static LEFT_PACK: [[u32; 8]; 256] = {
+    let mut table = [[0u32; 8]; 256];
+    let mut m = 0;
+    while m < 256 {
+        let mut n = 0;
+        let mut b = 0;
+        while b < 8 {
+            if m & (1 << b) != 0 {
+                table[m][n] = b as u32;
+                n += 1;
+            }
+            b += 1;
+        }
+        m += 1;
+    }
+    table
+};
 
 /// Largest number of candidates ranked by counting in [`rank_sort_smallest`]; more go
 /// to a selection.

@@ -32,7 +32,7 @@ mod kdtree;
 pub(crate) mod sort;
 
 pub use flann_order::FlannTree;
-pub use grid::{knn_all, map_knn, KnnTable};
+pub use grid::{knn_all, map_knn, use_portable_kernels, KnnTable};
 pub(crate) use grid::{map_has_neighbours, map_knn_with, radius_scan, word_index, KnnSearch};
 pub(crate) use kdtree::squared_radius_f32;
 pub use kdtree::{squared_distance, squared_distance_f64, KdTree, Neighbour, RadiusQuery};

@@ -285,3 +285,28 @@ fn knn_on_a_large_cloud_sized_from_a_subsample_equals_brute_force() {
         assert_eq!(lists, par, "k {k}");
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+    /// The k-NN kernel's portable code (what CPUs without AVX2 run) and its AVX2 code
+    /// give the same, brute-force, lists (ties, duplicates and NaN included).
+    #[test]
+    fn portable_and_avx2_knn_kernels_give_the_same_lists(
+        points in prop_oneof![cloud_strategy(), surface_strategy()],
+        k in 1usize..40,
+    ) {
+        let run = |portable| {
+            softsense::search::use_portable_kernels(portable);
+            let lists = map_knn(&points, k, Parallelism::Serial, |_, nb| {
+                nb.iter().map(|n| (n.index, n.squared_distance)).collect::<Vec<_>>()
+            });
+            softsense::search::use_portable_kernels(false);
+            lists
+        };
+        let portable = run(true);
+        for (i, got) in portable.iter().enumerate() {
+            prop_assert_eq!(got, &brute_knn(&points, i, k), "point {}", i);
+        }
+        prop_assert_eq!(portable, run(false));
+    }
+}
