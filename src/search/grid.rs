@@ -30,8 +30,11 @@ pub(crate) const MARGIN: f64 = 1e-4;
 /// About how many points [`Grid::build`] samples to choose a large cloud's cell size.
 const SAMPLE: usize = 32_768;
 
-/// Largest block radius (in cells) tried before asking the tree.
-const RINGS: u64 = 4;
+/// Largest block radius (in cells) tried before asking the tree. PERF: the tree costs
+/// a build over the whole cloud (about 8 ms for a 640x480 frame); the dozen isolated
+/// points of such a frame that blocks up to 9x9x9 cells could not answer are answered
+/// by blocks up to 17x17x17 for far less.
+const RINGS: u64 = 8;
 
 /// A neighbour as one word, `(d² bits << 32) | index`. A squared distance is `≥ +0` and
 /// never NaN here, so its bits order like its value and the words order like
@@ -411,16 +414,7 @@ fn block_knn_body<const AVX: bool>(
             *t = ((r * r) as f32).min(below);
         }
     }
-    // Per-lane counts, summed at the end.
-    let mut lanes = [[0u32; 8]; RUNGS];
-    for group in sc.d2.chunks_exact(8) {
-        for (lane, &t) in lanes.iter_mut().zip(&rungs) {
-            for b in 0..8 {
-                lane[b] += u32::from(group[b] <= t);
-            }
-        }
-    }
-    let counts = lanes.map(|l| l.iter().sum::<u32>());
+    let counts = count_within(&sc.d2, &rungs);
     let j = counts.iter().position(|&c| c as usize >= k)?;
     let (t, found) = (rungs[j], counts[j] as usize);
     // Room for a whole group of eight past the last word.
@@ -437,6 +431,21 @@ fn block_knn_body<const AVX: bool>(
     let kth = word_d2(sc.words[..k].iter().copied().max().unwrap_or(0)) as f64;
     sc.last = Some((*q, kth.sqrt()));
     Some(k)
+}
+
+/// The number of `d2` values `≤` each threshold (`d2` in whole groups of eight).
+#[inline(always)]
+fn count_within(d2: &[f32], thresholds: &[f32; RUNGS]) -> [u32; RUNGS] {
+    // Per-lane counts, summed at the end.
+    let mut lanes = [[0u32; 8]; RUNGS];
+    for group in d2.chunks_exact(8) {
+        for (lane, &t) in lanes.iter_mut().zip(thresholds) {
+            for b in 0..8 {
+                lane[b] += u32::from(group[b] <= t);
+            }
+        }
+    }
+    lanes.map(|l| l.iter().sum::<u32>())
 }
 
 /// Packs the candidates with `d2[j] ≤ t` as words ([`pack`], with `id[j]`) to the front
