@@ -532,7 +532,7 @@ static LEFT_PACK: [[u32; 8]; 256] = {
     table
 };
 
-/// Largest number of candidates ranked by counting in [`rank_sort_smallest`]; more go
+/// Largest number of candidates ranked by counting in [`rank_sort_body`]; more go
 /// to a selection.
 const RANK_MAX: usize = 32;
 
