@@ -157,6 +157,9 @@ pub struct NewtonParams {
     pub load_steps: usize,
     /// Converged when a correction is smaller than this times the displacement norm.
     pub step_tol: f64,
+    /// Tolerance on the gaps of displacement-controlled cables (m): 0 means 1e-12 of the
+    /// mesh's largest coordinate.
+    pub gap_tol: f64,
     /// Corotational tangent (the rotated K0 is used as fallback if the consistent one is indefinite).
     #[serde(skip)]
     pub tangent: Tangent,
@@ -170,6 +173,7 @@ impl Default for NewtonParams {
             abs_tol: 1e-12,
             load_steps: 1,
             step_tol: 1e-10,
+            gap_tol: 0.0,
             tangent: Tangent::Consistent,
         }
     }
@@ -870,6 +874,34 @@ impl<'p> Solver<'p> {
         }
     }
 
+    /// [`Solver::factorize_assembled`] with the geometric stiffness of the cables under
+    /// `tensions` (one per cable) added to the last assembly: the matrix of a Newton step at
+    /// `x`. Falls back to the rotated tangent, with the cables, when it is not positive
+    /// definite.
+    pub fn factorize_assembled_with_cables(
+        &mut self,
+        x: &[[f64; 3]],
+        tensions: &[f64],
+    ) -> FemResult<()> {
+        let cables = &self.problem.cables;
+        for (c, t) in cables.iter().zip(tensions) {
+            self.add_cable_stiffness(c, *t, x);
+        }
+        match self.factorize() {
+            Err(FemError::Singular(_))
+                if self.elements_tangent == Tangent::Consistent
+                    && self.problem.formulation == Formulation::Corotational =>
+            {
+                self.assemble(x, Tangent::Rotated)?;
+                for (c, t) in cables.iter().zip(tensions) {
+                    self.add_cable_stiffness(c, *t, x);
+                }
+                self.factorize()
+            }
+            r => r,
+        }
+    }
+
     /// Assembles and factorizes the tangent at `x` including the geometric stiffness of the
     /// cables under `tensions` (one per cable), falling back to the rotated tangent when
     /// the consistent one is not positive definite.
@@ -1038,13 +1070,17 @@ impl<'p> Solver<'p> {
                         CableControl::Force(_) => 0.0,
                     })
                     .collect();
-                let gap_scale = 1e-12
-                    * p.mesh
-                        .bbox()
-                        .iter()
-                        .flatten()
-                        .fold(0.0f64, |m, c| m.max(c.abs()))
-                        .max(1e-300);
+                let gap_scale = if params.gap_tol > 0.0 {
+                    params.gap_tol
+                } else {
+                    1e-12
+                        * p.mesh
+                            .bbox()
+                            .iter()
+                            .flatten()
+                            .fold(0.0f64, |m, c| m.max(c.abs()))
+                            .max(1e-300)
+                };
                 residuals.push(rn);
                 let gaps_ok = gaps
                     .iter()

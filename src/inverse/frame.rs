@@ -48,6 +48,14 @@ pub struct FrameParams {
     /// a 0.5 kg robot, far below the 0.5 mm depth noise, and an update saves the last
     /// Newton iteration about half the time.
     pub fe_rel_tol: Option<f64>,
+    /// Inexact FE updates (a forcing term, as in inexact Newton methods): an update whose
+    /// loads moved by at most `s` newtons from the last state stops Newton once the residual
+    /// is below `fe_forcing * s` (N), if that is looser than `fe_rel_tol`. Early updates,
+    /// whose forces are still far from the fixed point, then take 2 Newton iterations instead
+    /// of 4-5; as the forces settle, the tolerance tightens with them. The last update's state
+    /// is off by at most `fe_forcing` times the last force step, below `force_tol`.
+    /// 0: every update to `fe_rel_tol`.
+    pub fe_forcing: f64,
 }
 
 impl Default for FrameParams {
@@ -58,6 +66,7 @@ impl Default for FrameParams {
             max_updates: 6,
             force_tol: 1e-4,
             fe_rel_tol: Some(1e-8),
+            fe_forcing: 0.01,
         }
     }
 }
@@ -128,6 +137,11 @@ pub fn estimate(
     // The previous update's solver state: its last element evaluation is at `x`, where
     // the next Newton solve starts.
     let mut carry = None;
+    let abs_tol = newton.abs_tol;
+    // Largest load change (N) applied since the last FE state: the forcing term's scale.
+    let mut step = 0.0f64;
+    // Largest cable self-compliance W_aa (m/N) of the last linearisation.
+    let mut cable_compliance = 0.0f64;
     for _ in 0..params.max_updates {
         // FE state under the current forces.
         let mut problem = base.clone();
@@ -143,17 +157,25 @@ pub fn estimate(
             Some(state) => problem.solver_from(state)?,
             None => problem.solver()?,
         };
+        newton.abs_tol = abs_tol.max(params.fe_forcing * step);
+        // A cable gap g is a tension error of about g / W_aa.
+        newton.gap_tol = params.fe_forcing * step * cable_compliance;
         let sol = solver.solve_static_from(&newton, prev.as_ref().or(start))?;
         x = sol.positions.clone();
         prev = Some(sol);
         updates += 1;
         timings.fe_update += ms_since(clock);
-        // The solver's last assembly is the tangent at x (loads do not enter K).
+        // The linearisation's tangent is Newton's own at x: the material tangent of the
+        // solver's last assembly (loads do not enter K) plus the cables' geometric stiffness
+        // under the solved tensions. Without the cables the consistent tangent is indefinite
+        // at the sensed states, and the rotated fallback is a poorer linearisation: the loop
+        // then needs up to twice the FE updates.
         let clock = std::time::Instant::now();
+        let tensions = prev.as_ref().map_or(&[][..], |s| &s.cable_tension[..]);
         if newton.tangent == Tangent::default() {
-            solver.factorize_assembled(&x, Tangent::default())?;
+            solver.factorize_assembled_with_cables(&x, tensions)?;
         } else {
-            solver.tangent_at(&x, Tangent::default())?;
+            solver.factorize_with_cables(&x, tensions)?;
         }
         timings.compliance += ms_since(clock);
         let (prob, visible) = linearise(
@@ -166,6 +188,7 @@ pub fn estimate(
             &mut timings,
         )?;
         carry = Some(solver.into_state());
+        cable_compliance = (0..prob.w_aa.nrows()).fold(0.0, |m, i| m.max(prob.w_aa[(i, i)]));
         let clock = std::time::Instant::now();
         let est = prob.solve(&params.intensity)?;
         timings.qp += ms_since(clock);
@@ -192,6 +215,7 @@ pub fn estimate(
         for (f, rk) in forces.iter_mut().zip(&r) {
             *f += omega * rk;
         }
+        step = r.iter().fold(0.0f64, |m, v| m.max((omega * v).abs()));
         r_prev = Some(r);
     }
     let (estimate, visible) =

@@ -264,3 +264,66 @@ fn forward_only_compliance_equals_full_solves() {
         "a row on fixed nodes has no compliance"
     );
 }
+
+/// Row values predicted by `c` for the extra force `eps` on row `j`, against a full solve.
+fn extra_load_errors(
+    p: &Problem,
+    rows: &[ConstraintRow],
+    c: &softsense::fem::constraint::Compliance,
+    x0: &[[f64; 3]],
+    j: usize,
+    eps: f64,
+) -> (f64, f64) {
+    let mut loaded = p.clone();
+    for (n, coef) in &rows[j].entries {
+        loaded.loads.push(PointLoad {
+            at: MappedPoint::node(*n),
+            force: coef.map(|v| v * eps),
+        });
+    }
+    let sol = loaded.solve_static(&NewtonParams::default()).unwrap();
+    let (mut err, mut motion) = (0.0f64, 0.0f64);
+    for i in c.rows_of(RowKind::Effector) {
+        let solved = rows[i].value(&sol.positions);
+        err = err.max((solved - (c.delta_free[i] + c.w[(i, j)] * eps)).abs());
+        motion = motion.max((solved - rows[i].value(x0)).abs());
+    }
+    (err, motion)
+}
+
+#[test]
+fn compliance_on_newtons_matrix_with_the_cables_is_the_derivative_of_the_loaded_solution() {
+    // Corotational column with both cables pulling 1.5 N. At that equilibrium the
+    // compliance of Newton's matrix (material tangent plus the cables' geometric stiffness)
+    // predicts a small extra load to second order; without the cables it is off to first
+    // order (this is what the sensing loop linearises with).
+    let (mut p, rows) = setup();
+    p.formulation = Formulation::Corotational;
+    for c in &mut p.cables {
+        c.control = CableControl::Force(1.5);
+    }
+    let mut s = p.solver().unwrap();
+    let sol = s.solve_static_from(&NewtonParams::default(), None).unwrap();
+    let x0 = sol.positions.clone();
+    // At equilibrium the residual with the cables is zero: delta_free = H x0.
+    let zero = vec![0.0; s.dofs.ndof];
+    s.factorize_assembled_with_cables(&x0, &sol.cable_tension)
+        .unwrap();
+    let with = s.compliance(&rows, &x0, &zero).unwrap();
+    s.tangent_at(&x0, Default::default()).unwrap();
+    let without = s.compliance(&rows, &x0, &zero).unwrap();
+    let forces = with.rows_of(RowKind::Force);
+    for &j in &forces {
+        let (err, motion) = extra_load_errors(&p, &rows, &with, &x0, j, 2e-3);
+        assert!(motion > 1e-6, "the load moves the effectors: {motion:e}");
+        assert!(
+            err < 1e-3 * motion,
+            "with the cables: error {err:e} vs motion {motion:e}"
+        );
+        let (err0, _) = extra_load_errors(&p, &rows, &without, &x0, j, 2e-3);
+        assert!(
+            err0 > 2e-2 * motion,
+            "without the cables: error {err0:e} vs motion {motion:e}"
+        );
+    }
+}
