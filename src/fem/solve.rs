@@ -496,6 +496,7 @@ impl Problem {
             solver.elements = state.elements;
             solver.elements_at = state.elements_at;
             solver.elements_tangent = state.elements_tangent;
+            solver.factor_of = state.factor_of;
         }
         Ok(solver)
     }
@@ -565,6 +566,10 @@ pub struct Solver<'p> {
     elements_tangent: Tangent,
     /// Whether `l_values` holds the factor of the current `values`.
     factored: bool,
+    /// The values `l_values` is the factor of (empty: none). A factorization of the same
+    /// values, bit for bit, is skipped: the sensing loop's next FE update starts with
+    /// exactly the matrix its last linearisation factorised.
+    factor_of: Vec<f64>,
 }
 
 /// What a [`Solver`] leaves for the next solver of a problem that differs only in its
@@ -582,6 +587,7 @@ pub struct SolverState {
     elements: Vec<ElementState>,
     elements_at: Vec<[f64; 3]>,
     elements_tangent: Tangent,
+    factor_of: Vec<f64>,
 }
 
 impl<'p> Solver<'p> {
@@ -636,6 +642,7 @@ impl<'p> Solver<'p> {
             elements_at: Vec::new(),
             elements_tangent: Tangent::default(),
             factored: false,
+            factor_of: Vec::new(),
         })
     }
 
@@ -652,6 +659,7 @@ impl<'p> Solver<'p> {
             elements: self.elements,
             elements_at: self.elements_at,
             elements_tangent: self.elements_tangent,
+            factor_of: self.factor_of,
         }
     }
 
@@ -792,7 +800,18 @@ impl<'p> Solver<'p> {
             &self.pattern.row_idx,
         );
         let mat = SparseColMatRef::new(sym, &self.values);
+        let same = self.factor_of.len() == self.values.len()
+            && self
+                .factor_of
+                .iter()
+                .zip(&self.values)
+                .all(|(a, b)| a.to_bits() == b.to_bits());
+        if same {
+            self.factored = true;
+            return Ok(());
+        }
         self.factored = false;
+        self.factor_of.clear();
         let par = self.linalg_par();
         let mut mem = MemBuffer::try_new(
             self.symbolic
@@ -810,6 +829,7 @@ impl<'p> Solver<'p> {
         ) {
             Ok(_) => {
                 self.factored = true;
+                self.factor_of.clone_from(&self.values);
                 Ok(())
             }
             Err(e) => Err(FemError::Singular(format!(
