@@ -230,10 +230,24 @@ fn run_sense(dir: &Path, repeat: usize) -> Result<(Vec<f64>, Value, usize), Stri
         }
     }
     // [name, ms] pairs: a JSON object would lose the chain order.
-    let medians: Vec<Value> = median_timings(&stages)
+    let mut medians: Vec<Value> = median_timings(&stages)
         .into_iter()
         .map(|(k, v)| json!([k, v]))
         .collect();
+    // Throughput as a stream: the same passes with `Sensor::sense_frames`, as many frames
+    // at a time as threads (the `sense` command's default), wall ms per frame.
+    #[cfg(feature = "parallel")]
+    let window = rayon::current_num_threads();
+    #[cfg(not(feature = "parallel"))]
+    let window = 1;
+    let mut stream = Vec::new();
+    for _ in 0..repeat {
+        let t0 = Instant::now();
+        sensor.sense_frames(&rec, &rec.frames, window, |_, _| Ok::<(), String>(()))?;
+        stream.push(t0.elapsed().as_secs_f64() * 1e3 / rec.frames.len().max(1) as f64);
+    }
+    stream.sort_by(f64::total_cmp);
+    medians.push(json!(["stream", stream[stream.len() / 2]]));
     Ok((timings, Value::Array(medians), sensed))
 }
 

@@ -45,7 +45,7 @@ use crate::scene::{ActuatorTruth, FrameTruth, Truth};
 use crate::segment::color::rgb_to_lab;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
+use std::sync::{Mutex, OnceLock};
 use thiserror::Error;
 
 /// Errors of the sensing stage (per recording; per-frame failures are [`FrameStatus`]es).
@@ -577,6 +577,10 @@ pub struct Sensor {
     pub surface: Surface,
     /// Free solves of the latest distinct actuator inputs (a stream repeats them).
     free_cache: Mutex<Vec<(Vec<CableControl>, Solution)>>,
+    /// The free solve at the model file's own inputs (`None`: it failed), solved once: new
+    /// inputs are solved warm from it, so a free solve does not depend on which frames came
+    /// before it (or ran beside it, see [`Sensor::sense_frames`]).
+    free_base: OnceLock<Option<Solution>>,
 }
 
 /// Free solves kept by a [`Sensor`]: one per distinct actuator input, the latest ones.
@@ -624,6 +628,7 @@ impl Sensor {
             bounds,
             surface,
             free_cache: Mutex::new(Vec::new()),
+            free_base: OnceLock::new(),
         }
     }
 
@@ -647,17 +652,21 @@ impl Sensor {
                     _ => false,
                 })
         };
-        let (hit, latest) = match self.free_cache.lock() {
-            Ok(cache) => (
-                cache.iter().find(|e| same(&e.0)).map(|e| e.1.clone()),
-                cache.last().map(|e| e.1.clone()),
-            ),
-            Err(_) => (None, None),
+        let hit = match self.free_cache.lock() {
+            Ok(cache) => cache.iter().find(|e| same(&e.0)).map(|e| e.1.clone()),
+            Err(_) => None,
         };
         if let Some(s) = hit {
             return Ok(s);
         }
-        let s = match &latest {
+        let base = self.free_base.get_or_init(|| {
+            self.model
+                .problem
+                .solve_static(&self.model.newton)
+                .ok()
+                .filter(|s| s.converged)
+        });
+        let s = match base {
             Some(start) => model.problem.solve_static_from(&model.newton, start)?,
             None => model.problem.solve_static(&model.newton)?,
         };
@@ -729,6 +738,49 @@ impl Sensor {
         let t = &mut report.timings;
         t.total = t.read + t.crop + t.segment + report.ms;
         report
+    }
+
+    /// Observes and senses `frames` of `rec`, `window` frames at a time in parallel, and
+    /// hands each observation and report to `emit` in frame order (`window` 0 or 1: one at a
+    /// time). Frames are independent, so a report is the one [`Sensor::sense`] gives for
+    /// its frame alone, whatever the window and thread count. Much of a frame's FE work is
+    /// serial (sparse Cholesky, scatter), so with two or more threads a window of two keeps
+    /// the cores busy: more frames per second, each taking longer. An unreadable frame gets
+    /// [`FrameStatus::Unreadable`]. Stops at the first error of `emit`.
+    ///
+    /// ```no_run
+    /// # use softsense::sense::{Recording, SenseParams, Sensor};
+    /// # use softsense::fem::model::Model;
+    /// let rec = Recording::open("clouds/scenes/tip_weight".as_ref())?;
+    /// let model = Model::load("meshes/models/robot.toml".as_ref(), None)?;
+    /// let sensor = Sensor::new(model, rec.robot_from_camera, SenseParams::default());
+    /// sensor.sense_frames(&rec, &rec.frames, 2, |_obs, report| {
+    ///     println!("frame {}: {}", report.frame, report.status);
+    ///     Ok::<(), std::io::Error>(())
+    /// })?;
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn sense_frames<E>(
+        &self,
+        rec: &Recording,
+        frames: &[usize],
+        window: usize,
+        mut emit: impl FnMut(&SenseResult<Observation>, FrameReport) -> Result<(), E>,
+    ) -> Result<(), E> {
+        for chunk in frames.chunks(window.max(1)) {
+            let done = par_map(chunk, |&frame| {
+                let obs = self.observe(rec, frame);
+                let report = match &obs {
+                    Ok(o) => self.sense(frame, o, rec.actuators_of(frame)),
+                    Err(e) => FrameReport::empty(frame, FrameStatus::Unreadable(e.to_string())),
+                };
+                (obs, report)
+            });
+            for (obs, report) in done {
+                emit(&obs, report)?;
+            }
+        }
+        Ok(())
     }
 
     fn sense_into(

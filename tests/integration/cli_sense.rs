@@ -168,3 +168,31 @@ fn bad_frames_get_their_own_status_and_the_stream_goes_on() {
     assert!(text.contains("frame    1: no robot"), "{text}");
     assert!(text.contains("frame    3: unreadable: "), "{text}");
 }
+
+/// The JSON lines of a run without the wall-clock fields.
+fn answers(out: &std::process::Output) -> Vec<serde_json::Value> {
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| {
+            let mut v: serde_json::Value = serde_json::from_str(l).expect("each line is JSON");
+            let o = v.as_object_mut().unwrap();
+            o.remove("ms");
+            o.remove("timings");
+            v
+        })
+        .collect()
+}
+
+#[test]
+fn sensing_frames_one_at_a_time_or_three_at_a_time_gives_the_same_answers_in_order() {
+    let one = sense(&["clouds/scenes/probe_side", "--json", "--window", "1"]);
+    let three = sense(&["clouds/scenes/probe_side", "--json", "--window", "3"]);
+    assert!(one.status.success() && three.status.success());
+    let (a, b) = (answers(&one), answers(&three));
+    assert_eq!(a.len(), 5);
+    for (i, f) in a.iter().enumerate() {
+        assert_eq!(f["frame"], i);
+    }
+    assert_eq!(a, b);
+    assert!(String::from_utf8_lossy(&three.stderr).contains("3 at a time"));
+}

@@ -38,14 +38,18 @@ def print_stage_table():
     """Per-stage medians of the whole-chain (`sense`) inputs, with frames per second."""
     if not STAGE_MS:
         return
-    names = list(next(iter(STAGE_MS.values())).keys())
+    names = [n for n in next(iter(STAGE_MS.values())).keys() if n != "stream"]
     print(f"\nsoftsense whole chain per frame (`sense`), median ms per stage; {THESIS}\n")
-    print("| scene | " + " | ".join(names) + " | frames/s |")
-    print("| --- | " + " | ".join("---:" for _ in names) + " | ---: |")
+    print("frames/s: one frame at a time (1000 / total); stream frames/s: `sense_frames` with as "
+          "many frames at a time as threads, wall clock\n")
+    print("| scene | " + " | ".join(names) + " | frames/s | stream frames/s |")
+    print("| --- | " + " | ".join("---:" for _ in names) + " | ---: | ---: |")
     for path, st in STAGE_MS.items():
-        total = st.get("total")
+        total, stream = st.get("total"), st.get("stream")
         fps = f"{1e3 / total:.1f}" if total else "n/a"
-        print(f"| {os.path.basename(path)} | " + " | ".join(fmt(st[n]) for n in names) + f" | {fps} |")
+        sfps = f"{1e3 / stream:.1f}" if stream else "n/a"
+        print(f"| {os.path.basename(path)} | " + " | ".join(fmt(st[n]) for n in names)
+              + f" | {fps} | {sfps} |")
 
 
 def run_oracle(cmd_prefix, spec, path, repeat):
