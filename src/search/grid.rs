@@ -194,12 +194,28 @@ impl Block {
 }
 
 /// Per-chunk scratch of the k-NN kernel.
-#[derive(Default)]
 struct Scratch {
     d2: Vec<f32>,
     words: Vec<u64>,
     /// The last point answered from a block and its k-th distance (not squared).
     last: Option<([f32; 3], f64)>,
+    /// Whether the kernel runs its AVX2 code: decided once per chunk, not per query.
+    avx2: bool,
+}
+
+impl Default for Scratch {
+    fn default() -> Self {
+        #[cfg(target_arch = "x86_64")]
+        let avx2 = !PORTABLE.load(Ordering::Relaxed) && std::arch::is_x86_feature_detected!("avx2");
+        #[cfg(not(target_arch = "x86_64"))]
+        let avx2 = false;
+        Self {
+            d2: Vec::new(),
+            words: Vec::new(),
+            last: None,
+            avx2,
+        }
+    }
 }
 
 /// The exact k nearest neighbours of every finite point of a cloud, chunk by chunk of
@@ -344,8 +360,8 @@ impl<'a> KnnSearch<'a> {
 #[inline]
 fn block_knn(q: &[f32; 3], blk: &Block, k: usize, margin: f64, sc: &mut Scratch) -> Option<usize> {
     #[cfg(target_arch = "x86_64")]
-    if !PORTABLE.load(Ordering::Relaxed) && std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU supports AVX2 (checked just above).
+    if sc.avx2 {
+        // SAFETY: the CPU supports AVX2 (`Scratch::default` checked it).
         return unsafe { block_knn_avx2(q, blk, k, margin, sc) };
     }
     block_knn_body::<false>(q, blk, k, margin, sc)
