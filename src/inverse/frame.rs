@@ -56,6 +56,12 @@ pub struct FrameParams {
     /// is off by at most `fe_forcing` times the last force step, below `force_tol`.
     /// 0: every update to `fe_rel_tol`.
     pub fe_forcing: f64,
+    /// The loop also stops once every force's change is below this fraction of its
+    /// Gauss-Markov σ (`IntensityEstimate::force_sigma`): near the fixed point a weakly
+    /// identified (tangential) component can cycle by a fraction of its noise as the
+    /// registration's matched points change, and more updates cannot settle it. At 0.25 a
+    /// stop adds about 3% to the spread (√(1 + 0.25²)). 0: `force_tol` alone.
+    pub sigma_tol: f64,
 }
 
 impl Default for FrameParams {
@@ -67,6 +73,7 @@ impl Default for FrameParams {
             force_tol: 1e-4,
             fe_rel_tol: Some(1e-8),
             fe_forcing: 0.01,
+            sigma_tol: 0.25,
         }
     }
 }
@@ -199,7 +206,6 @@ pub fn estimate(
         // linearisation at a loaded state is not exact, and plain substitution oscillates
         // (seen: period-2 in the tangential components, damped by only ~0.85 per update).
         let r: Vec<f64> = est.forces.iter().zip(&forces).map(|(a, b)| a - b).collect();
-        let change = r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         if let Some(rp) = &r_prev {
             let dr: Vec<f64> = r.iter().zip(rp).map(|(a, b)| a - b).collect();
             let dd: f64 = dr.iter().map(|v| v * v).sum();
@@ -208,8 +214,14 @@ pub fn estimate(
                 omega = (-omega * num / dd).clamp(0.1, 1.5);
             }
         }
+        // Settled: every force moved by less than `force_tol`, or by less than
+        // `sigma_tol` of its own noise spread (further updates only move it within its noise).
+        let settled = r.iter().enumerate().all(|(i, v)| {
+            let s = est.force_sigma.get(i).copied().filter(|s| s.is_finite());
+            v.abs() < params.force_tol.max(params.sigma_tol * s.unwrap_or(0.0))
+        });
         last = Some((est, visible));
-        if change < params.force_tol {
+        if settled {
             break;
         }
         for (f, rk) in forces.iter_mut().zip(&r) {
