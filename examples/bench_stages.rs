@@ -236,10 +236,7 @@ fn run_sense(dir: &Path, repeat: usize) -> Result<(Vec<f64>, Value, usize), Stri
         .collect();
     // Throughput as a stream: the same passes with `Sensor::sense_frames`, as many frames
     // at a time as threads (the `sense` command's default), wall ms per frame.
-    #[cfg(feature = "parallel")]
-    let window = rayon::current_num_threads();
-    #[cfg(not(feature = "parallel"))]
-    let window = 1;
+    let window = softsense::sense::default_window();
     let mut stream = Vec::new();
     for _ in 0..repeat {
         let t0 = Instant::now();

@@ -583,6 +583,19 @@ pub struct Sensor {
     free_base: OnceLock<Option<Solution>>,
 }
 
+/// Frames [`Sensor::sense_frames`] senses side by side by default: one per thread of
+/// rayon's pool (`RAYON_NUM_THREADS` or the cores), 1 without the `parallel` feature.
+pub fn default_window() -> usize {
+    #[cfg(feature = "parallel")]
+    {
+        rayon::current_num_threads()
+    }
+    #[cfg(not(feature = "parallel"))]
+    {
+        1
+    }
+}
+
 /// Free solves kept by a [`Sensor`]: one per distinct actuator input, the latest ones.
 const FREE_CACHE: usize = 8;
 

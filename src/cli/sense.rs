@@ -98,11 +98,10 @@ pub fn run(args: &SenseArgs) -> CliResult {
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let mut reports = Vec::new();
-    #[cfg(feature = "parallel")]
-    let threads = rayon::current_num_threads();
-    #[cfg(not(feature = "parallel"))]
-    let threads = 1;
-    let window = args.window.unwrap_or(threads).max(1);
+    let window = args
+        .window
+        .unwrap_or_else(softsense::sense::default_window)
+        .max(1);
     let clock = std::time::Instant::now();
     sensor.sense_frames(&rec, &rec.frames, window, |obs, mut report| -> CliResult {
         let frame = report.frame;

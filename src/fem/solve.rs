@@ -926,18 +926,8 @@ impl<'p> Solver<'p> {
     /// cables under `tensions` (one per cable), falling back to the rotated tangent when
     /// the consistent one is not positive definite.
     pub fn factorize_with_cables(&mut self, x: &[[f64; 3]], tensions: &[f64]) -> FemResult<()> {
-        let cables = &self.problem.cables;
-        for tangent in [Tangent::Consistent, Tangent::Rotated] {
-            self.assemble(x, tangent)?;
-            for (c, t) in cables.iter().zip(tensions) {
-                self.add_cable_stiffness(c, *t, x);
-            }
-            match self.factorize() {
-                Err(FemError::Singular(_)) if tangent == Tangent::Consistent => continue,
-                r => return r,
-            }
-        }
-        Ok(())
+        self.assemble(x, Tangent::Consistent)?;
+        self.factorize_assembled_with_cables(x, tensions)
     }
 
     /// Adds the geometric stiffness of a cable under tension `t` at positions `x`:
