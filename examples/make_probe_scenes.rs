@@ -51,7 +51,26 @@ fn main() {
         })
         .collect();
     eprintln!("{} candidate places", candidates.len());
-    let mut rng = Rng(2026);
+    // `--held-out SEED FRAMES OUT.toml`: a scene drawn the same way with another seed, to
+    // check settings chosen on the committed scenes on data they were not chosen on.
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let held_out = match args.as_slice() {
+        [] => None,
+        [flag, seed, frames, out] if flag == "--held-out" => {
+            match (seed.parse::<u64>(), frames.parse::<usize>()) {
+                (Ok(seed), Ok(frames)) => Some((seed, frames, out.clone())),
+                _ => {
+                    eprintln!("usage: make_probe_scenes [--held-out SEED FRAMES OUT.toml]");
+                    std::process::exit(2);
+                }
+            }
+        }
+        _ => {
+            eprintln!("usage: make_probe_scenes [--held-out SEED FRAMES OUT.toml]");
+            std::process::exit(2);
+        }
+    };
+    let mut rng = Rng(held_out.as_ref().map_or(2026, |h| h.0));
     let probe = |rng: &mut Rng, v: usize| -> String {
         // Inward normal tilted by up to 15 degrees about a random axis.
         let inward = n[v].map(|c| -c);
@@ -83,6 +102,23 @@ fn main() {
              depth_k = 0.002        # sigma = k z^2: 0.5 mm at 0.5 m\ncolor_sigma = 3.0\n"
         )
     };
+    if let Some((seed, frames, out)) = held_out {
+        let mut scene = header(
+            &format!("Held out: a probe at {frames} random places, one per frame (seed {seed})."),
+            seed,
+        );
+        // The TOML sits outside clouds/scenes: the model path is made absolute.
+        scene = scene.replace(
+            "../../meshes/models/robot.toml",
+            &root.join("meshes/models/robot.toml").display().to_string(),
+        );
+        for _ in 0..frames {
+            let v = candidates[(rng.next() * candidates.len() as f64) as usize];
+            let _ = write!(scene, "\n[[frames]]\n{}", probe(&mut rng, v));
+        }
+        std::fs::write(&out, scene).expect("write");
+        return;
+    }
     let mut one = header(
         "A probe pushing on the robot's side at 5 random places, one per frame.",
         11,
