@@ -92,7 +92,10 @@ pub struct SenseParams {
     /// 8 mm and 100+ within 12 mm. An object within 12 mm that does not push gets a force
     /// near zero (pushing only), not a false load.
     pub contact: ContactParams,
-    /// Feature points (51, on flat patches the camera sees).
+    /// Feature points: 300 (the thesis used 51) on flat patches the camera sees, each at
+    /// least 5 mm inside its patch (`flat_radius`, equal to the registration's `d_m`).
+    /// A feature near a patch edge loses its patch when the surface slides by a few
+    /// millimetres under a load, and its normal line then meets the neighbouring face.
     pub features: FeatureParams,
     /// Registration, intensity QP and FE updates.
     pub frame: FrameParams,
@@ -103,8 +106,8 @@ pub struct SenseParams {
     /// At most this many options per contact, nearest first (16).
     pub location_options: usize,
     /// Pool features within this of a seen contact join the frame's features (m, 0.03; 0
-    /// turns it off): a point load's tangential part shows mostly near it, where 51 features
-    /// spread over the whole robot put only one or two.
+    /// turns it off): a point load's tangential part shows mostly near it, where features
+    /// spread over the whole robot put only a few.
     pub local_features_radius: f64,
     /// Size of the dense pool (600).
     pub local_feature_pool: usize,
@@ -114,13 +117,24 @@ pub struct SenseParams {
     /// At a seen contact, estimate a 3-D force (inward normal, pushing only, plus two
     /// tangential components) instead of a normal force alone (true).
     pub three_d: bool,
+    /// A sensed frame is flagged unreliable ([`FrameReport::reliable`]) when the robust
+    /// spread of its residual (`IntensityEstimate::residual_robust`) exceeds this many times
+    /// the expected per-feature noise (`frame.intensity.sensor_sigma`), 1.5: the data
+    /// scatter half as much again as the sensor explains. With 300 features the spread is
+    /// known to a few percent, so a model that fits stays near 1: 0.60-0.90 on 70 generated
+    /// frames; frames whose force sits a node (8-12 mm) off read 1.0-2.6, and an unseen
+    /// contact 5.9.
+    pub poor_fit: f64,
 }
 
 impl Default for SenseParams {
     fn default() -> Self {
         let mut frame = FrameParams::default();
-        // Matched offsets average ~10 points of 0.5 mm depth noise at 0.5 m.
-        frame.intensity.sensor_sigma = 2e-4;
+        // Each matched offset averages the points within 5 mm of the normal line: ~100 at
+        // the D415-like 0.8 mm spacing at 0.5 m, of 0.5 mm depth noise and 1 mm depth steps
+        // (0.29 mm) each: 0.58 mm / 10 ≈ 0.05 mm.
+        frame.register.d_m = 0.005;
+        frame.intensity.sensor_sigma = 5e-5;
         frame.max_updates = 20;
         // 1 mN: far below the 5% of the lightest load (0.26 N) the estimates are held to.
         frame.force_tol = 1e-3;
@@ -134,9 +148,14 @@ impl Default for SenseParams {
                 radius_m: 0.012,
                 ..ContactParams::default()
             },
-            features: FeatureParams::default(),
+            features: FeatureParams {
+                count: 300,
+                flat_radius: 0.005,
+                ..FeatureParams::default()
+            },
             frame,
             three_d: true,
+            poor_fit: 1.5,
             location_radius: 0.015,
             location_options: 16,
             max_combinations: 400,
@@ -517,8 +536,15 @@ pub struct FrameReport {
     pub features: usize,
     /// RMS of the normal-displacement residual (m).
     pub residual_rms: f64,
+    /// Robust spread of the same residual (1.4826 × median |residual|, m).
+    pub residual_robust: f64,
     /// FE updates in the last estimate.
     pub updates: usize,
+    /// Whether the estimate passed the fit checks: the forces settled within
+    /// `FrameParams::max_updates`, and the residual is within [`SenseParams::poor_fit`]
+    /// times the expected noise. An unreliable frame keeps its estimate; its `warnings` say
+    /// which check failed. False when nothing was estimated.
+    pub reliable: bool,
     /// Identifiability of the last QP.
     pub identifiability: Option<Identifiability>,
     /// Warnings a user should read.
@@ -547,7 +573,9 @@ impl FrameReport {
             features_visible: 0,
             features: 0,
             residual_rms: f64::NAN,
+            residual_robust: f64::NAN,
             updates: 0,
+            reliable: false,
             identifiability: None,
             warnings: Vec::new(),
             errors: None,
@@ -981,6 +1009,24 @@ impl Sensor {
         report.positions.clone_from(&est.positions);
         report.residual_rms = e.residual_rms;
         report.updates = est.updates;
+        let noise = self.params.frame.intensity.sensor_sigma;
+        report.residual_robust = e.residual_robust;
+        let fits = e.residual_robust <= self.params.poor_fit * noise;
+        report.reliable = est.settled && fits;
+        if !est.settled {
+            report.warnings.push(format!(
+                "unreliable: the forces did not settle within {} FE updates",
+                est.updates
+            ));
+        }
+        if !fits {
+            report.warnings.push(format!(
+                "unreliable: the residual's robust spread ({:.3} mm) is {:.0} times the expected noise ({:.3} mm): the model cannot explain this frame with its force locations (a contact not seen, a wrong location, or a deformation the loop did not follow)",
+                e.residual_robust * 1e3,
+                e.residual_robust / noise,
+                noise * 1e3
+            ));
+        }
         report.identifiability = Some(e.identifiability.clone());
         if let Some(w) = &e.identifiability.warning {
             report.warnings.push(w.clone());

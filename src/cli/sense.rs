@@ -39,8 +39,8 @@ pub struct SenseArgs {
     /// FE model file (TOML); default: the model named in the folder's truth.json.
     #[arg(long, value_name = "MODEL.toml")]
     pub model: Option<PathBuf>,
-    /// Number of surface feature points.
-    #[arg(long, value_name = "N", default_value_t = 51)]
+    /// Number of surface feature points (the thesis used 51)
+    #[arg(long, value_name = "N", default_value_t = SenseParams::default().features.count)]
     pub features: usize,
     /// Robot colour (sRGB) for the colour model.
     #[arg(long, value_name = "R,G,B", value_parser = super::parse_rgb, default_value = "40,200,60")]
@@ -206,8 +206,17 @@ fn summary(reports: &[FrameReport], wall_ms: f64, window: usize) {
         .flat_map(|r| r.errors.iter().flatten())
         .collect();
     let ms: f64 = reports.iter().map(|r| r.ms).sum::<f64>() / reports.len().max(1) as f64;
+    let unreliable = reports
+        .iter()
+        .filter(|r| matches!(r.status, FrameStatus::Sensed) && !r.reliable)
+        .count();
+    let flagged = if unreliable > 0 {
+        format!(" ({unreliable} unreliable: see their warnings)")
+    } else {
+        String::new()
+    };
     eprintln!(
-        "{sensed}/{} frames sensed, {ms:.0} ms per frame; stream {:.1} frames/s ({window} at a time, wall clock)",
+        "{sensed}/{} frames sensed{flagged}, {ms:.0} ms per frame; stream {:.1} frames/s ({window} at a time, wall clock)",
         reports.len(),
         1e3 * reports.len() as f64 / wall_ms.max(1e-9)
     );

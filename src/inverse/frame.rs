@@ -8,6 +8,7 @@ use crate::fem::constraint::{ConstraintRow, RowKind};
 use crate::fem::model::Model;
 use crate::fem::solve::{CableControl, MappedPoint, PointLoad, Solution, Solver};
 use crate::fem::tet4::Tangent;
+use crate::fem::FemError;
 use crate::register::{RegisterParams, Registrar, SurfaceFeature};
 
 /// A candidate force: a point on the mesh and the force direction (unit after normalising).
@@ -62,6 +63,16 @@ pub struct FrameParams {
     /// registration's matched points change, and more updates cannot settle it. At 0.25 a
     /// stop adds about 3% to the spread (√(1 + 0.25²)). 0: `force_tol` alone.
     pub sigma_tol: f64,
+    /// Halvings of a force step whose FE update fails (an inverted element, an indefinite
+    /// tangent, Newton not converging) before the frame fails (6). The first intensity QP is
+    /// linearised at the unloaded state; where a load bends a leg by centimetres that
+    /// linearisation can ask for several times the real force, more than the FE model can
+    /// follow in one Newton solve. The step is then halved, from the last good state, until
+    /// it can. 0: the first failure fails the frame.
+    pub max_halvings: usize,
+    /// Newton iterations an FE update may take before its step is halved (25; the
+    /// model's own limit if lower). Warm-started updates take 2-6.
+    pub fe_max_iterations: usize,
 }
 
 impl Default for FrameParams {
@@ -74,6 +85,8 @@ impl Default for FrameParams {
             fe_rel_tol: Some(1e-8),
             fe_forcing: 0.01,
             sigma_tol: 0.25,
+            max_halvings: 6,
+            fe_max_iterations: 25,
         }
     }
 }
@@ -104,6 +117,10 @@ pub struct FrameEstimate {
     pub visible: usize,
     /// FE updates done.
     pub updates: usize,
+    /// Whether the forces settled (`force_tol` or `sigma_tol`) before `max_updates`.
+    pub settled: bool,
+    /// Force steps halved because their FE update failed (see `FrameParams::max_halvings`).
+    pub halvings: usize,
     /// Final node positions (m).
     pub positions: Vec<[f64; 3]>,
     /// Where the time went.
@@ -139,17 +156,22 @@ pub fn estimate(
     let mut x = rest.clone();
     let mut updates = 0;
     let mut prev: Option<Solution> = None;
-    let mut omega = 1.0;
+    let mut omega = 1.0f64;
     let mut r_prev: Option<Vec<f64>> = None;
     // The previous update's solver state: its last element evaluation is at `x`, where
     // the next Newton solve starts.
     let mut carry = None;
     let abs_tol = newton.abs_tol;
+    newton.max_iterations = newton.max_iterations.min(params.fe_max_iterations);
     // Largest load change (N) applied since the last FE state: the forcing term's scale.
     let mut step = 0.0f64;
     // Largest cable self-compliance W_aa (m/N) of the last linearisation.
     let mut cable_compliance = 0.0f64;
-    for _ in 0..params.max_updates {
+    // The forces of the last good FE state (`prev`), from which a failed step is halved.
+    let mut applied = forces.clone();
+    let mut halvings = 0;
+    let mut settled = false;
+    while updates < params.max_updates {
         // FE state under the current forces.
         let mut problem = base.clone();
         for (c, f) in candidates.iter().zip(&forces) {
@@ -167,7 +189,31 @@ pub fn estimate(
         newton.abs_tol = abs_tol.max(params.fe_forcing * step);
         // A cable gap g is a tension error of about g / W_aa.
         newton.gap_tol = params.fe_forcing * step * cable_compliance;
-        let sol = solver.solve_static_from(&newton, prev.as_ref().or(start))?;
+        let sol = match solver.solve_static_from(&newton, prev.as_ref().or(start)) {
+            Ok(sol) => sol,
+            Err(
+                e @ (FemError::InvertedElement { .. }
+                | FemError::Singular(_)
+                | FemError::NoConvergence { .. }),
+            ) => {
+                if halvings >= params.max_halvings || forces == applied {
+                    return Err(e.into());
+                }
+                // The step overshot what the FE model can follow: halve it, from the last
+                // good state (a fresh solver: the failed one's element states are gone).
+                halvings += 1;
+                for (f, a) in forces.iter_mut().zip(&applied) {
+                    *f = a + 0.5 * (*f - a);
+                }
+                step *= 0.5;
+                omega = (0.5 * omega).max(0.1);
+                r_prev = None;
+                timings.fe_update += ms_since(clock);
+                continue;
+            }
+            Err(e) => return Err(e.into()),
+        };
+        applied.clone_from(&forces);
         x = sol.positions.clone();
         prev = Some(sol);
         updates += 1;
@@ -216,12 +262,13 @@ pub fn estimate(
         }
         // Settled: every force moved by less than `force_tol`, or by less than
         // `sigma_tol` of its own noise spread (further updates only move it within its noise).
-        let settled = r.iter().enumerate().all(|(i, v)| {
+        let now_settled = r.iter().enumerate().all(|(i, v)| {
             let s = est.force_sigma.get(i).copied().filter(|s| s.is_finite());
             v.abs() < params.force_tol.max(params.sigma_tol * s.unwrap_or(0.0))
         });
         last = Some((est, visible));
-        if settled {
+        if now_settled {
+            settled = true;
             break;
         }
         for (f, rk) in forces.iter_mut().zip(&r) {
@@ -236,6 +283,8 @@ pub fn estimate(
         estimate,
         visible,
         updates,
+        settled,
+        halvings,
         positions: x,
         timings,
     })

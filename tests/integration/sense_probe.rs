@@ -3,7 +3,7 @@
 //! (clouds/scenes/two_probes). The location is chosen by the data among the surface nodes
 //! near each seen contact; the force is 3-D (pushing normal + two tangential components).
 use softsense::fem::model::Model;
-use softsense::sense::{compare, LoadError, Recording, SenseParams, Sensor};
+use softsense::sense::{compare, FrameStatus, LoadError, Recording, SenseParams, Sensor};
 use std::path::Path;
 
 fn run(scene: &str) -> Vec<(usize, LoadError)> {
@@ -51,13 +51,118 @@ fn every_frame_of_the_probe_scenes_gets_a_report_matched_to_its_truth() {
 }
 
 #[test]
-#[ignore = "acceptance NOT met yet: 2 of 5 probes within 5 mm and 5% (5/5 located within 0.2 mm; magnitudes within 5% in 4/5, 3-D vector errors 0.2-26%: tangential components)"]
 fn a_probe_at_five_random_places_is_located_within_five_mm_and_five_percent() {
     assert!(within(&run("probe_side")));
 }
 
 #[test]
-#[ignore = "acceptance NOT met yet: two probes at once, 4 of 6 loads within 5 mm and 5% (6/6 located within 0.1 mm; 3-D errors 0.8-18.5%, one pass at 4.9% is inside its sigma: in frame 1 the two x errors are equal and opposite, a squeeze of the body between the probes that moves the seen surface very little)"]
+#[ignore = "acceptance NOT met yet: two probes at once, 5 of 6 loads within 5 mm and 5% (6/6 located within 0.3 mm; frame 0's first probe is 8.7% off, its tangential part)"]
 fn two_simultaneous_probes_are_both_found_within_five_percent() {
     assert!(within(&run("two_probes")));
+}
+
+/// Generates a one-frame probe scene (sensor noise on, scene `seed`) with the probe at `at`
+/// pushing with `force`, and senses it with `params`.
+fn sense_generated(
+    seed: u64,
+    at: [f64; 3],
+    force: [f64; 3],
+    params: SenseParams,
+) -> (softsense::sense::FrameReport, Vec<LoadError>) {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = tempfile::tempdir().unwrap();
+    let toml = format!(
+        "model = {:?}\nseed = {seed}\n\n[sensor]\nenabled = true\ndepth_k = 0.002\ncolor_sigma = 3.0\n\n\
+         [[frames]]\n[[frames.loads]]\nkind = \"probe\"\nat = {at:?}\nforce = {force:?}\n",
+        root.join("meshes/models/robot.toml").display().to_string()
+    );
+    let scene_path = dir.path().join("scene.toml");
+    std::fs::write(&scene_path, toml).unwrap();
+    let scene = softsense::scene::Scene::load(&scene_path).unwrap();
+    let out = dir.path().join("frames");
+    softsense::scene::generate(&scene, &out, |_, _| {}).unwrap();
+    let rec = Recording::open(&out).unwrap();
+    let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
+    let sensor = Sensor::new(model, rec.robot_from_camera, params);
+    let obs = sensor.observe(&rec, 0).unwrap();
+    let report = sensor.sense(0, &obs, rec.actuators_of(0));
+    let errors = compare(&report, rec.truth_of(0).unwrap());
+    (report, errors)
+}
+
+#[test]
+fn every_frame_of_the_bundled_probe_scenes_passes_the_fit_checks() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    for scene in ["probe_side", "two_probes"] {
+        let rec = Recording::open(&root.join("clouds/scenes").join(scene)).unwrap();
+        let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
+        let sensor = Sensor::new(model, rec.robot_from_camera, SenseParams::default());
+        for &frame in &rec.frames {
+            let obs = sensor.observe(&rec, frame).unwrap();
+            let r = sensor.sense(frame, &obs, rec.actuators_of(frame));
+            assert!(
+                r.reliable,
+                "{scene} frame {frame}: {:?}, warnings {:?}",
+                r.status, r.warnings
+            );
+        }
+    }
+}
+
+// A held-out probe place (`make_probe_scenes --held-out 404 8`, frame 3): the west leg's
+// tip, pushed with 0.61 N. The first intensity QP, linearised at the unloaded state, asks
+// for several times that, which the FE model cannot follow in one Newton solve.
+const LEG_TIP: [f64; 3] = [-0.0924, -0.0132, 0.04167];
+const LEG_TIP_FORCE: [f64; 3] = [-0.0853, 0.5946, -0.0996];
+
+#[test]
+fn a_force_step_the_fe_model_cannot_follow_is_halved_and_the_frame_is_sensed() {
+    // The frame gets an estimate, with its fit checks. Whether that estimate is right
+    // depends on the noise: in the held-out scene this place came out 4.3% off and
+    // reliable; in this one-frame scene its noise differs and the loop settles on a wrong
+    // location, which the report flags (see the README, "Held-out probe places").
+    let (report, errors) = sense_generated(404, LEG_TIP, LEG_TIP_FORCE, SenseParams::default());
+    eprintln!(
+        "{:?}, reliable {}, {:?}, {errors:?}",
+        report.status, report.reliable, report.warnings
+    );
+    assert!(
+        matches!(report.status, FrameStatus::Sensed),
+        "{:?}",
+        report.status
+    );
+    assert_eq!(report.reliable, report.warnings.is_empty());
+    // Without halving the same frame fails: the test above exercises the halving.
+    let mut params = SenseParams::default();
+    params.frame.max_halvings = 0;
+    let (report, _) = sense_generated(404, LEG_TIP, LEG_TIP_FORCE, params);
+    assert!(
+        matches!(report.status, FrameStatus::NotSolved(_)),
+        "{:?}",
+        report.status
+    );
+}
+
+#[test]
+fn a_frame_the_model_cannot_explain_is_sensed_but_flagged_unreliable() {
+    // A probe the contact detector does not see (its radius shrunk to 0.1 mm): the model's
+    // declared force points (on the top) cannot explain a dent in the side, and the report
+    // must say so. The same frame with the detector on passes the checks (the test above).
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let rec = Recording::open(&root.join("clouds/scenes/probe_side")).unwrap();
+    let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
+    let mut params = SenseParams::default();
+    params.contact.radius_m = 1e-4;
+    let sensor = Sensor::new(model, rec.robot_from_camera, params);
+    let obs = sensor.observe(&rec, 1).unwrap();
+    let report = sensor.sense(1, &obs, rec.actuators_of(1));
+    eprintln!(
+        "{:?}, robust residual {:.3} mm, {:?}",
+        report.status,
+        report.residual_robust * 1e3,
+        report.warnings
+    );
+    assert!(matches!(report.status, FrameStatus::Sensed));
+    assert!(!report.reliable);
+    assert!(report.warnings.iter().any(|w| w.starts_with("unreliable")));
 }

@@ -12,10 +12,12 @@ fn run(hide_fraction: f64) -> Vec<(f64, f64)> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let rec = Recording::open(&root.join("clouds/scenes/tip_weight")).unwrap();
     let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
-    let mut sensor = Sensor::new(model, rec.robot_from_camera, SenseParams::default());
+    let params = SenseParams::default();
+    let count = params.features.count;
+    let mut sensor = Sensor::new(model, rec.robot_from_camera, params);
     assert_eq!(
         sensor.features.len(),
-        51,
+        count,
         "visible flat patches on the robot"
     );
     if hide_fraction > 0.0 {

@@ -257,3 +257,58 @@ fn too_few_rows_warn_about_identifiability() {
     assert!(id.warning.is_some());
     assert!(id.i_w.is_infinite());
 }
+
+#[test]
+fn the_robust_residual_matches_the_rms_on_gaussian_noise_and_ignores_a_few_outliers() {
+    // 400 feature rows, 1 force-controlled actuator, 2 forces; the data are the model plus
+    // Gaussian noise of 0.1 mm.
+    let (m, sigma) = (400, 1e-4);
+    let mut state = 7u64;
+    let mut uniform = move || {
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+    };
+    let w_ef = DMatrix::from_fn(m, 2, |i, j| {
+        1e-3 * (1.0 + ((i * (j + 3)) % 17) as f64 / 17.0)
+    });
+    let w_ea = DMatrix::from_fn(m, 1, |i, _| 1e-4 * ((i % 5) as f64));
+    let lf = DVector::from_vec(vec![0.5, 0.3]);
+    let model = &w_ea * DVector::from_vec(vec![0.2]) + &w_ef * &lf;
+    let noise: Vec<f64> = (0..m)
+        .map(|_| {
+            let (u, v) = (uniform(), uniform());
+            sigma * (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+        })
+        .collect();
+    let problem = |measured: Vec<f64>| IntensityProblem {
+        w_ea: w_ea.clone(),
+        w_ef: w_ef.clone(),
+        delta_free_e: vec![0.0; m],
+        delta_measured: measured,
+        w_aa: DMatrix::identity(1, 1) * 1e-3,
+        w_af: DMatrix::zeros(1, 2),
+        delta_free_a: vec![0.0],
+        actuators: vec![ActuatorInput::Force(0.2)],
+        push_only: vec![true, true],
+    };
+    let clean: Vec<f64> = (0..m).map(|i| model[i] + noise[i]).collect();
+    let e = problem(clean.clone())
+        .solve(&IntensityParams::default())
+        .unwrap();
+    assert!((e.residual_robust / sigma - 1.0).abs() < 0.15, "{e:?}");
+    assert!((e.residual_rms / sigma - 1.0).abs() < 0.15, "{e:?}");
+    // Two rows 5 mm off (points of another object matched to those features): the RMS
+    // triples, the robust spread stays. (Many outliers would pull the fit itself, and then
+    // every residual grows: the robust spread is robust to a few, not to a wrong fit.)
+    let mut dirty = clean;
+    dirty[0] += 5e-3;
+    dirty[200] -= 5e-3;
+    let d = problem(dirty).solve(&IntensityParams::default()).unwrap();
+    assert!(d.residual_rms > 3.0 * sigma, "{d:?}");
+    assert!(
+        (d.residual_robust / e.residual_robust - 1.0).abs() < 0.1,
+        "{d:?}"
+    );
+}
