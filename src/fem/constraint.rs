@@ -101,6 +101,20 @@ impl Solver<'_> {
         x: &[[f64; 3]],
         residual: &[f64],
     ) -> FemResult<Compliance> {
+        self.compliance_skipping(rows, x, residual, 0)
+    }
+
+    /// [`Solver::compliance`] without the block of W among the first `skip` rows (left
+    /// zero), which the intensity QP does not use (W_ee): with hundreds of feature rows and
+    /// a few actuator and force rows, the products that remain are a few columns' worth
+    /// instead of all pairs.
+    pub fn compliance_skipping(
+        &self,
+        rows: &[ConstraintRow],
+        x: &[[f64; 3]],
+        residual: &[f64],
+        skip: usize,
+    ) -> FemResult<Compliance> {
         let nd = self.ndof();
         let m = rows.len();
         let k = m + 1;
@@ -130,6 +144,7 @@ impl Solver<'_> {
                 }
             },
             k,
+            skip,
         )?;
         // Upper triangle mirrored: W is symmetric to the last bit.
         let w = DMatrix::from_fn(m, m, |i, j| gram[(i.min(j), i.max(j))]);
@@ -142,11 +157,13 @@ impl Solver<'_> {
     }
 
     /// Yᵀ Y (upper triangle valid) for Y = L⁻¹ P B, B (ndof x `k`) given by `fill`, which
-    /// calls `add(dof, column, value)` for each nonzero of B.
+    /// calls `add(dof, column, value)` for each nonzero of B. The products among the first
+    /// `skip` columns are not computed (zero).
     fn forward_gram(
         &self,
         fill: impl FnOnce(&mut dyn FnMut(usize, usize, f64)),
         k: usize,
+        skip: usize,
     ) -> FemResult<Mat<f64>> {
         let nd = self.ndof();
         let sn = self.supernodal()?;
@@ -207,21 +224,23 @@ impl Solver<'_> {
                 faer::Par::Seq
             };
             faer::linalg::triangular_solve::solve_lower_triangular_in_place(ltop, xt.rb_mut(), par);
-            // These rows of Y are final: add their share of Yᵀ Y.
+            // These rows of Y are final: add their share of Yᵀ Y, against the columns from
+            // `skip` on (`cols` is ascending, so those are its last `ka - p`).
+            let p = cols.partition_point(|&j| j < skip);
             g.clear();
-            g.resize(ka * ka, 0.0);
-            let mut gm = faer::MatMut::from_column_major_slice_mut(&mut g, ka, ka);
+            g.resize(ka * (ka - p), 0.0);
+            let mut gm = faer::MatMut::from_column_major_slice_mut(&mut g, ka, ka - p);
             faer::linalg::matmul::matmul(
                 gm.rb_mut(),
                 faer::Accum::Replace,
                 xt.rb().transpose(),
-                xt.rb(),
+                xt.rb().subcols(p, ka - p),
                 1.0,
                 par,
             );
-            for (b, &jb) in cols.iter().enumerate() {
+            for (b, &jb) in cols.iter().enumerate().skip(p) {
                 for (a, &ja) in cols.iter().enumerate().take(b + 1) {
-                    gram[(ja, jb)] += gm[(a, b)];
+                    gram[(ja, jb)] += gm[(a, b - p)];
                 }
             }
             if pattern.is_empty() {

@@ -263,6 +263,22 @@ fn forward_only_compliance_equals_full_solves() {
         c.w.row(last).iter().all(|v| *v == 0.0),
         "a row on fixed nodes has no compliance"
     );
+    // Skipping the block among the first 3 rows (the effector rows, W_ee) leaves it zero and
+    // everything else as the full solves give it.
+    let skip = 3;
+    let k = s.compliance_skipping(&rows, &x, &r, skip).unwrap();
+    assert_close_relative(&k.delta_free, &d_ref, "delta_free (skipping)");
+    let scale = w_ref.amax();
+    for i in 0..rows.len() {
+        for j in 0..rows.len() {
+            if i < skip && j < skip {
+                assert_eq!(k.w[(i, j)], 0.0, "W[{i},{j}] is skipped");
+            } else {
+                let (a, b) = (k.w[(i, j)], w_ref[(i, j)]);
+                assert!((a - b).abs() <= 1e-10 * scale, "W[{i},{j}]: {a:e} vs {b:e}");
+            }
+        }
+    }
 }
 
 /// Row values predicted by `c` for the extra force `eps` on row `j`, against a full solve.
