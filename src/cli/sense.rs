@@ -155,7 +155,7 @@ fn print_human(r: &FrameReport) {
     );
     for (i, f) in r.forces.iter().enumerate() {
         println!(
-            "  force {i} ({}{}): at ({:.1}, {:.1}, {:.1}) mm, F = ({:.3}, {:.3}, {:.3}) N, |F| = {:.3} ± {:.3} N",
+            "  force {i} ({}{}): at ({:.1}, {:.1}, {:.1}) mm, F = ({:.3}, {:.3}, {:.3}) N, |F| = {:.3} ± {:.4} N",
             f.source,
             f.node.map(|n| format!(", node {n}")).unwrap_or_default(),
             f.location[0] * 1e3,
