@@ -39,7 +39,7 @@ pub struct SenseArgs {
     /// FE model file (TOML); default: the model named in the folder's truth.json.
     #[arg(long, value_name = "MODEL.toml")]
     pub model: Option<PathBuf>,
-    /// Number of surface feature points (the thesis used 51)
+    /// Number of surface feature points (the thesis used 51).
     #[arg(long, value_name = "N", default_value_t = SenseParams::default().features.count)]
     pub features: usize,
     /// Robot colour (sRGB) for the colour model.

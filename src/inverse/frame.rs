@@ -63,8 +63,8 @@ pub struct FrameParams {
     /// registration's matched points change, and more updates cannot settle it. At 0.25 a
     /// stop adds about 3% to the spread (√(1 + 0.25²)). 0: `force_tol` alone.
     pub sigma_tol: f64,
-    /// Halvings of a force step whose FE update fails (an inverted element, an indefinite
-    /// tangent, Newton not converging) before the frame fails (6). The first intensity QP is
+    /// Halvings, in all, of force steps whose FE update fails (an inverted element, an
+    /// indefinite tangent, Newton not converging) before the frame fails (6). The first intensity QP is
     /// linearised at the unloaded state; where a load bends a leg by centimetres that
     /// linearisation can ask for several times the real force, more than the FE model can
     /// follow in one Newton solve. The step is then halved, from the last good state, until
