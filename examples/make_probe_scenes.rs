@@ -54,21 +54,19 @@ fn main() {
     // `--held-out SEED FRAMES OUT.toml`: a scene drawn the same way with another seed, to
     // check settings chosen on the committed scenes on data they were not chosen on.
     let args: Vec<String> = std::env::args().skip(1).collect();
+    fn usage() -> ! {
+        eprintln!("usage: make_probe_scenes [--held-out SEED FRAMES OUT.toml]");
+        std::process::exit(2);
+    }
     let held_out = match args.as_slice() {
         [] => None,
         [flag, seed, frames, out] if flag == "--held-out" => {
             match (seed.parse::<u64>(), frames.parse::<usize>()) {
                 (Ok(seed), Ok(frames)) => Some((seed, frames, out.clone())),
-                _ => {
-                    eprintln!("usage: make_probe_scenes [--held-out SEED FRAMES OUT.toml]");
-                    std::process::exit(2);
-                }
+                _ => usage(),
             }
         }
-        _ => {
-            eprintln!("usage: make_probe_scenes [--held-out SEED FRAMES OUT.toml]");
-            std::process::exit(2);
-        }
+        _ => usage(),
     };
     let mut rng = Rng(held_out.as_ref().map_or(2026, |h| h.0));
     let probe = |rng: &mut Rng, v: usize| -> String {

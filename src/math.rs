@@ -15,6 +15,26 @@ pub type Point3f = nalgebra::Point3<f32>;
 /// A 3-D vector in `f32`.
 pub type Vec3f = nalgebra::Vector3<f32>;
 
+/// The median of `v` (the mean of the two middle values for an even count; NaN when
+/// empty). Reorders `v`: O(n) selection, no full sort.
+pub fn median(v: &mut [f64]) -> f64 {
+    let n = v.len();
+    if n == 0 {
+        return f64::NAN;
+    }
+    let (_, &mut hi, _) = v.select_nth_unstable_by(n / 2, f64::total_cmp);
+    if n % 2 == 1 {
+        return hi;
+    }
+    // The lower middle value is the largest of the lower part.
+    let lo = v[..n / 2]
+        .iter()
+        .copied()
+        .max_by(f64::total_cmp)
+        .unwrap_or(hi);
+    0.5 * (lo + hi)
+}
+
 /// `a − b` on plain arrays (the FE core, ray caster and registration keep `[f64; 3]`).
 pub(crate) fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]

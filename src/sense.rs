@@ -133,7 +133,8 @@ impl Default for SenseParams {
         // Each matched offset averages the points within 5 mm of the normal line: ~100 at
         // the D415-like 0.8 mm spacing at 0.5 m, of 0.5 mm depth noise and 1 mm depth steps
         // (0.29 mm) each: 0.58 mm / 10 ≈ 0.05 mm.
-        frame.register.d_m = 0.005;
+        let d_m = 0.005;
+        frame.register.d_m = d_m;
         frame.intensity.sensor_sigma = 5e-5;
         frame.max_updates = 20;
         // 1 mN: far below the 5% of the lightest load (0.26 N) the estimates are held to.
@@ -150,7 +151,7 @@ impl Default for SenseParams {
             },
             features: FeatureParams {
                 count: 300,
-                flat_radius: 0.005,
+                flat_radius: d_m,
                 ..FeatureParams::default()
             },
             frame,
@@ -292,13 +293,7 @@ pub fn median_timings(timings: &[StageTimings]) -> Vec<(&'static str, f64)> {
         .enumerate()
         .map(|(k, (name, _))| {
             let mut v: Vec<f64> = named.iter().map(|n| n[k].1).collect();
-            v.sort_by(f64::total_cmp);
-            let m = match v.len() {
-                0 => f64::NAN,
-                n if n % 2 == 1 => v[n / 2],
-                n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
-            };
-            (*name, m)
+            (*name, crate::math::median(&mut v))
         })
         .collect()
 }
@@ -564,6 +559,12 @@ pub struct FrameReport {
 }
 
 impl FrameReport {
+    /// Adds the loop timings and halvings of one of the frame's estimates.
+    fn account(&mut self, est: &FrameEstimate) {
+        self.timings.add_loop(&est.timings);
+        self.halvings += est.halvings;
+    }
+
     /// A report with `status` and nothing estimated yet.
     pub fn empty(frame: usize, status: FrameStatus) -> Self {
         Self {
@@ -909,8 +910,7 @@ impl Sensor {
                 let n = cands.len();
                 let est = match result {
                     Ok(e) => {
-                        report.timings.add_loop(&e.timings);
-                        report.halvings += e.halvings;
+                        report.account(&e);
                         e
                     }
                     Err(e) => {
@@ -941,8 +941,7 @@ impl Sensor {
                         "no contact seen and the model declares no force points: only the actuators are estimated".into(),
                     );
                     let est = solve(&[]).map_err(|e| fail(&e))?;
-                    report.timings.add_loop(&est.timings);
-                    report.halvings += est.halvings;
+                    report.account(&est);
                     (est, Vec::new(), Vec::new())
                 }
                 None => return Err(FrameStatus::NotSolved("every force point failed".into())),
@@ -1004,8 +1003,7 @@ impl Sensor {
                     });
                 }
                 let est = solve(&cands).map_err(|e| fail(&e))?;
-                report.timings.add_loop(&est.timings);
-                report.halvings += est.halvings;
+                report.account(&est);
                 x = est.positions.clone();
                 out = Some((est, cands, groups));
             }

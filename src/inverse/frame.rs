@@ -262,13 +262,12 @@ pub fn estimate(
         }
         // Settled: every force moved by less than `force_tol`, or by less than
         // `sigma_tol` of its own noise spread (further updates only move it within its noise).
-        let now_settled = r.iter().enumerate().all(|(i, v)| {
+        settled = r.iter().enumerate().all(|(i, v)| {
             let s = est.force_sigma.get(i).copied().filter(|s| s.is_finite());
             v.abs() < params.force_tol.max(params.sigma_tol * s.unwrap_or(0.0))
         });
         last = Some((est, visible));
-        if now_settled {
-            settled = true;
+        if settled {
             break;
         }
         for (f, rk) in forces.iter_mut().zip(&r) {

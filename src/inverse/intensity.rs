@@ -234,13 +234,7 @@ impl IntensityProblem {
         let r = &wei * &x - DVector::from_column_slice(&target);
         let residual_rms = (r.norm_squared() / m as f64).sqrt();
         let mut abs: Vec<f64> = r.iter().map(|v| v.abs()).collect();
-        abs.sort_unstable_by(f64::total_cmp);
-        let median = match abs.len() {
-            0 => f64::NAN,
-            n if n % 2 == 1 => abs[n / 2],
-            n => 0.5 * (abs[n / 2 - 1] + abs[n / 2]),
-        };
-        let residual_robust = 1.4826 * median;
+        let residual_robust = 1.4826 * crate::math::median(&mut abs);
         Ok(IntensityEstimate {
             status: sol.status,
             actuator_forces: sol.x[..a].to_vec(),

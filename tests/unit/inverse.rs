@@ -312,3 +312,27 @@ fn the_robust_residual_matches_the_rms_on_gaussian_noise_and_ignores_a_few_outli
         "{d:?}"
     );
 }
+
+#[test]
+fn the_median_by_selection_equals_the_middle_of_the_sorted_values() {
+    assert!(softsense::math::median(&mut []).is_nan());
+    let mut state = 3u64;
+    for n in 1..40 {
+        let mut v: Vec<f64> = (0..n)
+            .map(|_| {
+                state = state
+                    .wrapping_mul(6_364_136_223_846_793_005)
+                    .wrapping_add(1_442_695_040_888_963_407);
+                (state >> 40) as f64 - 8e6
+            })
+            .collect();
+        let mut sorted = v.clone();
+        sorted.sort_by(f64::total_cmp);
+        let want = if n % 2 == 1 {
+            sorted[n / 2]
+        } else {
+            0.5 * (sorted[n / 2 - 1] + sorted[n / 2])
+        };
+        assert_eq!(softsense::math::median(&mut v), want, "n = {n}");
+    }
+}
