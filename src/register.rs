@@ -1,7 +1,8 @@
 //! Normal-line registration (thesis Algorithm 4.2): FE feature points spread evenly over the
 //! surface, each matched to the measured robot points nearest to its normal line. A feature
 //! is hidden when no point lies within `d_m` of its line, or the match is more than `d_l`
-//! along it. KD-tree ball queries along the line replace the thesis's brute force.
+//! along it. A dense grid of the points, walked over the cells of each line's cylinder,
+//! replaces the thesis's brute force over all points.
 //!
 //! Where the features sit matters. On a faceted FE surface the line through a mesh *vertex*
 //! along its averaged vertex normal meets the measured surface off the vertex, and the points
@@ -28,7 +29,6 @@ use crate::fem::mesh::Surface;
 use crate::fem::solve::MappedPoint;
 use crate::math::{cross, dot, norm, sub, unit};
 use crate::scene::raycast::Bvh;
-use kiddo::{KdTree, SquaredEuclidean};
 use serde::Serialize;
 
 /// Registration parameters.
@@ -151,25 +151,93 @@ pub fn vertex_normals(x: &[[f64; 3]], triangles: &[[usize; 3]]) -> Vec<[f64; 3]>
     n
 }
 
-/// A KD-tree over the measured robot points (robot frame, m).
+/// Edge of the registrar's grid cells (m) when the points' bounding box allows it: the
+/// registration radius `d_m` of the sensing chain, so a normal line's cylinder crosses few
+/// cells of a handful of points each.
+pub const GRID_CELL: f64 = 0.005;
+
+/// Most cells of the registrar's dense grid; a wider cloud gets coarser cells.
+const MAX_CELLS: usize = 1 << 21;
+
+/// The measured robot points (robot frame, m) on a dense uniform grid: counting-sorted by
+/// cell, so the points of a cell are one contiguous run. A normal line's cylinder is answered
+/// by walking the cells of its bounding box, skipping empty ones (a surface fills few) and
+/// those too far from the line, and testing the points of the rest.
 pub struct Registrar {
-    tree: KdTree<f64, 3>,
+    /// Points in cell order.
     points: Vec<[f64; 3]>,
+    /// Index of each (cell-ordered) point in the finite input points: ties break by it.
+    index: Vec<u32>,
+    /// Start of each cell's run in `points` (cells in x-fastest order), plus the end.
+    starts: Vec<u32>,
+    origin: [f64; 3],
+    cell: f64,
+    dims: [usize; 3],
 }
 
 impl Registrar {
     /// Indexes the finite points.
     pub fn new(points: &[[f64; 3]]) -> Self {
-        let points: Vec<[f64; 3]> = points
+        let finite: Vec<[f64; 3]> = points
             .iter()
             .copied()
             .filter(|p| p.iter().all(|c| c.is_finite()))
             .collect();
-        let mut tree = KdTree::with_capacity(points.len().max(1));
-        for (i, p) in points.iter().enumerate() {
-            tree.add(p, i as u64);
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for p in &finite {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
         }
-        Self { tree, points }
+        if finite.is_empty() {
+            lo = [0.0; 3];
+            hi = [0.0; 3];
+        }
+        let mut cell = GRID_CELL;
+        let dims_for = |cell: f64| (0..3).map(move |k| ((hi[k] - lo[k]) / cell) as usize + 1);
+        while dims_for(cell)
+            .try_fold(1usize, |a, d| a.checked_mul(d))
+            .unwrap_or(usize::MAX)
+            > MAX_CELLS
+        {
+            cell *= 2.0;
+        }
+        let mut dims = [1; 3];
+        for (d, v) in dims.iter_mut().zip(dims_for(cell)) {
+            *d = v;
+        }
+        let cell_of = |p: &[f64; 3]| {
+            let c = |k: usize| (((p[k] - lo[k]) / cell) as usize).min(dims[k] - 1);
+            c(0) + dims[0] * (c(1) + dims[1] * c(2))
+        };
+        let ncells = dims[0] * dims[1] * dims[2];
+        let mut starts = vec![0u32; ncells + 1];
+        let cells: Vec<usize> = finite.iter().map(cell_of).collect();
+        for &c in &cells {
+            starts[c + 1] += 1;
+        }
+        for c in 0..ncells {
+            starts[c + 1] += starts[c];
+        }
+        let mut fill = starts.clone();
+        let mut sorted = vec![[0.0; 3]; finite.len()];
+        let mut index = vec![0u32; finite.len()];
+        for (i, (&c, p)) in cells.iter().zip(&finite).enumerate() {
+            let at = fill[c] as usize;
+            fill[c] += 1;
+            sorted[at] = *p;
+            index[at] = i as u32;
+        }
+        Self {
+            points: sorted,
+            index,
+            starts,
+            origin: lo,
+            cell,
+            dims,
+        }
     }
 
     /// Number of indexed points.
@@ -192,46 +260,16 @@ impl Registrar {
         if self.points.is_empty() {
             return None;
         }
-        // The cylinder (radius d_m, half-length d_l) covered by balls centred on the line
-        // every `step`: a point of it is within step/2 along the line of a centre, so within
-        // sqrt((step/2)² + d_m²) of it. Much less than one ball of radius √(d_m² + d_l²),
-        // which holds a few thousand surface points for each feature at 0.5 m.
-        let step = (2.0 * params.d_m).max(params.d_l / 16.0);
-        let centres = (2.0 * params.d_l / step).ceil().max(0.0) as usize + 1;
-        let r2 = 0.25 * step * step + params.d_m * params.d_m;
-        let mut near: Vec<usize> = Vec::new();
-        for c in 0..centres {
-            let t = if centres == 1 {
-                0.0
-            } else {
-                -params.d_l + 2.0 * params.d_l * c as f64 / (centres - 1) as f64
-            };
-            let centre = [p[0] + t * n[0], p[1] + t * n[1], p[2] + t * n[2]];
-            near.extend(
-                self.tree
-                    .within_unsorted::<SquaredEuclidean>(&centre, r2)
-                    .iter()
-                    .map(|nb| nb.item as usize),
-            );
-        }
-        near.sort_unstable();
-        near.dedup();
-        // (offset along the line, squared distance to the line) of the points near the line.
-        let on_line: Vec<(f64, f64)> = near
-            .iter()
-            .filter_map(|&i| {
-                let q = self.points[i];
-                let d = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
-                let t = d[0] * n[0] + d[1] * n[1] + d[2] * n[2];
-                let perp2 = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] - t * t).max(0.0);
-                (t.abs() <= params.d_l && perp2 <= params.d_m * params.d_m).then_some((t, perp2))
-            })
-            .collect();
+        // (offset along the line, squared distance to the line, point index) of the points
+        // within `d_m` of the segment |t| ≤ `d_l`.
+        let on_line = self.near_line(p, n, params.d_m, params.d_l);
         if !params.average {
             // The thesis's rule: the point nearest to the line.
-            let &(t, perp2) = on_line
-                .iter()
-                .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.abs().total_cmp(&b.0.abs())))?;
+            let &(t, perp2, _) = on_line.iter().min_by(|a, b| {
+                a.1.total_cmp(&b.1)
+                    .then(a.0.abs().total_cmp(&b.0.abs()))
+                    .then(a.2.cmp(&b.2))
+            })?;
             return Some(LineMatch {
                 offset: t,
                 line_distance: perp2.sqrt(),
@@ -240,9 +278,12 @@ impl Registrar {
         }
         // The sheet of surface nearest to the feature along the line: start at the point of
         // smallest |offset|, average the points within `sheet` of it, re-centre once.
-        let &(t0, _) = on_line
-            .iter()
-            .min_by(|a, b| a.0.abs().total_cmp(&b.0.abs()).then(a.1.total_cmp(&b.1)))?;
+        let &(t0, _, _) = on_line.iter().min_by(|a, b| {
+            a.0.abs()
+                .total_cmp(&b.0.abs())
+                .then(a.1.total_cmp(&b.1))
+                .then(a.2.cmp(&b.2))
+        })?;
         let sheet = |centre: f64| {
             on_line
                 .iter()
@@ -258,6 +299,62 @@ impl Registrar {
             line_distance: perp2.sqrt(),
             points: count,
         })
+    }
+
+    /// `(t, squared distance to the line, index)` of every point with |t| ≤ `d_l` and
+    /// within `d_m` of the line `p + t n`.
+    fn near_line(&self, p: [f64; 3], n: [f64; 3], d_m: f64, d_l: f64) -> Vec<(f64, f64, u32)> {
+        let mut out = Vec::new();
+        if d_m.is_nan() || d_l.is_nan() || d_m < 0.0 || d_l < 0.0 {
+            return out;
+        }
+        // The cells of the cylinder's bounding box: along axis k the segment spans
+        // p_k ± d_l |n_k| and the disc adds d_m √(1 - n_k²).
+        let h = self.cell;
+        let mut lo = [0usize; 3];
+        let mut hi = [0usize; 3];
+        for k in 0..3 {
+            let half = d_l * n[k].abs() + d_m * (1.0 - n[k] * n[k]).max(0.0).sqrt();
+            let a = ((p[k] - half - self.origin[k]) / h).floor();
+            let b = ((p[k] + half - self.origin[k]) / h).floor();
+            if a.is_nan() || b.is_nan() || b < 0.0 || a >= self.dims[k] as f64 || a > b {
+                return out;
+            }
+            lo[k] = a.max(0.0) as usize;
+            hi[k] = (b as usize).min(self.dims[k] - 1);
+        }
+        // A cell whose centre is farther than d_m + half its diagonal from the segment
+        // holds no point of the cylinder.
+        let reach = d_m + 0.5 * 3f64.sqrt() * h;
+        let (dm2, reach2) = (d_m * d_m, reach * reach);
+        for cz in lo[2]..=hi[2] {
+            for cy in lo[1]..=hi[1] {
+                let row = self.dims[0] * (cy + self.dims[1] * cz);
+                for cx in lo[0]..=hi[0] {
+                    let c = row + cx;
+                    let (s, e) = (self.starts[c] as usize, self.starts[c + 1] as usize);
+                    if s == e {
+                        continue;
+                    }
+                    let centre = [cx, cy, cz].map(|v| v as f64 + 0.5);
+                    let d = [0, 1, 2].map(|k| self.origin[k] + centre[k] * h - p[k]);
+                    let t = (d[0] * n[0] + d[1] * n[1] + d[2] * n[2]).clamp(-d_l, d_l);
+                    let off = [0, 1, 2].map(|k| d[k] - t * n[k]);
+                    if off[0] * off[0] + off[1] * off[1] + off[2] * off[2] > reach2 {
+                        continue;
+                    }
+                    for (q, &i) in self.points[s..e].iter().zip(&self.index[s..e]) {
+                        let d = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
+                        let t = d[0] * n[0] + d[1] * n[1] + d[2] * n[2];
+                        let perp2 = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] - t * t).max(0.0);
+                        if t.abs() <= d_l && perp2 <= dm2 {
+                            out.push((t, perp2, i));
+                        }
+                    }
+                }
+            }
+        }
+        out
     }
 
     /// Matches every feature node; `None` entries are hidden features.

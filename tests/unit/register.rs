@@ -261,3 +261,92 @@ proptest! {
         prop_assert!(brute - d <= 2.0 * edge / 300.0 + 1e-12, "closest {d} << sampled {brute}");
     }
 }
+
+/// The averaged rule by brute force over all points: the sheet around the point of smallest
+/// |offset| within the cylinder, re-centred once. Returns (offset, points).
+fn brute_average(
+    pts: &[[f64; 3]],
+    p: [f64; 3],
+    n: [f64; 3],
+    r: &RegisterParams,
+) -> Option<(f64, usize)> {
+    let on: Vec<f64> = pts
+        .iter()
+        .filter_map(|q| {
+            let d = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
+            let t = d[0] * n[0] + d[1] * n[1] + d[2] * n[2];
+            let perp2 = (d.iter().map(|c| c * c).sum::<f64>() - t * t).max(0.0);
+            (t.abs() <= r.d_l && perp2 <= r.d_m * r.d_m).then_some(t)
+        })
+        .collect();
+    let t0 = *on.iter().min_by(|a, b| a.abs().total_cmp(&b.abs()))?;
+    let sheet = |c: f64| {
+        let s: Vec<f64> = on
+            .iter()
+            .copied()
+            .filter(|t| (t - c).abs() <= r.sheet)
+            .collect();
+        (s.iter().sum::<f64>() / s.len() as f64, s.len())
+    };
+    let (c, _) = sheet(t0);
+    Some(sheet(c))
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+    #[test]
+    fn the_grid_registrar_matches_every_line_as_a_brute_force_search_does(
+        seed in 0u64..1_000_000,
+        far in prop::bool::ANY,
+        d_m in 0.001f64..0.012,
+        dir in proptest::collection::vec(-1.0f64..1.0, 3),
+    ) {
+        // A wavy sheet of 4000 points over 0.2 m x 0.2 m, 1 mm thick noise; `far` adds a point
+        // 200 m away, which forces the grid to coarse cells.
+        let mut s = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        let mut next = move || {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut pts: Vec<[f64; 3]> = (0..4000)
+            .map(|_| {
+                let (x, y) = (0.2 * next() - 0.1, 0.2 * next() - 0.1);
+                [x, y, 0.01 * (30.0 * x).sin() + 0.001 * next()]
+            })
+            .collect();
+        if far {
+            pts.push([200.0, -150.0, 90.0]);
+        }
+        pts.push([f64::NAN, 0.0, 0.0]);
+        let reg = Registrar::new(&pts);
+        let l = dir.iter().map(|c| c * c).sum::<f64>().sqrt();
+        prop_assume!(l > 0.1);
+        let n = [dir[0] / l, dir[1] / l, dir[2] / l];
+        for average in [true, false] {
+            let r = RegisterParams { d_m, average, ..Default::default() };
+            for k in 0..20 {
+                let p = [0.24 * next() - 0.12, 0.24 * next() - 0.12, 0.03 * next() - 0.015];
+                let got = reg.match_feature(p, n, &r);
+                if average {
+                    let want = brute_average(&pts, p, n, &r);
+                    match (got, want) {
+                        (None, None) => {}
+                        (Some(g), Some((t, c))) => {
+                            prop_assert_eq!(g.points, c, "line {}", k);
+                            prop_assert!((g.offset - t).abs() < 1e-12, "line {}: {} vs {}", k, g.offset, t);
+                        }
+                        (g, w) => prop_assert!(false, "line {}: grid {:?} vs brute {:?}", k, g, w),
+                    }
+                } else {
+                    let want = pts.iter().filter_map(|q| {
+                        let d = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
+                        let t = d[0] * n[0] + d[1] * n[1] + d[2] * n[2];
+                        let perp2 = (d.iter().map(|c| c * c).sum::<f64>() - t * t).max(0.0);
+                        (t.abs() <= r.d_l && perp2 <= d_m * d_m).then_some(perp2.sqrt())
+                    }).min_by(f64::total_cmp);
+                    prop_assert_eq!(got.map(|g| g.line_distance), want, "line {}", k);
+                }
+            }
+        }
+    }
+}
