@@ -106,8 +106,10 @@ impl Solver<'_> {
 
     /// [`Solver::compliance`] without the block of W among the first `skip` rows (left
     /// zero), which the intensity QP does not use (W_ee): with hundreds of feature rows and
-    /// a few actuator and force rows, the products that remain are a few columns' worth
-    /// instead of all pairs.
+    /// a few actuator and force rows, only the columns from `skip` on are solved for,
+    /// Z = K⁻¹ [H_oᵀ r] (full solves), and every entry that is needed is a sparse row of H
+    /// against Z: W_io = H_i Z, H K⁻¹ r = H Z_r. The block among the rows from `skip` on
+    /// is symmetrised (the mean of W_ij and W_ji, equal up to rounding).
     pub fn compliance_skipping(
         &self,
         rows: &[ConstraintRow],
@@ -123,6 +125,9 @@ impl Solver<'_> {
                 "residual has {} entries, the system {nd}",
                 residual.len()
             )));
+        }
+        if skip > 0 {
+            return self.compliance_solving(rows, x, residual, skip.min(m));
         }
         let gram = self.forward_gram(
             |add| {
@@ -149,6 +154,64 @@ impl Solver<'_> {
         // Upper triangle mirrored: W is symmetric to the last bit.
         let w = DMatrix::from_fn(m, m, |i, j| gram[(i.min(j), i.max(j))]);
         let delta_free = (0..m).map(|i| rows[i].value(x) + gram[(i, m)]).collect();
+        Ok(Compliance {
+            w,
+            delta_free,
+            kinds: rows.iter().map(|r| r.kind).collect(),
+        })
+    }
+
+    /// The `skip > 0` path of [`Solver::compliance_skipping`].
+    fn compliance_solving(
+        &self,
+        rows: &[ConstraintRow],
+        x: &[[f64; 3]],
+        residual: &[f64],
+        skip: usize,
+    ) -> FemResult<Compliance> {
+        let m = rows.len();
+        let ko = m - skip + 1;
+        let dof = |n: usize| self.dofs.node_dof.get(n).copied().flatten();
+        let mut z = Mat::<f64>::zeros(self.ndof(), ko);
+        for (c, row) in rows[skip..].iter().enumerate() {
+            for (n, v) in &row.entries {
+                if let Some(d) = dof(*n) {
+                    for (a, va) in v.iter().enumerate() {
+                        z[(d + a, c)] += va;
+                    }
+                }
+            }
+        }
+        for (r, v) in residual.iter().enumerate() {
+            z[(r, ko - 1)] = *v;
+        }
+        self.solve_in_place(&mut z)?;
+        // hz[(i, c)] = H_i Z_c.
+        let mut hz = DMatrix::<f64>::zeros(m, ko);
+        for (i, row) in rows.iter().enumerate() {
+            for (n, v) in &row.entries {
+                if let Some(d) = dof(*n) {
+                    for c in 0..ko {
+                        hz[(i, c)] +=
+                            v[0] * z[(d, c)] + v[1] * z[(d + 1, c)] + v[2] * z[(d + 2, c)];
+                    }
+                }
+            }
+        }
+        let mut w = DMatrix::<f64>::zeros(m, m);
+        for c in 0..ko - 1 {
+            let j = skip + c;
+            for i in 0..m {
+                let v = if i >= skip {
+                    0.5 * (hz[(i, c)] + hz[(j, i - skip)])
+                } else {
+                    hz[(i, c)]
+                };
+                w[(i, j)] = v;
+                w[(j, i)] = v;
+            }
+        }
+        let delta_free = (0..m).map(|i| rows[i].value(x) + hz[(i, ko - 1)]).collect();
         Ok(Compliance {
             w,
             delta_free,
