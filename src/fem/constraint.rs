@@ -149,7 +149,6 @@ impl Solver<'_> {
                 }
             },
             k,
-            skip,
         )?;
         // Upper triangle mirrored: W is symmetric to the last bit.
         let w = DMatrix::from_fn(m, m, |i, j| gram[(i.min(j), i.max(j))]);
@@ -220,13 +219,11 @@ impl Solver<'_> {
     }
 
     /// Yᵀ Y (upper triangle valid) for Y = L⁻¹ P B, B (ndof x `k`) given by `fill`, which
-    /// calls `add(dof, column, value)` for each nonzero of B. The products among the first
-    /// `skip` columns are not computed (zero).
+    /// calls `add(dof, column, value)` for each nonzero of B.
     fn forward_gram(
         &self,
         fill: impl FnOnce(&mut dyn FnMut(usize, usize, f64)),
         k: usize,
-        skip: usize,
     ) -> FemResult<Mat<f64>> {
         let nd = self.ndof();
         let sn = self.supernodal()?;
@@ -287,23 +284,21 @@ impl Solver<'_> {
                 faer::Par::Seq
             };
             faer::linalg::triangular_solve::solve_lower_triangular_in_place(ltop, xt.rb_mut(), par);
-            // These rows of Y are final: add their share of Yᵀ Y, against the columns from
-            // `skip` on (`cols` is ascending, so those are its last `ka - p`).
-            let p = cols.partition_point(|&j| j < skip);
+            // These rows of Y are final: add their share of Yᵀ Y.
             g.clear();
-            g.resize(ka * (ka - p), 0.0);
-            let mut gm = faer::MatMut::from_column_major_slice_mut(&mut g, ka, ka - p);
+            g.resize(ka * ka, 0.0);
+            let mut gm = faer::MatMut::from_column_major_slice_mut(&mut g, ka, ka);
             faer::linalg::matmul::matmul(
                 gm.rb_mut(),
                 faer::Accum::Replace,
                 xt.rb().transpose(),
-                xt.rb().subcols(p, ka - p),
+                xt.rb(),
                 1.0,
                 par,
             );
-            for (b, &jb) in cols.iter().enumerate().skip(p) {
+            for (b, &jb) in cols.iter().enumerate() {
                 for (a, &ja) in cols.iter().enumerate().take(b + 1) {
-                    gram[(ja, jb)] += gm[(a, b - p)];
+                    gram[(ja, jb)] += gm[(a, b)];
                 }
             }
             if pattern.is_empty() {
