@@ -30,22 +30,31 @@ fn f(t: f64) -> f64 {
 
 /// CIELAB of an sRGB colour given as floats in 0..1 (values outside are not clamped).
 pub fn rgb_f64_to_lab(rgb: [f64; 3]) -> [f64; 3] {
-    let [r, g, b] = rgb.map(linearize);
+    linear_to_lab(rgb.map(linearize))
+}
+
+/// CIELAB of a linear-light RGB colour.
+fn linear_to_lab([r, g, b]: [f64; 3]) -> [f64; 3] {
     let x = (0.412453 * r + 0.357580 * g + 0.180423 * b) / 0.950456;
     let y = 0.212671 * r + 0.715160 * g + 0.072169 * b;
     let z = (0.019334 * r + 0.119193 * g + 0.950227 * b) / 1.088754;
+    let (fx, fy, fz) = (f(x), f(y), f(z));
+    // Above the threshold f(y) is the cube root of y.
     let l = if y > 0.008856 {
-        116.0 * y.cbrt() - 16.0
+        116.0 * fy - 16.0
     } else {
         903.3 * y
     };
-    let (fx, fy, fz) = (f(x), f(y), f(z));
     [l, 500.0 * (fx - fy), 200.0 * (fy - fz)]
 }
 
 /// CIELAB of an 8-bit sRGB colour.
 pub fn rgb_to_lab(rgb: [u8; 3]) -> [f64; 3] {
-    rgb_f64_to_lab(rgb.map(|c| c as f64 / 255.0))
+    // The gamma expansion of the 256 channel values, computed once: the same numbers as
+    // `linearize(c / 255)`, without three `powf` per pixel.
+    static LINEAR: std::sync::OnceLock<[f64; 256]> = std::sync::OnceLock::new();
+    let table = LINEAR.get_or_init(|| std::array::from_fn(|c| linearize(c as f64 / 255.0)));
+    linear_to_lab(rgb.map(|c| table[c as usize]))
 }
 
 /// CIELAB of an 8-bit sRGB colour in `f32`.

@@ -3,7 +3,7 @@
 
 use proptest::prelude::*;
 use softsense::search::{KdTree, Parallelism};
-use softsense::segment::color::{delta_e, rgb_to_lab};
+use softsense::segment::color::{delta_e, rgb_f64_to_lab, rgb_to_lab};
 use softsense::segment::euclidean::{
     euclidean_clusters, euclidean_clusters_with_tree, EuclideanParams,
 };
@@ -285,6 +285,23 @@ fn lab_of_primaries_matches_published_values() {
     let black = rgb_to_lab([0, 0, 0]);
     assert_eq!(black, [0.0, 0.0, 0.0]);
     assert!(delta_e(rgb_to_lab([10, 10, 10]), rgb_to_lab([11, 10, 10])) < 1.0);
+}
+
+#[test]
+fn lab_of_a_byte_colour_equals_lab_of_its_float_to_the_last_bit() {
+    // rgb_to_lab reads the gamma expansion from a table: it must be the same numbers.
+    for c in 0..=255u8 {
+        for rgb in [
+            [c, 0, 0],
+            [0, c, 0],
+            [0, 0, c],
+            [c, 255 - c, c / 2],
+            [c, c, c],
+        ] {
+            let f = rgb_f64_to_lab(rgb.map(|v| v as f64 / 255.0));
+            assert_eq!(rgb_to_lab(rgb), f, "{rgb:?}");
+        }
+    }
 }
 
 #[test]
