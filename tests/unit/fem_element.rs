@@ -425,9 +425,19 @@ fn polar_rotation_is_orthonormal_and_leaves_a_symmetric_positive_stretch() {
         }
         let f = q * stretch;
         let r = softsense::fem::tet4::polar_rotation(&f);
+        // Orthonormal to a few round-offs (the iteration stops once its error is below
+        // 1e-14), and the same rotation as the SVD's U Vᵀ.
         assert!(
-            (r.transpose() * r - Matrix3::identity()).amax() < 1e-12,
-            "R^T R at {i}"
+            (r.transpose() * r - Matrix3::identity()).amax() < 1e-13,
+            "R^T R at {i}: {:e}",
+            (r.transpose() * r - Matrix3::identity()).amax()
+        );
+        let svd = f.svd(true, true);
+        let uv = svd.u.unwrap() * svd.v_t.unwrap();
+        assert!(
+            (r - uv).amax() < 1e-13,
+            "R = U Vᵀ at {i}: {:e}",
+            (r - uv).amax()
         );
         assert!((r.determinant() - 1.0).abs() < 1e-12, "det R at {i}");
         assert!((r - q).amax() < 1e-10, "R recovers the rotation at {i}");
