@@ -149,3 +149,41 @@ fn a_wrong_youngs_modulus_gives_force_errors_that_grow_with_its_error_on_each_si
         }
     }
 }
+
+#[test]
+fn stopping_on_the_predicted_error_saves_updates_and_stays_within_the_force_tolerance() {
+    // The same frames with the prediction off (every stop confirmed by a last update whose
+    // change is below the tolerance) and on: fewer updates, forces within `force_tol`.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let rec = Recording::open(&root.join("clouds/scenes/tip_weight")).unwrap();
+    let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
+    let on = SenseParams::default();
+    let mut off = on.clone();
+    off.frame.settle_contraction = 0.0;
+    let tol = on.frame.force_tol;
+    let (mut updates_on, mut updates_off) = (0, 0);
+    let sensors = [on, off].map(|p| Sensor::new(model.clone(), rec.robot_from_camera, p));
+    for &frame in &rec.frames {
+        let obs = sensors[0].observe(&rec, frame).unwrap();
+        let [a, b] =
+            [&sensors[0], &sensors[1]].map(|s| s.sense(frame, &obs, rec.actuators_of(frame)));
+        assert_eq!(a.forces.len(), b.forces.len(), "frame {frame}");
+        for (fa, fb) in a.forces.iter().zip(&b.forces) {
+            let d = (0..3)
+                .map(|k| (fa.force[k] - fb.force[k]).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            eprintln!(
+                "frame {frame}: updates {} vs {}, forces {d:.1e} N apart",
+                a.updates, b.updates
+            );
+            assert!(d < tol, "frame {frame}: {d} N apart");
+        }
+        updates_on += a.updates;
+        updates_off += b.updates;
+    }
+    assert!(
+        updates_on < updates_off,
+        "{updates_on} updates with the prediction, {updates_off} without"
+    );
+}
