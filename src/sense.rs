@@ -245,7 +245,7 @@ pub struct StageTimings {
     pub contacts: f64,
     /// Location mapping: options per contact, their linearisation and the QPs choosing one.
     pub mapping: f64,
-    /// Registration of the features along their normal lines (KD-tree build included).
+    /// Registration of the features along their normal lines (grid build included).
     pub register: f64,
     /// FE updates: Newton solves under the estimated forces.
     pub fe_update: f64,

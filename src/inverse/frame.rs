@@ -104,7 +104,7 @@ impl Default for FrameParams {
 /// Time spent in the stages of [`estimate`]'s loop (ms, summed over its FE updates).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct LoopTimings {
-    /// Registration (KD-tree build and normal-line matches).
+    /// Registration (normal-line matches; the grid is built once per frame).
     pub register: f64,
     /// Newton solves under the current forces.
     pub fe_update: f64,
