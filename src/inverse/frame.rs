@@ -400,6 +400,15 @@ fn linearise(
     Ok((prob, visible))
 }
 
+/// Combinations whose QPs [`choose_locations`] solves at a time (in parallel), in order of
+/// their lower bounds: usually the first is the winner and prunes the rest. Fixed, so the
+/// work done does not depend on the thread count (the choice never does).
+const PRUNE_BATCH: usize = 2;
+
+/// Relative margin by which a lower bound must exceed the best QP residual before its
+/// combination is skipped: far above the rounding of either.
+const PRUNE_MARGIN: f64 = 1e-6;
+
 /// Location mapping by the data: for each seen contact, a list of options (each option the
 /// candidate forces of one location, e.g. three directions at one surface node). Linearised
 /// once at the equilibrium node positions `at` (compliance of every option's rows in one computation), every
@@ -444,19 +453,21 @@ pub fn choose_locations(
         params,
         &mut LoopTimings::default(),
     )?;
-    let residual = |choice: &[usize]| -> f64 {
+    let sub_problem = |choice: &[usize]| -> IntensityProblem {
         let idx: Vec<usize> = choice
             .iter()
             .zip(&cols)
             .flat_map(|(&c, g)| g[c].iter().copied())
             .collect();
-        let sub = IntensityProblem {
+        IntensityProblem {
             w_ef: joint.w_ef.select_columns(idx.iter()),
             w_af: joint.w_af.select_columns(idx.iter()),
             push_only: idx.iter().map(|&i| joint.push_only[i]).collect(),
             ..joint.clone()
-        };
-        match sub.solve(&params.intensity) {
+        }
+    };
+    let residual = |choice: &[usize]| -> f64 {
+        match sub_problem(choice).solve(&params.intensity) {
             Ok(e) if e.status.is_solution() => e.residual_rms,
             _ => f64::INFINITY,
         }
@@ -468,7 +479,7 @@ pub fn choose_locations(
         .unwrap_or(usize::MAX);
     let mut best = vec![0; options.len()];
     if total <= max_combinations {
-        // Every combination (odometer order), solved in parallel; the first smallest wins.
+        // Every combination (odometer order); the first smallest wins.
         let mut all = Vec::with_capacity(total);
         let mut choice = vec![0; options.len()];
         'odometer: loop {
@@ -486,15 +497,43 @@ pub fn choose_locations(
                 k += 1;
             }
         }
-        let rs = par_map(&all, |c| residual(c));
-        let mut best_r = f64::INFINITY;
-        for (c, r) in all.into_iter().zip(rs) {
-            if r < best_r {
-                best_r = r;
-                best = c;
+        // Branch and bound: without its push-only bounds a combination's problem is a least
+        // squares in closed form that never fits worse than its QP, so once a QP has fitted
+        // better than a combination's bound (with a margin far above rounding), that
+        // combination cannot win. The QPs run in order of their bounds, a batch at a time
+        // in parallel, and stop at the first batch whose bounds all lose. The choice is the
+        // exhaustive search's: the smallest QP residual, the first in odometer order on a tie.
+        // (With a regularization the QP's objective is not the residual: no bounds.)
+        let bounds: Vec<f64> = if params.intensity.regularization > 0.0 {
+            vec![0.0; all.len()]
+        } else {
+            par_map(&all, |c| {
+                sub_problem(c)
+                    .unbounded_residual_rms()
+                    .filter(|b| b.is_finite())
+                    .unwrap_or(0.0)
+            })
+        };
+        let mut order: Vec<usize> = (0..all.len()).collect();
+        order.sort_by(|&i, &j| bounds[i].total_cmp(&bounds[j]).then(i.cmp(&j)));
+        let mut won = (f64::INFINITY, 0usize);
+        for batch in order.chunks(PRUNE_BATCH) {
+            let live: Vec<usize> = batch
+                .iter()
+                .copied()
+                .filter(|&i| bounds[i] <= won.0 * (1.0 + PRUNE_MARGIN))
+                .collect();
+            if live.is_empty() {
+                break;
+            }
+            let rs = par_map(&live, |&i| residual(&all[i]));
+            for (i, r) in live.into_iter().zip(rs) {
+                if r < won.0 || (r == won.0 && i < won.1) {
+                    won = (r, i);
+                }
             }
         }
-        return Ok(best);
+        return Ok(all.swap_remove(won.1));
     }
     let mut best_r = residual(&best);
     for _sweep in 0..3 {

@@ -246,6 +246,65 @@ impl IntensityProblem {
         })
     }
 
+    /// The residual RMS of this problem without its push-only bounds: the least squares
+    /// under the actuator equations alone, in closed form (the KKT system). Never above the
+    /// residual of [`IntensityProblem::solve`] (with `regularization` 0), which has the same
+    /// objective and equations and more constraints, so it bounds it from below. `None`
+    /// when the forces are not determined without the bounds (a singular KKT system).
+    pub fn unbounded_residual_rms(&self) -> Option<f64> {
+        let (m, a, k) = self.check().ok()?;
+        let n = a + k;
+        // Columns scaled as in `solve`; the actuator equations as (4.17)/(4.18).
+        let scale = self
+            .w_ea
+            .amax()
+            .max(self.w_ef.amax())
+            .max(f64::MIN_POSITIVE);
+        let mut w = DMatrix::zeros(m, n);
+        w.view_mut((0, 0), (m, a)).copy_from(&(&self.w_ea / scale));
+        w.view_mut((0, a), (m, k)).copy_from(&(&self.w_ef / scale));
+        let t = DVector::from_iterator(
+            m,
+            (0..m).map(|i| (self.delta_measured[i] - self.delta_free_e[i]) / scale),
+        );
+        let mut kkt = DMatrix::zeros(n + a, n + a);
+        kkt.view_mut((0, 0), (n, n))
+            .copy_from(&(w.transpose() * &w));
+        let mut rhs = DVector::zeros(n + a);
+        rhs.rows_mut(0, n).copy_from(&(w.transpose() * &t));
+        for (i, input) in self.actuators.iter().enumerate() {
+            let (row, b): (Vec<f64>, f64) = match *input {
+                ActuatorInput::Force(f) => ((0..n).map(|j| f64::from(j == i)).collect(), f),
+                ActuatorInput::Displacement(d) => (
+                    (0..n)
+                        .map(|j| {
+                            if j < a {
+                                self.w_aa[(i, j)] / scale
+                            } else {
+                                self.w_af[(i, j - a)] / scale
+                            }
+                        })
+                        .collect(),
+                    (d - self.delta_free_a[i]) / scale,
+                ),
+            };
+            for (j, v) in row.into_iter().enumerate() {
+                kkt[(n + i, j)] = v;
+                kkt[(j, n + i)] = v;
+            }
+            rhs[n + i] = b;
+        }
+        let lu = kkt.clone().lu();
+        let mut sol = lu.solve(&rhs)?;
+        // One step of iterative refinement: the bound must not come out above the true
+        // minimum by the solve's error.
+        sol += lu.solve(&(&rhs - &kkt * &sol))?;
+        let x = sol.rows(0, n);
+        let r = &w * x - t;
+        let rms = scale * (r.norm_squared() / m as f64).sqrt();
+        rms.is_finite().then_some(rms)
+    }
+
     /// σ_f = σ_d sqrt(diag((W_efᵀ W_ef)⁻¹)): the Gauss-Markov spread of the force unknowns
     /// with the actuator forces held (bounds ignored). Infinite when not identifiable.
     pub fn force_sigma(&self, sensor_sigma: f64) -> Vec<f64> {

@@ -336,3 +336,45 @@ fn the_median_by_selection_equals_the_middle_of_the_sorted_values() {
         assert_eq!(softsense::math::median(&mut v), want, "n = {n}");
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+    /// The bound the location choice prunes with: without the push-only bounds the fit is
+    /// never worse, and equal when the QP's bounds are not active.
+    #[test]
+    fn the_unbounded_residual_is_a_lower_bound_of_the_qp_residual_and_equal_when_no_bound_acts(
+        noise in proptest::collection::vec(-1e-4f64..1e-4, 12),
+        flip in proptest::collection::vec(-1.5f64..1.5, 2),
+        displacement in prop::bool::ANY,
+    ) {
+        let inputs = if displacement {
+            vec![ActuatorInput::Displacement(0.0), ActuatorInput::Force(0.0)]
+        } else {
+            vec![ActuatorInput::Force(0.0); 2]
+        };
+        let (mut p, _, lf) = synthetic(inputs);
+        // Data of forces `flip * truth` (negative: a pull the bounds refuse), plus noise.
+        for (i, (d, n)) in p.delta_measured.iter_mut().zip(&noise).enumerate() {
+            *d += n + (0..2).map(|j| p.w_ef[(i, j)] * lf[j] * (flip[j] - 1.0)).sum::<f64>();
+        }
+        let e = p.solve(&IntensityParams::default()).unwrap();
+        prop_assert!(e.status.is_solution());
+        let b = p.unbounded_residual_rms().unwrap();
+        prop_assert!(b <= e.residual_rms * (1.0 + 1e-6), "bound {b:e} above the QP's {:e}", e.residual_rms);
+        if e.forces.iter().all(|f| *f > 1e-3) {
+            prop_assert!((b - e.residual_rms).abs() <= 1e-6 * e.residual_rms.max(1e-12),
+                "no bound acts, yet {b:e} vs {:e}", e.residual_rms);
+        }
+    }
+}
+
+#[test]
+fn a_singular_problem_has_no_unbounded_residual() {
+    let (mut p, _, _) = synthetic(vec![ActuatorInput::Force(0.0); 2]);
+    // Two identical force columns: without the bounds their split is not determined.
+    let c = p.w_ef.column(0).into_owned();
+    p.w_ef.set_column(1, &c);
+    let c = p.w_af.column(0).into_owned();
+    p.w_af.set_column(1, &c);
+    assert!(p.unbounded_residual_rms().is_none());
+}
