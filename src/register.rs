@@ -156,7 +156,8 @@ pub fn vertex_normals(x: &[[f64; 3]], triangles: &[[usize; 3]]) -> Vec<[f64; 3]>
 /// cells of a handful of points each.
 pub const GRID_CELL: f64 = 0.005;
 
-/// Most cells of the registrar's dense grid; a wider cloud gets coarser cells.
+/// Most cells of the registrar's dense grid (128 along each axis); a wider cloud gets
+/// coarser cells.
 const MAX_CELLS: usize = 1 << 21;
 
 /// The measured robot points (robot frame, m) on a dense uniform grid: counting-sorted by
@@ -195,19 +196,14 @@ impl Registrar {
             lo = [0.0; 3];
             hi = [0.0; 3];
         }
-        let mut cell = GRID_CELL;
-        let dims_for = |cell: f64| (0..3).map(move |k| ((hi[k] - lo[k]) / cell) as usize + 1);
-        while dims_for(cell)
-            .try_fold(1usize, |a, d| a.checked_mul(d))
-            .unwrap_or(usize::MAX)
-            > MAX_CELLS
-        {
-            cell *= 2.0;
-        }
-        let mut dims = [1; 3];
-        for (d, v) in dims.iter_mut().zip(dims_for(cell)) {
-            *d = v;
-        }
+        // 5 mm cells, or coarser for a cloud wider than 127 of them, so at most 128 cells
+        // along each axis (MAX_CELLS in all). A cloud of infinite extent (finite points
+        // ±1e308 apart) gets one cell.
+        let extent = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
+        let cell = GRID_CELL.max(extent / 127.0);
+        // `as` saturates (NaN to 0), so no axis has 0 or more than 128 cells.
+        let dims = [0, 1, 2].map(|k| (((hi[k] - lo[k]) / cell) as usize).min(127) + 1);
+        debug_assert!(dims.iter().product::<usize>() <= MAX_CELLS);
         let cell_of = |p: &[f64; 3]| {
             let c = |k: usize| (((p[k] - lo[k]) / cell) as usize).min(dims[k] - 1);
             c(0) + dims[0] * (c(1) + dims[1] * c(2))

@@ -350,3 +350,31 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn a_cloud_of_absurd_extent_is_indexed_and_its_near_points_still_match() {
+    // Finite points 1e300 and ±1e308 apart (the latter's extent overflows to infinity):
+    // no panic, no cell count blow-up, and the patch at the origin is still found.
+    let patch: Vec<[f64; 3]> = (0..100)
+        .map(|i| {
+            [
+                (i % 10) as f64 * 1e-3 - 5e-3,
+                (i / 10) as f64 * 1e-3 - 5e-3,
+                0.002,
+            ]
+        })
+        .collect();
+    let r = RegisterParams::default();
+    for far in [[1e300, 0.0, 0.0], [1e308, -1e308, 0.0]] {
+        let mut pts = patch.clone();
+        pts.push(far);
+        pts.push(far.map(|c| -c));
+        let reg = Registrar::new(&pts);
+        assert_eq!(reg.len(), 102);
+        let m = reg.match_feature([0.0; 3], [0.0, 0.0, 1.0], &r);
+        assert!(
+            (m.expect("the patch is found").offset - 0.002).abs() < 1e-12,
+            "{far:?}"
+        );
+    }
+}
