@@ -6,7 +6,7 @@ use super::intensity::{ActuatorInput, IntensityEstimate, IntensityParams, Intens
 use super::{par_map, InverseError, InverseResult};
 use crate::fem::constraint::{ConstraintRow, RowKind};
 use crate::fem::model::Model;
-use crate::fem::solve::{CableControl, MappedPoint, PointLoad, Solution, Solver};
+use crate::fem::solve::{norm_vec, CableControl, MappedPoint, PointLoad, Solution, Solver};
 use crate::fem::tet4::Tangent;
 use crate::fem::FemError;
 use crate::register::{RegisterParams, Registrar, SurfaceFeature};
@@ -269,10 +269,13 @@ pub fn estimate(
             // The last step was f_k - f_{k-1} = ω r_{k-1}, so r_k ≈ ((1 - ω) + ω G') r_{k-1}:
             // the secant along r_{k-1}. With several forces it sees G' in one direction
             // only, so the plain ratio |r_k| / |r_{k-1}| bounds it from below.
-            let rn = norm_of(rp.iter().copied());
-            let secant =
-                norm_of(r.iter().zip(rp).map(|(a, b)| a - (1.0 - omega) * b)) / (omega * rn);
-            let g = secant.max(norm_of(r.iter().copied()) / rn);
+            let rn = norm_vec(rp);
+            let along: Vec<f64> = r
+                .iter()
+                .zip(rp)
+                .map(|(a, b)| a - (1.0 - omega) * b)
+                .collect();
+            let g = (norm_vec(&along) / (omega * rn)).max(norm_vec(&r) / rn);
             if g.is_finite() && g <= params.settle_contraction {
                 factor = g / (1.0 - g);
             }
@@ -312,11 +315,6 @@ pub fn estimate(
         positions: x,
         timings,
     })
-}
-
-/// Euclidean norm of the values.
-fn norm_of(v: impl Iterator<Item = f64>) -> f64 {
-    v.map(|x| x * x).sum::<f64>().sqrt()
 }
 
 /// The intensity problem linearised at node positions `x` (an equilibrium of the solver's

@@ -170,14 +170,8 @@ impl IntensityProblem {
         let (m, a, k) = self.check()?;
         let ident = self.identifiability(params);
         let n = a + k;
-        let mut wei = DMatrix::zeros(m, n);
-        wei.view_mut((0, 0), (m, a)).copy_from(&self.w_ea);
-        wei.view_mut((0, a), (m, k)).copy_from(&self.w_ef);
-        let target: Vec<f64> = (0..m)
-            .map(|i| self.delta_measured[i] - self.delta_free_e[i])
-            .collect();
-        // Scale rows to O(1): interior-point gaps are absolute and compliances are ~1e-3 m/N.
-        let scale = wei.amax().max(f64::MIN_POSITIVE);
+        let (wei, target, scale) = self.weighted();
+        // Rows scaled to O(1): interior-point gaps are absolute and compliances are ~1e-3 m/N.
         let scaled_target: Vec<f64> = target.iter().map(|t| t / scale).collect();
         let mut qp = QpProblem::least_squares(&(&wei / scale), &scaled_target)?;
         if params.regularization > 0.0 {
@@ -186,31 +180,7 @@ impl IntensityProblem {
                 qp.p[(j, j)] += params.regularization * scale;
             }
         }
-        let mut eq_rows = Vec::new();
-        let mut eq_b = Vec::new();
-        for (i, input) in self.actuators.iter().enumerate() {
-            let mut row = vec![0.0; n];
-            match *input {
-                ActuatorInput::Force(f) => {
-                    row[i] = 1.0;
-                    eq_b.push(f);
-                }
-                ActuatorInput::Displacement(d) => {
-                    for (j, r) in row.iter_mut().enumerate() {
-                        *r = if j < a {
-                            self.w_aa[(i, j)]
-                        } else {
-                            self.w_af[(i, j - a)]
-                        };
-                    }
-                    let s = row.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
-                    let s = if s > 0.0 { s } else { 1.0 };
-                    row.iter_mut().for_each(|v| *v /= s);
-                    eq_b.push((d - self.delta_free_a[i]) / s);
-                }
-            }
-            eq_rows.push(row);
-        }
+        let (eq_rows, eq_b) = self.actuator_equations();
         qp.a_eq = DMatrix::from_fn(a, n, |i, j| eq_rows[i][j]);
         qp.b_eq = eq_b;
         for (j, &push) in self.push_only.iter().enumerate() {
@@ -254,40 +224,17 @@ impl IntensityProblem {
     pub fn unbounded_residual_rms(&self) -> Option<f64> {
         let (m, a, k) = self.check().ok()?;
         let n = a + k;
-        // Columns scaled as in `solve`; the actuator equations as (4.17)/(4.18).
-        let scale = self
-            .w_ea
-            .amax()
-            .max(self.w_ef.amax())
-            .max(f64::MIN_POSITIVE);
-        let mut w = DMatrix::zeros(m, n);
-        w.view_mut((0, 0), (m, a)).copy_from(&(&self.w_ea / scale));
-        w.view_mut((0, a), (m, k)).copy_from(&(&self.w_ef / scale));
-        let t = DVector::from_iterator(
-            m,
-            (0..m).map(|i| (self.delta_measured[i] - self.delta_free_e[i]) / scale),
-        );
+        // Scaled as in `solve`, with the same actuator equations.
+        let (wei, target, scale) = self.weighted();
+        let w = wei / scale;
+        let t = DVector::from_iterator(m, target.iter().map(|v| v / scale));
         let mut kkt = DMatrix::zeros(n + a, n + a);
         kkt.view_mut((0, 0), (n, n))
             .copy_from(&(w.transpose() * &w));
         let mut rhs = DVector::zeros(n + a);
         rhs.rows_mut(0, n).copy_from(&(w.transpose() * &t));
-        for (i, input) in self.actuators.iter().enumerate() {
-            let (row, b): (Vec<f64>, f64) = match *input {
-                ActuatorInput::Force(f) => ((0..n).map(|j| f64::from(j == i)).collect(), f),
-                ActuatorInput::Displacement(d) => (
-                    (0..n)
-                        .map(|j| {
-                            if j < a {
-                                self.w_aa[(i, j)] / scale
-                            } else {
-                                self.w_af[(i, j - a)] / scale
-                            }
-                        })
-                        .collect(),
-                    (d - self.delta_free_a[i]) / scale,
-                ),
-            };
+        let (eq_rows, eq_b) = self.actuator_equations();
+        for (i, (row, b)) in eq_rows.into_iter().zip(eq_b).enumerate() {
             for (j, v) in row.into_iter().enumerate() {
                 kkt[(n + i, j)] = v;
                 kkt[(j, n + i)] = v;
@@ -303,6 +250,56 @@ impl IntensityProblem {
         let r = &w * x - t;
         let rms = scale * (r.norm_squared() / m as f64).sqrt();
         rms.is_finite().then_some(rms)
+    }
+
+    /// [W_ea W_ef] (rows x actuators + forces), the target δ_measured − δ_free_e, and the
+    /// largest |entry| of the matrix (the scale both solvers divide by).
+    fn weighted(&self) -> (DMatrix<f64>, Vec<f64>, f64) {
+        let (m, a, k) = (self.w_ef.nrows(), self.w_ea.ncols(), self.w_ef.ncols());
+        let mut wei = DMatrix::zeros(m, a + k);
+        wei.view_mut((0, 0), (m, a)).copy_from(&self.w_ea);
+        wei.view_mut((0, a), (m, k)).copy_from(&self.w_ef);
+        let target = (0..m)
+            .map(|i| self.delta_measured[i] - self.delta_free_e[i])
+            .collect();
+        let scale = wei.amax().max(f64::MIN_POSITIVE);
+        (wei, target, scale)
+    }
+
+    /// The actuator equations (4.17)/(4.18) over [actuators, forces], a row and a right-hand
+    /// side each: a force-controlled actuator's force is its input; a displacement-controlled
+    /// one's row W_aa, W_af is its input's, divided by its largest |entry|.
+    fn actuator_equations(&self) -> (Vec<Vec<f64>>, Vec<f64>) {
+        let (a, n) = (
+            self.actuators.len(),
+            self.actuators.len() + self.push_only.len(),
+        );
+        let mut eq_rows = Vec::new();
+        let mut eq_b = Vec::new();
+        for (i, input) in self.actuators.iter().enumerate() {
+            let mut row = vec![0.0; n];
+            match *input {
+                ActuatorInput::Force(f) => {
+                    row[i] = 1.0;
+                    eq_b.push(f);
+                }
+                ActuatorInput::Displacement(d) => {
+                    for (j, r) in row.iter_mut().enumerate() {
+                        *r = if j < a {
+                            self.w_aa[(i, j)]
+                        } else {
+                            self.w_af[(i, j - a)]
+                        };
+                    }
+                    let s = row.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+                    let s = if s > 0.0 { s } else { 1.0 };
+                    row.iter_mut().for_each(|v| *v /= s);
+                    eq_b.push((d - self.delta_free_a[i]) / s);
+                }
+            }
+            eq_rows.push(row);
+        }
+        (eq_rows, eq_b)
     }
 
     /// σ_f = σ_d sqrt(diag((W_efᵀ W_ef)⁻¹)): the Gauss-Markov spread of the force unknowns
