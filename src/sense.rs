@@ -31,9 +31,11 @@
 use crate::contact::{detect_contacts, ContactParams};
 use crate::fem::mesh::Surface;
 use crate::fem::model::Model;
-use crate::fem::solve::{CableControl, MappedPoint, Solution};
+use crate::fem::solve::{CableControl, MappedPoint, Solution, SolverState};
+use crate::fem::tet4::Tangent;
 use crate::inverse::frame::{
-    choose_locations, estimate, Candidate, FrameEstimate, FrameParams, LoopTimings,
+    choose_locations, estimate, Candidate, FrameEstimate, FrameParams, LinearisationPoint,
+    LoopTimings,
 };
 use crate::inverse::intensity::Identifiability;
 use crate::inverse::par_map;
@@ -45,7 +47,7 @@ use crate::scene::{ActuatorTruth, FrameTruth, Truth};
 use crate::segment::color::rgb_to_lab;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
-use std::sync::{Mutex, OnceLock};
+use std::sync::{Arc, Mutex, OnceLock};
 use thiserror::Error;
 
 /// Errors of the sensing stage (per recording; per-frame failures are [`FrameStatus`]es).
@@ -609,7 +611,7 @@ pub struct Sensor {
     /// The model's surface (triangles and nodes), computed once.
     pub surface: Surface,
     /// Free solves of the latest distinct actuator inputs (a stream repeats them).
-    free_cache: Mutex<Vec<(Vec<CableControl>, Solution)>>,
+    free_cache: Mutex<Vec<(Vec<CableControl>, Arc<FreeState>)>>,
     /// The free solve at the model file's own inputs (`None`: it failed), solved once: new
     /// inputs are solved warm from it, so a free solve does not depend on which frames came
     /// before it (or ran beside it, see [`Sensor::sense_frames`]).
@@ -631,6 +633,19 @@ pub fn default_window() -> usize {
 
 /// Free solves kept by a [`Sensor`]: one per distinct actuator input, the latest ones.
 const FREE_CACHE: usize = 8;
+
+/// The free equilibrium of one actuator input, and a solver state there (elements
+/// evaluated, tangent with the cables factorized; `None` if that failed): every frame's
+/// sensing loop starts from it, so its first FE update costs neither (see
+/// [`crate::inverse::frame::estimate`]).
+struct FreeState {
+    solution: Solution,
+    solver: Option<SolverState>,
+    /// The same at the tangent the location choice linearises with
+    /// ([`crate::fem::solve::Solver::tangent_at`]): the first round of every frame's choice
+    /// is at the free state.
+    choice: Option<SolverState>,
+}
 
 /// Cable inputs closer than this (m or N) are the same input for the free-solve cache: far
 /// below what moves the FE state by more than the Newton tolerance.
@@ -686,7 +701,7 @@ impl Sensor {
     /// The free solve (no loads) of `model`, cached per distinct cable inputs. Inputs equal
     /// within [`SAME_INPUT`] share a solve (recorded shortenings differ by round-off from
     /// frame to frame); a new input is solved warm from the latest cached one.
-    fn free_solve(&self, model: &Model) -> crate::fem::FemResult<Solution> {
+    fn free_solve(&self, model: &Model) -> crate::fem::FemResult<Arc<FreeState>> {
         let key: Vec<CableControl> = model.problem.cables.iter().map(|c| c.control).collect();
         let same = |a: &[CableControl]| {
             a.len() == key.len()
@@ -716,13 +731,18 @@ impl Sensor {
             Some(start) => model.problem.solve_static_from(&model.newton, start)?,
             None => model.problem.solve_static(&model.newton)?,
         };
+        let s = Arc::new(FreeState {
+            solver: free_solver_state(model, &s),
+            choice: choice_solver_state(model, &s),
+            solution: s,
+        });
         if let Ok(mut cache) = self.free_cache.lock() {
             // Frames sensed side by side may both have solved this input.
             if !cache.iter().any(|e| same(&e.0)) {
                 if cache.len() >= FREE_CACHE {
                     cache.remove(0);
                 }
-                cache.push((key, s.clone()));
+                cache.push((key, Arc::clone(&s)));
             }
         }
         Ok(s)
@@ -858,7 +878,7 @@ impl Sensor {
         let mut features = self.features.clone();
         let r2 = self.params.local_features_radius.powi(2);
         features.extend(self.local_pool.iter().filter(|f| {
-            let p = f.position(&free.positions);
+            let p = f.position(&free.solution.positions);
             contacts.iter().any(|c| {
                 let d = sub(p, c.centroid.map(|v| v as f64));
                 dot(d, d) <= r2
@@ -875,7 +895,8 @@ impl Sensor {
                 &registrar,
                 features,
                 cands,
-                Some(&free),
+                Some(&free.solution),
+                free.solver.clone(),
                 &self.params.frame,
             )
         };
@@ -950,7 +971,9 @@ impl Sensor {
             // Seen contacts: the options of each are the surface nodes near its centroid;
             // the data choose among them (linearised), at the actuated state and once more
             // at the estimated state.
-            let mut x = free.positions.clone();
+            let mut x = free.solution.positions.clone();
+            // A solver state at x, for the choice to reuse.
+            let mut state = free.choice.clone();
             let mut chosen: Vec<usize> = Vec::new();
             let mut out = None;
             for _round in 0..2 {
@@ -979,7 +1002,10 @@ impl Sensor {
                     &registrar,
                     features,
                     &all,
-                    &x,
+                    LinearisationPoint {
+                        positions: &x,
+                        state: state.take(),
+                    },
                     &self.params.frame,
                     self.params.max_combinations,
                 )
@@ -1002,9 +1028,10 @@ impl Sensor {
                         range: start..cands.len(),
                     });
                 }
-                let est = solve(&cands).map_err(|e| fail(&e))?;
+                let mut est = solve(&cands).map_err(|e| fail(&e))?;
                 report.account(&est);
                 x = est.positions.clone();
+                state = est.solver.take();
                 out = Some((est, cands, groups));
             }
             out.ok_or_else(|| FrameStatus::NotSolved("no estimate".into()))?
@@ -1080,6 +1107,37 @@ impl Sensor {
         }
         Ok(())
     }
+}
+
+/// A solver state at the free equilibrium `free` of `model` (without loads): elements
+/// evaluated and the tangent with the cables' geometric stiffness factorized, as the
+/// sensing loop's first FE update leaves it. `None` if either fails (the loop then does
+/// both itself, and fails or falls back as it does without the state).
+fn free_solver_state(model: &Model, free: &Solution) -> Option<SolverState> {
+    let mut base = model.problem.clone();
+    base.loads.clear();
+    let mut solver = base.solver().ok()?;
+    let x = &free.positions;
+    solver.assemble(x, model.newton.tangent).ok()?;
+    let factorized = if model.newton.tangent == Tangent::default() {
+        solver.factorize_assembled_with_cables(x, &free.cable_tension)
+    } else {
+        solver.factorize_with_cables(x, &free.cable_tension)
+    };
+    factorized.ok()?;
+    Some(solver.into_state())
+}
+
+/// A solver state at the free equilibrium `free` of `model` (without loads) with the
+/// location choice's tangent factorized (see [`choose_locations`]); `None` if that fails.
+fn choice_solver_state(model: &Model, free: &Solution) -> Option<SolverState> {
+    let mut base = model.problem.clone();
+    base.loads.clear();
+    let mut solver = base.solver().ok()?;
+    solver
+        .tangent_at(&free.positions, Tangent::default())
+        .ok()?;
+    Some(solver.into_state())
 }
 
 struct Group {

@@ -497,6 +497,7 @@ impl Problem {
             solver.elements_at = state.elements_at;
             solver.elements_tangent = state.elements_tangent;
             solver.factor_of = state.factor_of;
+            solver.failed_of = state.failed_of;
         }
         Ok(solver)
     }
@@ -570,12 +571,21 @@ pub struct Solver<'p> {
     /// values, bit for bit, is skipped: the sensing loop's next FE update starts with
     /// exactly the matrix its last linearisation factorised.
     factor_of: Vec<f64>,
+    /// The values whose last factorization failed (empty: none): the same values fail
+    /// again without the work (a state at the free equilibrium meets its indefinite
+    /// consistent tangent once per frame, see [`Solver::tangent_at`]).
+    failed_of: Vec<f64>,
+    /// Numeric factorizations attempted by this solver (failed ones included).
+    factorizations: usize,
 }
 
 /// What a [`Solver`] leaves for the next solver of a problem that differs only in its
 /// loads, cable controls or prescribed displacements ([`Solver::into_state`],
 /// [`Problem::solver_from`]): the element states at the last assembled positions (so a
 /// Newton solve warm-started there does not evaluate the elements again) and the buffers.
+/// A clone serves several solvers from the same state (e.g. every frame's first FE update
+/// at the free equilibrium).
+#[derive(Clone)]
 pub struct SolverState {
     setup: Arc<SolverSetup>,
     material: Material,
@@ -588,6 +598,17 @@ pub struct SolverState {
     elements_at: Vec<[f64; 3]>,
     elements_tangent: Tangent,
     factor_of: Vec<f64>,
+    failed_of: Vec<f64>,
+}
+
+impl std::fmt::Debug for SolverState {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SolverState")
+            .field("setup", &self.setup)
+            .field("evaluated", &!self.elements_at.is_empty())
+            .field("factorized", &!self.factor_of.is_empty())
+            .finish_non_exhaustive()
+    }
 }
 
 impl<'p> Solver<'p> {
@@ -643,6 +664,8 @@ impl<'p> Solver<'p> {
             elements_tangent: Tangent::default(),
             factored: false,
             factor_of: Vec::new(),
+            failed_of: Vec::new(),
+            factorizations: 0,
         })
     }
 
@@ -660,7 +683,15 @@ impl<'p> Solver<'p> {
             elements_at: self.elements_at,
             elements_tangent: self.elements_tangent,
             factor_of: self.factor_of,
+            failed_of: self.failed_of,
         }
+    }
+
+    /// Numeric factorizations this solver attempted, failed ones included (not those of
+    /// a state it took over): [`Solver::factorize`] skips values it has factorized, or
+    /// failed to factorize, last.
+    pub fn factorizations(&self) -> usize {
+        self.factorizations
     }
 
     /// Number of free DOFs.
@@ -800,18 +831,22 @@ impl<'p> Solver<'p> {
             &self.pattern.row_idx,
         );
         let mat = SparseColMatRef::new(sym, &self.values);
-        let same = self.factor_of.len() == self.values.len()
-            && self
-                .factor_of
-                .iter()
-                .zip(&self.values)
-                .all(|(a, b)| a.to_bits() == b.to_bits());
-        if same {
+        let bits_eq = |a: &[f64], b: &[f64]| {
+            a.len() == b.len() && a.iter().zip(b).all(|(a, b)| a.to_bits() == b.to_bits())
+        };
+        if bits_eq(&self.factor_of, &self.values) {
             self.factored = true;
             return Ok(());
         }
         self.factored = false;
+        if bits_eq(&self.failed_of, &self.values) {
+            // `l_values` still holds the factor of `factor_of`.
+            return Err(FemError::Singular(
+                "tangent stiffness is not positive definite (these values failed before)".into(),
+            ));
+        }
         self.factor_of.clear();
+        self.factorizations += 1;
         let par = self.linalg_par();
         let mut mem = MemBuffer::try_new(
             self.symbolic
@@ -832,9 +867,12 @@ impl<'p> Solver<'p> {
                 self.factor_of.clone_from(&self.values);
                 Ok(())
             }
-            Err(e) => Err(FemError::Singular(format!(
-                "tangent stiffness is not positive definite ({e:?})"
-            ))),
+            Err(e) => {
+                self.failed_of.clone_from(&self.values);
+                Err(FemError::Singular(format!(
+                    "tangent stiffness is not positive definite ({e:?})"
+                )))
+            }
         }
     }
 
@@ -846,11 +884,16 @@ impl<'p> Solver<'p> {
         Ok(LltRef::new(&self.symbolic, &self.l_values))
     }
 
-    /// The supernodal structure of the factor (always supernodal, see [`Solver::new`]).
+    /// The supernodal structure of the factor (always supernodal, see [`Solver::new`]), or
+    /// an error if the last factorization failed or none was done.
     pub(crate) fn supernodal(
         &self,
     ) -> FemResult<&faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky<usize>>
     {
+        // Its callers read `l_values`: only a factor of the current values will do.
+        if !self.factored {
+            return Err(FemError::Linalg("no factorization".into()));
+        }
         match self.symbolic.raw() {
             SymbolicCholeskyRaw::Supernodal(s) => Ok(s),
             SymbolicCholeskyRaw::Simplicial(_) => {

@@ -6,7 +6,9 @@ use super::intensity::{ActuatorInput, IntensityEstimate, IntensityParams, Intens
 use super::{par_map, InverseError, InverseResult};
 use crate::fem::constraint::{ConstraintRow, RowKind};
 use crate::fem::model::Model;
-use crate::fem::solve::{norm_vec, CableControl, MappedPoint, PointLoad, Solution, Solver};
+use crate::fem::solve::{
+    norm_vec, CableControl, MappedPoint, PointLoad, Solution, Solver, SolverState,
+};
 use crate::fem::tet4::Tangent;
 use crate::fem::FemError;
 use crate::register::{RegisterParams, Registrar, SurfaceFeature};
@@ -133,6 +135,9 @@ pub struct FrameEstimate {
     pub halvings: usize,
     /// Final node positions (m).
     pub positions: Vec<[f64; 3]>,
+    /// The last linearisation's solver state: elements evaluated at `positions`, the
+    /// tangent with the cables factorized there (for [`choose_locations`] at `positions`).
+    pub solver: Option<SolverState>,
     /// Where the time went.
     pub timings: LoopTimings,
 }
@@ -142,12 +147,18 @@ pub struct FrameEstimate {
 /// (see [`crate::register::surface_features`]), matched along their patch normals at each FE
 /// state, so a measured surface equal to the model's gives zero offsets. `start`: a nearby
 /// equilibrium of the same model (e.g. without the candidate forces) to warm-start Newton.
+/// `state`: a solver state left at `start`'s positions by a solver of the same model
+/// without loads (see [`crate::fem::solve::Problem::solver_from`]), ideally with the
+/// tangent and the cables' geometric stiffness factorized there: the first FE update (at
+/// zero forces, so at `start` itself) then neither evaluates the elements nor factorizes.
+/// Any other state only costs that reuse, never the result.
 pub fn estimate(
     model: &Model,
     registrar: &Registrar,
     features: &[SurfaceFeature],
     candidates: &[Candidate],
     start: Option<&Solution>,
+    state: Option<SolverState>,
     params: &FrameParams,
 ) -> InverseResult<FrameEstimate> {
     let base = {
@@ -168,9 +179,9 @@ pub fn estimate(
     let mut prev: Option<Solution> = None;
     let mut omega = 1.0f64;
     let mut r_prev: Option<Vec<f64>> = None;
-    // The previous update's solver state: its last element evaluation is at `x`, where
-    // the next Newton solve starts.
-    let mut carry = None;
+    // The previous update's solver state (before the first, the caller's): its last
+    // element evaluation is at `x`, where the next Newton solve starts.
+    let mut carry = state;
     let abs_tol = newton.abs_tol;
     newton.max_iterations = newton.max_iterations.min(params.fe_max_iterations);
     // Largest load change (N) applied since the last FE state: the forcing term's scale.
@@ -313,6 +324,7 @@ pub fn estimate(
         settled,
         halvings,
         positions: x,
+        solver: carry,
         timings,
     })
 }
@@ -398,6 +410,18 @@ fn linearise(
     Ok((prob, visible))
 }
 
+/// Where [`choose_locations`] linearises.
+#[derive(Debug)]
+pub struct LinearisationPoint<'a> {
+    /// Node positions of an equilibrium of the model without the candidate loads (m).
+    pub positions: &'a [[f64; 3]],
+    /// A solver state of the same model whose elements were evaluated at `positions` (e.g.
+    /// [`FrameEstimate::solver`]) saves evaluating them, and one that holds the choice's
+    /// very tangent factorized (bit for bit) saves factorizing it; any other state only
+    /// costs that reuse, never the choice. `None`: both are done.
+    pub state: Option<SolverState>,
+}
+
 /// Combinations whose QPs [`choose_locations`] solves at a time (in parallel), in order of
 /// their lower bounds: usually the first is the winner and prunes the rest. Fixed, so the
 /// work done does not depend on the thread count (the choice never does).
@@ -409,16 +433,18 @@ const PRUNE_MARGIN: f64 = 1e-6;
 
 /// Location mapping by the data: for each seen contact, a list of options (each option the
 /// candidate forces of one location, e.g. three directions at one surface node). Linearised
-/// once at the equilibrium node positions `at` (compliance of every option's rows in one computation), every
-/// combination of one option per contact is solved as an intensity QP and the combination
-/// with the smallest residual wins. Returns the chosen option per contact. More than
-/// `max_combinations` combinations: coordinate descent from the first options instead.
+/// once at the equilibrium node positions `at` (the material tangent, or its rotated
+/// fallback where that is indefinite: [`Solver::tangent_at`]), with the compliance of every
+/// option's rows in one computation; every combination of one option per contact is solved
+/// as an intensity QP and the combination with the smallest residual wins. Returns the
+/// chosen option per contact. More than `max_combinations` combinations: coordinate descent
+/// from the first options instead.
 pub fn choose_locations(
     model: &Model,
     registrar: &Registrar,
     features: &[SurfaceFeature],
     options: &[Vec<Vec<Candidate>>],
-    at: &[[f64; 3]],
+    at: LinearisationPoint<'_>,
     params: &FrameParams,
     max_combinations: usize,
 ) -> InverseResult<Vec<usize>> {
@@ -440,7 +466,14 @@ pub fn choose_locations(
         }
         cols.push(g);
     }
-    let mut solver = base.solver()?;
+    let LinearisationPoint {
+        positions: at,
+        state,
+    } = at;
+    let mut solver = match state {
+        Some(s) => base.solver_from(s)?,
+        None => base.solver()?,
+    };
     solver.tangent_at(at, Tangent::default())?;
     let (joint, _) = linearise(
         &solver,

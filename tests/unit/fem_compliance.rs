@@ -6,6 +6,7 @@ use softsense::fem::mesh::TetMesh;
 use softsense::fem::solve::{
     Cable, CableControl, Formulation, MappedPoint, NewtonParams, PointLoad, Problem,
 };
+use softsense::fem::FemError;
 
 /// A small soft column with gravity, two cables, and rows of every kind.
 fn setup() -> (Problem, Vec<ConstraintRow>) {
@@ -366,4 +367,62 @@ fn a_refactorization_of_changed_values_is_redone_and_of_the_same_values_gives_th
     s.factorize().unwrap();
     let w3 = s.compliance(&rows, &x0, &zero).unwrap().w;
     assert_eq!(w3, w1);
+}
+
+#[test]
+fn values_that_failed_to_factorize_fail_again_without_a_new_attempt() {
+    let (p, rows) = setup();
+    let x0 = p.mesh.nodes_in_rest.clone();
+    let mut s = p.solver().unwrap();
+    let zero = vec![0.0; s.dofs.ndof];
+    s.tangent_at(&x0, Default::default()).unwrap();
+    let good = s.values.clone();
+    let bad: Vec<f64> = good.iter().map(|v| -v).collect();
+    let w1 = s.compliance(&rows, &x0, &zero).unwrap().w;
+    assert_eq!(s.factorizations(), 1);
+    // Negative definite: the factorization fails, and no factor is left to use.
+    s.values.clone_from(&bad);
+    assert!(matches!(s.factorize(), Err(FemError::Singular(_))));
+    assert!(s.compliance(&rows, &x0, &zero).is_err());
+    assert_eq!(s.factorizations(), 2);
+    s.values.clone_from(&good);
+    s.factorize().unwrap();
+    assert_eq!(s.factorizations(), 3);
+    // The failed values again: an error without an attempt, and the good factor kept.
+    s.values.clone_from(&bad);
+    assert!(matches!(s.factorize(), Err(FemError::Singular(_))));
+    assert!(s.compliance(&rows, &x0, &zero).is_err());
+    s.values.clone_from(&good);
+    s.factorize().unwrap();
+    assert_eq!(s.factorizations(), 3);
+    assert_eq!(s.compliance(&rows, &x0, &zero).unwrap().w, w1);
+    // The memory goes with the state to the next solver.
+    let mut s = p.solver_from(s.into_state()).unwrap();
+    s.values.clone_from(&bad);
+    assert!(matches!(s.factorize(), Err(FemError::Singular(_))));
+    assert_eq!(s.factorizations(), 0);
+    // Other values are tried afresh.
+    s.values = good.iter().map(|v| 2.0 * v).collect();
+    s.factorize().unwrap();
+    assert_eq!(s.factorizations(), 1);
+    let w2 = s.compliance(&rows, &x0, &zero).unwrap().w;
+    assert!((&w2 * 2.0 - &w1).amax() < 1e-12 * w1.amax());
+}
+
+#[test]
+fn a_solver_state_handed_over_at_the_same_positions_gives_the_same_factor_without_work() {
+    let (p, rows) = setup();
+    let x0 = p.mesh.nodes_in_rest.clone();
+    let mut fresh = p.solver().unwrap();
+    fresh.tangent_at(&x0, Default::default()).unwrap();
+    let zero = vec![0.0; fresh.dofs.ndof];
+    let w = fresh.compliance(&rows, &x0, &zero).unwrap().w;
+    // A clone of the state serves two solvers; each reuses it bit for bit.
+    let state = fresh.into_state();
+    for _ in 0..2 {
+        let mut s = p.solver_from(state.clone()).unwrap();
+        s.tangent_at(&x0, Default::default()).unwrap();
+        assert_eq!(s.factorizations(), 0);
+        assert_eq!(s.compliance(&rows, &x0, &zero).unwrap().w, w);
+    }
 }
