@@ -643,8 +643,8 @@ struct FreeState {
     solver: Option<SolverState>,
     /// The same at the tangent the location choice linearises with
     /// ([`crate::fem::solve::Solver::tangent_at`]): the first round of every frame's choice
-    /// is at the free state.
-    choice: Option<SolverState>,
+    /// is at the free state. Made when a frame first needs it (one with a contact).
+    choice: OnceLock<Option<SolverState>>,
 }
 
 /// Cable inputs closer than this (m or N) are the same input for the free-solve cache: far
@@ -733,7 +733,7 @@ impl Sensor {
         };
         let s = Arc::new(FreeState {
             solver: free_solver_state(model, &s),
-            choice: choice_solver_state(model, &s),
+            choice: OnceLock::new(),
             solution: s,
         });
         if let Ok(mut cache) = self.free_cache.lock() {
@@ -973,7 +973,10 @@ impl Sensor {
             // at the estimated state.
             let mut x = free.solution.positions.clone();
             // A solver state at x, for the choice to reuse.
-            let mut state = free.choice.clone();
+            let mut state = free
+                .choice
+                .get_or_init(|| choice_solver_state(&model, &free.solution))
+                .clone();
             let mut chosen: Vec<usize> = Vec::new();
             let mut out = None;
             for _round in 0..2 {
