@@ -351,9 +351,17 @@ impl Recording {
         })
     }
 
-    /// The model file named by the truth (generated scenes), if any.
+    /// The model file named by the truth (generated scenes), if any. A relative path is
+    /// taken from the recording's folder; if nothing is there, as it is (recordings made
+    /// before 2026-11-24 name it from the directory `scene generate` ran in).
     pub fn model_path(&self) -> Option<PathBuf> {
-        self.truth.as_ref().map(|t| PathBuf::from(&t.model_path))
+        let named = PathBuf::from(&self.truth.as_ref()?.model_path);
+        let in_dir = self.dir.join(&named);
+        Some(if named.is_relative() && in_dir.exists() {
+            in_dir
+        } else {
+            named
+        })
     }
 
     /// The recorded actuator inputs of `frame`, if any.

@@ -65,6 +65,13 @@ pub fn run(args: &SenseArgs) -> CliResult {
     let rec = Recording::open(&args.scene_dir).map_err(|e| CliError::Lib(e.into()))?;
     let model_path = match (&args.model, rec.model_path()) {
         (Some(m), _) => m.clone(),
+        (None, Some(m)) if !m.exists() => {
+            return Err(CliError::Usage(format!(
+                "{}'s truth.json names its model as {}, which is not there (from the recording's folder, or from here): give --model MODEL.toml",
+                args.scene_dir.display(),
+                m.display()
+            )))
+        }
         (None, Some(m)) => m,
         (None, None) => {
             return Err(CliError::Usage(format!(

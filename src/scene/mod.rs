@@ -269,7 +269,10 @@ pub struct FrameTruth {
 pub struct Truth {
     /// The scene spec that was used (sensor, camera, colours, seed, frames).
     pub scene: SceneSpec,
-    /// The model file.
+    /// The model file. A relative path is relative to the recording's folder (where
+    /// `truth.json` is); recordings made before 2026-11-24 have it relative to the
+    /// directory `scene generate` ran in ([`crate::sense::Recording::model_path`] reads
+    /// both).
     pub model_path: String,
     /// Young's modulus (Pa) and Poisson ratio actually used.
     pub material: [f64; 2],
@@ -473,6 +476,23 @@ pub fn render_frame(scene: &Scene, model: &Model, index: usize) -> SceneResult<R
     })
 }
 
+/// `target` as a path relative to the folder `base` (both must exist), e.g.
+/// `../../meshes/m.toml`; `None` when either cannot be resolved.
+pub fn relative_to(target: &Path, base: &Path) -> Option<PathBuf> {
+    let target = std::fs::canonicalize(target).ok()?;
+    let base = std::fs::canonicalize(base).ok()?;
+    let (t, b): (Vec<_>, Vec<_>) = (target.components().collect(), base.components().collect());
+    let common = t.iter().zip(&b).take_while(|(x, y)| x == y).count();
+    let mut rel = PathBuf::new();
+    for _ in common..b.len() {
+        rel.push("..");
+    }
+    for c in &t[common..] {
+        rel.push(c);
+    }
+    Some(rel)
+}
+
 fn write_err(path: &Path, e: impl std::fmt::Display) -> SceneError {
     SceneError::File {
         path: path.display().to_string(),
@@ -526,7 +546,10 @@ pub fn generate(
     write_json(&out.join("actuators.json"), &actuators)?;
     let truth = Truth {
         scene: spec.clone(),
-        model_path: scene.model_path.display().to_string(),
+        model_path: relative_to(&scene.model_path, out)
+            .unwrap_or_else(|| scene.model_path.clone())
+            .display()
+            .to_string(),
         material: [model.problem.material.young, model.problem.material.poisson],
         frames,
     };

@@ -44,6 +44,26 @@ fn sense_prints_one_json_object_per_frame_with_errors_against_truth() {
 }
 
 #[test]
+fn sense_finds_a_bundled_scenes_model_from_any_working_directory() {
+    // truth.json names the model relative to the recording's folder.
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("clouds/scenes/tip_weight");
+    let elsewhere = tempfile::tempdir().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_softsense"))
+        .arg("sense")
+        .arg(&scene)
+        .arg("--json")
+        .current_dir(elsewhere.path())
+        .output()
+        .expect("run softsense");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(String::from_utf8(out.stdout).unwrap().lines().count(), 4);
+}
+
+#[test]
 fn sense_on_a_missing_or_empty_folder_fails_with_a_message() {
     let out = sense(&["no/such/folder"]);
     assert_eq!(out.status.code(), Some(1));
@@ -137,7 +157,17 @@ fn bad_frames_get_their_own_status_and_the_stream_goes_on() {
         .save(dir.path().join("color_0002.png"))
         .unwrap();
     std::fs::write(dir.path().join("depth_0003.png"), b"not a png").unwrap();
+    // The copy is away from the model its truth.json names: a clear error, then --model.
     let out = sense(&[dir.path().to_str().unwrap(), "--json"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("give --model"), "{err}");
+    let out = sense(&[
+        dir.path().to_str().unwrap(),
+        "--json",
+        "--model",
+        "meshes/models/robot.toml",
+    ]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "one frame is still sensed: {stderr}");
     let frames: Vec<serde_json::Value> = String::from_utf8(out.stdout)
@@ -163,7 +193,11 @@ fn bad_frames_get_their_own_status_and_the_stream_goes_on() {
     );
     assert!(stderr.contains("1/4 frames sensed"), "{stderr}");
     // The human-readable stream says the same in words.
-    let out = sense(&[dir.path().to_str().unwrap()]);
+    let out = sense(&[
+        dir.path().to_str().unwrap(),
+        "--model",
+        "meshes/models/robot.toml",
+    ]);
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("frame    1: no robot"), "{text}");
     assert!(text.contains("frame    3: unreadable: "), "{text}");

@@ -104,3 +104,28 @@ fn sensor_off_only_quantises_and_on_adds_noise_of_the_right_size() {
     let g = on.depth(&z, &vec![0.05; n], 200, 1, 0);
     assert!(g.iter().all(|&v| v == 0));
 }
+
+#[test]
+fn a_model_path_relative_to_the_recording_leads_back_to_the_model_file() {
+    let root = tempfile::tempdir().unwrap();
+    let model_dir = root.path().join("meshes/models");
+    let out = root.path().join("clouds/scenes/one");
+    std::fs::create_dir_all(&model_dir).unwrap();
+    std::fs::create_dir_all(&out).unwrap();
+    let model = model_dir.join("robot.toml");
+    std::fs::write(&model, "").unwrap();
+    let rel = softsense::scene::relative_to(&model, &out).unwrap();
+    assert_eq!(
+        rel,
+        std::path::Path::new("../../../meshes/models/robot.toml")
+    );
+    assert_eq!(
+        std::fs::canonicalize(out.join(&rel)).unwrap(),
+        std::fs::canonicalize(&model).unwrap()
+    );
+    // A model inside the recording's folder, and a path that does not exist.
+    std::fs::write(out.join("m.toml"), "").unwrap();
+    let inside = softsense::scene::relative_to(&out.join("m.toml"), &out).unwrap();
+    assert_eq!(inside, std::path::Path::new("m.toml"));
+    assert!(softsense::scene::relative_to(&root.path().join("missing.toml"), &out).is_none());
+}
