@@ -36,7 +36,8 @@ Generate a scene first with `softsense scene generate SCENE.toml OUT_DIR`."
 pub struct SenseArgs {
     /// Recording folder.
     pub scene_dir: PathBuf,
-    /// FE model file (TOML); default: the model named in the folder's truth.json.
+    /// FE model file (TOML); default: the model named in the folder's truth.json (a path
+    /// relative to the folder), so a recording copied away from its model needs this.
     #[arg(long, value_name = "MODEL.toml")]
     pub model: Option<PathBuf>,
     /// Number of surface feature points (the thesis used 51).
