@@ -87,27 +87,30 @@ pub fn run(args: &CalibrateArgs) -> CliResult {
         print_json(&serde_json::to_value(&cal).map_err(|e| CliError::Result(e.to_string()))?)?;
     } else {
         let m = cal.robot_from_camera;
-        println!(
+        outln!(
             "status {:?} after {} iterations, residual RMS {:.3} mm over {} points",
             cal.status,
             cal.iterations,
             cal.residual_rms * 1e3,
             cal.points
-        );
-        println!("robot_from_camera:");
+        )?;
+        outln!("robot_from_camera:")?;
         for row in m {
-            println!(
+            outln!(
                 "  {:>10.6} {:>10.6} {:>10.6} {:>10.6}",
-                row[0], row[1], row[2], row[3]
-            );
+                row[0],
+                row[1],
+                row[2],
+                row[3]
+            )?;
         }
         for a in &cal.actuators {
-            println!(
+            outln!(
                 "cable {:<8} tension {:>8.4} N  shortening {:>8.3} mm",
                 a.name,
                 a.tension,
                 a.shortening * 1e3
-            );
+            )?;
         }
     }
     if cal.status == CalibrationStatus::PoorFit {

@@ -126,14 +126,14 @@ pub fn run(args: &ContactsArgs) -> CliResult {
             contacts.len()
         );
         for c in &contacts {
-            println!(
+            outln!(
                 "{:.4} {:.4} {:.4}  points {}  extent {:.4} m",
                 c.centroid[0],
                 c.centroid[1],
                 c.centroid[2],
                 c.points,
                 c.extent()
-            );
+            )?;
         }
     }
     Ok(())

@@ -101,17 +101,19 @@ pub fn run(args: FemArgs) -> Result<(), Box<dyn std::error::Error>> {
                     "residuals": sol.residuals, "effectors": effectors, "cables": cables,
                     "node_displacements": sol.displacement,
                 });
-                println!("{}", serde_json::to_string(&v)?);
+                outln!("{}", serde_json::to_string(&v)?)?;
             } else {
-                println!(
+                outln!(
                     "converged: {} in {} iterations (residuals {:?})",
-                    sol.converged, sol.iterations, sol.residuals
-                );
+                    sol.converged,
+                    sol.iterations,
+                    sol.residuals
+                )?;
                 for e in &effectors {
-                    println!("effector {e}");
+                    outln!("effector {e}")?;
                 }
                 for c in &cables {
-                    println!("cable {c}");
+                    outln!("cable {c}")?;
                 }
             }
         }
@@ -126,11 +128,11 @@ pub fn run(args: FemArgs) -> Result<(), Box<dyn std::error::Error>> {
                 .collect();
             if json {
                 let v = serde_json::json!({"units": "SI", "kinds": c.kinds, "w": w, "delta_free": c.delta_free});
-                println!("{}", serde_json::to_string(&v)?);
+                outln!("{}", serde_json::to_string(&v)?)?;
             } else {
-                println!("{} rows: {:?}", c.kinds.len(), c.kinds);
-                println!("W (m/N) =\n{}", c.w);
-                println!("delta_free (m) = {:?}", c.delta_free);
+                outln!("{} rows: {:?}", c.kinds.len(), c.kinds)?;
+                outln!("W (m/N) =\n{}", c.w)?;
+                outln!("delta_free (m) = {:?}", c.delta_free)?;
             }
         }
     }

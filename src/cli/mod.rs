@@ -1,5 +1,15 @@
 //! Subcommand implementations: each parses nothing itself (clap did) and calls the library.
 
+use std::fmt;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// `println!` through [`out`]: a closed pipe or a full disk is not a panic.
+macro_rules! outln {
+    ($($arg:tt)*) => {
+        $crate::cli::out(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
 pub mod calibrate;
 pub mod cluster;
 pub mod contacts;
@@ -11,8 +21,6 @@ pub mod info;
 pub mod scene;
 pub mod segment;
 pub mod sense;
-
-use std::fmt;
 
 /// Why a subcommand failed; decides the exit code.
 #[derive(Debug)]
@@ -47,6 +55,8 @@ impl fmt::Display for CliError {
     }
 }
 
+impl std::error::Error for CliError {}
+
 impl From<softsense::Error> for CliError {
     fn from(e: softsense::Error) -> Self {
         CliError::Lib(e)
@@ -74,16 +84,36 @@ impl From<softsense::io::IoError> for CliError {
 /// The result every subcommand returns.
 pub type CliResult = Result<(), CliError>;
 
-/// Prints a JSON value on stdout, one document per line. A closed pipe (`| head`) is not
-/// an error; any other write failure is.
-pub fn print_json(value: &serde_json::Value) -> CliResult {
+/// Set once stdout's reader has gone (`| head`): later output is dropped, not an error.
+static STDOUT_CLOSED: AtomicBool = AtomicBool::new(false);
+
+/// Writes to stdout without panicking. A closed pipe (`| head`) is not an error: the rest of
+/// the output is dropped (see [`stdout_closed`]) and the command's other work (files it
+/// writes) goes on. Any other write failure (a full disk) is an error, exit code 1.
+pub fn out(args: fmt::Arguments<'_>) -> CliResult {
     use std::io::Write;
-    match writeln!(std::io::stdout().lock(), "{value}") {
-        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
-            Err(CliError::Result(format!("cannot write to stdout: {e}")))
-        }
-        _ => Ok(()),
+    if STDOUT_CLOSED.load(Ordering::Relaxed) {
+        return Ok(());
     }
+    let mut stdout = std::io::stdout().lock();
+    match stdout.write_fmt(args).and_then(|()| stdout.flush()) {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {
+            STDOUT_CLOSED.store(true, Ordering::Relaxed);
+            Ok(())
+        }
+        Err(e) => Err(CliError::Result(format!("cannot write to stdout: {e}"))),
+        Ok(()) => Ok(()),
+    }
+}
+
+/// Whether stdout's reader has gone: a command whose only product is stdout may stop.
+pub fn stdout_closed() -> bool {
+    STDOUT_CLOSED.load(Ordering::Relaxed)
+}
+
+/// Prints a JSON value on stdout, one document per line (see [`out`]).
+pub fn print_json(value: &serde_json::Value) -> CliResult {
+    out(format_args!("{value}\n"))
 }
 
 /// Parses `R,G,B` (0-255 each), e.g. `40,200,60`.

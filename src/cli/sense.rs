@@ -1,6 +1,6 @@
 //! `softsense sense`: the whole chain per frame, from RGB-D frames to contact forces.
 
-use super::{CliError, CliResult};
+use super::{stdout_closed, CliError, CliResult};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use softsense::fem::model::Model;
@@ -111,31 +111,51 @@ pub fn run(args: &SenseArgs) -> CliResult {
         .unwrap_or_else(softsense::sense::default_window)
         .max(1);
     let clock = std::time::Instant::now();
-    sensor.sense_frames(&rec, &rec.frames, window, |obs, mut report| -> CliResult {
-        let frame = report.frame;
-        if let Some(t) = rec.truth_of(frame) {
-            report.errors = Some(compare(&report, t));
-        }
-        if let (Some(dir), Ok(obs)) = (&args.render, obs) {
-            let path = dir.join(format!("frame_{frame:04}.png"));
-            picture(&rec, &sensor, obs, &report, &path)
-                .map_err(|e| CliError::Result(format!("{}: {e}", path.display())))?;
-        }
-        bar.suspend(|| -> CliResult {
-            if args.json {
-                let line =
-                    serde_json::to_string(&report).map_err(|e| CliError::Other(Box::new(e)))?;
-                println!("{line}");
-                Ok(())
-            } else {
-                print_human(&report);
-                Ok(())
+    let streamed = sensor.sense_frames(
+        &rec,
+        &rec.frames,
+        window,
+        |obs, mut report| -> Result<(), Halt> {
+            let frame = report.frame;
+            if let Some(t) = rec.truth_of(frame) {
+                report.errors = Some(compare(&report, t));
             }
-        })?;
-        bar.inc(1);
-        reports.push(report);
-        Ok(())
-    })?;
+            if let (Some(dir), Ok(obs)) = (&args.render, obs) {
+                let path = dir.join(format!("frame_{frame:04}.png"));
+                picture(&rec, &sensor, obs, &report, &path)
+                    .map_err(|e| CliError::Result(format!("{}: {e}", path.display())))
+                    .map_err(Halt::Failed)?;
+            }
+            bar.suspend(|| -> CliResult {
+                if args.json {
+                    let line =
+                        serde_json::to_string(&report).map_err(|e| CliError::Other(Box::new(e)))?;
+                    outln!("{line}")?;
+                    Ok(())
+                } else {
+                    print_human(&report)
+                }
+            })
+            .map_err(Halt::Failed)?;
+            bar.inc(1);
+            reports.push(report);
+            // Nobody reads stdout any more (`| head`) and no pictures are being written: the
+            // remaining frames would produce nothing.
+            if stdout_closed() && args.render.is_none() {
+                return Err(Halt::ReaderGone);
+            }
+            Ok(())
+        },
+    );
+    match streamed {
+        Ok(()) => {}
+        Err(Halt::ReaderGone) => eprintln!(
+            "stdout was closed: stopped after {} of {} frames",
+            reports.len(),
+            rec.frames.len()
+        ),
+        Err(Halt::Failed(e)) => return Err(e),
+    }
     let wall_ms = clock.elapsed().as_secs_f64() * 1e3;
     bar.finish_and_clear();
     summary(&reports, wall_ms, window);
@@ -148,9 +168,16 @@ pub fn run(args: &SenseArgs) -> CliResult {
     Ok(())
 }
 
-fn print_human(r: &FrameReport) {
+/// Why the frame stream stopped early.
+enum Halt {
+    Failed(CliError),
+    /// stdout's reader has gone and nothing else is being written.
+    ReaderGone,
+}
+
+fn print_human(r: &FrameReport) -> CliResult {
     let status = r.status.to_string();
-    println!(
+    outln!(
         "frame {:>4}: {status}, robot {} pts, objects {} pts, features {}/{}, residual {:.3} mm, {} FE updates, {:.0} ms",
         r.frame,
         r.robot_points,
@@ -160,9 +187,9 @@ fn print_human(r: &FrameReport) {
         r.residual_rms * 1e3,
         r.updates,
         r.ms
-    );
+    )?;
     for (i, f) in r.forces.iter().enumerate() {
-        println!(
+        outln!(
             "  force {i} ({}{}): at ({:.1}, {:.1}, {:.1}) mm, F = ({:.3}, {:.3}, {:.3}) N, |F| = {:.3} ± {:.4} N",
             f.source,
             f.node.map(|n| format!(", node {n}")).unwrap_or_default(),
@@ -174,7 +201,7 @@ fn print_human(r: &FrameReport) {
             f.force[2],
             f.magnitude,
             f.sigma
-        );
+        )?;
     }
     if !r.actuators.is_empty() {
         let a: Vec<String> = r
@@ -182,14 +209,14 @@ fn print_human(r: &FrameReport) {
             .iter()
             .map(|(n, f)| format!("{n} {f:.3}"))
             .collect();
-        println!("  actuator forces (N): {}", a.join(", "));
+        outln!("  actuator forces (N): {}", a.join(", "))?;
     }
     for w in &r.warnings {
-        println!("  warning: {w}");
+        outln!("  warning: {w}")?;
     }
     for (k, e) in r.errors.iter().flatten().enumerate() {
         let t = e.truth_force;
-        println!(
+        outln!(
             "  truth {k}: F = ({:.3}, {:.3}, {:.3}) N at ({:.1}, {:.1}, {:.1}) mm -> location error {:.1} mm, force error {:.1}%, magnitude error {:.1}%",
             t[0],
             t[1],
@@ -200,8 +227,9 @@ fn print_human(r: &FrameReport) {
             e.location_error * 1e3,
             100.0 * e.force_error,
             100.0 * e.magnitude_error
-        );
+        )?;
     }
+    Ok(())
 }
 
 fn summary(reports: &[FrameReport], wall_ms: f64, window: usize) {

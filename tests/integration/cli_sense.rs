@@ -1,7 +1,7 @@
 //! `softsense sense` as a user runs it: JSON lines per frame, errors against truth, and
 //! clear failures on bad input.
 use std::path::Path;
-use std::process::Command;
+use std::process::{Command, Stdio};
 
 fn sense(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_softsense"))
@@ -61,6 +61,33 @@ fn sense_finds_a_bundled_scenes_model_from_any_working_directory() {
         String::from_utf8_lossy(&out.stderr)
     );
     assert_eq!(String::from_utf8(out.stdout).unwrap().lines().count(), 4);
+}
+
+#[test]
+fn sense_stops_quietly_when_the_reader_of_its_output_goes_away() {
+    // `softsense sense DIR | head -1`: the pipe closes while frames remain. Writing to it
+    // must not panic; the command stops (nothing else is being written) and exits 0.
+    for json in [true, false] {
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_softsense"));
+        cmd.args(["sense", "clouds/scenes/tip_weight", "--window", "1"])
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped());
+        if json {
+            cmd.arg("--json");
+        }
+        let mut child = cmd.spawn().expect("run softsense");
+        // Close the read end before the first frame is written.
+        drop(child.stdout.take());
+        let out = child.wait_with_output().expect("wait for softsense");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!err.contains("panicked"), "{err}");
+        assert_eq!(out.status.code(), Some(0), "{err}");
+        assert!(
+            err.contains("stdout was closed: stopped after 1 of 4 frames"),
+            "{err}"
+        );
+    }
 }
 
 #[test]
