@@ -77,7 +77,8 @@ pub struct ConvertArgs {
     /// RGB-D mode: the intrinsics, Open3D JSON (.json) or PCL grabber XML (.xml).
     #[arg(long, value_name = "I", requires = "depth")]
     pub intrinsics: Option<PathBuf>,
-    /// Raw depth units per metre [default: 1000, or 1/z_multiplication_factor from PCL XML].
+    /// Raw depth units per metre [default: the JSON's depth_scale, 1/z_multiplication_factor
+    /// from PCL XML, else 1000].
     #[arg(long, value_name = "S", requires = "depth")]
     pub depth_scale: Option<f64>,
     /// Depths at or beyond T metres become NaN [default: no truncation; Open3D uses 3.0].

@@ -189,7 +189,9 @@ pub fn read_camera_model(path: impl AsRef<Path>) -> Result<CameraModel, IoError>
 }
 
 /// Parses Open3D's `PinholeCameraIntrinsic` JSON: `{"width", "height",
-/// "intrinsic_matrix": [9 numbers, column-major]}`. Depth settings are the defaults.
+/// "intrinsic_matrix": [9 numbers, column-major]}`, plus an optional `"depth_scale"` (raw
+/// depth units per metre, as in Open3D's RGB-D video metadata; default 1000). The other
+/// depth settings are the defaults.
 ///
 /// The matrix must be `[fx, 0, 0, s, fy, 0, cx, cy, 1]` with skew `s = 0` (we have no
 /// skew term, so a non-zero one is an error rather than silently ignored as in Open3D).
@@ -258,10 +260,21 @@ pub fn parse_open3d_json(text: &str) -> Result<CameraModel, RgbdError> {
         cy: k[7],
     };
     intrinsics.validate()?;
-    Ok(CameraModel {
-        intrinsics,
-        params: DepthParams::default(),
-    })
+    // Open3D's RGB-D video metadata (a RealSense recording's `intrinsic.json`) adds the raw
+    // depth units per metre; plain `PinholeCameraIntrinsic` files have none (millimetres).
+    let mut params = DepthParams::default();
+    if let Some(v) = obj.get("depth_scale") {
+        params.depth_scale = v
+            .as_f64()
+            .filter(|s| s.is_finite() && *s > 0.0)
+            .ok_or_else(|| {
+                bad(
+                    "depth_scale",
+                    format!("must be a finite number > 0 (raw units per metre), got {v}"),
+                )
+            })?;
+    }
+    Ok(CameraModel { intrinsics, params })
 }
 
 /// Parses PCL's image-grabber XML (the `<depth>` section: `focal_length_x`,

@@ -518,7 +518,11 @@ pub fn generate(
     let spec = &scene.spec;
     let camera = Camera::new(spec.camera.clone())
         .ok_or_else(|| SceneError::Spec("degenerate camera (intrinsics or pose)".into()))?;
-    write_json(&out.join("intrinsics.json"), &camera.open3d_intrinsics())?;
+    // The depth PNGs' unit goes with the intrinsics, as in Open3D's RGB-D video metadata:
+    // a reader assuming millimetres would put the robot elsewhere.
+    let mut intrinsics = camera.open3d_intrinsics();
+    intrinsics["depth_scale"] = serde_json::json!(1.0 / spec.sensor.depth_unit);
+    write_json(&out.join("intrinsics.json"), &intrinsics)?;
     write_json(
         &out.join("camera_pose.json"),
         &serde_json::json!({ "robot_from_camera": camera.robot_from_camera() }),

@@ -72,3 +72,18 @@ pub fn pcd_files_under(dir: &std::path::Path) -> Vec<PathBuf> {
 pub fn project_root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
+
+/// Generates the scene whose TOML body follows `model = "<the bundled robot>"` into a
+/// temporary folder and opens it as a recording; the folder lives as long as the guard.
+pub fn generated_recording(body: &str) -> (tempfile::TempDir, softsense::sense::Recording) {
+    let dir = tempfile::tempdir().unwrap();
+    let model = project_root().join("meshes/models/robot.toml");
+    let toml = format!("model = {:?}\n{body}", model.display().to_string());
+    let scene_path = dir.path().join("scene.toml");
+    std::fs::write(&scene_path, toml).unwrap();
+    let scene = softsense::scene::Scene::load(&scene_path).unwrap();
+    let out = dir.path().join("frames");
+    softsense::scene::generate(&scene, &out, |_, _| {}).unwrap();
+    let rec = softsense::sense::Recording::open(&out).unwrap();
+    (dir, rec)
+}

@@ -69,19 +69,10 @@ fn sense_generated(
     force: [f64; 3],
     params: SenseParams,
 ) -> (softsense::sense::FrameReport, Vec<LoadError>) {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let dir = tempfile::tempdir().unwrap();
-    let toml = format!(
-        "model = {:?}\nseed = {seed}\n\n[sensor]\nenabled = true\ndepth_k = 0.002\ncolor_sigma = 3.0\n\n\
-         [[frames]]\n[[frames.loads]]\nkind = \"probe\"\nat = {at:?}\nforce = {force:?}\n",
-        root.join("meshes/models/robot.toml").display().to_string()
-    );
-    let scene_path = dir.path().join("scene.toml");
-    std::fs::write(&scene_path, toml).unwrap();
-    let scene = softsense::scene::Scene::load(&scene_path).unwrap();
-    let out = dir.path().join("frames");
-    softsense::scene::generate(&scene, &out, |_, _| {}).unwrap();
-    let rec = Recording::open(&out).unwrap();
+    let (_dir, rec) = crate::common::generated_recording(&format!(
+        "seed = {seed}\n\n[sensor]\nenabled = true\ndepth_k = 0.002\ncolor_sigma = 3.0\n\n\
+         [[frames]]\n[[frames.loads]]\nkind = \"probe\"\nat = {at:?}\nforce = {force:?}\n"
+    ));
     let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
     let sensor = Sensor::new(model, rec.robot_from_camera, params);
     let obs = sensor.observe(&rec, 0).unwrap();

@@ -187,3 +187,24 @@ fn stopping_on_the_predicted_error_saves_updates_and_stays_within_the_force_tole
         "{updates_on} updates with the prediction, {updates_off} without"
     );
 }
+
+#[test]
+fn a_recording_in_tenth_millimetre_depth_units_is_sensed_like_one_in_millimetres() {
+    // The depth unit travels with the recording (`depth_scale` in intrinsics.json): read as
+    // millimetres, these frames would put the robot ten times farther away.
+    let (_dir, rec) = crate::common::generated_recording(
+        "seed = 6\n\n[sensor]\nenabled = true\ndepth_k = 0.002\ndepth_unit = 0.0001\n\
+         color_sigma = 3.0\n\n[[frames]]\n[[frames.loads]]\nkind = \"weight\"\n\
+         at = [0.0, 0.0, 0.125]\nforce = [0.0, 0.0, -0.66]\n",
+    );
+    assert_eq!(rec.camera.params.depth_scale, 10000.0);
+    let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
+    let sensor = Sensor::new(model, rec.robot_from_camera, SenseParams::default());
+    let obs = sensor.observe(&rec, 0).unwrap();
+    let report = sensor.sense(0, &obs, rec.actuators_of(0));
+    assert_eq!(report.status, FrameStatus::Sensed, "{:?}", report.warnings);
+    let errors = compare(&report, rec.truth_of(0).unwrap());
+    assert_eq!(errors.len(), 1);
+    assert!(errors[0].magnitude_error < 0.02, "{:?}", errors[0]);
+    assert!(errors[0].location_error < 0.005, "{:?}", errors[0]);
+}

@@ -467,6 +467,23 @@ fn open3d_json_is_column_major() {
     );
 }
 
+#[test]
+fn open3d_json_with_a_depth_scale_uses_it_and_keeps_the_other_depth_defaults() {
+    // Open3D's RGB-D video metadata (e.g. a RealSense recording at 0.1 mm units).
+    let cam = parse_open3d_json(
+        r#"{"width": 640, "height": 480, "depth_scale": 10000.0,
+            "intrinsic_matrix": [525, 0, 0, 0, 525, 0, 319.5, 239.5, 1]}"#,
+    )
+    .unwrap();
+    assert_eq!(
+        cam.params,
+        DepthParams {
+            depth_scale: 10000.0,
+            ..DepthParams::default()
+        }
+    );
+}
+
 fn field_of(e: RgbdError) -> String {
     match e {
         RgbdError::BadIntrinsics { field, .. } => field,
@@ -503,6 +520,8 @@ fn open3d_json_errors_name_the_field() {
             "fx",
         ),
         ("[1, 2]".to_string(), "(root)"),
+        (format!(r#"{{"width": 640, "height": 480, {m}, "depth_scale": 0}}"#), "depth_scale"),
+        (format!(r#"{{"width": 640, "height": 480, {m}, "depth_scale": "mm"}}"#), "depth_scale"),
     ];
     for (text, field) in cases {
         let e = parse_open3d_json(&text).unwrap_err();
