@@ -190,6 +190,9 @@ impl Scene {
                 "image larger than {MAX_SIDE} pixels"
             )));
         }
+        spec.sensor
+            .validate()
+            .map_err(|e| SceneError::Spec(format!("{}: {e}", path.display())))?;
         if spec.frames.is_empty() || spec.frames.len() > MAX_FRAMES {
             return Err(SceneError::Spec(format!(
                 "needs 1..={MAX_FRAMES} frames, has {}",
@@ -477,12 +480,20 @@ pub fn render_frame(scene: &Scene, model: &Model, index: usize) -> SceneResult<R
 }
 
 /// `target` as a path relative to the folder `base` (both must exist), e.g.
-/// `../../meshes/m.toml`; `None` when either cannot be resolved.
+/// `../../meshes/m.toml`; the absolute `target` when the two share no folder but the root
+/// (`/tmp/out` and `/work/m.toml`); `None` when either cannot be resolved.
 pub fn relative_to(target: &Path, base: &Path) -> Option<PathBuf> {
+    use std::path::Component;
     let target = std::fs::canonicalize(target).ok()?;
     let base = std::fs::canonicalize(base).ok()?;
     let (t, b): (Vec<_>, Vec<_>) = (target.components().collect(), base.components().collect());
     let common = t.iter().zip(&b).take_while(|(x, y)| x == y).count();
+    if t[..common]
+        .iter()
+        .all(|c| matches!(c, Component::Prefix(_) | Component::RootDir))
+    {
+        return Some(target);
+    }
     let mut rel = PathBuf::new();
     for _ in common..b.len() {
         rel.push("..");

@@ -60,6 +60,39 @@ pub fn normal(seed: u64, frame: u64, pixel: u64, stream: u64) -> f64 {
 }
 
 impl SensorModel {
+    /// Checks every field's range; the error names the first bad one.
+    pub fn validate(&self) -> Result<(), String> {
+        let checks = [
+            ("depth_k", self.depth_k, self.depth_k >= 0.0, ">= 0"),
+            ("depth_unit", self.depth_unit, self.depth_unit > 0.0, "> 0"),
+            (
+                "grazing_deg",
+                self.grazing_deg,
+                (0.0..=90.0).contains(&self.grazing_deg),
+                "in 0..=90",
+            ),
+            ("edge_jump", self.edge_jump, self.edge_jump > 0.0, "> 0"),
+            (
+                "edge_hole_probability",
+                self.edge_hole_probability,
+                (0.0..=1.0).contains(&self.edge_hole_probability),
+                "in 0..=1",
+            ),
+            (
+                "color_sigma",
+                self.color_sigma,
+                self.color_sigma >= 0.0,
+                ">= 0",
+            ),
+        ];
+        for (name, value, ok, want) in checks {
+            if !(value.is_finite() && ok) {
+                return Err(format!("sensor.{name} must be {want}, got {value}"));
+            }
+        }
+        Ok(())
+    }
+
     /// Applies the model to an exact depth image (m, 0 = no return) with the cosine of the
     /// incidence angle per pixel; returns depth in PNG units (0 = hole).
     pub fn depth(

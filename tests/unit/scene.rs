@@ -128,4 +128,31 @@ fn a_model_path_relative_to_the_recording_leads_back_to_the_model_file() {
     let inside = softsense::scene::relative_to(&out.join("m.toml"), &out).unwrap();
     assert_eq!(inside, std::path::Path::new("m.toml"));
     assert!(softsense::scene::relative_to(&root.path().join("missing.toml"), &out).is_none());
+    // Folders that share only the root (`/dev` and a temporary folder): the absolute path,
+    // not a climb to the root and back down.
+    #[cfg(target_os = "linux")]
+    {
+        let abs = softsense::scene::relative_to(&model, std::path::Path::new("/dev")).unwrap();
+        assert_eq!(abs, std::fs::canonicalize(&model).unwrap());
+    }
+}
+
+#[test]
+fn a_sensor_model_out_of_range_is_refused_by_name() {
+    assert_eq!(SensorModel::default().validate(), Ok(()));
+    type Spoil = fn(&mut SensorModel);
+    let cases: [(&str, Spoil); 6] = [
+        ("depth_unit", |s| s.depth_unit = 0.0),
+        ("depth_k", |s| s.depth_k = -0.001),
+        ("grazing_deg", |s| s.grazing_deg = 95.0),
+        ("edge_jump", |s| s.edge_jump = f64::NAN),
+        ("edge_hole_probability", |s| s.edge_hole_probability = 1.5),
+        ("color_sigma", |s| s.color_sigma = f64::INFINITY),
+    ];
+    for (name, spoil) in cases {
+        let mut s = SensorModel::default();
+        spoil(&mut s);
+        let e = s.validate().unwrap_err();
+        assert!(e.starts_with(&format!("sensor.{name} ")), "{e}");
+    }
 }
