@@ -553,14 +553,14 @@ pub struct Solver<'p> {
     pub(crate) symbolic: Arc<SymbolicCholesky<usize>>,
     setup: Arc<SolverSetup>,
     /// Values of the supernodal factor L (reused between factorizations).
-    pub(crate) l_values: Vec<f64>,
+    pub(crate) l_values: Arc<Vec<f64>>,
     /// Values of K (upper triangle) after the last assembly.
     pub values: Vec<f64>,
     /// Internal forces (node-major 3n) after the last assembly.
     pub internal_force: Vec<f64>,
     /// Element states of the last assembly (corotational: only the tangent blocks of
     /// [`Pattern::block_mask`] are computed, the others are zero).
-    pub elements: Vec<ElementState>,
+    pub elements: Arc<Vec<ElementState>>,
     /// Node positions at which `elements` and `internal_force` were evaluated, and with
     /// which tangent (empty: none yet).
     elements_at: Vec<[f64; 3]>,
@@ -579,22 +579,32 @@ pub struct Solver<'p> {
     factorizations: usize,
 }
 
+/// `buf` to be overwritten whole: taken over if no other state shares it, else a fresh
+/// buffer of the same length filled with `fill` (no copy of contents about to be lost).
+fn overwritten<T: Clone>(buf: &mut Arc<Vec<T>>, fill: T) -> &mut Vec<T> {
+    if Arc::get_mut(buf).is_none() {
+        *buf = Arc::new(vec![fill; buf.len()]);
+    }
+    Arc::make_mut(buf)
+}
+
 /// What a [`Solver`] leaves for the next solver of a problem that differs only in its
 /// loads, cable controls or prescribed displacements ([`Solver::into_state`],
 /// [`Problem::solver_from`]): the element states at the last assembled positions (so a
 /// Newton solve warm-started there does not evaluate the elements again) and the buffers.
 /// A clone serves several solvers from the same state (e.g. every frame's first FE update
-/// at the free equilibrium).
+/// at the free equilibrium); the large buffers (element states, factor) are shared, and a
+/// solver that overwrites one starts a fresh buffer instead of copying the shared one.
 #[derive(Clone)]
 pub struct SolverState {
     setup: Arc<SolverSetup>,
     material: Material,
     formulation: Formulation,
     young_scale: Vec<f64>,
-    l_values: Vec<f64>,
+    l_values: Arc<Vec<f64>>,
     values: Vec<f64>,
     internal_force: Vec<f64>,
-    elements: Vec<ElementState>,
+    elements: Arc<Vec<ElementState>>,
     elements_at: Vec<[f64; 3]>,
     elements_tangent: Tangent,
     factor_of: Vec<f64>,
@@ -656,10 +666,10 @@ impl<'p> Solver<'p> {
             rest: setup.rest.clone(),
             symbolic: setup.symbolic.clone(),
             setup,
-            l_values,
+            l_values: Arc::new(l_values),
             values: vec![0.0; nnz],
             internal_force: Vec::new(),
-            elements: Vec::new(),
+            elements: Arc::default(),
             elements_at: Vec::new(),
             elements_tangent: Tangent::default(),
             factored: false,
@@ -758,7 +768,8 @@ impl<'p> Solver<'p> {
         let rest_nodes = &p.mesh.nodes_in_rest;
         let m = &p.material;
         let form = p.formulation;
-        let mut states = std::mem::take(&mut self.elements);
+        // Overwritten whole: a buffer shared with another state is left to it, not copied.
+        let mut states = Arc::try_unwrap(std::mem::take(&mut self.elements)).unwrap_or_default();
         let pattern = &self.pattern;
         eval_elements(&self.rest, &mut states, |e, r, out| {
             let t = tets[e];
@@ -791,7 +802,7 @@ impl<'p> Solver<'p> {
                 }
             }
         }
-        self.elements = states;
+        self.elements = Arc::new(states);
         Ok(())
     }
 
@@ -854,7 +865,7 @@ impl<'p> Solver<'p> {
         )
         .map_err(|e| FemError::Linalg(format!("{e:?}")))?;
         match self.symbolic.factorize_numeric_llt(
-            &mut self.l_values,
+            overwritten(&mut self.l_values, 0.0),
             mat,
             Side::Upper,
             Default::default(),

@@ -410,7 +410,8 @@ fn values_that_failed_to_factorize_fail_again_without_a_new_attempt() {
 }
 
 #[test]
-fn a_solver_state_handed_over_at_the_same_positions_gives_the_same_factor_without_work() {
+fn a_solver_state_handed_over_at_the_same_positions_gives_the_same_factor_without_work_and_stays_intact(
+) {
     let (p, rows) = setup();
     let x0 = p.mesh.nodes_in_rest.clone();
     let mut fresh = p.solver().unwrap();
@@ -425,4 +426,22 @@ fn a_solver_state_handed_over_at_the_same_positions_gives_the_same_factor_withou
         assert_eq!(s.factorizations(), 0);
         assert_eq!(s.compliance(&rows, &x0, &zero).unwrap().w, w);
     }
+    // The clones share the element states and the factor. A solver that evaluates the
+    // elements elsewhere and factorizes other values writes both into buffers of its own;
+    // the state it came from is untouched.
+    let x1: Vec<[f64; 3]> = x0
+        .iter()
+        .map(|p| [p[0] + 0.01 * p[2], p[1], p[2]])
+        .collect();
+    let mut moved = p.solver_from(state.clone()).unwrap();
+    moved.tangent_at(&x1, Default::default()).unwrap();
+    moved.values.iter_mut().for_each(|v| *v *= 2.0);
+    moved.factorize().unwrap();
+    assert!(moved.factorizations() >= 1);
+    let half = moved.compliance(&rows, &x1, &zero).unwrap().w;
+    assert!((&half * 2.0 - &w).amax() < 1e-9 * w.amax());
+    let mut s = p.solver_from(state).unwrap();
+    s.tangent_at(&x0, Default::default()).unwrap();
+    assert_eq!(s.factorizations(), 0);
+    assert_eq!(s.compliance(&rows, &x0, &zero).unwrap().w, w);
 }
