@@ -549,9 +549,10 @@ pub struct FrameReport {
     /// (`FrameParams::max_halvings`).
     pub halvings: usize,
     /// Whether the estimate passed the fit checks: the forces settled within
-    /// `FrameParams::max_updates`, and the residual is within [`SenseParams::poor_fit`]
-    /// times the expected noise. An unreliable frame keeps its estimate; its `warnings` say
-    /// which check failed. False when nothing was estimated.
+    /// `FrameParams::max_updates`, the residual is within [`SenseParams::poor_fit`] times
+    /// the expected noise, and the forces are identifiable (no warning in
+    /// `identifiability`). An unreliable frame keeps its estimate; its `warnings` say which
+    /// check failed. False when nothing was estimated.
     pub reliable: bool,
     /// Identifiability of the last QP.
     pub identifiability: Option<Identifiability>,
@@ -1072,7 +1073,8 @@ impl Sensor {
         }
         report.identifiability = Some(e.identifiability.clone());
         if let Some(w) = &e.identifiability.warning {
-            report.warnings.push(w.clone());
+            report.reliable = false;
+            report.warnings.push(format!("unreliable: {w}"));
         }
         report.actuators = model
             .problem

@@ -116,6 +116,15 @@ pub fn print_json(value: &serde_json::Value) -> CliResult {
     out(format_args!("{value}\n"))
 }
 
+/// Parses a count of at least 1.
+pub fn parse_positive(s: &str) -> Result<usize, String> {
+    match s.trim().parse::<usize>() {
+        Ok(0) => Err("must be at least 1".into()),
+        Ok(n) => Ok(n),
+        Err(e) => Err(format!("{s:?}: {e}")),
+    }
+}
+
 /// Parses `R,G,B` (0-255 each), e.g. `40,200,60`.
 pub fn parse_rgb(s: &str) -> Result<[u8; 3], String> {
     let parts: Vec<&str> = s.split(',').collect();

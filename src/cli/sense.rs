@@ -41,7 +41,8 @@ pub struct SenseArgs {
     #[arg(long, value_name = "MODEL.toml")]
     pub model: Option<PathBuf>,
     /// Number of surface feature points (the thesis used 51).
-    #[arg(long, value_name = "N", default_value_t = SenseParams::default().features.count)]
+    #[arg(long, value_name = "N", default_value_t = SenseParams::default().features.count,
+          value_parser = super::parse_positive)]
     pub features: usize,
     /// Robot colour (sRGB) for the colour model.
     #[arg(long, value_name = "R,G,B", value_parser = super::parse_rgb, default_value = "40,200,60")]
@@ -58,7 +59,7 @@ pub struct SenseArgs {
     /// RAYON_NUM_THREADS or the cores). Output stays in frame order and every frame's
     /// answer is the same for any value; more frames at once raise the frames per second
     /// while each frame takes longer.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = super::parse_positive)]
     pub window: Option<usize>,
 }
 

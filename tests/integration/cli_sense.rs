@@ -91,6 +91,14 @@ fn sense_stops_quietly_when_the_reader_of_its_output_goes_away() {
 }
 
 #[test]
+fn sense_refuses_zero_feature_points_as_a_usage_error() {
+    let out = sense(&["clouds/scenes/tip_weight", "--features", "0"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--features"), "{err}");
+}
+
+#[test]
 fn sense_on_a_missing_or_empty_folder_fails_with_a_message() {
     let out = sense(&["no/such/folder"]);
     assert_eq!(out.status.code(), Some(1));

@@ -208,3 +208,25 @@ fn a_recording_in_tenth_millimetre_depth_units_is_sensed_like_one_in_millimetres
     assert!(errors[0].magnitude_error < 0.02, "{:?}", errors[0]);
     assert!(errors[0].location_error < 0.005, "{:?}", errors[0]);
 }
+
+#[test]
+fn a_frame_with_fewer_feature_rows_than_unknowns_is_flagged_unreliable() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let rec = Recording::open(&root.join("clouds/scenes/tip_weight")).unwrap();
+    let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
+    let mut params = SenseParams::default();
+    params.features.count = 1;
+    let sensor = Sensor::new(model, rec.robot_from_camera, params);
+    let obs = sensor.observe(&rec, 1).unwrap();
+    let report = sensor.sense(1, &obs, rec.actuators_of(1));
+    assert_eq!(report.status, FrameStatus::Sensed);
+    assert!(!report.reliable);
+    assert!(
+        report
+            .warnings
+            .iter()
+            .any(|w| w.starts_with("unreliable:") && w.contains("not identifiable")),
+        "{:?}",
+        report.warnings
+    );
+}
