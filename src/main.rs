@@ -41,24 +41,15 @@ enum Command {
     // Each variant's about/long_about lives on its Args struct, beside the options.
     Info(cli::info::InfoArgs),
     Convert(cli::convert::ConvertArgs),
-    /// Finite-element model: static solve, compliance.
     Fem(cli::fem::FemArgs),
-    /// Crop, voxel-filter, remove outliers and estimate normals (PCL/Open3D semantics).
     Filter(cli::filter::FilterArgs),
-    /// Synthetic RGB-D scenes from the FE model (the direct model).
     Scene(cli::scene::SceneArgs),
-    /// Colour region growing (PCL RegionGrowingRGB, exact); writes a `label` field.
     Segment(cli::segment::SegmentArgs),
-    /// Euclidean cluster extraction (PCL semantics); writes a `label` field.
     Cluster(cli::cluster::ClusterArgs),
-    /// Segment, pick the robot and detect where objects touch it.
     Contacts(cli::contacts::ContactsArgs),
     Explain(cli::explain::ExplainArgs),
-    /// Generate a hidden-effect dataset for `explain` (truth kept in a separate file).
     Hidden(cli::explain::HiddenArgs),
-    /// The main job: where the robot is touched and how hard, frame by frame.
     Sense(cli::sense::SenseArgs),
-    /// Camera-to-robot pose and cable inputs from one frame and a rough pose.
     Calibrate(cli::calibrate::CalibrateArgs),
 }
 

@@ -12,11 +12,13 @@ use std::path::PathBuf;
 /// Calibrate the camera-to-robot transform and the cable inputs from a frame.
 #[derive(Args, Debug)]
 #[command(
+    about = "Camera-to-robot pose and cable inputs from one frame and a rough pose",
     long_about = "Calibrate the camera-to-robot transform and the initial cable inputs of the \
 FE model from one RGB-D frame of the robot (thesis 3.3.2, Algorithm 3.1), without markers: \
 ICP on the exact closest FE surface points, then the actuator QP (3.18) with the pose, \
 re-solving the FE model until both settle.\n\n\
-SCENE_DIR holds depth_NNNN.png (millimetres), color_NNNN.png and intrinsics.json (Open3D \
+SCENE_DIR holds depth_NNNN.png (millimetres unless intrinsics.json gives a depth_scale), \
+color_NNNN.png and intrinsics.json (Open3D \
 format), as `softsense scene generate` writes them. The rough start pose is \
 {\"robot_from_camera\": 4x4} (--start, default SCENE_DIR/rough_pose.json); it should be \
 within about 10 degrees and 30 mm. Writes calibration.json (robot_from_camera and the \

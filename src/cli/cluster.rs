@@ -19,7 +19,10 @@ use std::time::Instant;
 ///
 ///   softsense cluster contacts.pcd groups.pcd --tolerance 0.005 --min 10 --max 2000
 #[derive(Debug, Args)]
-#[command(verbatim_doc_comment)]
+#[command(
+    about = "Euclidean cluster extraction (PCL semantics); writes a `label` field",
+    verbatim_doc_comment
+)]
 pub struct ClusterArgs {
     /// Input cloud (.pcd/.ply).
     pub input: PathBuf,

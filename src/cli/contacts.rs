@@ -25,7 +25,10 @@ use std::time::Instant;
 ///
 ///   softsense contacts scene.pcd --robot-color 30,60,200:25 --radius 0.004 --min-neighbors 3 --json
 #[derive(Debug, Args)]
-#[command(verbatim_doc_comment)]
+#[command(
+    about = "Segment, pick the robot and detect where objects touch it",
+    verbatim_doc_comment
+)]
 pub struct ContactsArgs {
     /// Input cloud with colours (.pcd/.ply).
     pub input: PathBuf,

@@ -38,7 +38,10 @@ pub enum Mode {
 ///
 ///   softsense filter scene_dir/ filtered/ --voxel 0.005   (depth_NNNN.png + color_NNNN.png)
 #[derive(Debug, Args)]
-#[command(verbatim_doc_comment)]
+#[command(
+    about = "Crop, voxel-filter, remove outliers and estimate normals (PCL/Open3D semantics)",
+    verbatim_doc_comment
+)]
 pub struct FilterArgs {
     /// Input cloud (.pcd/.ply), a directory of them (or of RGB-D image pairs), or a
     /// pattern like 'dir/frame_*.pcd'.

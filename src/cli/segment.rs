@@ -31,7 +31,10 @@ use std::time::Instant;
 ///
 ///   softsense segment scene.pcd labelled.pcd --mode geometric --json
 #[derive(Debug, Args)]
-#[command(verbatim_doc_comment)]
+#[command(
+    about = "Colour region growing (PCL RegionGrowingRGB, exact); writes a `label` field",
+    verbatim_doc_comment
+)]
 pub struct SegmentArgs {
     /// Input cloud (.pcd/.ply); PCL mode needs colours.
     pub input: PathBuf,

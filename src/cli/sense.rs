@@ -26,6 +26,7 @@ use std::path::PathBuf;
 /// ([[force_points]] in the model file) are the candidate locations.
 #[derive(Debug, Args)]
 #[command(
+    about = "The main job: where the robot is touched and how hard, frame by frame",
     verbatim_doc_comment,
     after_help = "Examples:\n  \
 softsense sense clouds/scenes/tip_weight\n  \

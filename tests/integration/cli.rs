@@ -74,6 +74,33 @@ fn help_teaches_with_examples() {
 }
 
 #[test]
+fn every_subcommands_help_shows_its_long_description_beyond_the_one_line_summary() {
+    // A line from each command's long text (its Args doc or long_about); a doc comment on
+    // the subcommand enum's variant would replace it with the one-line summary.
+    let cases = [
+        ("sense", "truth.json is never used for the estimate"),
+        ("filter", "Stages run in the order crop, voxel"),
+        (
+            "segment",
+            "softsense segment scene.pcd labelled.pcd --mode geometric",
+        ),
+        ("cluster", "OUT holds every input point in input order"),
+        ("contacts", "Prints one line (or JSON object) per contact"),
+        ("calibrate", "rough_pose.json"),
+        ("hidden", "truth_hidden.json"),
+    ];
+    for (command, line) in cases {
+        let o = softsense(&[command, "--help"]);
+        assert!(o.status.success(), "{command}");
+        let out = String::from_utf8_lossy(&o.stdout);
+        assert!(
+            out.contains(line),
+            "{command} --help lacks {line:?}:\n{out}"
+        );
+    }
+}
+
+#[test]
 fn info_json_describes_the_demo_scene() {
     let v = json_of(&softsense(&["info", "clouds/demo_scene.pcd", "--json"]));
     let depth = rgbd::read_depth_image(project_root().join(fixture("depth.png"))).unwrap();
