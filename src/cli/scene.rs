@@ -15,6 +15,7 @@ pub struct SceneArgs {
 #[derive(Subcommand, Debug)]
 enum SceneCommand {
     /// Render every frame of SCENE into OUT_DIR (depth/colour PNGs, intrinsics, pose, truth).
+    #[command(long_about = GENERATE_LONG)]
     Generate {
         /// Scene file (TOML).
         scene: PathBuf,
@@ -22,6 +23,66 @@ enum SceneCommand {
         out_dir: PathBuf,
     },
 }
+
+/// `scene generate --help`: what it writes and the scene file, every key with its default.
+const GENERATE_LONG: &str = "\
+Render every frame of SCENE into OUT_DIR: the FE model is solved under each frame's loads
+and cable inputs, then the deformed robot, the probes and the table are ray-cast into
+depth_NNNN.png (16-bit, in depth_unit) and color_NNNN.png, with intrinsics.json (Open3D
+format plus depth_scale), camera_pose.json, actuators.json and truth.json (every load,
+location and parameter used; `sense` reports its errors against it).
+
+The scene file (TOML; lengths in metres, forces in newtons, robot frame). Only `model` and
+`frames` are required. Below, the other keys show their defaults, except `young` (default:
+the model's own) and the example frame:
+
+  model = \"../../meshes/models/robot.toml\"  # FE model, relative to this file
+  young = 250000.0         # optional: Young's modulus override (Pa)
+  seed = 0                 # sensor-noise seed (the same seed gives the same frames)
+  table_half = 0.3         # half side of the table at z = 0 (0: none)
+
+  [colors]                 # sRGB 0-255
+  robot = [40, 200, 60]
+  probe = [220, 40, 40]
+  table = [150, 150, 160]
+
+  [camera]                 # RealSense D415-like, 0.5 m away, looking down at 30 degrees
+  width = 640
+  height = 480
+  fx = 615.0
+  fy = 615.0
+  cx = 319.5
+  cy = 239.5
+  eye = [0.0, -0.433, 0.31]
+  target = [0.0, 0.0, 0.06]
+  up = [0.0, 0.0, 1.0]
+
+  [sensor]
+  enabled = true           # false: exact depth, still quantised to depth_unit
+  depth_k = 0.002          # depth noise sigma = depth_k * z^2 (0.5 mm at 0.5 m)
+  depth_unit = 0.001       # metres per PNG unit (0.001: millimetres)
+  grazing_deg = 80.0       # steeper incidence gives holes
+  edge_jump = 0.02         # a depth jump above this marks a silhouette edge...
+  edge_hole_probability = 0.5  # ...whose pixels become holes with this probability
+  color_sigma = 3.0        # colour noise per channel
+
+  [[frames]]               # one table per frame; a frame without loads is a reference
+  [[frames.cables]]        # optional; unlisted cables keep the model's input
+  name = \"north\"
+  shorten = 0.01           # or: force = 2.0 (tension, N)
+  [[frames.loads]]
+  kind = \"probe\"           # a sphere pressing on the surface node nearest to `at`
+  at = [0.05, -0.013, 0.083]
+  force = [0.07, 0.78, 0.05]
+  radius = 0.008
+  [[frames.loads]]
+  kind = \"weight\"          # hanging from `at` by a string (not rendered)
+  at = [0.0, 0.0, 0.125]
+  force = [0.0, 0.0, -0.66]
+
+Examples:
+  softsense scene generate clouds/scenes/tip_weight.toml /tmp/tip_weight
+  softsense sense /tmp/tip_weight";
 
 /// Runs the subcommand.
 pub fn run(args: SceneArgs) -> Result<(), Box<dyn std::error::Error>> {

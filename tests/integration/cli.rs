@@ -101,6 +101,47 @@ fn every_subcommands_help_shows_its_long_description_beyond_the_one_line_summary
 }
 
 #[test]
+fn the_scene_file_in_scene_generate_help_loads_and_shows_the_real_defaults() {
+    let o = softsense(&["scene", "generate", "--help"]);
+    assert!(o.status.success());
+    let help = String::from_utf8_lossy(&o.stdout).to_string();
+    // The indented block between the format's introduction and the examples.
+    let start = help.find("  model = ").expect("an example scene file");
+    let end = help.find("Examples:").unwrap();
+    let text: String = help[start..end]
+        .lines()
+        .map(|l| l.strip_prefix("  ").unwrap_or(l))
+        .collect::<Vec<_>>()
+        .join("\n");
+    let model = project_root().join("meshes/models/robot.toml");
+    let text = text.replace(
+        "\"../../meshes/models/robot.toml\"",
+        &format!("{:?}", model.display().to_string()),
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let shown = dir.path().join("shown.toml");
+    std::fs::write(&shown, &text).unwrap();
+    let shown = softsense::scene::Scene::load(&shown).unwrap().spec;
+    assert_eq!(shown.frames.len(), 1);
+    assert_eq!(shown.frames[0].loads.len(), 2);
+    // The keys the help gives as defaults are the defaults.
+    let minimal = dir.path().join("minimal.toml");
+    std::fs::write(
+        &minimal,
+        format!("model = {:?}\n[[frames]]\n", model.display().to_string()),
+    )
+    .unwrap();
+    let minimal = softsense::scene::Scene::load(&minimal).unwrap().spec;
+    let (shown_json, minimal_json) = (
+        serde_json::to_value(&shown).unwrap(),
+        serde_json::to_value(&minimal).unwrap(),
+    );
+    for key in ["camera", "sensor", "colors", "seed", "table_half"] {
+        assert_eq!(shown_json[key], minimal_json[key], "{key}");
+    }
+}
+
+#[test]
 fn info_json_describes_the_demo_scene() {
     let v = json_of(&softsense(&["info", "clouds/demo_scene.pcd", "--json"]));
     let depth = rgbd::read_depth_image(project_root().join(fixture("depth.png"))).unwrap();
