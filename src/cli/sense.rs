@@ -340,15 +340,17 @@ fn picture(
             })
         })
         .collect();
+    // Labelled with the contact's index, so each arrow pairs with its contact mark.
     let forces: Vec<ForceArrow> = report
         .forces
         .iter()
-        .map(|f| {
+        .enumerate()
+        .map(|(i, f)| {
             ForceArrow::from_robot(
                 &cam,
                 f.location,
                 f.force,
-                Some(format!("{:.2} ± {:.2} N", f.magnitude, f.sigma)),
+                Some(format!("{i}: {:.3} ± {:.3} N", f.magnitude, f.sigma)),
             )
         })
         .collect();
