@@ -34,8 +34,8 @@ use crate::fem::model::Model;
 use crate::fem::solve::{CableControl, MappedPoint, Solution, SolverState};
 use crate::fem::tet4::Tangent;
 use crate::inverse::frame::{
-    choose_locations, estimate, Candidate, FrameEstimate, FrameParams, LinearisationPoint,
-    LoopTimings,
+    choose_locations, estimate, factorize_loop_tangent, Candidate, FrameEstimate, FrameParams,
+    LinearisationPoint, LoopTimings,
 };
 use crate::inverse::intensity::Identifiability;
 use crate::inverse::par_map;
@@ -1127,25 +1127,18 @@ impl Sensor {
 /// sensing loop's first FE update leaves it. `None` if either fails (the loop then does
 /// both itself, and fails or falls back as it does without the state).
 fn free_solver_state(model: &Model, free: &Solution) -> Option<SolverState> {
-    let mut base = model.problem.clone();
-    base.loads.clear();
+    let base = model.problem.without_loads();
     let mut solver = base.solver().ok()?;
     let x = &free.positions;
     solver.assemble(x, model.newton.tangent).ok()?;
-    let factorized = if model.newton.tangent == Tangent::default() {
-        solver.factorize_assembled_with_cables(x, &free.cable_tension)
-    } else {
-        solver.factorize_with_cables(x, &free.cable_tension)
-    };
-    factorized.ok()?;
+    factorize_loop_tangent(&mut solver, x, &free.cable_tension, model.newton.tangent).ok()?;
     Some(solver.into_state())
 }
 
 /// A solver state at the free equilibrium `free` of `model` (without loads) with the
 /// location choice's tangent factorized (see [`choose_locations`]); `None` if that fails.
 fn choice_solver_state(model: &Model, free: &Solution) -> Option<SolverState> {
-    let mut base = model.problem.clone();
-    base.loads.clear();
+    let base = model.problem.without_loads();
     let mut solver = base.solver().ok()?;
     solver
         .tangent_at(&free.positions, Tangent::default())

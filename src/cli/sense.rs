@@ -108,10 +108,7 @@ pub fn run(args: &SenseArgs) -> CliResult {
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let mut reports = Vec::new();
-    let window = args
-        .window
-        .unwrap_or_else(softsense::sense::default_window)
-        .max(1);
+    let window = args.window.unwrap_or_else(softsense::sense::default_window);
     let clock = std::time::Instant::now();
     let streamed = sensor.sense_frames(
         &rec,

@@ -457,6 +457,13 @@ impl Problem {
         f
     }
 
+    /// A copy without the point loads (body forces, cables and supports kept).
+    pub fn without_loads(&self) -> Problem {
+        let mut p = self.clone();
+        p.loads.clear();
+        p
+    }
+
     /// Prepares a solver (checks, rest data, pattern, symbolic factorization). The setup is
     /// computed once and shared by clones of this problem while it still fits them (same
     /// mesh, held nodes and cable attachments; see [`SolverSetup::fits`]).

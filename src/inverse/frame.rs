@@ -161,11 +161,7 @@ pub fn estimate(
     state: Option<SolverState>,
     params: &FrameParams,
 ) -> InverseResult<FrameEstimate> {
-    let base = {
-        let mut p = model.problem.clone();
-        p.loads.clear();
-        p
-    };
+    let base = model.problem.without_loads();
     let rest = base.mesh.nodes_in_rest.clone();
     let mut timings = LoopTimings::default();
     let mut newton = model.newton.clone();
@@ -246,11 +242,7 @@ pub fn estimate(
         // then needs up to twice the FE updates.
         let clock = std::time::Instant::now();
         let tensions = prev.as_ref().map_or(&[][..], |s| &s.cable_tension[..]);
-        if newton.tangent == Tangent::default() {
-            solver.factorize_assembled_with_cables(&x, tensions)?;
-        } else {
-            solver.factorize_with_cables(&x, tensions)?;
-        }
+        factorize_loop_tangent(&mut solver, &x, tensions, newton.tangent)?;
         timings.compliance += ms_since(clock);
         let (prob, visible) = linearise(
             &solver,
@@ -327,6 +319,22 @@ pub fn estimate(
         solver: carry,
         timings,
     })
+}
+
+/// Factorizes the sensing loop's linearisation at `x`, an equilibrium the solver's Newton
+/// solve (with `tangent`) just reached: the material tangent of its last assembly plus the
+/// cables' geometric stiffness under `tensions` (see [`estimate`]).
+pub(crate) fn factorize_loop_tangent(
+    solver: &mut Solver<'_>,
+    x: &[[f64; 3]],
+    tensions: &[f64],
+    tangent: Tangent,
+) -> crate::fem::FemResult<()> {
+    if tangent == Tangent::default() {
+        solver.factorize_assembled_with_cables(x, tensions)
+    } else {
+        solver.factorize_with_cables(x, tensions)
+    }
 }
 
 /// The intensity problem linearised at node positions `x` (an equilibrium of the solver's
@@ -453,8 +461,7 @@ pub fn choose_locations(
             "a contact has no location option".into(),
         ));
     }
-    let mut base = model.problem.clone();
-    base.loads.clear();
+    let base = model.problem.without_loads();
     // Columns of each option in the joint candidate list.
     let mut all = Vec::new();
     let mut cols: Vec<Vec<Vec<usize>>> = Vec::new();
