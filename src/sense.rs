@@ -610,8 +610,8 @@ pub struct Sensor {
     pub features: Vec<SurfaceFeature>,
     /// Parameters.
     pub params: SenseParams,
-    /// A dense pool of features (same rules), from which those near a seen contact join
-    /// the frame's features.
+    /// A dense pool of features (same rules, none of them a global feature), from which
+    /// those near a seen contact join the frame's features.
     pub local_pool: Vec<SurfaceFeature>,
     /// The camera centre in the robot frame (m).
     pub eye: [f64; 3],
@@ -671,7 +671,7 @@ impl Sensor {
             &surface,
             &params.features,
         );
-        let local_pool = if params.local_features_radius > 0.0 {
+        let mut local_pool = if params.local_features_radius > 0.0 {
             surface_features(
                 &model.problem.mesh.nodes_in_rest,
                 &surface,
@@ -683,6 +683,10 @@ impl Sensor {
         } else {
             Vec::new()
         };
+        // The pool's farthest-point sampling starts like the global one's, so it holds the
+        // global features too: near a contact each would be registered twice, a row with
+        // twice the weight of its neighbours and its noise counted as two measurements.
+        local_pool.retain(|f| !features.contains(f));
         let [lo, hi] = model.problem.mesh.bbox();
         let m = params.crop_margin;
         let bounds = [
