@@ -196,3 +196,40 @@ fn no_feature_near_a_contact_is_registered_twice() {
         assert!(!all[..i].contains(f), "feature {i} appears twice");
     }
 }
+
+#[test]
+fn a_first_round_cut_to_three_updates_leads_to_the_same_choice_and_forces() {
+    // The first round's estimate only moves the second location choice near the loaded
+    // state (`SenseParams::choice_updates`); on the bundled side probes the choice made
+    // there is the one after a first round run to the end, and so is the answer, up to the
+    // tangent directions, taken from the normals at the state the choice was made (they
+    // differ by ~1e-10 N here; 1 µN is a thousandth of the loop's own 1 mN tolerance).
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let rec = Recording::open(&root.join("clouds/scenes/probe_side")).unwrap();
+    let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
+    let full = SenseParams {
+        choice_updates: 0,
+        ..SenseParams::default()
+    };
+    assert_eq!(SenseParams::default().choice_updates, 3);
+    let cut = Sensor::new(model.clone(), rec.robot_from_camera, SenseParams::default());
+    let full = Sensor::new(model, rec.robot_from_camera, full);
+    for &frame in &rec.frames {
+        let obs = cut.observe(&rec, frame).unwrap();
+        let a = cut.sense(frame, &obs, rec.actuators_of(frame));
+        let b = full.sense(frame, &obs, rec.actuators_of(frame));
+        assert_eq!(a.status, FrameStatus::Sensed, "frame {frame}");
+        assert_eq!(a.forces.len(), b.forces.len(), "frame {frame}");
+        for (fa, fb) in a.forces.iter().zip(&b.forces) {
+            assert_eq!(fa.node, fb.node, "frame {frame}");
+            for k in 0..3 {
+                assert!(
+                    (fa.force[k] - fb.force[k]).abs() <= 1e-6,
+                    "frame {frame}: {:?} vs {:?}",
+                    fa.force,
+                    fb.force
+                );
+            }
+        }
+    }
+}
