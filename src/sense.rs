@@ -116,15 +116,6 @@ pub struct SenseParams {
     /// Largest number of option combinations tried exhaustively (400); beyond, coordinate
     /// descent.
     pub max_combinations: usize,
-    /// FE updates of the first round's estimate at seen contacts (3; 0: `frame.max_updates`).
-    /// The location choice is made twice: at the free state, then at the state that
-    /// round's estimate reaches, where it mostly picks other nodes (in all 8 bundled probe
-    /// frames, 27 of the 32 held-out ones) and the frame is estimated again. So the first
-    /// estimate only has to bring the second choice near the loaded state: 3 updates do
-    /// (2, i.e. one loaded update, leave the nine noise draws of the two-probe frames at 36
-    /// of 54 loads within 5% instead of 44). It is the answer when the choice stands and it
-    /// settled within them; otherwise the frame is estimated again with `frame.max_updates`.
-    pub choice_updates: usize,
     /// At a seen contact, estimate a 3-D force (inward normal, pushing only, plus two
     /// tangential components) instead of a normal force alone (true).
     pub three_d: bool,
@@ -171,7 +162,6 @@ impl Default for SenseParams {
             location_radius: 0.015,
             location_options: 16,
             max_combinations: 400,
-            choice_updates: 3,
             local_features_radius: 0.03,
             local_feature_pool: 600,
         }
@@ -912,7 +902,7 @@ impl Sensor {
         let clock = std::time::Instant::now();
         let registrar = Registrar::new(&obs.robot);
         report.timings.register += ms(clock.elapsed());
-        let solve_with = |cands: &[Candidate], params: &FrameParams| {
+        let solve = |cands: &[Candidate]| {
             estimate(
                 &model,
                 &registrar,
@@ -920,10 +910,9 @@ impl Sensor {
                 cands,
                 Some(&free.solution),
                 free.solver.clone(),
-                params,
+                &self.params.frame,
             )
         };
-        let solve = |cands: &[Candidate]| solve_with(cands, &self.params.frame);
         let (est, cands, groups) = if contacts.is_empty() {
             // Declared force points: the one explaining the frame best (estimated in
             // parallel, chosen in model order).
@@ -1002,12 +991,8 @@ impl Sensor {
                 .get_or_init(|| choice_solver_state(&model, &free.solution))
                 .clone();
             let mut chosen: Vec<usize> = Vec::new();
-            let mut out: Option<(FrameEstimate, Vec<Candidate>, Vec<Group>)> = None;
-            let mut first_round = self.params.frame.clone();
-            if self.params.choice_updates > 0 {
-                first_round.max_updates = first_round.max_updates.min(self.params.choice_updates);
-            }
-            for round in 0..2 {
+            let mut out = None;
+            for _round in 0..2 {
                 let clock = std::time::Instant::now();
                 let normals = vertex_normals(&x, &surface.triangles);
                 let options: Vec<(Vec<usize>, Vec<Vec<Candidate>>)> = contacts
@@ -1042,9 +1027,7 @@ impl Sensor {
                 )
                 .map_err(|e| fail(&e))?;
                 report.timings.mapping += ms(clock.elapsed());
-                // The choice stands: the first estimate is the answer if it settled (within
-                // `choice_updates` it is then the one all of `max_updates` would give).
-                if pick == chosen && out.as_ref().is_some_and(|o| o.0.settled) {
+                if pick == chosen && out.is_some() {
                     break;
                 }
                 chosen = pick;
@@ -1061,12 +1044,7 @@ impl Sensor {
                         range: start..cands.len(),
                     });
                 }
-                let params = if round == 0 {
-                    &first_round
-                } else {
-                    &self.params.frame
-                };
-                let mut est = solve_with(&cands, params).map_err(|e| fail(&e))?;
+                let mut est = solve(&cands).map_err(|e| fail(&e))?;
                 report.account(&est);
                 x = est.positions.clone();
                 state = est.solver.take();
