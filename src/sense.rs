@@ -610,8 +610,8 @@ pub struct Sensor {
     pub features: Vec<SurfaceFeature>,
     /// Parameters.
     pub params: SenseParams,
-    /// A dense pool of features (same rules, none of them a global feature), from which
-    /// those near a seen contact join the frame's features.
+    /// A dense pool of features (same rules), from which those near a seen contact join
+    /// the frame's features.
     pub local_pool: Vec<SurfaceFeature>,
     /// The camera centre in the robot frame (m).
     pub eye: [f64; 3],
@@ -671,7 +671,7 @@ impl Sensor {
             &surface,
             &params.features,
         );
-        let mut local_pool = if params.local_features_radius > 0.0 {
+        let local_pool = if params.local_features_radius > 0.0 {
             surface_features(
                 &model.problem.mesh.nodes_in_rest,
                 &surface,
@@ -684,9 +684,13 @@ impl Sensor {
             Vec::new()
         };
         // The pool's farthest-point sampling starts like the global one's, so it holds the
-        // global features too: near a contact each would be registered twice, a row with
-        // twice the weight of its neighbours and its noise counted as two measurements.
-        local_pool.retain(|f| !features.contains(f));
+        // global features too (on the bundled robot 300 of its 395): near a contact they are
+        // registered twice, and count twice. Known and kept, for now: dropping the repeats
+        // (tried 2026-11-24) moved the force errors within their noise (held-out probe
+        // frames 25 -> 24 of 32 within 5%, noise draws of the two-probe frames 42 -> 44 of
+        // 54) but lowered the residual spread of frames whose force sits a node off, so two
+        // of them (13.6% and 18.3% off) passed the fit check (`poor_fit`) they had failed.
+        // Weighting the rows near a contact on purpose would have to keep that check sharp.
         let [lo, hi] = model.problem.mesh.bbox();
         let m = params.crop_margin;
         let bounds = [

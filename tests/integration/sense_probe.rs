@@ -161,38 +161,3 @@ fn a_frame_the_model_cannot_explain_is_sensed_but_flagged_unreliable() {
     assert!(!report.reliable);
     assert!(report.warnings.iter().any(|w| w.starts_with("unreliable")));
 }
-
-#[test]
-fn no_feature_near_a_contact_is_registered_twice() {
-    // The local pool (features joining near a seen contact) is a denser farthest-point
-    // sampling of the same surface, which starts like the global one: without care it
-    // repeats the global features, and a repeated row weighs twice.
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let rec = Recording::open(&root.join("clouds/scenes/probe_side")).unwrap();
-    let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
-    let params = SenseParams::default();
-    let sensor = Sensor::new(model, rec.robot_from_camera, params.clone());
-    let repeated = sensor
-        .local_pool
-        .iter()
-        .filter(|f| sensor.features.contains(f))
-        .count();
-    assert_eq!(repeated, 0, "{repeated} local features are global ones");
-    // Nothing else is lost: the pool and the global features are the dense sampling.
-    let dense = softsense::register::surface_features(
-        &sensor.model.problem.mesh.nodes_in_rest,
-        &sensor.surface,
-        &softsense::register::FeatureParams {
-            count: params.local_feature_pool,
-            ..sensor.params.features.clone()
-        },
-    );
-    assert!(!sensor.local_pool.is_empty());
-    assert_eq!(sensor.local_pool.len() + sensor.features.len(), dense.len());
-    assert!(sensor.local_pool.iter().all(|f| dense.contains(f)));
-    let mut all = sensor.local_pool.clone();
-    all.extend_from_slice(&sensor.features);
-    for (i, f) in all.iter().enumerate() {
-        assert!(!all[..i].contains(f), "feature {i} appears twice");
-    }
-}
