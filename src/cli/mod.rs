@@ -116,6 +116,21 @@ pub fn print_json(value: &serde_json::Value) -> CliResult {
     out(format_args!("{value}\n"))
 }
 
+/// `path` as a person would write it for a message: the file itself (links and `..`
+/// resolved), relative to the working directory when it is inside it, else absolute.
+/// `path` as given when it cannot be resolved (e.g. it does not exist).
+pub fn shown_path(path: &std::path::Path) -> std::path::PathBuf {
+    let Ok(real) = std::fs::canonicalize(path) else {
+        return path.to_path_buf();
+    };
+    std::env::current_dir()
+        .and_then(std::fs::canonicalize)
+        .ok()
+        .and_then(|cwd| real.strip_prefix(cwd).ok().map(|p| p.to_path_buf()))
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(real)
+}
+
 /// Parses a count of at least 1.
 pub fn parse_positive(s: &str) -> Result<usize, String> {
     match s.trim().parse::<usize>() {

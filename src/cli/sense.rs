@@ -94,8 +94,8 @@ pub fn run(args: &SenseArgs) -> CliResult {
         "{}: {} frames, model {}, pose from {}, {} feature points",
         args.scene_dir.display(),
         rec.frames.len(),
-        model_path.display(),
-        rec.pose_file.display(),
+        super::shown_path(&model_path).display(),
+        super::shown_path(&rec.pose_file).display(),
         sensor.features.len()
     );
     if let Some(dir) = &args.render {

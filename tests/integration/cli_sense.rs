@@ -41,6 +41,14 @@ fn sense_prints_one_json_object_per_frame_with_errors_against_truth() {
     }
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("4/4 frames sensed"), "{stderr}");
+    // The model is named as it would be typed from here, not via the recording's folder
+    // ("clouds/scenes/tip_weight/../../../meshes/...").
+    assert!(
+        stderr.contains(
+            "model meshes/models/robot.toml, pose from clouds/scenes/tip_weight/camera_pose.json"
+        ),
+        "{stderr}"
+    );
 }
 
 #[test]
