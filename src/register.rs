@@ -272,8 +272,17 @@ impl Registrar {
                 points: 1,
             });
         }
-        // The sheet of surface nearest to the feature along the line: start at the point of
-        // smallest |offset|, average the points within `sheet` of it, re-centre once.
+        self.sheet(&on_line, params).map(|(m, _)| m)
+    }
+
+    /// The sheet of surface nearest to the feature along the line, among `on_line`: start
+    /// at the point of smallest |offset|, average the points within `params.sheet` of it,
+    /// re-centre once. The match, and the centre the averaged points are within `sheet` of.
+    fn sheet(
+        &self,
+        on_line: &[(f64, f64, u32)],
+        params: &RegisterParams,
+    ) -> Option<(LineMatch, f64)> {
         let &(t0, _, _) = on_line.iter().min_by(|a, b| {
             a.0.abs()
                 .total_cmp(&b.0.abs())
@@ -289,12 +298,45 @@ impl Registrar {
                 })
         };
         let (sum, count, _) = sheet(t0);
-        let (sum, count, perp2) = sheet(sum / count as f64);
-        (count > 0).then(|| LineMatch {
-            offset: sum / count as f64,
-            line_distance: perp2.sqrt(),
-            points: count,
+        let centre = sum / count as f64;
+        let (sum, count, perp2) = sheet(centre);
+        (count > 0).then(|| {
+            let m = LineMatch {
+                offset: sum / count as f64,
+                line_distance: perp2.sqrt(),
+                points: count,
+            };
+            (m, centre)
         })
+    }
+
+    /// [`Registrar::match_feature`] (averaged: `params.average`), and the points it
+    /// averaged: their indices in the finite input points, ascending, and the sum of their
+    /// squared deviations from the offset (the scatter along the line that the noise of a
+    /// point, and the surface within the disc, make). `None` when hidden, or when the match
+    /// is the thesis's single nearest point.
+    pub fn match_feature_points(
+        &self,
+        p: [f64; 3],
+        n: [f64; 3],
+        params: &RegisterParams,
+    ) -> Option<(LineMatch, Vec<u32>, f64)> {
+        if !params.average || self.points.is_empty() {
+            return None;
+        }
+        let on_line = self.near_line(p, n, params.d_m, params.d_l);
+        let (m, centre) = self.sheet(&on_line, params)?;
+        let mut used = Vec::with_capacity(m.points);
+        let mut scatter = 0.0;
+        for q in on_line
+            .iter()
+            .filter(|q| (q.0 - centre).abs() <= params.sheet)
+        {
+            used.push(q.2);
+            scatter += (q.0 - m.offset).powi(2);
+        }
+        used.sort_unstable();
+        Some((m, used, scatter))
     }
 
     /// `(t, squared distance to the line, index)` of every point with |t| ≤ `d_l` and

@@ -1056,6 +1056,8 @@ impl Sensor {
             }
             out.ok_or_else(|| FrameStatus::NotSolved("no estimate".into()))?
         };
+        let mut est = est;
+        est.use_shared_point_uncertainty(&registrar, features, &self.params.frame.register);
         let e = &est.estimate;
         report.features_visible = est.visible;
         report.positions.clone_from(&est.positions);
@@ -1101,15 +1103,29 @@ impl Sensor {
                 }
             }
             let magnitude = norm(f);
-            for k in g.range.clone() {
-                // Magnitude sigma: each component's sigma projected on the force direction.
-                let d = unit(cands[k].direction);
-                let proj = if magnitude > 0.0 {
-                    dot(d, f) / magnitude
+            // Magnitude sigma: the components' (co)variance projected on the force direction.
+            let proj = |k: usize| {
+                if magnitude > 0.0 {
+                    dot(unit(cands[k].direction), f) / magnitude
                 } else {
                     1.0
-                };
-                var += (proj * e.force_sigma.get(k).copied().unwrap_or(f64::NAN)).powi(2);
+                }
+            };
+            match &e.force_covariance {
+                Some(cov) if cov.nrows() == cands.len() => {
+                    for k in g.range.clone() {
+                        for l in g.range.clone() {
+                            var += proj(k) * proj(l) * cov[(k, l)];
+                        }
+                    }
+                    var = var.max(0.0);
+                }
+                _ => {
+                    for k in g.range.clone() {
+                        var +=
+                            (proj(k) * e.force_sigma.get(k).copied().unwrap_or(f64::NAN)).powi(2);
+                    }
+                }
             }
             let at = cands[g.range.start].at.position(&est.positions);
             report.forces.push(ForceEstimate {

@@ -125,6 +125,8 @@ fn ms_since(t: std::time::Instant) -> f64 {
 pub struct FrameEstimate {
     /// The last intensity QP.
     pub estimate: IntensityEstimate,
+    /// The problem it solved (linearised at `positions`).
+    pub problem: IntensityProblem,
     /// Visible features in the last registration.
     pub visible: usize,
     /// FE updates done.
@@ -140,6 +142,35 @@ pub struct FrameEstimate {
     pub solver: Option<SolverState>,
     /// Where the time went.
     pub timings: LoopTimings,
+}
+
+impl FrameEstimate {
+    /// Replaces the forces' Gauss-Markov σ (independent feature rows, the loop's) with their
+    /// covariance from the points the rows share ([`SharedPoints`] at `positions`):
+    /// neighbouring features average some of the same points, so their offsets' errors are
+    /// correlated, and near a contact, where the force is decided, they overlap most. The
+    /// forces do not change. `registrar` and `features` must be the estimate's own. Returns
+    /// whether the σ were replaced (not when a match is the single nearest point or the
+    /// forces are not identifiable).
+    pub fn use_shared_point_uncertainty(
+        &mut self,
+        registrar: &Registrar,
+        features: &[SurfaceFeature],
+        params: &RegisterParams,
+    ) -> bool {
+        let Some(shared) = SharedPoints::register(registrar, features, &self.positions, params)
+        else {
+            return false;
+        };
+        let Some(cov) = self.problem.force_covariance_with(|a| shared.sandwich(a)) else {
+            return false;
+        };
+        self.estimate.force_sigma = (0..cov.nrows())
+            .map(|i| cov[(i, i)].max(0.0).sqrt())
+            .collect();
+        self.estimate.force_covariance = Some(cov);
+        true
+    }
 }
 
 /// Estimates the candidate forces from measured robot points (robot frame, m). The model's
@@ -169,7 +200,7 @@ pub fn estimate(
         newton.rel_tol = tol;
     }
     let mut forces = vec![0.0; candidates.len()];
-    let mut last: Option<(IntensityEstimate, usize)> = None;
+    let mut last: Option<(IntensityEstimate, usize, IntensityProblem)> = None;
     let mut x = rest.clone();
     let mut updates = 0;
     let mut prev: Option<Solution> = None;
@@ -297,7 +328,7 @@ pub fn estimate(
             let tol = params.force_tol.max(params.sigma_tol * s.unwrap_or(0.0));
             v.abs() < tol || factor * v.abs() < tol
         });
-        last = Some((est, visible));
+        last = Some((est, visible, prob));
         if settled {
             break;
         }
@@ -307,10 +338,11 @@ pub fn estimate(
         step = r.iter().fold(0.0f64, |m, v| m.max((omega * v).abs()));
         r_prev = Some(r);
     }
-    let (estimate, visible) =
+    let (estimate, visible, problem) =
         last.ok_or_else(|| InverseError::Intensity("max_updates is zero".into()))?;
     Ok(FrameEstimate {
         estimate,
+        problem,
         visible,
         updates,
         settled,
@@ -319,6 +351,118 @@ pub fn estimate(
         solver: carry,
         timings,
     })
+}
+
+/// The points behind the offsets of the features visible at node positions `x` (the rows
+/// of [`linearise`]'s problem, in its order): row i's offset is the mean of its n_i points,
+/// so with independent points of variance s² the covariance of rows i and j is
+/// s² n_ij / (n_i n_j), n_ij the points they share. s² is the median, over the rows, of the
+/// points' scatter about their offset.
+#[derive(Clone, Debug)]
+pub struct SharedPoints {
+    /// Each row's points (indices into the registrar's finite points, ascending).
+    pub rows: Vec<Vec<u32>>,
+    /// Per-point variance along the line, s² (m²).
+    pub point_variance: f64,
+}
+
+impl SharedPoints {
+    /// Registers `features` at `x` as [`linearise`] does. `None` unless the matches average
+    /// (`params.average`) and some row has two points or more.
+    pub fn register(
+        registrar: &Registrar,
+        features: &[SurfaceFeature],
+        x: &[[f64; 3]],
+        params: &RegisterParams,
+    ) -> Option<Self> {
+        if !params.average {
+            return None;
+        }
+        let mut rows = Vec::new();
+        let mut variances = Vec::new();
+        for f in features {
+            let (p, n) = (f.position(x), f.normal(x));
+            if n == [0.0; 3] {
+                continue;
+            }
+            // The same matches as `linearise` (visible there exactly when here).
+            let Some((m, pts, scatter)) = registrar.match_feature_points(p, n, params) else {
+                continue;
+            };
+            if m.points > 1 {
+                variances.push(scatter / (m.points - 1) as f64);
+            }
+            rows.push(pts);
+        }
+        if variances.is_empty() {
+            return None;
+        }
+        let point_variance = crate::math::median(&mut variances);
+        Some(Self {
+            rows,
+            point_variance,
+        })
+    }
+
+    /// The covariance of the rows' offsets (m², rows x rows).
+    pub fn matrix(&self) -> nalgebra::DMatrix<f64> {
+        let m = self.rows.len();
+        let mut c = nalgebra::DMatrix::<f64>::zeros(m, m);
+        for (_, owners) in self.owners() {
+            for &a in &owners {
+                for &b in &owners {
+                    c[(a, b)] += 1.0;
+                }
+            }
+        }
+        let n: Vec<f64> = self.rows.iter().map(|r| r.len() as f64).collect();
+        for i in 0..m {
+            for j in 0..m {
+                c[(i, j)] *= self.point_variance / (n[i] * n[j]);
+            }
+        }
+        c
+    }
+
+    /// B C Bᵀ for the rows' covariance C ([`SharedPoints::matrix`]) and `b` (k x rows),
+    /// without forming C: s² Σ_points v vᵀ, v = Σ over the rows holding the point of
+    /// b's column / n_row.
+    pub fn sandwich(&self, b: &nalgebra::DMatrix<f64>) -> Option<nalgebra::DMatrix<f64>> {
+        if b.ncols() != self.rows.len() {
+            return None;
+        }
+        let k = b.nrows();
+        let mut out = nalgebra::DMatrix::<f64>::zeros(k, k);
+        let mut v = nalgebra::DVector::<f64>::zeros(k);
+        for (_, owners) in self.owners() {
+            v.fill(0.0);
+            for &i in &owners {
+                let w = 1.0 / self.rows[i].len() as f64;
+                v.axpy(w, &b.column(i), 1.0);
+            }
+            out.ger(self.point_variance, &v, &v, 1.0);
+        }
+        Some(out)
+    }
+
+    /// Each point used, with the rows holding it (ascending), in point order.
+    fn owners(&self) -> Vec<(u32, Vec<usize>)> {
+        let mut pairs: Vec<(u32, usize)> = self
+            .rows
+            .iter()
+            .enumerate()
+            .flat_map(|(i, r)| r.iter().map(move |&q| (q, i)))
+            .collect();
+        pairs.sort_unstable();
+        let mut out: Vec<(u32, Vec<usize>)> = Vec::new();
+        for (q, i) in pairs {
+            match out.last_mut() {
+                Some((p, rows)) if *p == q => rows.push(i),
+                _ => out.push((q, vec![i])),
+            }
+        }
+        out
+    }
 }
 
 /// Factorizes the sensing loop's linearisation at `x`, an equilibrium the solver's Newton

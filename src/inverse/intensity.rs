@@ -90,8 +90,14 @@ pub struct IntensityEstimate {
     pub actuator_forces: Vec<f64>,
     /// Force intensities λ_f (N).
     pub forces: Vec<f64>,
-    /// One-sigma uncertainty of each λ_f from the sensor noise and W (N).
+    /// One-sigma uncertainty of each λ_f from the sensor noise and W (N): Gauss-Markov
+    /// with independent rows of `IntensityParams::sensor_sigma` each, unless replaced by
+    /// the square roots of `force_covariance`'s diagonal.
     pub force_sigma: Vec<f64>,
+    /// Covariance of the λ_f (N², forces x forces) when the rows' noise is known as a
+    /// matrix ([`IntensityProblem::force_covariance`]); `None`: only `force_sigma`.
+    #[serde(skip)]
+    pub force_covariance: Option<DMatrix<f64>>,
     /// RMS of the normal-displacement residual at the solution (m).
     pub residual_rms: f64,
     /// A robust spread of the same residual: 1.4826 times its median absolute value (m).
@@ -195,6 +201,7 @@ impl IntensityProblem {
                 actuator_forces: Vec::new(),
                 forces: Vec::new(),
                 force_sigma: Vec::new(),
+                force_covariance: None,
                 residual_rms: f64::NAN,
                 residual_robust: f64::NAN,
                 identifiability: ident,
@@ -210,6 +217,7 @@ impl IntensityProblem {
             actuator_forces: sol.x[..a].to_vec(),
             forces: sol.x[a..].to_vec(),
             force_sigma: self.force_sigma(params.sensor_sigma),
+            force_covariance: None,
             residual_rms,
             residual_robust,
             identifiability: ident,
@@ -300,6 +308,32 @@ impl IntensityProblem {
             eq_rows.push(row);
         }
         (eq_rows, eq_b)
+    }
+
+    /// Covariance of the force unknowns (actuator forces held, bounds ignored, as
+    /// [`IntensityProblem::force_sigma`]) when the measured offsets have covariance
+    /// `rows` (m², feature rows x feature rows): A C Aᵀ with A = (W_efᵀ W_ef)⁻¹ W_efᵀ, the
+    /// least squares' own map from offsets to forces. With C = σ² I it is σ² (W_efᵀ W_ef)⁻¹.
+    /// `None` when not identifiable or `rows` does not fit.
+    pub fn force_covariance(&self, rows: &DMatrix<f64>) -> Option<DMatrix<f64>> {
+        let m = self.w_ef.nrows();
+        if rows.nrows() != m || rows.ncols() != m {
+            return None;
+        }
+        self.force_covariance_with(|a| Some(a * rows * a.transpose()))
+    }
+
+    /// [`IntensityProblem::force_covariance`] with the product A C Aᵀ left to `sandwich`
+    /// (given A, forces x rows), e.g. one that never forms C.
+    pub fn force_covariance_with(
+        &self,
+        sandwich: impl FnOnce(&DMatrix<f64>) -> Option<DMatrix<f64>>,
+    ) -> Option<DMatrix<f64>> {
+        let inv = (self.w_ef.transpose() * &self.w_ef).try_inverse()?;
+        let a = inv * self.w_ef.transpose();
+        let cov = sandwich(&a)?;
+        let k = a.nrows();
+        (cov.nrows() == k && cov.ncols() == k && cov.iter().all(|v| v.is_finite())).then_some(cov)
     }
 
     /// σ_f = σ_d sqrt(diag((W_efᵀ W_ef)⁻¹)): the Gauss-Markov spread of the force unknowns

@@ -161,3 +161,43 @@ fn a_frame_the_model_cannot_explain_is_sensed_but_flagged_unreliable() {
     assert!(!report.reliable);
     assert!(report.warnings.iter().any(|w| w.starts_with("unreliable")));
 }
+
+#[test]
+fn feature_rows_that_average_shared_points_get_correlated_offsets() {
+    use softsense::inverse::frame::SharedPoints;
+    use softsense::register::Registrar;
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let rec = Recording::open(&root.join("clouds/scenes/probe_side")).unwrap();
+    let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
+    let sensor = Sensor::new(model, rec.robot_from_camera, SenseParams::default());
+    let obs = sensor.observe(&rec, 0).unwrap();
+    let reg = Registrar::new(&obs.robot);
+    let x = &sensor.model.problem.mesh.nodes_in_rest;
+    let params = &sensor.params.frame.register;
+    // The first feature twice: two rows of the very same points.
+    let mut features = vec![sensor.features[0]];
+    features.extend_from_slice(&sensor.features);
+    let shared = SharedPoints::register(&reg, &features, x, params).unwrap();
+    let c = shared.matrix();
+    let m = c.nrows();
+    assert!(m > 200, "{m} visible rows");
+    assert_eq!(c[(0, 1)], c[(0, 0)]);
+    let mut sharing = 0;
+    for i in 0..m {
+        assert!(c[(i, i)] > 0.0);
+        for j in 0..m {
+            assert_eq!(c[(i, j)], c[(j, i)]);
+            assert!(c[(i, j)] >= 0.0);
+            assert!(c[(i, j)] <= (c[(i, i)] * c[(j, j)]).sqrt() * (1.0 + 1e-12));
+            sharing += usize::from(i < j && c[(i, j)] > 0.0);
+        }
+    }
+    // 300 features with 5 mm discs over the robot overlap somewhere.
+    assert!(sharing > m, "{sharing} pairs of rows share points");
+    // The sandwich without the matrix is the one with it.
+    let b = nalgebra::DMatrix::from_fn(3, m, |i, j| ((i * 7 + j * 3) % 11) as f64 - 5.0);
+    let direct = &b * &c * b.transpose();
+    let fast = shared.sandwich(&b).unwrap();
+    assert!((&direct - &fast).amax() <= 1e-12 * fast.amax());
+    eprintln!("{m} rows, {sharing} pairs sharing points");
+}

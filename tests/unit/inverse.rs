@@ -378,3 +378,76 @@ fn a_singular_problem_has_no_unbounded_residual() {
     p.w_af.set_column(1, &c);
     assert!(p.unbounded_residual_rms().is_none());
 }
+
+#[test]
+fn force_covariance_of_independent_rows_is_the_gauss_markov_one() {
+    let (p, _, _) = synthetic(vec![ActuatorInput::Force(0.0); 2]);
+    let sigma = 2e-5;
+    let m = p.w_ef.nrows();
+    let cov = p
+        .force_covariance(&(DMatrix::identity(m, m) * sigma * sigma))
+        .unwrap();
+    for (i, s) in p.force_sigma(sigma).iter().enumerate() {
+        assert!(
+            (cov[(i, i)].sqrt() - s).abs() <= 1e-9 * s,
+            "{i}: {cov} vs {s}"
+        );
+    }
+    // A covariance that does not fit the rows is refused.
+    assert!(p
+        .force_covariance(&DMatrix::identity(m + 1, m + 1))
+        .is_none());
+}
+
+#[test]
+fn force_covariance_of_correlated_rows_matches_the_spread_of_solved_forces() {
+    // Monte Carlo oracle: the QP solved on offsets with correlated noise (half of each
+    // row's variance shared by all rows), force-controlled actuators held; the sample
+    // covariance of the solved forces against `force_covariance`.
+    let (p, _, lf) = synthetic(vec![ActuatorInput::Force(0.0); 2]);
+    let m = p.w_ef.nrows();
+    let s = 3e-5;
+    let c = DMatrix::from_fn(m, m, |i, j| s * s * (0.5 + if i == j { 0.5 } else { 0.0 }));
+    let l = c.clone().cholesky().unwrap().l();
+    let predicted = p.force_covariance(&c).unwrap();
+    let gauss_markov = p.force_sigma(s);
+    let mut seed = 17u64;
+    let mut normal = || {
+        // Box-Muller on a 64-bit LCG.
+        let mut u = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((seed >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        };
+        let (a, b) = (u(), u());
+        (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
+    };
+    let n = 2000;
+    let mut samples = Vec::with_capacity(n);
+    for _ in 0..n {
+        let z = DVector::from_fn(m, |_, _| normal());
+        let noise = &l * z;
+        let mut q = p.clone();
+        for (v, e) in q.delta_measured.iter_mut().zip(noise.iter()) {
+            *v += e;
+        }
+        let e = q.solve(&IntensityParams::default()).unwrap();
+        samples.push([e.forces[0] - lf[0], e.forces[1] - lf[1]]);
+    }
+    for i in 0..2 {
+        let var = samples.iter().map(|x| x[i] * x[i]).sum::<f64>() / n as f64;
+        let ratio = var.sqrt() / predicted[(i, i)].sqrt();
+        // 2000 samples: the sample σ is within ~1.6% (1σ) of the true one.
+        assert!(
+            (ratio - 1.0).abs() < 0.06,
+            "force {i}: sample/predicted σ {ratio}"
+        );
+        // Independent rows would be 14-16% off here, one too small, one too large.
+        let gm = gauss_markov[i] / var.sqrt();
+        assert!(
+            (gm - 1.0).abs() > 0.1,
+            "force {i}: Gauss-Markov/sample σ {gm}"
+        );
+    }
+}

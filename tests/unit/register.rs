@@ -378,3 +378,51 @@ fn a_cloud_of_absurd_extent_is_indexed_and_its_near_points_still_match() {
         );
     }
 }
+
+#[test]
+fn an_averaged_match_reports_the_very_points_it_averaged() {
+    // A plane z = 0.2 mm with a ripple, points on a 1 mm grid: the points returned are
+    // those within d_m of the line whose offsets average to the match's offset, and the
+    // scatter is their squared deviations from it.
+    let mut pts = Vec::new();
+    for i in 0..40 {
+        for j in 0..40 {
+            let (x, y) = (i as f64 * 1e-3, j as f64 * 1e-3);
+            pts.push([
+                x,
+                y,
+                2e-4 + 1e-4 * (i as f64 * 0.7).sin() * (j as f64 * 1.3).cos(),
+            ]);
+        }
+    }
+    let reg = Registrar::new(&pts);
+    let params = RegisterParams {
+        d_m: 5e-3,
+        ..RegisterParams::default()
+    };
+    let (p, n) = ([0.02, 0.021, 0.0], [0.0, 0.0, 1.0]);
+    let (m, used, scatter) = reg.match_feature_points(p, n, &params).unwrap();
+    let plain = reg.match_feature(p, n, &params).unwrap();
+    assert_eq!((m.offset, m.points), (plain.offset, plain.points));
+    let brute: Vec<u32> = (0..pts.len() as u32)
+        .filter(|&i| {
+            let q = pts[i as usize];
+            (q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2) <= params.d_m * params.d_m
+        })
+        .collect();
+    assert_eq!(used, brute);
+    assert_eq!(used.len(), m.points);
+    let mean = used.iter().map(|&i| pts[i as usize][2]).sum::<f64>() / used.len() as f64;
+    assert!((mean - m.offset).abs() < 1e-15);
+    let s: f64 = used
+        .iter()
+        .map(|&i| (pts[i as usize][2] - m.offset).powi(2))
+        .sum();
+    assert!((s - scatter).abs() <= 1e-12 * s);
+    // The thesis's single nearest point has no average to report.
+    let single = RegisterParams {
+        average: false,
+        ..params
+    };
+    assert!(reg.match_feature_points(p, n, &single).is_none());
+}
