@@ -500,6 +500,11 @@ pub struct ForceEstimate {
     pub magnitude: f64,
     /// One-sigma uncertainty of the magnitude (N), from the sensor noise and W.
     pub sigma: f64,
+    /// Covariance of `force` (N², robot frame x, y, z; rows). The tangential spread is
+    /// often several times the magnitude's: normal-line registration sees a tangential
+    /// force only through the faces it tilts. One-sigma of a component along a unit
+    /// vector u: sqrt(uᵀ C u); `sigma` is that along the force.
+    pub covariance: [[f64; 3]; 3],
 }
 
 /// Errors of one estimated load against the truth.
@@ -1127,6 +1132,25 @@ impl Sensor {
                     }
                 }
             }
+            // The same (co)variance in the robot frame: Σ_kl u_k u_lᵀ cov_kl.
+            let cov_kl = |k: usize, l: usize| match &e.force_covariance {
+                Some(cov) if cov.nrows() == cands.len() => cov[(k, l)],
+                _ if k == l => e.force_sigma.get(k).copied().unwrap_or(f64::NAN).powi(2),
+                _ => 0.0,
+            };
+            let mut covariance = [[0.0; 3]; 3];
+            for k in g.range.clone() {
+                let uk = unit(cands[k].direction);
+                for l in g.range.clone() {
+                    let ul = unit(cands[l].direction);
+                    let c = cov_kl(k, l);
+                    for (a, row) in covariance.iter_mut().enumerate() {
+                        for (b, v) in row.iter_mut().enumerate() {
+                            *v += uk[a] * ul[b] * c;
+                        }
+                    }
+                }
+            }
             let at = cands[g.range.start].at.position(&est.positions);
             report.forces.push(ForceEstimate {
                 source: g.source,
@@ -1137,6 +1161,7 @@ impl Sensor {
                 force: f,
                 magnitude,
                 sigma: var.sqrt(),
+                covariance,
             });
         }
         if est.visible == 0 {

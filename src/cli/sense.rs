@@ -18,9 +18,10 @@ use std::path::PathBuf;
 /// KD-tree search, each contact mapped onto the FE model, the surface features registered
 /// along their normal lines, and the intensity QP solved with FE updates. Prints per frame
 /// the forces (location in the robot frame, mapped node, force vector, magnitude and its
-/// one-sigma uncertainty), the actuator forces, the residual and any warning. When the
-/// folder has a truth.json (generated scenes), the errors against it are printed too;
-/// truth.json is never used for the estimate.
+/// one-sigma uncertainty; with --json also the force's 3x3 covariance in N², whose
+/// tangential spread is often several times the magnitude's), the actuator forces, the
+/// residual and any warning. When the folder has a truth.json (generated scenes), the
+/// errors against it are printed too; truth.json is never used for the estimate.
 ///
 /// Where no contact is seen (a weight hanging by a string), the model's force points
 /// ([[force_points]] in the model file) are the candidate locations.

@@ -201,3 +201,30 @@ fn feature_rows_that_average_shared_points_get_correlated_offsets() {
     assert!((&direct - &fast).amax() <= 1e-12 * fast.amax());
     eprintln!("{m} rows, {sharing} pairs sharing points");
 }
+
+#[test]
+fn each_force_carries_a_covariance_whose_spread_along_it_is_its_sigma() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let rec = Recording::open(&root.join("clouds/scenes/two_probes")).unwrap();
+    let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
+    let sensor = Sensor::new(model, rec.robot_from_camera, SenseParams::default());
+    let obs = sensor.observe(&rec, 0).unwrap();
+    let report = sensor.sense(0, &obs, rec.actuators_of(0));
+    assert_eq!(report.forces.len(), 2);
+    for f in &report.forces {
+        let c = nalgebra::Matrix3::from_fn(|i, j| f.covariance[i][j]);
+        assert!((c - c.transpose()).amax() <= 1e-15 * c.amax());
+        let eig = c.symmetric_eigenvalues();
+        assert!(eig.min() >= -1e-12 * eig.max(), "{eig}");
+        let d = nalgebra::Vector3::from(f.force) / f.magnitude;
+        let along = (d.transpose() * c * d)[0].sqrt();
+        assert!(
+            (along - f.sigma).abs() <= 1e-9 * f.sigma,
+            "{along} vs {}",
+            f.sigma
+        );
+        // Across the force the spread is larger: the tangential components are seen only
+        // through the faces they tilt.
+        assert!(eig.max().sqrt() > 2.0 * f.sigma, "{eig} vs σ {}", f.sigma);
+    }
+}
