@@ -1108,7 +1108,14 @@ impl Sensor {
                 }
             }
             let magnitude = norm(f);
-            // Magnitude sigma: the components' (co)variance projected on the force direction.
+            // The components' (co)variance: the sandwich's when the estimate has it, else
+            // the independent σ.
+            let cov_kl = |k: usize, l: usize| match &e.force_covariance {
+                Some(cov) if cov.nrows() == cands.len() => cov[(k, l)],
+                _ if k == l => e.force_sigma.get(k).copied().unwrap_or(f64::NAN).powi(2),
+                _ => 0.0,
+            };
+            // Magnitude sigma: that (co)variance projected on the force direction.
             let proj = |k: usize| {
                 if magnitude > 0.0 {
                     dot(unit(cands[k].direction), f) / magnitude
@@ -1116,34 +1123,14 @@ impl Sensor {
                     1.0
                 }
             };
-            match &e.force_covariance {
-                Some(cov) if cov.nrows() == cands.len() => {
-                    for k in g.range.clone() {
-                        for l in g.range.clone() {
-                            var += proj(k) * proj(l) * cov[(k, l)];
-                        }
-                    }
-                    var = var.max(0.0);
-                }
-                _ => {
-                    for k in g.range.clone() {
-                        var +=
-                            (proj(k) * e.force_sigma.get(k).copied().unwrap_or(f64::NAN)).powi(2);
-                    }
-                }
-            }
-            // The same (co)variance in the robot frame: Σ_kl u_k u_lᵀ cov_kl.
-            let cov_kl = |k: usize, l: usize| match &e.force_covariance {
-                Some(cov) if cov.nrows() == cands.len() => cov[(k, l)],
-                _ if k == l => e.force_sigma.get(k).copied().unwrap_or(f64::NAN).powi(2),
-                _ => 0.0,
-            };
+            // The same in the robot frame: Σ_kl u_k u_lᵀ cov_kl.
             let mut covariance = [[0.0; 3]; 3];
             for k in g.range.clone() {
                 let uk = unit(cands[k].direction);
                 for l in g.range.clone() {
                     let ul = unit(cands[l].direction);
                     let c = cov_kl(k, l);
+                    var += proj(k) * proj(l) * c;
                     for (a, row) in covariance.iter_mut().enumerate() {
                         for (b, v) in row.iter_mut().enumerate() {
                             *v += uk[a] * ul[b] * c;
@@ -1151,6 +1138,7 @@ impl Sensor {
                     }
                 }
             }
+            let var = var.max(0.0);
             let at = cands[g.range.start].at.position(&est.positions);
             report.forces.push(ForceEstimate {
                 source: g.source,
