@@ -140,6 +140,12 @@ pub struct FrameEstimate {
     /// The last linearisation's solver state: elements evaluated at `positions`, the
     /// tangent with the cables factorized there (for [`choose_locations`] at `positions`).
     pub solver: Option<SolverState>,
+    /// The FE state at `positions` (the equilibrium under `applied`), to warm-start the
+    /// next frame's loop from ([`estimate_from`]).
+    pub solution: Option<Solution>,
+    /// The candidate forces of that state (N): the loop's last iterate, of which
+    /// `estimate.forces` is the QP's answer at `positions`.
+    pub applied: Vec<f64>,
     /// Where the time went.
     pub timings: LoopTimings,
 }
@@ -192,6 +198,40 @@ pub fn estimate(
     state: Option<SolverState>,
     params: &FrameParams,
 ) -> InverseResult<FrameEstimate> {
+    estimate_from(
+        model, registrar, features, candidates, start, state, None, params,
+    )
+}
+
+/// [`estimate`] with the loop's forces starting at `forces` (one per candidate; `None`:
+/// zero), e.g. the `applied` forces of the previous frame's [`FrameEstimate`], with its
+/// `solution` as `start` and its `solver` as `state`. With all three the loop *resumes*:
+/// `start` is taken as the first FE update's state as it is (the equilibrium under
+/// `forces` to the tolerance of the loop that left it; no Newton step, and the tangent
+/// factorized there is reused), so on a stream whose load changes little from frame to
+/// frame the loop settles in one or two updates, the first almost free, instead of two
+/// to six from zero. The fixed point, and so the answer within the loop's tolerances, is
+/// the same.
+#[allow(clippy::too_many_arguments)]
+pub fn estimate_from(
+    model: &Model,
+    registrar: &Registrar,
+    features: &[SurfaceFeature],
+    candidates: &[Candidate],
+    start: Option<&Solution>,
+    state: Option<SolverState>,
+    forces: Option<&[f64]>,
+    params: &FrameParams,
+) -> InverseResult<FrameEstimate> {
+    if let Some(f) = forces {
+        if f.len() != candidates.len() || f.iter().any(|v| !v.is_finite()) {
+            return Err(InverseError::Intensity(format!(
+                "{} starting forces for {} candidates (or not finite)",
+                f.len(),
+                candidates.len()
+            )));
+        }
+    }
     let base = model.problem.without_loads();
     let rest = base.mesh.nodes_in_rest.clone();
     let mut timings = LoopTimings::default();
@@ -199,7 +239,10 @@ pub fn estimate(
     if let Some(tol) = params.fe_rel_tol {
         newton.rel_tol = tol;
     }
-    let mut forces = vec![0.0; candidates.len()];
+    // Starting forces with a state and a solver state: the previous loop's end, taken as
+    // the first FE update's state.
+    let mut resume = forces.is_some() && start.is_some() && state.is_some();
+    let mut forces = forces.map_or_else(|| vec![0.0; candidates.len()], <[f64]>::to_vec);
     let mut last: Option<(IntensityEstimate, usize, IntensityProblem)> = None;
     let mut x = rest.clone();
     let mut updates = 0;
@@ -237,7 +280,21 @@ pub fn estimate(
         newton.abs_tol = abs_tol.max(params.fe_forcing * step);
         // A cable gap g is a tension error of about g / W_aa.
         newton.gap_tol = params.fe_forcing * step * cable_compliance;
-        let sol = match solver.solve_static_from(&newton, prev.as_ref().or(start)) {
+        let resumed = match start.filter(|_| resume) {
+            // Resuming: `start` is the equilibrium under the starting forces, to the
+            // tolerance of the loop that left it; only the tangent is assembled there.
+            Some(s) => {
+                resume = false;
+                solver.assemble(&s.positions, newton.tangent)?;
+                Some(s.clone())
+            }
+            None => None,
+        };
+        let solved = match resumed {
+            Some(s) => Ok(s),
+            None => solver.solve_static_from(&newton, prev.as_ref().or(start)),
+        };
+        let sol = match solved {
             Ok(sol) => sol,
             Err(
                 e @ (FemError::InvertedElement { .. }
@@ -341,12 +398,14 @@ pub fn estimate(
     let (estimate, visible, problem) =
         last.ok_or_else(|| InverseError::Intensity("max_updates is zero".into()))?;
     Ok(FrameEstimate {
+        solution: prev,
         estimate,
         problem,
         visible,
         updates,
         settled,
         halvings,
+        applied,
         positions: x,
         solver: carry,
         timings,
