@@ -34,8 +34,8 @@ use crate::fem::model::Model;
 use crate::fem::solve::{CableControl, MappedPoint, Solution, SolverState};
 use crate::fem::tet4::Tangent;
 use crate::inverse::frame::{
-    choose_locations, estimate, factorize_loop_tangent, Candidate, FrameEstimate, FrameParams,
-    LinearisationPoint, LoopTimings,
+    choose_locations, estimate, estimate_from, factorize_loop_tangent, Candidate, FrameEstimate,
+    FrameParams, LinearisationPoint, LoopTimings,
 };
 use crate::inverse::intensity::Identifiability;
 use crate::inverse::par_map;
@@ -113,6 +113,12 @@ pub struct SenseParams {
     pub local_features_radius: f64,
     /// Size of the dense pool (600).
     pub local_feature_pool: usize,
+    /// A frame of a stream sensed with [`Sensor::track_frames`] starts from the previous
+    /// frame's estimate when each contact is seen within this of where the previous frame
+    /// saw it (m, 0.005: a third of `location_radius`). Its location choice is then made
+    /// once, at the estimated state (the second round of an untracked frame), and if it
+    /// keeps the previous locations the estimate stands.
+    pub track_radius: f64,
     /// Largest number of option combinations tried exhaustively (400); beyond, coordinate
     /// descent.
     pub max_combinations: usize,
@@ -164,6 +170,7 @@ impl Default for SenseParams {
             max_combinations: 400,
             local_features_radius: 0.03,
             local_feature_pool: 600,
+            track_radius: 0.005,
         }
     }
 }
@@ -550,6 +557,10 @@ pub struct FrameReport {
     pub residual_robust: f64,
     /// FE updates in the last estimate.
     pub updates: usize,
+    /// Whether the frame started from the previous frame's estimate ([`Sensor::track_frames`]):
+    /// its contacts were where the previous frame's were, so their locations and forces
+    /// were the starting point instead of a choice and a loop from the unloaded state.
+    pub tracked: bool,
     /// Force steps halved because their FE update failed, over the frame's estimates
     /// (`FrameParams::max_halvings`).
     pub halvings: usize,
@@ -595,6 +606,7 @@ impl FrameReport {
             residual_rms: f64::NAN,
             residual_robust: f64::NAN,
             updates: 0,
+            tracked: false,
             halvings: 0,
             reliable: false,
             identifiability: None,
@@ -605,6 +617,44 @@ impl FrameReport {
             positions: Vec::new(),
         }
     }
+}
+
+/// What a frame with seen contacts leaves for the next frame of a stream
+/// ([`Sensor::sense_tracked`], [`Sensor::track_frames`]): where its contacts were seen, the
+/// locations chosen for them, and the final estimate (forces, FE state, solver state).
+#[derive(Clone, Debug)]
+pub struct Track {
+    /// The cable inputs of the frame.
+    inputs: Vec<CableControl>,
+    /// Centroids of the seen contacts (robot frame, m), in the frame's order.
+    centroids: Vec<[f64; 3]>,
+    /// The chosen surface node of each contact.
+    nodes: Vec<usize>,
+    /// The candidate forces of the estimate, contact after contact.
+    candidates: Vec<Candidate>,
+    /// The candidates of each contact (ranges into `candidates`).
+    ranges: Vec<std::ops::Range<usize>>,
+    /// The final estimate.
+    estimate: FrameEstimate,
+}
+
+impl Track {
+    /// The chosen surface node of each seen contact.
+    pub fn nodes(&self) -> &[usize] {
+        &self.nodes
+    }
+}
+
+/// Whether two cable inputs are the same within [`SAME_INPUT`].
+fn same_inputs(a: &[CableControl], b: &[CableControl]) -> bool {
+    a.len() == b.len()
+        && a.iter().zip(b).all(|(a, b)| match (a, b) {
+            (CableControl::Force(a), CableControl::Force(b))
+            | (CableControl::Displacement(a), CableControl::Displacement(b)) => {
+                (a - b).abs() <= SAME_INPUT
+            }
+            _ => false,
+        })
 }
 
 /// The per-recording state: the model and its features.
@@ -725,16 +775,7 @@ impl Sensor {
     /// frame to frame); a new input is solved warm from the latest cached one.
     fn free_solve(&self, model: &Model) -> crate::fem::FemResult<Arc<FreeState>> {
         let key: Vec<CableControl> = model.problem.cables.iter().map(|c| c.control).collect();
-        let same = |a: &[CableControl]| {
-            a.len() == key.len()
-                && a.iter().zip(&key).all(|(a, b)| match (a, b) {
-                    (CableControl::Force(a), CableControl::Force(b))
-                    | (CableControl::Displacement(a), CableControl::Displacement(b)) => {
-                        (a - b).abs() <= SAME_INPUT
-                    }
-                    _ => false,
-                })
-        };
+        let same = |a: &[CableControl]| same_inputs(a, &key);
         let hit = match self.free_cache.lock() {
             Ok(cache) => cache.iter().find(|e| same(&e.0)).map(|e| e.1.clone()),
             Err(_) => None,
@@ -811,6 +852,32 @@ impl Sensor {
         obs: &Observation,
         actuators: Option<&[ActuatorTruth]>,
     ) -> FrameReport {
+        self.sense_with(frame, obs, actuators, None, false).0
+    }
+
+    /// [`Sensor::sense`], starting from `prev`, what the previous frame of a stream left,
+    /// where its contacts are seen again (within [`SenseParams::track_radius`], same cable
+    /// inputs): the previous locations and forces start the loop, and the location choice
+    /// is made once, at the estimated state. Returns the report and what this frame leaves
+    /// for the next (`None` when it saw no contact, failed, or was flagged unreliable).
+    pub fn sense_tracked(
+        &self,
+        frame: usize,
+        obs: &Observation,
+        actuators: Option<&[ActuatorTruth]>,
+        prev: Option<&Track>,
+    ) -> (FrameReport, Option<Track>) {
+        self.sense_with(frame, obs, actuators, prev, true)
+    }
+
+    fn sense_with(
+        &self,
+        frame: usize,
+        obs: &Observation,
+        actuators: Option<&[ActuatorTruth]>,
+        prev: Option<&Track>,
+        want_track: bool,
+    ) -> (FrameReport, Option<Track>) {
         let t0 = std::time::Instant::now();
         let mut report = FrameReport::empty(frame, FrameStatus::Sensed);
         report.robot_points = obs.robot.len();
@@ -822,13 +889,54 @@ impl Sensor {
                 .push("no recorded actuator inputs: the model file's are used".into());
         }
         report.timings = obs.timings;
-        if let Err(status) = self.sense_into(obs, actuators, &mut report) {
-            report.status = status;
-        }
+        let track = match self.sense_into(obs, actuators, prev, want_track, &mut report) {
+            Ok(track) => track.filter(|_| report.reliable),
+            Err(status) => {
+                report.status = status;
+                None
+            }
+        };
         report.ms = ms(t0.elapsed());
         let t = &mut report.timings;
         t.total = t.read + t.crop + t.segment + report.ms;
-        report
+        (report, track)
+    }
+
+    /// Observes and senses `frames` of `rec` as a stream, one after the other, each
+    /// starting from what the one before left ([`Sensor::sense_tracked`]), and hands each
+    /// observation and report to `emit` in order. The next frame is read and segmented
+    /// while this one is sensed (on a second thread). On a real stream, where the load
+    /// hardly changes from one frame to the next, a tracked frame needs one location choice
+    /// instead of two and one or two FE updates instead of six or more. A frame depends on
+    /// the ones before it (unlike [`Sensor::sense_frames`]), but not on the thread count.
+    /// Stops at the first error of `emit`.
+    pub fn track_frames<E>(
+        &self,
+        rec: &Recording,
+        frames: &[usize],
+        mut emit: impl FnMut(&SenseResult<Observation>, FrameReport) -> Result<(), E>,
+    ) -> Result<(), E> {
+        let mut prev: Option<Track> = None;
+        let mut next = frames.first().map(|&f| self.observe(rec, f));
+        for (i, &frame) in frames.iter().enumerate() {
+            let Some(obs) = next.take() else { break };
+            let following = frames.get(i + 1).copied();
+            let ((report, track), read) = crate::search::join(
+                crate::search::Parallelism::Rayon,
+                || match &obs {
+                    Ok(o) => self.sense_tracked(frame, o, rec.actuators_of(frame), prev.as_ref()),
+                    Err(e) => (
+                        FrameReport::empty(frame, FrameStatus::Unreadable(e.to_string())),
+                        None,
+                    ),
+                },
+                || following.map(|f| self.observe(rec, f)),
+            );
+            next = read;
+            prev = track;
+            emit(&obs, report)?;
+        }
+        Ok(())
     }
 
     /// Observes and senses `frames` of `rec`, `window` frames at a time in parallel, and
@@ -874,12 +982,27 @@ impl Sensor {
         Ok(())
     }
 
+    /// Whether a frame with cable inputs `inputs` and contacts seen at `centroids` can
+    /// start from `track`.
+    fn can_track(&self, track: &Track, inputs: &[CableControl], centroids: &[[f64; 3]]) -> bool {
+        let r2 = self.params.track_radius.powi(2);
+        same_inputs(&track.inputs, inputs)
+            && !track.candidates.is_empty()
+            && track.centroids.len() == centroids.len()
+            && track.centroids.iter().zip(centroids).all(|(a, b)| {
+                let d = sub(*a, *b);
+                dot(d, d) <= r2
+            })
+    }
+
     fn sense_into(
         &self,
         obs: &Observation,
         actuators: Option<&[ActuatorTruth]>,
+        prev: Option<&Track>,
+        want_track: bool,
         report: &mut FrameReport,
-    ) -> Result<(), FrameStatus> {
+    ) -> Result<Option<Track>, FrameStatus> {
         if obs.robot.len() < 50 {
             return Err(FrameStatus::NoRobot);
         }
@@ -994,21 +1117,27 @@ impl Sensor {
             // the data choose among them (linearised), at the actuated state and once more
             // at the estimated state.
             let mut x = free.solution.positions.clone();
-            // A solver state at x, for the choice to reuse.
-            let mut state = free
-                .choice
-                .get_or_init(|| choice_solver_state(&model, &free.solution))
-                .clone();
+            let mut state = None;
+            // The chosen node of each contact.
             let mut chosen: Vec<usize> = Vec::new();
             let mut out = None;
-            for _round in 0..2 {
-                let clock = std::time::Instant::now();
-                let normals = vertex_normals(&x, &surface.triangles);
+            let mut first_round = 0;
+            let centroids: Vec<[f64; 3]> = contacts
+                .iter()
+                .map(|c| c.centroid.map(|v| v as f64))
+                .collect();
+            let inputs: Vec<CableControl> =
+                model.problem.cables.iter().map(|c| c.control).collect();
+            // The options of each contact (surface nodes near its centroid at node positions
+            // `x`, and their candidates) and the data's choice among them, linearised at
+            // `x` with `state` (a solver state there, if any).
+            let choose = |x: &[[f64; 3]], state: Option<SolverState>| {
+                let normals = vertex_normals(x, &surface.triangles);
                 let options: Vec<(Vec<usize>, Vec<Vec<Candidate>>)> = contacts
                     .iter()
                     .map(|c| {
                         let nodes = near_nodes(
-                            &x,
+                            x,
                             &surface.nodes,
                             c.centroid.map(|v| v as f64),
                             self.params.location_radius,
@@ -1028,21 +1157,101 @@ impl Sensor {
                     features,
                     &all,
                     LinearisationPoint {
-                        positions: &x,
-                        state: state.take(),
+                        positions: x,
+                        state,
                     },
                     &self.params.frame,
                     self.params.max_combinations,
+                )?;
+                let picked: Vec<usize> = pick
+                    .iter()
+                    .zip(&options)
+                    .map(|(&k, (nodes, _))| nodes[k])
+                    .collect();
+                Ok::<_, crate::inverse::InverseError>((options, pick, picked))
+            };
+            // A tracked frame: the loop starts from the previous frame's locations and
+            // forces, and, at the same time, the data choose the locations linearised at
+            // the previous frame's state (nearer than the free one). If they keep the
+            // previous locations the estimate stands; else the choice is made again at the
+            // estimated state, as in an untracked frame's second round.
+            if let Some(t) = prev.filter(|t| self.can_track(t, &inputs, &centroids)) {
+                let (tracked, choice) = crate::search::join(
+                    crate::search::Parallelism::Rayon,
+                    || {
+                        estimate_from(
+                            &model,
+                            &registrar,
+                            features,
+                            &t.candidates,
+                            t.estimate.solution.as_ref(),
+                            t.estimate.solver.clone(),
+                            Some(&t.estimate.applied),
+                            &self.params.frame,
+                        )
+                    },
+                    || {
+                        let clock = std::time::Instant::now();
+                        let c = choose(&t.estimate.positions, t.estimate.solver.clone());
+                        (c, ms(clock.elapsed()))
+                    },
+                );
+                report.timings.mapping += choice.1;
+                match tracked {
+                    Ok(mut est) => {
+                        report.account(&est);
+                        report.tracked = true;
+                        let groups = contacts
+                            .iter()
+                            .zip(&t.nodes)
+                            .zip(&t.ranges)
+                            .map(|((c, &node), range)| Group {
+                                source: "contact".into(),
+                                seen_at: Some(c.centroid.map(|v| v as f64)),
+                                points: c.points,
+                                node: Some(node),
+                                range: range.clone(),
+                            })
+                            .collect();
+                        x = est.positions.clone();
+                        state = est.solver.take();
+                        chosen.clone_from(&t.nodes);
+                        out = Some((est, t.candidates.clone(), groups));
+                        let kept = matches!(&choice.0, Ok((_, _, picked)) if *picked == t.nodes);
+                        first_round = if kept { 2 } else { 1 };
+                    }
+                    Err(e) => report.warnings.push(format!(
+                        "not tracked: the estimate from the previous frame's failed ({e}); sensed from the unloaded state"
+                    )),
+                }
+            }
+            if first_round == 0 {
+                // A solver state at x, for the choice to reuse.
+                state = free
+                    .choice
+                    .get_or_init(|| choice_solver_state(&model, &free.solution))
+                    .clone();
+            }
+            for _round in first_round..2 {
+                let clock = std::time::Instant::now();
+                // The last estimate's state also starts the next frame.
+                let (options, pick, picked) = choose(
+                    &x,
+                    if want_track {
+                        state.clone()
+                    } else {
+                        state.take()
+                    },
                 )
                 .map_err(|e| fail(&e))?;
                 report.timings.mapping += ms(clock.elapsed());
-                if pick == chosen && out.is_some() {
+                if picked == chosen && out.is_some() {
                     break;
                 }
-                chosen = pick;
+                chosen = picked;
                 let mut cands = Vec::new();
                 let mut groups = Vec::new();
-                for ((c, (nodes, opts)), &k) in contacts.iter().zip(&options).zip(&chosen) {
+                for ((c, (nodes, opts)), &k) in contacts.iter().zip(&options).zip(&pick) {
                     let start = cands.len();
                     cands.extend_from_slice(&opts[k]);
                     groups.push(Group {
@@ -1059,7 +1268,10 @@ impl Sensor {
                 state = est.solver.take();
                 out = Some((est, cands, groups));
             }
-            out.ok_or_else(|| FrameStatus::NotSolved("no estimate".into()))?
+            let mut out = out.ok_or_else(|| FrameStatus::NotSolved("no estimate".into()))?;
+            // `state` is the last estimate's solver state.
+            out.0.solver = state;
+            out
         };
         let mut est = est;
         est.use_shared_point_uncertainty(&registrar, features, &self.params.frame.register);
@@ -1098,6 +1310,9 @@ impl Sensor {
             .map(|c| c.name.clone())
             .zip(e.actuator_forces.iter().copied())
             .collect();
+        let ranges: Vec<std::ops::Range<usize>> = groups.iter().map(|g| g.range.clone()).collect();
+        let nodes: Vec<Option<usize>> = groups.iter().map(|g| g.node).collect();
+        let seen: Vec<Option<[f64; 3]>> = groups.iter().map(|g| g.seen_at).collect();
         for g in groups {
             let mut f = [0.0; 3];
             let mut var = 0.0;
@@ -1155,7 +1370,20 @@ impl Sensor {
         if est.visible == 0 {
             return Err(FrameStatus::NoFeatures);
         }
-        Ok(())
+        // Seen contacts only: a frame of declared force points has nothing to follow.
+        let centroids: Option<Vec<[f64; 3]>> = seen.into_iter().collect();
+        let nodes: Option<Vec<usize>> = nodes.into_iter().collect();
+        Ok(match (centroids, nodes) {
+            (Some(centroids), Some(nodes)) if want_track && !centroids.is_empty() => Some(Track {
+                inputs: model.problem.cables.iter().map(|c| c.control).collect(),
+                centroids,
+                nodes,
+                candidates: cands,
+                ranges,
+                estimate: est,
+            }),
+            _ => None,
+        })
     }
 }
 

@@ -23,3 +23,5 @@ mod rgbd_sequence;
 mod sense_probe;
 #[path = "integration/sense_tip_weight.rs"]
 mod sense_tip_weight;
+#[path = "integration/sense_track.rs"]
+mod sense_track;

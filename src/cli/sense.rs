@@ -63,6 +63,16 @@ pub struct SenseArgs {
     /// while each frame takes longer.
     #[arg(long, value_name = "N", value_parser = super::parse_positive)]
     pub window: Option<usize>,
+    /// Sense the frames as a live stream: each frame whose contacts are where the previous
+    /// frame saw them (within 5 mm, same cable inputs) starts from the previous frame's
+    /// locations and forces, and the next frame is read while this one is sensed. On a
+    /// real stream, where the load changes little between frames, this is several times
+    /// faster; the answers agree with the untracked ones within the loop's tolerance (1 mN
+    /// or a quarter of a force's σ). A frame then depends on the frames before it, so
+    /// frames are not sensed side by side (`--window` does not apply). Tracked frames say
+    /// "tracked" (JSON: "tracked": true).
+    #[arg(long, conflicts_with = "window")]
+    pub track: bool,
 }
 
 pub fn run(args: &SenseArgs) -> CliResult {
@@ -109,44 +119,50 @@ pub fn run(args: &SenseArgs) -> CliResult {
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let mut reports = Vec::new();
-    let window = args.window.unwrap_or_else(softsense::sense::default_window);
+    let window = if args.track {
+        1
+    } else {
+        args.window.unwrap_or_else(softsense::sense::default_window)
+    };
     let clock = std::time::Instant::now();
-    let streamed = sensor.sense_frames(
-        &rec,
-        &rec.frames,
-        window,
-        |obs, mut report| -> Result<(), Halt> {
-            let frame = report.frame;
-            if let Some(t) = rec.truth_of(frame) {
-                report.errors = Some(compare(&report, t));
+    let each = |obs: &softsense::sense::SenseResult<softsense::sense::Observation>,
+                mut report: FrameReport|
+     -> Result<(), Halt> {
+        let frame = report.frame;
+        if let Some(t) = rec.truth_of(frame) {
+            report.errors = Some(compare(&report, t));
+        }
+        if let (Some(dir), Ok(obs)) = (&args.render, obs) {
+            let path = dir.join(format!("frame_{frame:04}.png"));
+            picture(&rec, &sensor, obs, &report, &path)
+                .map_err(|e| CliError::Result(format!("{}: {e}", path.display())))
+                .map_err(Halt::Failed)?;
+        }
+        bar.suspend(|| -> CliResult {
+            if args.json {
+                let line =
+                    serde_json::to_string(&report).map_err(|e| CliError::Other(Box::new(e)))?;
+                outln!("{line}")?;
+                Ok(())
+            } else {
+                print_human(&report)
             }
-            if let (Some(dir), Ok(obs)) = (&args.render, obs) {
-                let path = dir.join(format!("frame_{frame:04}.png"));
-                picture(&rec, &sensor, obs, &report, &path)
-                    .map_err(|e| CliError::Result(format!("{}: {e}", path.display())))
-                    .map_err(Halt::Failed)?;
-            }
-            bar.suspend(|| -> CliResult {
-                if args.json {
-                    let line =
-                        serde_json::to_string(&report).map_err(|e| CliError::Other(Box::new(e)))?;
-                    outln!("{line}")?;
-                    Ok(())
-                } else {
-                    print_human(&report)
-                }
-            })
-            .map_err(Halt::Failed)?;
-            bar.inc(1);
-            reports.push(report);
-            // Nobody reads stdout any more (`| head`) and no pictures are being written: the
-            // remaining frames would produce nothing.
-            if stdout_closed() && args.render.is_none() {
-                return Err(Halt::ReaderGone);
-            }
-            Ok(())
-        },
-    );
+        })
+        .map_err(Halt::Failed)?;
+        bar.inc(1);
+        reports.push(report);
+        // Nobody reads stdout any more (`| head`) and no pictures are being written: the
+        // remaining frames would produce nothing.
+        if stdout_closed() && args.render.is_none() {
+            return Err(Halt::ReaderGone);
+        }
+        Ok(())
+    };
+    let streamed = if args.track {
+        sensor.track_frames(&rec, &rec.frames, each)
+    } else {
+        sensor.sense_frames(&rec, &rec.frames, window, each)
+    };
     match streamed {
         Ok(()) => {}
         Err(Halt::ReaderGone) => eprintln!(
@@ -158,7 +174,7 @@ pub fn run(args: &SenseArgs) -> CliResult {
     }
     let wall_ms = clock.elapsed().as_secs_f64() * 1e3;
     bar.finish_and_clear();
-    summary(&reports, wall_ms, window);
+    summary(&reports, wall_ms, window, args.track);
     if reports
         .iter()
         .all(|r| !matches!(r.status, FrameStatus::Sensed))
@@ -176,7 +192,10 @@ enum Halt {
 }
 
 fn print_human(r: &FrameReport) -> CliResult {
-    let status = r.status.to_string();
+    let mut status = r.status.to_string();
+    if r.tracked {
+        status.push_str(" (tracked)");
+    }
     outln!(
         "frame {:>4}: {status}, robot {} pts, objects {} pts, features {}/{}, residual {:.3} mm, {} FE updates, {:.0} ms",
         r.frame,
@@ -232,7 +251,7 @@ fn print_human(r: &FrameReport) -> CliResult {
     Ok(())
 }
 
-fn summary(reports: &[FrameReport], wall_ms: f64, window: usize) {
+fn summary(reports: &[FrameReport], wall_ms: f64, window: usize, track: bool) {
     let sensed = reports
         .iter()
         .filter(|r| matches!(r.status, FrameStatus::Sensed))
@@ -251,8 +270,17 @@ fn summary(reports: &[FrameReport], wall_ms: f64, window: usize) {
     } else {
         String::new()
     };
+    let how = if track {
+        let tracked = reports.iter().filter(|r| r.tracked).count();
+        format!(
+            "tracked, {tracked} of {} from the frame before",
+            reports.len()
+        )
+    } else {
+        format!("{window} at a time")
+    };
     eprintln!(
-        "{sensed}/{} frames sensed{flagged}, {ms:.0} ms per frame; stream {:.1} frames/s ({window} at a time, wall clock)",
+        "{sensed}/{} frames sensed{flagged}, {ms:.0} ms per frame; stream {:.1} frames/s ({how}, wall clock)",
         reports.len(),
         1e3 * reports.len() as f64 / wall_ms.max(1e-9)
     );

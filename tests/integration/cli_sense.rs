@@ -273,3 +273,36 @@ fn sensing_frames_one_at_a_time_or_three_at_a_time_gives_the_same_answers_in_ord
     assert_eq!(a, b);
     assert!(String::from_utf8_lossy(&three.stderr).contains("3 at a time"));
 }
+
+#[test]
+fn sense_track_says_which_frames_started_from_the_one_before() {
+    let out = sense(&["clouds/scenes/probe_press", "--json", "--track"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let frames = answers(&out);
+    assert_eq!(frames.len(), 10);
+    let tracked: Vec<bool> = frames
+        .iter()
+        .map(|f| f["tracked"].as_bool().expect("a 'tracked' flag"))
+        .collect();
+    assert_eq!(tracked, [&[false][..], &[true; 9][..]].concat());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("tracked, 9 of 10 from the frame before"),
+        "{err}"
+    );
+    // The human form says it too.
+    let human = sense(&["clouds/scenes/probe_press", "--track"]);
+    assert!(String::from_utf8_lossy(&human.stdout).contains("sensed (tracked)"));
+}
+
+#[test]
+fn sense_track_and_a_window_are_refused_together() {
+    let out = sense(&["clouds/scenes/probe_press", "--track", "--window", "2"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--window") && err.contains("--track"), "{err}");
+}
