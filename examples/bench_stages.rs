@@ -245,6 +245,29 @@ fn run_sense(dir: &Path, repeat: usize) -> Result<(Vec<f64>, Value, usize), Stri
     }
     stream.sort_by(f64::total_cmp);
     medians.push(json!(["stream", stream[stream.len() / 2]]));
+    // As a tracked stream (`Sensor::track_frames`, `sense --track`): wall ms per frame of
+    // whole passes (the first frame of each starts cold), and the median wall ms from one
+    // emitted frame to the next over the frames that started from the one before (`null`
+    // when none did: frames whose contacts jump are sensed as untracked ones).
+    let mut track = Vec::new();
+    let mut steady = Vec::new();
+    for _ in 0..repeat {
+        let t0 = Instant::now();
+        let mut last = t0;
+        sensor.track_frames(&rec, &rec.frames, |_, report| {
+            let now = Instant::now();
+            if report.tracked {
+                steady.push((now - last).as_secs_f64() * 1e3);
+            }
+            last = now;
+            Ok::<(), String>(())
+        })?;
+        track.push(t0.elapsed().as_secs_f64() * 1e3 / rec.frames.len().max(1) as f64);
+    }
+    track.sort_by(f64::total_cmp);
+    steady.sort_by(f64::total_cmp);
+    medians.push(json!(["track", track[track.len() / 2]]));
+    medians.push(json!(["track_steady", steady.get(steady.len() / 2)]));
     Ok((timings, Value::Array(medians), sensed))
 }
 

@@ -38,18 +38,25 @@ def print_stage_table():
     """Per-stage medians of the whole-chain (`sense`) inputs, with frames per second."""
     if not STAGE_MS:
         return
-    names = [n for n in next(iter(STAGE_MS.values())).keys() if n != "stream"]
+    extra = ("stream", "track", "track_steady")
+    names = [n for n in next(iter(STAGE_MS.values())).keys() if n not in extra]
     print(f"\nsoftsense whole chain per frame (`sense`), median ms per stage; {THESIS}\n")
     print("frames/s: one frame at a time (1000 / total); stream frames/s: `sense_frames` with as "
-          "many frames at a time as threads, wall clock\n")
-    print("| scene | " + " | ".join(names) + " | frames/s | stream frames/s |")
-    print("| --- | " + " | ".join("---:" for _ in names) + " | ---: | ---: |")
+          "many frames at a time as threads, wall clock; tracked frames/s: `track_frames` "
+          "(`sense --track`), whole passes, the first frame of each cold; tracked steady: "
+          "the frames that started from the one before, median wall time between them "
+          "(n/a: no frame did)\n")
+    print("| scene | " + " | ".join(names)
+          + " | frames/s | stream frames/s | tracked frames/s | tracked steady frames/s |")
+    print("| --- | " + " | ".join("---:" for _ in names) + " | ---: | ---: | ---: | ---: |")
+
+    def rate(ms):
+        return f"{1e3 / ms:.1f}" if ms else "n/a"
+
     for path, st in STAGE_MS.items():
-        total, stream = st.get("total"), st.get("stream")
-        fps = f"{1e3 / total:.1f}" if total else "n/a"
-        sfps = f"{1e3 / stream:.1f}" if stream else "n/a"
         print(f"| {os.path.basename(path)} | " + " | ".join(fmt(st[n]) for n in names)
-              + f" | {fps} | {sfps} |")
+              + f" | {rate(st.get('total'))} | {rate(st.get('stream'))}"
+              + f" | {rate(st.get('track'))} | {rate(st.get('track_steady'))} |")
 
 
 def run_oracle(cmd_prefix, spec, path, repeat):
