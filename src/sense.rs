@@ -983,16 +983,34 @@ impl Sensor {
     }
 
     /// Whether a frame with cable inputs `inputs` and contacts seen at `centroids` can
-    /// start from `track`.
-    fn can_track(&self, track: &Track, inputs: &[CableControl], centroids: &[[f64; 3]]) -> bool {
+    /// start from `track`: the same inputs, and each contact within
+    /// [`SenseParams::track_radius`] of exactly one of the track's (contact detection does
+    /// not keep an order from frame to frame). Returns, for each contact, the track's.
+    fn track_order(
+        &self,
+        track: &Track,
+        inputs: &[CableControl],
+        centroids: &[[f64; 3]],
+    ) -> Option<Vec<usize>> {
+        if !same_inputs(&track.inputs, inputs)
+            || track.candidates.is_empty()
+            || track.centroids.len() != centroids.len()
+        {
+            return None;
+        }
         let r2 = self.params.track_radius.powi(2);
-        same_inputs(&track.inputs, inputs)
-            && !track.candidates.is_empty()
-            && track.centroids.len() == centroids.len()
-            && track.centroids.iter().zip(centroids).all(|(a, b)| {
-                let d = sub(*a, *b);
+        let mut order = Vec::with_capacity(centroids.len());
+        for c in centroids {
+            let mut near = track.centroids.iter().enumerate().filter(|(_, t)| {
+                let d = sub(**t, *c);
                 dot(d, d) <= r2
-            })
+            });
+            match (near.next(), near.next()) {
+                (Some((j, _)), None) if !order.contains(&j) => order.push(j),
+                _ => return None,
+            }
+        }
+        Some(order)
     }
 
     fn sense_into(
@@ -1175,7 +1193,23 @@ impl Sensor {
             // the previous frame's state (nearer than the free one). If they keep the
             // previous locations the estimate stands; else the choice is made again at the
             // estimated state, as in an untracked frame's second round.
-            if let Some(t) = prev.filter(|t| self.can_track(t, &inputs, &centroids)) {
+            let resumable = prev.and_then(|t| {
+                let order = self.track_order(t, &inputs, &centroids)?;
+                // The track's locations, candidates and forces in this frame's contact order.
+                let mut candidates = Vec::new();
+                let mut applied = Vec::new();
+                let mut ranges = Vec::new();
+                for &j in &order {
+                    let r = t.ranges[j].clone();
+                    let start = candidates.len();
+                    candidates.extend_from_slice(&t.candidates[r.clone()]);
+                    applied.extend_from_slice(t.estimate.applied.get(r)?);
+                    ranges.push(start..candidates.len());
+                }
+                let nodes: Vec<usize> = order.iter().map(|&j| t.nodes[j]).collect();
+                Some((t, nodes, candidates, applied, ranges))
+            });
+            if let Some((t, nodes, candidates, applied, ranges)) = resumable {
                 let (tracked, choice) = crate::search::join(
                     crate::search::Parallelism::Rayon,
                     || {
@@ -1183,10 +1217,10 @@ impl Sensor {
                             &model,
                             &registrar,
                             features,
-                            &t.candidates,
+                            &candidates,
                             t.estimate.solution.as_ref(),
                             t.estimate.solver.clone(),
-                            Some(&t.estimate.applied),
+                            Some(&applied),
                             &self.params.frame,
                         )
                     },
@@ -1203,8 +1237,8 @@ impl Sensor {
                         report.tracked = true;
                         let groups = contacts
                             .iter()
-                            .zip(&t.nodes)
-                            .zip(&t.ranges)
+                            .zip(&nodes)
+                            .zip(&ranges)
                             .map(|((c, &node), range)| Group {
                                 source: "contact".into(),
                                 seen_at: Some(c.centroid.map(|v| v as f64)),
@@ -1215,9 +1249,9 @@ impl Sensor {
                             .collect();
                         x = est.positions.clone();
                         state = est.solver.take();
-                        chosen.clone_from(&t.nodes);
-                        out = Some((est, t.candidates.clone(), groups));
-                        let kept = matches!(&choice.0, Ok((_, _, picked)) if *picked == t.nodes);
+                        let kept = matches!(&choice.0, Ok((_, _, picked)) if *picked == nodes);
+                        chosen = nodes;
+                        out = Some((est, candidates, groups));
                         first_round = if kept { 2 } else { 1 };
                     }
                     Err(e) => report.warnings.push(format!(

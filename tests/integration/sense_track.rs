@@ -130,3 +130,57 @@ fn a_frame_without_a_contact_leaves_nothing_to_track() {
     assert_eq!(report.status, FrameStatus::Sensed);
     assert!(track.is_none());
 }
+
+#[test]
+fn two_probes_are_tracked_whichever_order_their_contacts_are_listed_in() {
+    // Generated here from tests/fixtures/scenes/two_press.toml (4 frames).
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = tempfile::tempdir().unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_softsense"))
+        .args(["scene", "generate"])
+        .arg(root.join("tests/fixtures/scenes/two_press.toml"))
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rec = Recording::open(dir.path()).unwrap();
+    let model = Model::load(&root.join("meshes/models/robot.toml"), None).unwrap();
+    let sensor = Sensor::new(model, rec.robot_from_camera, SenseParams::default());
+    let reports = tracked(&rec, &sensor);
+    assert_eq!(reports.len(), 4);
+    let params = &sensor.params.frame;
+    let mut swapped = 0;
+    for (i, r) in reports.iter().enumerate() {
+        assert_eq!(r.status, FrameStatus::Sensed);
+        assert_eq!(r.tracked, i > 0, "frame {}: {:?}", r.frame, r.warnings);
+        let solo = alone(&rec, &sensor, r.frame);
+        assert_eq!(r.forces.len(), 2);
+        for (a, b) in r.forces.iter().zip(&solo.forces) {
+            assert_eq!(a.node, b.node, "frame {}", r.frame);
+            let tol = 2.0
+                * params
+                    .force_tol
+                    .max(params.sigma_tol * a.sigma.min(b.sigma));
+            let d = (0..3).fold(0.0f64, |m, k| m.max((a.force[k] - b.force[k]).abs()));
+            eprintln!(
+                "frame {}: node {:?} differs by {:.2} mN (tolerance {:.2} mN)",
+                r.frame,
+                a.node,
+                1e3 * d,
+                1e3 * tol
+            );
+            assert!(d <= tol, "frame {}: {d} N apart", r.frame);
+        }
+        if i > 0 && r.forces[0].node != reports[i - 1].forces[0].node {
+            swapped += 1;
+        }
+    }
+    assert!(
+        swapped > 0,
+        "the contacts kept their order: this test shows nothing"
+    );
+}
