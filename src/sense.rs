@@ -558,8 +558,9 @@ pub struct FrameReport {
     /// FE updates in the last estimate.
     pub updates: usize,
     /// Whether the frame started from the previous frame's estimate ([`Sensor::track_frames`]):
-    /// its contacts were where the previous frame's were, so their locations and forces
-    /// were the starting point instead of a choice and a loop from the unloaded state.
+    /// its contacts were where the previous frame's were (or neither frame saw one), so the
+    /// previous locations and forces were the starting point instead of a choice and a
+    /// loop from the unloaded state.
     pub tracked: bool,
     /// Force steps halved because their FE update failed, over the frame's estimates
     /// (`FrameParams::max_halvings`).
@@ -636,6 +637,9 @@ pub struct Track {
     ranges: Vec<std::ops::Range<usize>>,
     /// The final estimate.
     estimate: FrameEstimate,
+    /// A frame without a seen contact: the estimate of each of the model's force points
+    /// (`None` where it failed), in model order. Empty for a frame with contacts.
+    force_points: Vec<Option<FrameEstimate>>,
 }
 
 impl Track {
@@ -856,10 +860,14 @@ impl Sensor {
     }
 
     /// [`Sensor::sense`], starting from `prev`, what the previous frame of a stream left,
-    /// where its contacts are seen again (within [`SenseParams::track_radius`], same cable
-    /// inputs): the previous locations and forces start the loop, and the location choice
-    /// is made once, at the estimated state. Returns the report and what this frame leaves
-    /// for the next (`None` when it saw no contact, failed, or was flagged unreliable).
+    /// when the cable inputs are the same and its contacts are seen again (each within
+    /// [`SenseParams::track_radius`]): the previous locations and forces start the loop,
+    /// while the location choice is made at the previous state; if it keeps the locations
+    /// the estimate stands (else it is made again at the estimated state, and a new
+    /// location is estimated as in an untracked frame). A frame without contacts after one
+    /// without contacts resumes each declared force point's loop. Returns the report
+    /// ([`FrameReport::tracked`] says whether it started from `prev`) and what this frame
+    /// leaves for the next (`None` when it failed or was flagged unreliable).
     pub fn sense_tracked(
         &self,
         frame: usize,
@@ -1063,6 +1071,9 @@ impl Sensor {
                 &self.params.frame,
             )
         };
+        let inputs: Vec<CableControl> = model.problem.cables.iter().map(|c| c.control).collect();
+        // A frame without contacts: each force point's estimate, for the next frame.
+        let mut point_ends: Vec<Option<FrameEstimate>> = Vec::new();
         let (est, cands, groups) = if contacts.is_empty() {
             // Declared force points: the one explaining the frame best (estimated in
             // parallel, chosen in model order).
@@ -1089,9 +1100,34 @@ impl Sensor {
                         .collect()
                 })
                 .collect();
-            let results = par_map(&sets, |c| solve(c));
+            // Tracked: each force point's loop resumes where the previous frame's ended.
+            let ends = prev
+                .filter(|t| {
+                    t.centroids.is_empty()
+                        && t.force_points.len() == sets.len()
+                        && same_inputs(&t.inputs, &inputs)
+                })
+                .map(|t| &t.force_points);
+            let index: Vec<usize> = (0..sets.len()).collect();
+            let results = par_map(&index, |&i| match ends.and_then(|e| e[i].as_ref()) {
+                Some(e) => estimate_from(
+                    &model,
+                    &registrar,
+                    features,
+                    &sets[i],
+                    e.solution.as_ref(),
+                    e.solver.clone(),
+                    Some(&e.applied),
+                    &self.params.frame,
+                ),
+                None => solve(&sets[i]),
+            });
+            report.tracked = ends.is_some_and(|e| e.iter().any(Option::is_some));
             for ((fp, cands), result) in model.force_points.iter().zip(sets).zip(results) {
                 let n = cands.len();
+                if want_track {
+                    point_ends.push(result.as_ref().ok().cloned());
+                }
                 let est = match result {
                     Ok(e) => {
                         report.account(&e);
@@ -1144,8 +1180,6 @@ impl Sensor {
                 .iter()
                 .map(|c| c.centroid.map(|v| v as f64))
                 .collect();
-            let inputs: Vec<CableControl> =
-                model.problem.cables.iter().map(|c| c.control).collect();
             // The options of each contact (surface nodes near its centroid at node positions
             // `x`, and their candidates) and the data's choice among them, linearised at
             // `x` with `state` (a solver state there, if any).
@@ -1409,12 +1443,22 @@ impl Sensor {
         let nodes: Option<Vec<usize>> = nodes.into_iter().collect();
         Ok(match (centroids, nodes) {
             (Some(centroids), Some(nodes)) if want_track && !centroids.is_empty() => Some(Track {
-                inputs: model.problem.cables.iter().map(|c| c.control).collect(),
+                inputs,
                 centroids,
                 nodes,
                 candidates: cands,
                 ranges,
                 estimate: est,
+                force_points: Vec::new(),
+            }),
+            _ if want_track && point_ends.iter().any(Option::is_some) => Some(Track {
+                inputs,
+                centroids: Vec::new(),
+                nodes: Vec::new(),
+                candidates: cands,
+                ranges,
+                estimate: est,
+                force_points: point_ends,
             }),
             _ => None,
         })

@@ -64,13 +64,14 @@ pub struct SenseArgs {
     #[arg(long, value_name = "N", value_parser = super::parse_positive)]
     pub window: Option<usize>,
     /// Sense the frames as a live stream: each frame whose contacts are where the previous
-    /// frame saw them (within 5 mm, same cable inputs) starts from the previous frame's
-    /// locations and forces, and the next frame is read while this one is sensed. On a
-    /// real stream, where the load changes little between frames, this is several times
-    /// faster; the answers agree with the untracked ones within the loop's tolerance (1 mN
-    /// or a quarter of a force's σ). A frame then depends on the frames before it, so
-    /// frames are not sensed side by side (`--window` does not apply). Tracked frames say
-    /// "tracked" (JSON: "tracked": true).
+    /// frame saw them (each within 5 mm; or no contact in either, the model's force points
+    /// then), with the same cable inputs, starts from the previous frame's locations and
+    /// forces, and the next frame is read while this one is sensed. On a real stream,
+    /// where the load changes little between frames, a frame takes about half the time;
+    /// the answers agree with the untracked ones within the loop's tolerance (1 mN or a
+    /// quarter of a force's σ, each). A contact that moved on is located again. A frame
+    /// then depends on the frames before it, so frames are not sensed side by side
+    /// (`--window` does not apply). Tracked frames say "tracked" (JSON: "tracked": true).
     #[arg(long, conflicts_with = "window")]
     pub track: bool,
 }

@@ -1,8 +1,9 @@
 //! `sense --track` ([`Sensor::track_frames`]): a stream's frames starting from the one
-//! before. On a press that grows frame by frame (clouds/scenes/probe_press) every frame
-//! after the first is tracked and agrees with the same frame sensed on its own; where the
-//! contact jumps (clouds/scenes/probe_side) nothing is tracked and the answers are the
-//! untracked ones, bit for bit.
+//! before. On a press that grows frame by frame (clouds/scenes/probe_press), on two
+//! probes, and on hanging weights (declared force points, clouds/scenes/tip_weight) every
+//! frame after the first is tracked and agrees with the same frame sensed on its own;
+//! where the contact jumps (clouds/scenes/probe_side) nothing is tracked and the answers
+//! are the untracked ones, bit for bit.
 use softsense::fem::model::Model;
 use softsense::sense::{compare, FrameReport, FrameStatus, Recording, SenseParams, Sensor};
 use std::path::Path;
@@ -121,14 +122,22 @@ fn a_frame_resumed_from_its_own_end_keeps_its_forces() {
 }
 
 #[test]
-fn a_frame_without_a_contact_leaves_nothing_to_track() {
-    // tip_weight's frames have no seen contact: declared force points, nothing to follow.
+fn a_hanging_weight_stream_resumes_every_force_point_and_agrees_with_its_frames_alone() {
+    // tip_weight's frames have no seen contact: each of the model's declared force points
+    // is estimated, and each resumes where its own loop ended in the frame before.
     let (rec, sensor) = open("tip_weight");
-    let frame = rec.frames[1];
-    let obs = sensor.observe(&rec, frame).unwrap();
-    let (report, track) = sensor.sense_tracked(frame, &obs, rec.actuators_of(frame), None);
-    assert_eq!(report.status, FrameStatus::Sensed);
-    assert!(track.is_none());
+    let reports = tracked(&rec, &sensor);
+    let params = &sensor.params.frame;
+    for (i, r) in reports.iter().enumerate() {
+        assert_eq!(r.status, FrameStatus::Sensed);
+        assert_eq!(r.tracked, i > 0, "frame {}: {:?}", r.frame, r.warnings);
+        let solo = alone(&rec, &sensor, r.frame);
+        let (a, b) = (&r.forces[0], &solo.forces[0]);
+        assert_eq!(a.source, b.source, "frame {}", r.frame);
+        let tol = 2.0 * params.force_tol.max(params.sigma_tol * a.sigma);
+        let d = (0..3).fold(0.0f64, |m, k| m.max((a.force[k] - b.force[k]).abs()));
+        assert!(d <= tol, "frame {}: {d} N apart", r.frame);
+    }
 }
 
 #[test]
