@@ -915,9 +915,24 @@ impl Sensor {
     /// observation and report to `emit` in order. The next frame is read and segmented
     /// while this one is sensed (on a second thread). On a real stream, where the load
     /// hardly changes from one frame to the next, a tracked frame needs one location choice
-    /// instead of two and one or two FE updates instead of six or more. A frame depends on
-    /// the ones before it (unlike [`Sensor::sense_frames`]), but not on the thread count.
-    /// Stops at the first error of `emit`.
+    /// instead of two, made beside its estimate, and one loop of two FE updates (the first
+    /// almost free) instead of two loops from the unloaded state. A frame depends on the
+    /// ones before it (unlike [`Sensor::sense_frames`]), but not on the thread count. Stops
+    /// at the first error of `emit`.
+    ///
+    /// ```no_run
+    /// # use softsense::sense::{Recording, SenseParams, Sensor};
+    /// # use softsense::fem::model::Model;
+    /// let rec = Recording::open("clouds/scenes/probe_press".as_ref())?;
+    /// let model = Model::load("meshes/models/robot.toml".as_ref(), None)?;
+    /// let sensor = Sensor::new(model, rec.robot_from_camera, SenseParams::default());
+    /// sensor.track_frames(&rec, &rec.frames, |_obs, report| {
+    ///     let tracked = if report.tracked { "tracked" } else { "cold" };
+    ///     println!("frame {} ({tracked}): {}", report.frame, report.status);
+    ///     Ok::<(), std::io::Error>(())
+    /// })?;
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn track_frames<E>(
         &self,
         rec: &Recording,
