@@ -244,6 +244,26 @@ fn bad_frames_get_their_own_status_and_the_stream_goes_on() {
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("frame    1: no robot"), "{text}");
     assert!(text.contains("frame    3: unreadable: "), "{text}");
+    // Tracked, the same statuses; a bad frame leaves nothing to start from.
+    let out = sense(&[
+        dir.path().to_str().unwrap(),
+        "--json",
+        "--track",
+        "--model",
+        "meshes/models/robot.toml",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let tracked = answers(&out);
+    let status: Vec<&str> = tracked
+        .iter()
+        .map(|f| f["status"].as_str().unwrap())
+        .collect();
+    assert_eq!(status, ["sensed", "no_robot", "no_robot", "unreadable"]);
+    assert!(tracked.iter().all(|f| f["tracked"] == false), "{tracked:?}");
 }
 
 /// The JSON lines of a run without the wall-clock fields.
