@@ -116,8 +116,8 @@ pub struct SenseParams {
     /// A frame of a stream sensed with [`Sensor::track_frames`] starts from the previous
     /// frame's estimate when each contact is seen within this of where the previous frame
     /// saw it (m, 0.005: a third of `location_radius`). Its location choice is then made
-    /// once, at the estimated state (the second round of an untracked frame), and if it
-    /// keeps the previous locations the estimate stands.
+    /// once, at the previous frame's state, beside the estimate; if it keeps the previous
+    /// locations the estimate stands.
     pub track_radius: f64,
     /// Largest number of option combinations tried exhaustively (400); beyond, coordinate
     /// descent.
@@ -620,32 +620,45 @@ impl FrameReport {
     }
 }
 
-/// What a frame with seen contacts leaves for the next frame of a stream
-/// ([`Sensor::sense_tracked`], [`Sensor::track_frames`]): where its contacts were seen, the
-/// locations chosen for them, and the final estimate (forces, FE state, solver state).
+/// What a sensed frame leaves for the next frame of a stream ([`Sensor::sense_tracked`],
+/// [`Sensor::track_frames`]): its cable inputs, and where its loops ended.
 #[derive(Clone, Debug)]
 pub struct Track {
     /// The cable inputs of the frame.
     inputs: Vec<CableControl>,
-    /// Centroids of the seen contacts (robot frame, m), in the frame's order.
-    centroids: Vec<[f64; 3]>,
-    /// The chosen surface node of each contact.
-    nodes: Vec<usize>,
-    /// The candidate forces of the estimate, contact after contact.
-    candidates: Vec<Candidate>,
-    /// The candidates of each contact (ranges into `candidates`).
-    ranges: Vec<std::ops::Range<usize>>,
-    /// The final estimate.
-    estimate: FrameEstimate,
-    /// A frame without a seen contact: the estimate of each of the model's force points
-    /// (`None` where it failed), in model order. Empty for a frame with contacts.
-    force_points: Vec<Option<FrameEstimate>>,
+    /// What the next frame can start from.
+    ends: Ends,
+}
+
+/// Where a frame's loops ended.
+#[derive(Clone, Debug)]
+enum Ends {
+    /// Seen contacts: where they were seen, the locations chosen for them, and the final
+    /// estimate (forces, FE state, solver state).
+    Contacts {
+        /// Centroids of the seen contacts (robot frame, m), in the frame's order.
+        centroids: Vec<[f64; 3]>,
+        /// The chosen surface node of each contact.
+        nodes: Vec<usize>,
+        /// The candidate forces of the estimate, contact after contact.
+        candidates: Vec<Candidate>,
+        /// The candidates of each contact (ranges into `candidates`).
+        ranges: Vec<std::ops::Range<usize>>,
+        /// The final estimate.
+        estimate: Box<FrameEstimate>,
+    },
+    /// No contact seen: the estimate of each of the model's force points (`None` where it
+    /// failed), in model order.
+    ForcePoints(Vec<Option<FrameEstimate>>),
 }
 
 impl Track {
-    /// The chosen surface node of each seen contact.
+    /// The chosen surface node of each seen contact (none for a frame without contacts).
     pub fn nodes(&self) -> &[usize] {
-        &self.nodes
+        match &self.ends {
+            Ends::Contacts { nodes, .. } => nodes,
+            Ends::ForcePoints(_) => &[],
+        }
     }
 }
 
@@ -1015,16 +1028,24 @@ impl Sensor {
         inputs: &[CableControl],
         centroids: &[[f64; 3]],
     ) -> Option<Vec<usize>> {
+        let Ends::Contacts {
+            centroids: seen,
+            candidates,
+            ..
+        } = &track.ends
+        else {
+            return None;
+        };
         if !same_inputs(&track.inputs, inputs)
-            || track.candidates.is_empty()
-            || track.centroids.len() != centroids.len()
+            || candidates.is_empty()
+            || seen.len() != centroids.len()
         {
             return None;
         }
         let r2 = self.params.track_radius.powi(2);
         let mut order = Vec::with_capacity(centroids.len());
         for c in centroids {
-            let mut near = track.centroids.iter().enumerate().filter(|(_, t)| {
+            let mut near = seen.iter().enumerate().filter(|(_, t)| {
                 let d = sub(**t, *c);
                 dot(d, d) <= r2
             });
@@ -1087,8 +1108,10 @@ impl Sensor {
             )
         };
         let inputs: Vec<CableControl> = model.problem.cables.iter().map(|c| c.control).collect();
-        // A frame without contacts: each force point's estimate, for the next frame.
+        // A frame without contacts: each force point's estimate (the chosen one's taken out
+        // for the report until the end), and which was chosen.
         let mut point_ends: Vec<Option<FrameEstimate>> = Vec::new();
+        let mut chosen_point: Option<usize> = None;
         let (est, cands, groups) = if contacts.is_empty() {
             // Declared force points: the one explaining the frame best (estimated in
             // parallel, chosen in model order).
@@ -1098,7 +1121,6 @@ impl Sensor {
                     model.force_points.len()
                 ));
             }
-            let mut best: Option<(FrameEstimate, Vec<Candidate>, Vec<Group>)> = None;
             let sets: Vec<Vec<Candidate>> = model
                 .force_points
                 .iter()
@@ -1117,12 +1139,11 @@ impl Sensor {
                 .collect();
             // Tracked: each force point's loop resumes where the previous frame's ended.
             let ends = prev
-                .filter(|t| {
-                    t.centroids.is_empty()
-                        && t.force_points.len() == sets.len()
-                        && same_inputs(&t.inputs, &inputs)
-                })
-                .map(|t| &t.force_points);
+                .filter(|t| same_inputs(&t.inputs, &inputs))
+                .and_then(|t| match &t.ends {
+                    Ends::ForcePoints(e) if e.len() == sets.len() => Some(e),
+                    _ => None,
+                });
             let index: Vec<usize> = (0..sets.len()).collect();
             let results = par_map(&index, |&i| match ends.and_then(|e| e[i].as_ref()) {
                 Some(e) => estimate_from(
@@ -1138,37 +1159,39 @@ impl Sensor {
                 None => solve(&sets[i]),
             });
             report.tracked = ends.is_some_and(|e| e.iter().any(Option::is_some));
-            for ((fp, cands), result) in model.force_points.iter().zip(sets).zip(results) {
-                let n = cands.len();
-                if want_track {
-                    point_ends.push(result.as_ref().ok().cloned());
-                }
-                let est = match result {
+            for (fp, result) in model.force_points.iter().zip(results) {
+                match result {
                     Ok(e) => {
                         report.account(&e);
-                        e
+                        let residual = e.estimate.residual_rms;
+                        let better = chosen_point.is_none_or(|b| {
+                            point_ends[b]
+                                .as_ref()
+                                .is_some_and(|c| residual < c.estimate.residual_rms)
+                        });
+                        if better {
+                            chosen_point = Some(point_ends.len());
+                        }
+                        point_ends.push(Some(e));
                     }
                     Err(e) => {
                         report
                             .warnings
                             .push(format!("force point {}: {e}", fp.name));
-                        continue;
+                        point_ends.push(None);
                     }
-                };
-                if best
-                    .as_ref()
-                    .is_none_or(|b| est.estimate.residual_rms < b.0.estimate.residual_rms)
-                {
-                    let g = Group {
-                        source: format!("force point {}", fp.name),
-                        seen_at: None,
-                        points: 0,
-                        node: None,
-                        range: 0..n,
-                    };
-                    best = Some((est, cands, vec![g]));
                 }
             }
+            let best = chosen_point.and_then(|b| {
+                let g = Group {
+                    source: format!("force point {}", model.force_points[b].name),
+                    seen_at: None,
+                    points: 0,
+                    node: None,
+                    range: 0..sets[b].len(),
+                };
+                Some((point_ends[b].take()?, sets[b].clone(), vec![g]))
+            });
             match best {
                 Some(b) => b,
                 None if model.force_points.is_empty() => {
@@ -1244,19 +1267,29 @@ impl Sensor {
             // estimated state, as in an untracked frame's second round.
             let resumable = prev.and_then(|t| {
                 let order = self.track_order(t, &inputs, &centroids)?;
+                let Ends::Contacts {
+                    nodes: t_nodes,
+                    candidates: t_candidates,
+                    ranges: t_ranges,
+                    estimate,
+                    ..
+                } = &t.ends
+                else {
+                    return None;
+                };
                 // The track's locations, candidates and forces in this frame's contact order.
                 let mut candidates = Vec::new();
                 let mut applied = Vec::new();
                 let mut ranges = Vec::new();
                 for &j in &order {
-                    let r = t.ranges[j].clone();
+                    let r = t_ranges[j].clone();
                     let start = candidates.len();
-                    candidates.extend_from_slice(&t.candidates[r.clone()]);
-                    applied.extend_from_slice(t.estimate.applied.get(r)?);
+                    candidates.extend_from_slice(&t_candidates[r.clone()]);
+                    applied.extend_from_slice(estimate.applied.get(r)?);
                     ranges.push(start..candidates.len());
                 }
-                let nodes: Vec<usize> = order.iter().map(|&j| t.nodes[j]).collect();
-                Some((t, nodes, candidates, applied, ranges))
+                let nodes: Vec<usize> = order.iter().map(|&j| t_nodes[j]).collect();
+                Some((estimate, nodes, candidates, applied, ranges))
             });
             if let Some((t, nodes, candidates, applied, ranges)) = resumable {
                 let (tracked, choice) = crate::search::join(
@@ -1267,15 +1300,15 @@ impl Sensor {
                             &registrar,
                             features,
                             &candidates,
-                            t.estimate.solution.as_ref(),
-                            t.estimate.solver.clone(),
+                            t.solution.as_ref(),
+                            t.solver.clone(),
                             Some(&applied),
                             &self.params.frame,
                         )
                     },
                     || {
                         let clock = std::time::Instant::now();
-                        let c = choose(&t.estimate.positions, t.estimate.solver.clone());
+                        let c = choose(&t.positions, t.solver.clone());
                         (c, ms(clock.elapsed()))
                     },
                 );
@@ -1393,9 +1426,16 @@ impl Sensor {
             .map(|c| c.name.clone())
             .zip(e.actuator_forces.iter().copied())
             .collect();
-        let ranges: Vec<std::ops::Range<usize>> = groups.iter().map(|g| g.range.clone()).collect();
-        let nodes: Vec<Option<usize>> = groups.iter().map(|g| g.node).collect();
-        let seen: Vec<Option<[f64; 3]>> = groups.iter().map(|g| g.seen_at).collect();
+        // What the contacts of a tracked frame leave: where seen, the chosen node, the range.
+        type Seen = (Option<[f64; 3]>, Option<usize>, std::ops::Range<usize>);
+        let seen: Vec<Seen> = if want_track && chosen_point.is_none() {
+            groups
+                .iter()
+                .map(|g| (g.seen_at, g.node, g.range.clone()))
+                .collect()
+        } else {
+            Vec::new()
+        };
         for g in groups {
             let mut f = [0.0; 3];
             let mut var = 0.0;
@@ -1453,30 +1493,37 @@ impl Sensor {
         if est.visible == 0 {
             return Err(FrameStatus::NoFeatures);
         }
-        // Seen contacts only: a frame of declared force points has nothing to follow.
-        let centroids: Option<Vec<[f64; 3]>> = seen.into_iter().collect();
-        let nodes: Option<Vec<usize>> = nodes.into_iter().collect();
-        Ok(match (centroids, nodes) {
-            (Some(centroids), Some(nodes)) if want_track && !centroids.is_empty() => Some(Track {
-                inputs,
+        if !want_track {
+            return Ok(None);
+        }
+        let ends = if let Some(b) = chosen_point {
+            point_ends[b] = Some(est);
+            Ends::ForcePoints(point_ends)
+        } else {
+            let mut centroids = Vec::new();
+            let mut nodes = Vec::new();
+            let mut ranges = Vec::new();
+            for (at, node, range) in seen {
+                // Only seen contacts are followed (not the actuators-only estimate).
+                let (Some(at), Some(node)) = (at, node) else {
+                    return Ok(None);
+                };
+                centroids.push(at);
+                nodes.push(node);
+                ranges.push(range);
+            }
+            if centroids.is_empty() {
+                return Ok(None);
+            }
+            Ends::Contacts {
                 centroids,
                 nodes,
                 candidates: cands,
                 ranges,
-                estimate: est,
-                force_points: Vec::new(),
-            }),
-            _ if want_track && point_ends.iter().any(Option::is_some) => Some(Track {
-                inputs,
-                centroids: Vec::new(),
-                nodes: Vec::new(),
-                candidates: cands,
-                ranges,
-                estimate: est,
-                force_points: point_ends,
-            }),
-            _ => None,
-        })
+                estimate: Box::new(est),
+            }
+        };
+        Ok(Some(Track { inputs, ends }))
     }
 }
 

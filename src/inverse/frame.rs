@@ -280,18 +280,12 @@ pub fn estimate_from(
         newton.abs_tol = abs_tol.max(params.fe_forcing * step);
         // A cable gap g is a tension error of about g / W_aa.
         newton.gap_tol = params.fe_forcing * step * cable_compliance;
-        let resumed = match start.filter(|_| resume) {
+        let solved = match start.filter(|_| std::mem::take(&mut resume)) {
             // Resuming: `start` is the equilibrium under the starting forces, to the
             // tolerance of the loop that left it; only the tangent is assembled there.
-            Some(s) => {
-                resume = false;
-                solver.assemble(&s.positions, newton.tangent)?;
-                Some(s.clone())
-            }
-            None => None,
-        };
-        let solved = match resumed {
-            Some(s) => Ok(s),
+            Some(s) => solver
+                .assemble(&s.positions, newton.tangent)
+                .map(|()| s.clone()),
             None => solver.solve_static_from(&newton, prev.as_ref().or(start)),
         };
         let sol = match solved {
