@@ -507,6 +507,11 @@ pub struct ForceEstimate {
     pub magnitude: f64,
     /// One-sigma uncertainty of the magnitude (N), from the sensor noise and W.
     pub sigma: f64,
+    /// The largest one-sigma of the force over all directions (N): the square root of
+    /// `covariance`'s largest eigenvalue (NaN if it has a NaN). Where `sigma` is small but
+    /// this is not, the magnitude is known and the direction is not: the force's error is
+    /// mostly tangential, along the covariance's longest axis.
+    pub sigma_max: f64,
     /// Covariance of `force` (N², robot frame x, y, z; rows). The tangential spread is
     /// often several times the magnitude's: normal-line registration sees a tangential
     /// force only through the faces it tilts. One-sigma of a component along a unit
@@ -1487,6 +1492,7 @@ impl Sensor {
                 force: f,
                 magnitude,
                 sigma: var.sqrt(),
+                sigma_max: largest_sigma(&covariance),
                 covariance,
             });
         }
@@ -1589,6 +1595,16 @@ fn tangents(n: [f64; 3]) -> ([f64; 3], [f64; 3]) {
     (t1, cross(n, t1))
 }
 
+/// The square root of a symmetric 3x3 covariance's largest eigenvalue (0 for a negative
+/// one from rounding), NaN when an entry is not finite.
+pub fn largest_sigma(covariance: &[[f64; 3]; 3]) -> f64 {
+    if covariance.iter().flatten().any(|v| !v.is_finite()) {
+        return f64::NAN;
+    }
+    let m = nalgebra::Matrix3::from_fn(|r, c| 0.5 * (covariance[r][c] + covariance[c][r]));
+    m.symmetric_eigenvalues().max().max(0.0).sqrt()
+}
+
 /// Matches each true load to the nearest estimate and reports the errors.
 pub fn compare(report: &FrameReport, truth: &FrameTruth) -> Vec<LoadError> {
     truth
@@ -1625,4 +1641,29 @@ pub fn compare(report: &FrameReport, truth: &FrameTruth) -> Vec<LoadError> {
             }
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::largest_sigma;
+
+    #[test]
+    fn the_largest_sigma_of_a_rotated_covariance_is_its_longest_axis() {
+        // diag(1, 4, 9) mN² turned 30° about z: the axes keep their lengths.
+        let (s, c) = (0.5f64, 3f64.sqrt() / 2.0);
+        let r = nalgebra::Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0);
+        let m = r
+            * nalgebra::Matrix3::from_diagonal(&nalgebra::Vector3::new(1.0, 4.0, 9.0))
+            * r.transpose();
+        let cov = [0, 1, 2].map(|i| [0, 1, 2].map(|j| m[(i, j)]));
+        assert!((largest_sigma(&cov) - 3.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_covariance_with_a_nan_has_no_largest_sigma() {
+        let mut cov = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        cov[1][2] = f64::NAN;
+        assert!(largest_sigma(&cov).is_nan());
+        assert_eq!(largest_sigma(&[[0.0; 3]; 3]), 0.0);
+    }
 }

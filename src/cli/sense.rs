@@ -18,8 +18,10 @@ use std::path::PathBuf;
 /// KD-tree search, each contact mapped onto the FE model, the surface features registered
 /// along their normal lines, and the intensity QP solved with FE updates. Prints per frame
 /// the forces (location in the robot frame, mapped node, force vector, magnitude and its
-/// one-sigma uncertainty; with --json also the force's 3x3 covariance in N², whose
-/// tangential spread is often several times the magnitude's), the actuator forces, the
+/// one-sigma uncertainty, then "3-D ±": the largest one-sigma of the force over all
+/// directions, often several times the magnitude's, since normal-line registration sees a
+/// tangential force only through the faces it tilts; with --json also the force's 3x3
+/// covariance in N²), the actuator forces, the
 /// residual and any warning. When the folder has a truth.json (generated scenes), the
 /// errors against it are printed too; truth.json is never used for the estimate.
 ///
@@ -210,7 +212,7 @@ fn print_human(r: &FrameReport) -> CliResult {
     )?;
     for (i, f) in r.forces.iter().enumerate() {
         outln!(
-            "  force {i} ({}{}): at ({:.1}, {:.1}, {:.1}) mm, F = ({:.3}, {:.3}, {:.3}) N, |F| = {:.3} ± {:.4} N",
+            "  force {i} ({}{}): at ({:.1}, {:.1}, {:.1}) mm, F = ({:.3}, {:.3}, {:.3}) N, |F| = {:.3} ± {:.4} N (3-D ± {:.4} N)",
             f.source,
             f.node.map(|n| format!(", node {n}")).unwrap_or_default(),
             f.location[0] * 1e3,
@@ -220,7 +222,8 @@ fn print_human(r: &FrameReport) -> CliResult {
             f.force[1],
             f.force[2],
             f.magnitude,
-            f.sigma
+            f.sigma,
+            f.sigma_max
         )?;
     }
     if !r.actuators.is_empty() {
