@@ -133,6 +133,13 @@ pub struct SenseParams {
     /// sensed generated frames (bundled, held out and test) that fit; frames whose force
     /// sits a node (8-12 mm) off read 1.0-2.6, and an unseen contact 5.9.
     pub poor_fit: f64,
+    /// A force whose largest one-sigma over all directions ([`ForceEstimate::sigma_max`])
+    /// exceeds this fraction of its magnitude gets a warning that its direction (or, when
+    /// the longest axis is along the force, its magnitude) is uncertain (0.025: its 2σ band
+    /// is then wider than 5% of the force). Forces within
+    /// 2σ of zero get none: their ± already says no load is found. The frame stays
+    /// `reliable`; the warning says which part of the estimate is loose.
+    pub direction_warning: f64,
 }
 
 impl Default for SenseParams {
@@ -165,6 +172,7 @@ impl Default for SenseParams {
             frame,
             three_d: true,
             poor_fit: 1.5,
+            direction_warning: 0.025,
             location_radius: 0.015,
             location_options: 16,
             max_combinations: 400,
@@ -1495,6 +1503,25 @@ impl Sensor {
                 sigma_max: largest_sigma(&covariance),
                 covariance,
             });
+        }
+        for (i, f) in report.forces.iter().enumerate() {
+            if f.magnitude > 2.0 * f.sigma_max
+                && f.sigma_max > self.params.direction_warning * f.magnitude
+            {
+                // The longest axis is along the force when the magnitude's σ is most of it.
+                let what = if f.sigma >= 0.5 * f.sigma_max {
+                    "its magnitude"
+                } else {
+                    "its direction"
+                };
+                report.warnings.push(format!(
+                    "force {i}: {what} is uncertain: 3-D σ {:.1} mN is {:.1}% of |F| (more than {:.1}%), σ of |F| {:.1} mN",
+                    f.sigma_max * 1e3,
+                    100.0 * f.sigma_max / f.magnitude,
+                    100.0 * self.params.direction_warning,
+                    f.sigma * 1e3
+                ));
+            }
         }
         if est.visible == 0 {
             return Err(FrameStatus::NoFeatures);

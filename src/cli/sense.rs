@@ -21,9 +21,10 @@ use std::path::PathBuf;
 /// one-sigma uncertainty, then "3-D ±": the largest one-sigma of the force over all
 /// directions, often several times the magnitude's, since normal-line registration sees a
 /// tangential force only through the faces it tilts; with --json also the force's 3x3
-/// covariance in N²), the actuator forces, the
-/// residual and any warning. When the folder has a truth.json (generated scenes), the
-/// errors against it are printed too; truth.json is never used for the estimate.
+/// covariance in N²), the actuator forces, the residual and any warning (among them, a
+/// force whose 3-D σ is over 2.5% of its magnitude: trust its direction, or its
+/// magnitude, less). When the folder has a truth.json (generated scenes), the errors
+/// against it are printed too; truth.json is never used for the estimate.
 ///
 /// Where no contact is seen (a weight hanging by a string), the model's force points
 /// ([[force_points]] in the model file) are the candidate locations.

@@ -272,4 +272,39 @@ fn the_two_probe_miss_lies_along_the_direction_its_estimate_reports_least_certai
         d.norm() > 3.0 * f.sigma,
         "the magnitude's σ alone would not explain it"
     );
+    let i = worst.estimate.unwrap();
+    let warned = format!("force {i}: its direction is uncertain");
+    assert!(
+        report.warnings.iter().any(|w| w.starts_with(&warned)),
+        "{:?}",
+        report.warnings
+    );
+}
+
+#[test]
+fn a_force_is_warned_about_exactly_when_its_largest_sigma_is_over_the_fraction() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let rec = Recording::open(&root.join("clouds/scenes/probe_side")).unwrap();
+    let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
+    let params = SenseParams::default();
+    let fraction = params.direction_warning;
+    let sensor = Sensor::new(model, rec.robot_from_camera, params);
+    let (mut warned, mut quiet) = (0, 0);
+    for &frame in &rec.frames {
+        let obs = sensor.observe(&rec, frame).unwrap();
+        let report = sensor.sense(frame, &obs, rec.actuators_of(frame));
+        for (i, f) in report.forces.iter().enumerate() {
+            let expect = f.magnitude > 2.0 * f.sigma_max && f.sigma_max > fraction * f.magnitude;
+            let prefix = format!("force {i}: ");
+            let has = report.warnings.iter().any(|w| w.starts_with(&prefix));
+            assert_eq!(has, expect, "frame {frame}: {f:?} {:?}", report.warnings);
+            if has {
+                warned += 1;
+            } else {
+                quiet += 1;
+            }
+        }
+    }
+    // probe_side has both kinds: frames 3 and 4 (7.9% and 4.8% of |F|) and the rest.
+    assert!(warned > 0 && quiet > 0, "{warned} warned, {quiet} quiet");
 }
