@@ -381,7 +381,11 @@ fn picture(
                 &cam,
                 f.location,
                 f.force,
-                Some(format!("{i}: {:.3} ± {:.3} N", f.magnitude, f.sigma)),
+                // The 3-D σ: the force's worst direction, which bounds the magnitude's σ.
+                Some(format!(
+                    "{i}: {:.3} N ±{:.3} (3-D)",
+                    f.magnitude, f.sigma_max
+                )),
             )
         })
         .collect();

@@ -223,6 +223,8 @@ struct PendingLabel {
 /// Places text labels so that their boxes do not overlap: a label that would cover an
 /// earlier one moves down or up (alternately, one box height plus a gap at a time, at
 /// most 8 steps each way) to the nearest free spot; if none is free it stays where asked.
+/// A label is first moved sideways into the canvas where it fits there, so that no text is
+/// cut at its left or right edge; spots above or below the canvas are skipped.
 #[derive(Default, Debug, Clone)]
 pub struct LabelPlacer {
     /// Boxes already placed: (x, y, width, height) in pixels, padding included.
@@ -244,6 +246,14 @@ impl LabelPlacer {
         let (w, h) = text_size(text, scale);
         let pad = 2 * i64::from(scale.clamp(1, 64));
         let (bw, bh) = (i64::from(w) + 2 * pad, i64::from(h) + 2 * pad);
+        let (cw, ch) = (i64::from(c.width()), i64::from(c.height()));
+        // Into the canvas sideways when the box fits its width (else as asked).
+        let x = if bw <= cw {
+            x.clamp(pad, cw - bw + pad)
+        } else {
+            x
+        };
+        let inside = |ty: i64| bh > ch || (ty - pad >= 0 && ty - pad + bh <= ch);
         let free = |ty: i64, placed: &[[i64; 4]]| {
             let b = [x - pad, ty - pad, bw, bh];
             !placed.iter().any(|p| {
@@ -260,7 +270,7 @@ impl LabelPlacer {
                     y - k * step
                 }
             })
-            .find(|&ty| free(ty, &self.placed))
+            .find(|&ty| inside(ty) && free(ty, &self.placed))
             .unwrap_or(y);
         self.placed.push([x - pad, ty - pad, bw, bh]);
         c.label(x, ty, text, fg, WHITE, scale);

@@ -826,6 +826,26 @@ proptest! {
 }
 
 #[test]
+fn a_label_asked_for_past_the_canvas_edge_is_moved_inside_whole() {
+    let mut c = Canvas::new(200, 100, BLACK).unwrap();
+    let mut placer = LabelPlacer::default();
+    let (w, h) = text_size("0: 0.509 N", 2);
+    let pad = 4;
+    let left = placer.place(&mut c, -60, 40, "0: 0.509 N", RED, 2);
+    assert_eq!(left, (pad, 40));
+    let right = placer.place(&mut c, 190, 10, "1: 0.795 N", RED, 2);
+    assert_eq!(right.0 + i64::from(w) + pad, 200, "{right:?}");
+    let low = placer.place(&mut c, 20, 95, "2: 0.3 N", RED, 2);
+    assert!(
+        low.1 + i64::from(h) + pad <= 100,
+        "{low:?} leaves the canvas"
+    );
+    // Text wider than the canvas stays where asked.
+    let wide = "a label much wider than this small canvas is";
+    assert_eq!(placer.place(&mut c, -5, 0, wide, RED, 2).0, -5);
+}
+
+#[test]
 fn labels_asked_for_at_the_same_spot_are_moved_apart_and_do_not_overlap() {
     let mut c = Canvas::new(200, 200, BLACK).unwrap();
     let mut placer = LabelPlacer::default();
