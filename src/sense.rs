@@ -136,9 +136,9 @@ pub struct SenseParams {
     /// A force whose largest one-sigma over all directions ([`ForceEstimate::sigma_max`])
     /// exceeds this fraction of its magnitude gets a warning that its direction (or, when
     /// the longest axis is along the force, its magnitude) is uncertain (0.025: its 2σ band
-    /// is then wider than 5% of the force). Forces within
-    /// 2σ of zero get none: their ± already says no load is found. The frame stays
-    /// `reliable`; the warning says which part of the estimate is loose.
+    /// is then wider than 5% of the force). Forces within 2σ of zero get none: their ±
+    /// already says no load is found. The frame stays `reliable`; the warning says which
+    /// part of the estimate is loose.
     pub direction_warning: f64,
 }
 
@@ -1676,7 +1676,7 @@ mod tests {
 
     #[test]
     fn the_largest_sigma_of_a_rotated_covariance_is_its_longest_axis() {
-        // diag(1, 4, 9) mN² turned 30° about z: the axes keep their lengths.
+        // diag(1, 4, 9) turned 30° about z: the axes keep their lengths.
         let (s, c) = (0.5f64, 3f64.sqrt() / 2.0);
         let r = nalgebra::Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0);
         let m = r
