@@ -1231,6 +1231,14 @@ impl Sensor {
                 .iter()
                 .map(|c| c.centroid.map(|v| v as f64))
                 .collect();
+            // The report group of contact `i` located at `node`, its candidates at `range`.
+            let contact_group = |i: usize, node: usize, range: std::ops::Range<usize>| Group {
+                source: "contact".into(),
+                seen_at: Some(centroids[i]),
+                points: contacts[i].points,
+                node: Some(node),
+                range,
+            };
             // The options of each contact (surface nodes near its centroid at node positions
             // `x`, and their candidates) and the data's choice among them, linearised at
             // `x` with `state` (a solver state there, if any).
@@ -1330,17 +1338,8 @@ impl Sensor {
                     Ok(mut est) => {
                         report.account(&est);
                         report.tracked = true;
-                        let groups = contacts
-                            .iter()
-                            .zip(&nodes)
-                            .zip(&ranges)
-                            .map(|((c, &node), range)| Group {
-                                source: "contact".into(),
-                                seen_at: Some(c.centroid.map(|v| v as f64)),
-                                points: c.points,
-                                node: Some(node),
-                                range: range.clone(),
-                            })
+                        let groups = (0..contacts.len())
+                            .map(|i| contact_group(i, nodes[i], ranges[i].clone()))
                             .collect();
                         x = est.positions.clone();
                         state = est.solver.take();
@@ -1380,16 +1379,10 @@ impl Sensor {
                 chosen = picked;
                 let mut cands = Vec::new();
                 let mut groups = Vec::new();
-                for ((c, (nodes, opts)), &k) in contacts.iter().zip(&options).zip(&pick) {
+                for (i, ((nodes, opts), &k)) in options.iter().zip(&pick).enumerate() {
                     let start = cands.len();
                     cands.extend_from_slice(&opts[k]);
-                    groups.push(Group {
-                        source: "contact".into(),
-                        seen_at: Some(c.centroid.map(|v| v as f64)),
-                        points: c.points,
-                        node: Some(nodes[k]),
-                        range: start..cands.len(),
-                    });
+                    groups.push(contact_group(i, nodes[k], start..cands.len()));
                 }
                 let mut est = solve(&cands).map_err(|e| fail(&e))?;
                 report.account(&est);

@@ -8,11 +8,17 @@ use softsense::sense::{
 };
 use std::path::Path;
 
-fn run(scene: &str) -> Vec<(usize, LoadError)> {
+/// A bundled scene (`clouds/scenes/<scene>`) and a sensor for it with `params`.
+fn bundled(scene: &str, params: SenseParams) -> (Recording, Sensor) {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let rec = Recording::open(&root.join("clouds/scenes").join(scene)).unwrap();
     let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
-    let sensor = Sensor::new(model, rec.robot_from_camera, SenseParams::default());
+    let sensor = Sensor::new(model, rec.robot_from_camera, params);
+    (rec, sensor)
+}
+
+fn run(scene: &str) -> Vec<(usize, LoadError)> {
+    let (rec, sensor) = bundled(scene, SenseParams::default());
     let mut out = Vec::new();
     for &frame in &rec.frames {
         let obs = sensor.observe(&rec, frame).unwrap();
@@ -85,11 +91,8 @@ fn sense_generated(
 
 #[test]
 fn every_frame_of_the_bundled_probe_scenes_passes_the_fit_checks() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     for scene in ["probe_side", "two_probes"] {
-        let rec = Recording::open(&root.join("clouds/scenes").join(scene)).unwrap();
-        let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
-        let sensor = Sensor::new(model, rec.robot_from_camera, SenseParams::default());
+        let (rec, sensor) = bundled(scene, SenseParams::default());
         for &frame in &rec.frames {
             let obs = sensor.observe(&rec, frame).unwrap();
             let r = sensor.sense(frame, &obs, rec.actuators_of(frame));
@@ -145,12 +148,9 @@ fn a_frame_the_model_cannot_explain_is_sensed_but_flagged_unreliable() {
     // A probe the contact detector does not see (its radius shrunk to 0.1 mm): the model's
     // declared force points (on the top) cannot explain a dent in the side, and the report
     // must say so. The same frame with the detector on passes the checks (the test above).
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let rec = Recording::open(&root.join("clouds/scenes/probe_side")).unwrap();
-    let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
     let mut params = SenseParams::default();
     params.contact.radius_m = 1e-4;
-    let sensor = Sensor::new(model, rec.robot_from_camera, params);
+    let (rec, sensor) = bundled("probe_side", params);
     let obs = sensor.observe(&rec, 1).unwrap();
     let report = sensor.sense(1, &obs, rec.actuators_of(1));
     eprintln!(
@@ -168,10 +168,7 @@ fn a_frame_the_model_cannot_explain_is_sensed_but_flagged_unreliable() {
 fn feature_rows_that_average_shared_points_get_correlated_offsets() {
     use softsense::inverse::frame::SharedPoints;
     use softsense::register::Registrar;
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let rec = Recording::open(&root.join("clouds/scenes/probe_side")).unwrap();
-    let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
-    let sensor = Sensor::new(model, rec.robot_from_camera, SenseParams::default());
+    let (rec, sensor) = bundled("probe_side", SenseParams::default());
     let obs = sensor.observe(&rec, 0).unwrap();
     let reg = Registrar::new(&obs.robot);
     let x = &sensor.model.problem.mesh.nodes_in_rest;
@@ -206,10 +203,7 @@ fn feature_rows_that_average_shared_points_get_correlated_offsets() {
 
 /// The bundled two-probe scene, and its frame 0 sensed.
 fn two_probes_frame_0() -> (Recording, FrameReport) {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let rec = Recording::open(&root.join("clouds/scenes/two_probes")).unwrap();
-    let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
-    let sensor = Sensor::new(model, rec.robot_from_camera, SenseParams::default());
+    let (rec, sensor) = bundled("two_probes", SenseParams::default());
     let obs = sensor.observe(&rec, 0).unwrap();
     let report = sensor.sense(0, &obs, rec.actuators_of(0));
     (rec, report)
@@ -283,12 +277,9 @@ fn the_two_probe_miss_lies_along_the_direction_its_estimate_reports_least_certai
 
 #[test]
 fn a_force_is_warned_about_exactly_when_its_largest_sigma_is_over_the_fraction() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let rec = Recording::open(&root.join("clouds/scenes/probe_side")).unwrap();
-    let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
     let params = SenseParams::default();
     let fraction = params.direction_warning;
-    let sensor = Sensor::new(model, rec.robot_from_camera, params);
+    let (rec, sensor) = bundled("probe_side", params);
     let (mut warned, mut quiet) = (0, 0);
     for &frame in &rec.frames {
         let obs = sensor.observe(&rec, frame).unwrap();
