@@ -240,17 +240,24 @@ fn print_human(r: &FrameReport) -> CliResult {
     }
     for (k, e) in r.errors.iter().flatten().enumerate() {
         let t = e.truth_force;
+        let outcome = if e.estimate.is_some() {
+            format!(
+                "location error {:.1} mm, force error {:.1}%, magnitude error {:.1}%",
+                e.location_error * 1e3,
+                100.0 * e.force_error,
+                100.0 * e.magnitude_error
+            )
+        } else {
+            "no estimate (counted as 100% off)".to_string()
+        };
         outln!(
-            "  truth {k}: F = ({:.3}, {:.3}, {:.3}) N at ({:.1}, {:.1}, {:.1}) mm -> location error {:.1} mm, force error {:.1}%, magnitude error {:.1}%",
+            "  truth {k}: F = ({:.3}, {:.3}, {:.3}) N at ({:.1}, {:.1}, {:.1}) mm -> {outcome}",
             t[0],
             t[1],
             t[2],
             e.truth_at[0] * 1e3,
             e.truth_at[1] * 1e3,
             e.truth_at[2] * 1e3,
-            e.location_error * 1e3,
-            100.0 * e.force_error,
-            100.0 * e.magnitude_error
         )?;
     }
     Ok(())
@@ -302,24 +309,43 @@ fn summary(reports: &[FrameReport], wall_ms: f64, window: usize, track: bool) {
         1e3 / total
     );
     if !errors.is_empty() {
-        let n = errors.len() as f64;
-        let mean = |f: &dyn Fn(&&softsense::sense::LoadError) -> f64| {
-            errors.iter().map(f).sum::<f64>() / n
-        };
-        let max = |f: &dyn Fn(&&softsense::sense::LoadError) -> f64| {
-            errors.iter().map(f).fold(0.0, f64::max)
-        };
-        eprintln!(
-            "against truth.json ({} loads): force error mean {:.2}% max {:.2}%, magnitude error mean {:.2}% max {:.2}%, location error mean {:.1} mm max {:.1} mm",
-            errors.len(),
-            100.0 * mean(&|e| e.force_error),
-            100.0 * max(&|e| e.force_error),
-            100.0 * mean(&|e| e.magnitude_error),
-            100.0 * max(&|e| e.magnitude_error),
-            1e3 * mean(&|e| e.location_error),
-            1e3 * max(&|e| e.location_error)
-        );
+        eprintln!("{}", truth_summary(&errors));
     }
+}
+
+/// The errors of all loads against the truth in one line. A load with no estimate (its
+/// frame was not sensed, or no force was found) counts as 100% off in the force and
+/// magnitude errors; the location error is over the loads that have an estimate.
+fn truth_summary(errors: &[&softsense::sense::LoadError]) -> String {
+    let stats = |v: Vec<f64>| {
+        let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
+        (mean, v.iter().copied().fold(0.0, f64::max))
+    };
+    let (force_mean, force_max) = stats(errors.iter().map(|e| 100.0 * e.force_error).collect());
+    let (mag_mean, mag_max) = stats(errors.iter().map(|e| 100.0 * e.magnitude_error).collect());
+    let located: Vec<f64> = errors
+        .iter()
+        .filter(|e| e.estimate.is_some())
+        .map(|e| 1e3 * e.location_error)
+        .collect();
+    let missing = errors.len() - located.len();
+    let loads = if missing == 0 {
+        format!("{} loads", errors.len())
+    } else {
+        format!(
+            "{} loads, {missing} with no estimate, counted as 100% off",
+            errors.len()
+        )
+    };
+    let location = if located.is_empty() {
+        "no load located".to_string()
+    } else {
+        let (mean, max) = stats(located);
+        format!("location error mean {mean:.1} mm max {max:.1} mm")
+    };
+    format!(
+        "against truth.json ({loads}): force error mean {force_mean:.2}% max {force_max:.2}%, magnitude error mean {mag_mean:.2}% max {mag_max:.2}%, {location}"
+    )
 }
 
 /// The frame with the robot tinted, features, contacts and force arrows.

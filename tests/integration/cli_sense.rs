@@ -244,6 +244,19 @@ fn bad_frames_get_their_own_status_and_the_stream_goes_on() {
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("frame    1: no robot"), "{text}");
     assert!(text.contains("frame    3: unreadable: "), "{text}");
+    // Frames 1-3 hang 0.26, 0.66 and 1.06 N and none is sensed: each load says it has no
+    // estimate, and the summary counts them without an infinite location error.
+    assert_eq!(
+        text.matches("-> no estimate (counted as 100% off)").count(),
+        3,
+        "{text}"
+    );
+    let summary = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        summary.contains("against truth.json (3 loads, 3 with no estimate, counted as 100% off)"),
+        "{summary}"
+    );
+    assert!(!summary.contains("inf"), "{summary}");
     // Tracked, the same statuses; a bad frame leaves nothing to start from.
     let out = sense(&[
         dir.path().to_str().unwrap(),
