@@ -72,7 +72,7 @@ the model's own) and the example frame:
   shorten = 0.01           # or: force = 2.0 (tension, N)
   [[frames.loads]]
   kind = \"probe\"           # a sphere pressing on the surface node nearest to `at`
-  at = [0.05, -0.013, 0.083]
+  at = [0.05, -0.013, 0.083]  # metres, robot frame at rest; at most 20 mm off the surface
   force = [0.07, 0.78, 0.05]
   radius = 0.008
   [[frames.loads]]

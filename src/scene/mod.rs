@@ -19,7 +19,7 @@ pub mod sensor;
 
 use crate::fem::material::Material;
 use crate::fem::model::Model;
-use crate::fem::solve::{CableControl, MappedPoint, PointLoad};
+use crate::fem::solve::{CableControl, MappedPoint, PointLoad, Problem};
 use camera::{Camera, CameraSpec};
 use raycast::Bvh;
 use sensor::SensorModel;
@@ -100,6 +100,7 @@ pub struct LoadInput {
     pub kind: LoadKind,
     /// Point in the robot frame (m): a probe presses on the nearest surface node of the rest
     /// mesh, a weight hangs from this point itself (located in the mesh; else the node).
+    /// More than [`MAX_LOAD_OFFSET`] from every surface node is refused.
     pub at: [f64; 3],
     /// Force vector (N).
     pub force: [f64; 3],
@@ -312,9 +313,19 @@ fn dist2(a: [f64; 3], b: [f64; 3]) -> f64 {
     (0..3).map(|k| (a[k] - b[k]) * (a[k] - b[k])).sum()
 }
 
-/// Solves and renders frame `index` of the scene.
-pub fn render_frame(scene: &Scene, model: &Model, index: usize) -> SceneResult<Rendered> {
-    let spec = &scene.spec;
+/// Farthest a load's `at` may be from the robot's nearest surface node (m). The surface
+/// nodes of the bundled meshes are ~9 mm apart, so a point on the surface is within ~7 mm
+/// of one; a point farther than this is a typo or a unit slip (millimetres for metres),
+/// and snapping it to a node would make a scene other than the one asked for.
+pub const MAX_LOAD_OFFSET: f64 = 0.02;
+
+/// Frame `index`'s FE problem (the model with the frame's cable inputs and loads), and
+/// each load's surface node and point of application; every input checked, nothing solved.
+fn frame_problem(
+    model: &Model,
+    spec: &SceneSpec,
+    index: usize,
+) -> SceneResult<(Problem, Vec<(usize, MappedPoint)>)> {
     let frame = spec
         .frames
         .get(index)
@@ -325,13 +336,15 @@ pub fn render_frame(scene: &Scene, model: &Model, index: usize) -> SceneResult<R
             .cables
             .iter_mut()
             .find(|k| k.name == c.name)
-            .ok_or_else(|| SceneError::Spec(format!("no cable named {:?}", c.name)))?;
+            .ok_or_else(|| {
+                SceneError::Spec(format!("frame {index}: no cable named {:?}", c.name))
+            })?;
         cable.control = match (c.shorten, c.force) {
             (Some(s), None) => CableControl::Displacement(s),
             (None, Some(f)) => CableControl::Force(f),
             _ => {
                 return Err(SceneError::Spec(format!(
-                    "cable {:?}: give exactly one of shorten, force",
+                    "frame {index}: cable {:?}: give exactly one of shorten, force",
                     c.name
                 )))
             }
@@ -340,13 +353,28 @@ pub fn render_frame(scene: &Scene, model: &Model, index: usize) -> SceneResult<R
     let surface = problem.mesh.surface();
     let rest = problem.mesh.nodes_in_rest.clone();
     let mut nodes_of_loads = Vec::new();
-    for l in &frame.loads {
+    for (k, l) in frame.loads.iter().enumerate() {
+        if !(l.force.iter().all(|f| f.is_finite())
+            && l.at.iter().all(|f| f.is_finite())
+            && l.radius > 0.0)
+        {
+            return Err(SceneError::Spec(format!(
+                "frame {index}, load {k}: non-finite at or force, or radius <= 0"
+            )));
+        }
         let node = nearest_surface_node(&rest, &surface.nodes, l.at)
             .ok_or_else(|| SceneError::Spec("the mesh has no surface".into()))?;
-        if !(l.force.iter().all(|f| f.is_finite()) && l.radius > 0.0) {
-            return Err(SceneError::Spec(
-                "load with non-finite force or radius <= 0".into(),
-            ));
+        let off = dist2(rest[node], l.at).sqrt();
+        if off > MAX_LOAD_OFFSET {
+            let [x, y, z] = rest[node];
+            return Err(SceneError::Spec(format!(
+                "frame {index}, load {k}: at = [{}, {}, {}] is {:.1} mm from the robot's nearest surface node, at [{x:.4}, {y:.4}, {z:.4}] (at most {:.0} mm allowed); `at` is in metres, in the robot frame at rest",
+                l.at[0],
+                l.at[1],
+                l.at[2],
+                off * 1e3,
+                MAX_LOAD_OFFSET * 1e3
+            )));
         }
         // A probe presses on a surface node; a weight hangs from exactly `at` (a hook).
         let at = match l.kind {
@@ -357,6 +385,19 @@ pub fn render_frame(scene: &Scene, model: &Model, index: usize) -> SceneResult<R
         problem.loads.push(PointLoad { at, force: l.force });
         nodes_of_loads.push((node, at));
     }
+    Ok((problem, nodes_of_loads))
+}
+
+/// Solves and renders frame `index` of the scene.
+pub fn render_frame(scene: &Scene, model: &Model, index: usize) -> SceneResult<Rendered> {
+    let spec = &scene.spec;
+    let frame = spec
+        .frames
+        .get(index)
+        .ok_or_else(|| SceneError::Spec(format!("no frame {index}")))?;
+    let (problem, nodes_of_loads) = frame_problem(model, spec, index)?;
+    let rest = &problem.mesh.nodes_in_rest;
+    let surface = problem.mesh.surface();
     let sol = problem.solve_static(&model.newton)?;
     if !sol.converged {
         return Err(SceneError::NotConverged { frame: index });
@@ -373,7 +414,7 @@ pub fn render_frame(scene: &Scene, model: &Model, index: usize) -> SceneResult<R
             LoadTruth {
                 kind: l.kind,
                 node,
-                at_rest: at.position(&rest),
+                at_rest: at.position(rest),
                 at_deformed: at.position(x),
                 force: l.force,
                 magnitude: mag,
@@ -539,8 +580,13 @@ pub fn generate(
         &serde_json::json!({ "robot_from_camera": camera.robot_from_camera() }),
     )?;
     let (w, h) = (spec.camera.width, spec.camera.height);
-    let mut frames = Vec::new();
     let total = spec.frames.len();
+    // Every frame's inputs are checked before any is solved: a slip in the last frame
+    // should not cost the minutes of the ones before it.
+    for i in 0..total {
+        frame_problem(&model, spec, i)?;
+    }
+    let mut frames = Vec::new();
     for i in 0..total {
         let r = render_frame(scene, &model, i)?;
         let dp = out.join(format!("depth_{i:04}.png"));

@@ -156,3 +156,45 @@ fn a_sensor_model_out_of_range_is_refused_by_name() {
         assert!(e.starts_with(&format!("sensor.{name} ")), "{e}");
     }
 }
+
+#[test]
+fn a_load_off_the_robot_is_refused_before_any_frame_is_made() {
+    // Frame 1's probe is given in millimetres: 116 m from the robot in metres. Snapping it
+    // to the nearest surface node would make a scene nobody asked for.
+    let model = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("meshes/models/robot.toml");
+    let dir = tempfile::tempdir().unwrap();
+    let scene_file = dir.path().join("slip.toml");
+    let probe = |at: &str| {
+        format!(
+            "[[frames]]\n[[frames.loads]]\nkind = \"probe\"\nat = {at}\nforce = [0.0, 0.4, 0.0]\n"
+        )
+    };
+    std::fs::write(
+        &scene_file,
+        format!(
+            "model = {:?}\n{}{}",
+            model.display().to_string(),
+            probe("[0.0572, -0.0132, 0.1]"),
+            probe("[57.2, -13.2, 100.0]")
+        ),
+    )
+    .unwrap();
+    let scene = softsense::scene::Scene::load(&scene_file).unwrap();
+    let out = dir.path().join("out");
+    let e = softsense::scene::generate(&scene, &out, |_, _| {})
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("frame 1, load 0: at = [57.2, -13.2, 100]"),
+        "{e}"
+    );
+    assert!(e.contains("in metres"), "{e}");
+    assert!(
+        !out.join("depth_0000.png").exists(),
+        "frame 0 was made first"
+    );
+    // On the surface (a node of the rest mesh, within the limit) it is accepted.
+    let m = softsense::fem::model::Model::load(&model, None).unwrap();
+    let ok = softsense::scene::render_frame(&scene, &m, 0);
+    assert!(ok.is_ok(), "{:?}", ok.err());
+}
