@@ -14,7 +14,9 @@
 //! A recording is a folder as written by `softsense scene generate`: `depth_NNNN.png`,
 //! `color_NNNN.png`, `intrinsics.json`, a pose (`calibration.json` from `softsense calibrate`,
 //! else `camera_pose.json`), optionally `actuators.json` (recorded actuator inputs) and
-//! `truth.json` (only read to report errors, never for the estimate).
+//! `truth.json` (only read to report errors, never for the estimate). Without recorded
+//! inputs, the model's are used: the model file's, or the calibration's after
+//! [`Sensor::use_calibrated_inputs`] (`rec.calibrated`), as `softsense sense` does.
 //!
 //! ```no_run
 //! use softsense::sense::{Recording, SenseParams, Sensor};
@@ -28,6 +30,7 @@
 //! }
 //! ```
 
+use crate::calibrate::ActuatorCalibration;
 use crate::contact::{detect_contacts, ContactParams};
 use crate::fem::mesh::Surface;
 use crate::fem::model::Model;
@@ -67,6 +70,9 @@ pub enum SenseError {
     /// Image or intrinsics reading failed.
     #[error(transparent)]
     Io(#[from] crate::io::IoError),
+    /// Calibrated cable inputs that do not fit the model.
+    #[error("calibrated cable inputs: {0}")]
+    Calibration(String),
 }
 
 /// `Result` of the sensing stage.
@@ -198,6 +204,10 @@ pub struct Recording {
     pub frames: Vec<usize>,
     /// Recorded actuator inputs per frame, if any.
     pub actuators: Option<Vec<Vec<ActuatorTruth>>>,
+    /// The cable inputs of the calibration (`calibration.json`'s `actuators`), if the pose
+    /// came from one: for frames without recorded inputs, see
+    /// [`Sensor::use_calibrated_inputs`].
+    pub calibrated: Option<Vec<ActuatorCalibration>>,
     /// The generator's truth, if any (used for error reports only).
     pub truth: Option<Truth>,
 }
@@ -217,6 +227,9 @@ fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> SenseResult<T> {
 #[derive(serde::Deserialize)]
 struct PoseFile {
     robot_from_camera: [[f64; 4]; 4],
+    /// The cable inputs `softsense calibrate` found (calibration.json only).
+    #[serde(default)]
+    actuators: Option<Vec<ActuatorCalibration>>,
 }
 
 /// Points of one frame in the robot frame, split by the colour model.
@@ -359,6 +372,7 @@ impl Recording {
             dir: dir.to_path_buf(),
             camera,
             robot_from_camera: pose.robot_from_camera,
+            calibrated: pose.actuators,
             pose_file,
             frames,
             actuators,
@@ -710,6 +724,20 @@ pub struct Sensor {
     /// inputs are solved warm from it, so a free solve does not depend on which frames came
     /// before it (or ran beside it, see [`Sensor::sense_frames`]).
     free_base: OnceLock<Option<Solution>>,
+    /// Where the model's own cable inputs (used for frames without recorded ones) come
+    /// from.
+    pub model_inputs: ModelInputs,
+}
+
+/// Where the cable inputs of a frame without recorded ones come from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ModelInputs {
+    /// The model file's `[[cables]]`.
+    #[default]
+    ModelFile,
+    /// A calibration's ([`Sensor::use_calibrated_inputs`]).
+    Calibration,
 }
 
 /// Frames [`Sensor::sense_frames`] senses side by side by default: one per thread of
@@ -792,7 +820,53 @@ impl Sensor {
             surface,
             free_cache: Mutex::new(Vec::new()),
             free_base: OnceLock::new(),
+            model_inputs: ModelInputs::ModelFile,
         }
+    }
+
+    /// Takes the cable inputs a calibration found (thesis 3.3: the camera pose and the
+    /// initial actuator inputs) as the model's own, for frames without recorded inputs:
+    /// each cable keeps the model file's control and takes the calibrated value of it (a
+    /// displacement-controlled cable its shortening, a force-controlled one its tension).
+    /// Recorded inputs ([`Recording::actuators_of`]) still take precedence. A calibrated
+    /// cable the model does not have, or a value that is not finite, is refused: the
+    /// calibration is of another model.
+    pub fn use_calibrated_inputs(&mut self, calibrated: &[ActuatorCalibration]) -> SenseResult<()> {
+        let mut cables = self.model.problem.cables.clone();
+        for a in calibrated {
+            let c = cables
+                .iter_mut()
+                .find(|c| c.name == a.name)
+                .ok_or_else(|| {
+                    SenseError::Calibration(format!(
+                        "the model has no cable named {:?} (its cables: {})",
+                        a.name,
+                        self.model
+                            .problem
+                            .cables
+                            .iter()
+                            .map(|c| c.name.as_str())
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ))
+                })?;
+            if !(a.tension.is_finite() && a.shortening.is_finite()) {
+                return Err(SenseError::Calibration(format!(
+                    "cable {:?}: tension {} N, shortening {} m",
+                    a.name, a.tension, a.shortening
+                )));
+            }
+            c.control = match c.control {
+                CableControl::Displacement(_) => CableControl::Displacement(a.shortening),
+                CableControl::Force(_) => CableControl::Force(a.tension),
+            };
+        }
+        self.model.problem.cables = cables;
+        // The free solves were of the old inputs.
+        self.free_base = OnceLock::new();
+        self.free_cache = Mutex::new(Vec::new());
+        self.model_inputs = ModelInputs::Calibration;
+        Ok(())
     }
 
     /// Reads `frame` of `rec`, cropped to the robot's box, split by the colour model.
@@ -918,9 +992,14 @@ impl Sensor {
         report.object_points = obs.objects.len();
         report.features = self.features.len();
         if actuators.is_none() {
-            report
-                .warnings
-                .push("no recorded actuator inputs: the model file's are used".into());
+            report.warnings.push(match self.model_inputs {
+                ModelInputs::ModelFile => {
+                    "no recorded actuator inputs: the model file's are used".into()
+                }
+                ModelInputs::Calibration => {
+                    "no recorded actuator inputs: the calibrated ones are used".into()
+                }
+            });
         }
         report.timings = obs.timings;
         let track = match self.sense_into(obs, actuators, prev, want_track, &mut report) {

@@ -14,7 +14,8 @@ use std::path::PathBuf;
 ///
 /// Reads a recording folder (depth_NNNN.png + color_NNNN.png, intrinsics.json, a camera
 /// pose in calibration.json or camera_pose.json, optional actuators.json with the recorded
-/// cable inputs), and for each frame: robot and touching objects by colour, contacts by
+/// cable inputs per frame; without it, the cable inputs `softsense calibrate` wrote into
+/// calibration.json, else the model file's), and for each frame: robot and touching objects by colour, contacts by
 /// KD-tree search, each contact mapped onto the FE model, the surface features registered
 /// along their normal lines, and the intensity QP solved with FE updates. Prints per frame
 /// the forces (location in the robot frame, mapped node, force vector, magnitude and its
@@ -104,9 +105,22 @@ pub fn run(args: &SenseArgs) -> CliResult {
         ..Default::default()
     };
     params.features.count = args.features;
-    let sensor = Sensor::new(model, rec.robot_from_camera, params);
+    let mut sensor = Sensor::new(model, rec.robot_from_camera, params);
+    let inputs = match (&rec.actuators, &rec.calibrated) {
+        (Some(_), _) => "recorded (actuators.json)".to_string(),
+        (None, Some(cal)) => {
+            sensor
+                .use_calibrated_inputs(cal)
+                .map_err(|e| CliError::Result(format!("{}: {e}", rec.pose_file.display())))?;
+            format!(
+                "calibrated ({})",
+                super::shown_path(&rec.pose_file).display()
+            )
+        }
+        (None, None) => "the model file's".to_string(),
+    };
     eprintln!(
-        "{}: {} frames, model {}, pose from {}, {} feature points",
+        "{}: {} frames, model {}, pose from {}, cable inputs {inputs}, {} feature points",
         args.scene_dir.display(),
         rec.frames.len(),
         super::shown_path(&model_path).display(),
