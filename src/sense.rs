@@ -726,7 +726,7 @@ pub struct Sensor {
     free_base: OnceLock<Option<Solution>>,
     /// Where the model's own cable inputs (used for frames without recorded ones) come
     /// from.
-    pub model_inputs: ModelInputs,
+    model_inputs: ModelInputs,
 }
 
 /// Where the cable inputs of a frame without recorded ones come from.
@@ -822,6 +822,11 @@ impl Sensor {
             free_base: OnceLock::new(),
             model_inputs: ModelInputs::ModelFile,
         }
+    }
+
+    /// Where the cable inputs of frames without recorded ones come from.
+    pub fn model_inputs(&self) -> ModelInputs {
+        self.model_inputs
     }
 
     /// Takes the cable inputs a calibration found (thesis 3.3: the camera pose and the

@@ -15,17 +15,18 @@ use std::path::PathBuf;
 /// Reads a recording folder (depth_NNNN.png + color_NNNN.png, intrinsics.json, a camera
 /// pose in calibration.json or camera_pose.json, optional actuators.json with the recorded
 /// cable inputs per frame; without it, the cable inputs `softsense calibrate` wrote into
-/// calibration.json, else the model file's), and for each frame: robot and touching objects by colour, contacts by
-/// KD-tree search, each contact mapped onto the FE model, the surface features registered
-/// along their normal lines, and the intensity QP solved with FE updates. Prints per frame
-/// the forces (location in the robot frame, mapped node, force vector, magnitude and its
-/// one-sigma uncertainty, then "3-D ±": the largest one-sigma of the force over all
-/// directions, often several times the magnitude's, since normal-line registration sees a
-/// tangential force only through the faces it tilts; with --json also the force's 3x3
-/// covariance in N²), the actuator forces, the residual and any warning (among them, a
-/// force whose 3-D σ is over 2.5% of its magnitude: trust its direction, or its
-/// magnitude, less). When the folder has a truth.json (generated scenes), the errors
-/// against it are printed too; truth.json is never used for the estimate.
+/// calibration.json, else the model file's), and for each frame: robot and touching
+/// objects by colour, contacts by KD-tree search, each contact mapped onto the FE model,
+/// the surface features registered along their normal lines, and the intensity QP solved
+/// with FE updates. Prints per frame the forces (location in the robot frame, mapped
+/// node, force vector, magnitude and its one-sigma uncertainty, then "3-D ±": the largest
+/// one-sigma of the force over all directions, often several times the magnitude's, since
+/// normal-line registration sees a tangential force only through the faces it tilts; with
+/// --json also the force's 3x3 covariance in N²), the actuator forces, the residual and
+/// any warning (among them, a force whose 3-D σ is over 2.5% of its magnitude: trust its
+/// direction, or its magnitude, less). When the folder has a truth.json (generated
+/// scenes), the errors against it are printed too;
+/// truth.json is never used for the estimate.
 ///
 /// Where no contact is seen (a weight hanging by a string), the model's force points
 /// ([[force_points]] in the model file) are the candidate locations.

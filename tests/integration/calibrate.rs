@@ -280,7 +280,7 @@ fn calibrated_inputs_of_another_model_are_refused_by_cable_name() {
     assert!(e.contains("\"east\""), "{e}");
     // Refused inputs leave the model as it was; good ones take each cable's own control.
     assert_eq!(
-        sensor.model_inputs,
+        sensor.model_inputs(),
         softsense::sense::ModelInputs::ModelFile
     );
     sensor
@@ -299,7 +299,7 @@ fn calibrated_inputs_of_another_model_are_refused_by_cable_name() {
         [Displacement(0.01), Force(0.0), Force(0.0), Force(3.0)]
     );
     assert_eq!(
-        sensor.model_inputs,
+        sensor.model_inputs(),
         softsense::sense::ModelInputs::Calibration
     );
 }
