@@ -1509,6 +1509,9 @@ impl Sensor {
             report.reliable = false;
             report.warnings.push(format!("unreliable: {w}"));
         }
+        if let Some(w) = e.regularization_warning() {
+            report.warnings.push(w);
+        }
         report.actuators = model
             .problem
             .cables

@@ -107,6 +107,30 @@ pub struct IntensityEstimate {
     pub residual_robust: f64,
     /// The identifiability check done before solving.
     pub identifiability: Identifiability,
+    /// How far the regularization pulls the least-identified direction of the forces
+    /// toward zero: εs / (σ²_min + εs), with σ²_min the smallest eigenvalue of W_efᵀW_ef and
+    /// εs the Tikhonov term added to it (both as in the QP; the coupling to the actuator
+    /// unknowns is left out). 0 without regularization; 0.1: that direction is estimated
+    /// 10% short. See [`IntensityEstimate::regularization_warning`].
+    pub regularization_shrink: f64,
+}
+
+/// `regularization_shrink` above which [`IntensityEstimate::regularization_warning`] warns.
+pub const MAX_REGULARIZATION_SHRINK: f64 = 0.1;
+
+impl IntensityEstimate {
+    /// A warning when the regularization pulls the least-identified force direction toward
+    /// zero by more than [`MAX_REGULARIZATION_SHRINK`]: the forces are then biased by the
+    /// regularization more than decided by the data.
+    pub fn regularization_warning(&self) -> Option<String> {
+        (self.regularization_shrink > MAX_REGULARIZATION_SHRINK).then(|| {
+            format!(
+                "the regularization pulls the least-identified force direction {:.0}% toward zero (more than {:.0}%): the forces are biased; lower IntensityParams::regularization",
+                100.0 * self.regularization_shrink,
+                100.0 * MAX_REGULARIZATION_SHRINK
+            )
+        })
+    }
 }
 
 impl IntensityProblem {
@@ -180,10 +204,17 @@ impl IntensityProblem {
         // Rows scaled to O(1): interior-point gaps are absolute and compliances are ~1e-3 m/N.
         let scaled_target: Vec<f64> = target.iter().map(|t| t / scale).collect();
         let mut qp = QpProblem::least_squares(&(&wei / scale), &scaled_target)?;
+        let mut regularization_shrink = 0.0;
         if params.regularization > 0.0 {
             let scale = (a..n).map(|j| qp.p[(j, j)]).fold(0.0, f64::max);
+            let added = params.regularization * scale;
+            if k > 0 {
+                let forces = qp.p.view((a, a), (k, k)).clone_owned();
+                let smallest = forces.symmetric_eigenvalues().min().max(0.0);
+                regularization_shrink = added / (smallest + added);
+            }
             for j in a..n {
-                qp.p[(j, j)] += params.regularization * scale;
+                qp.p[(j, j)] += added;
             }
         }
         let (eq_rows, eq_b) = self.actuator_equations();
@@ -205,6 +236,7 @@ impl IntensityProblem {
                 residual_rms: f64::NAN,
                 residual_robust: f64::NAN,
                 identifiability: ident,
+                regularization_shrink,
             });
         }
         let x = DVector::from_column_slice(&sol.x);
@@ -221,6 +253,7 @@ impl IntensityProblem {
             residual_rms,
             residual_robust,
             identifiability: ident,
+            regularization_shrink,
         })
     }
 

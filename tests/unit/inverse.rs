@@ -451,3 +451,51 @@ fn force_covariance_of_correlated_rows_matches_the_spread_of_solved_forces() {
         );
     }
 }
+
+#[test]
+fn the_regularization_shrink_is_the_ridge_factor_of_the_weakest_force_and_warns_above_a_tenth() {
+    // Two forces on disjoint rows (orthogonal columns), the second 10 times weaker, and an
+    // actuator that moves no feature: the regularized QP is a ridge regression per force,
+    // whose estimate is the truth times σ² / (σ² + εs). The weakest force's factor is
+    // 1 − regularization_shrink.
+    let m = 20;
+    let w_ef = DMatrix::from_fn(m, 2, |i, j| match (i < 10, j) {
+        (true, 0) => 1e-3 * (1.0 + (i % 3) as f64),
+        (false, 1) => 1e-4 * (1.0 + (i % 4) as f64),
+        _ => 0.0,
+    });
+    let truth = DVector::from_vec(vec![0.6, 0.4]);
+    let problem = IntensityProblem {
+        w_ea: DMatrix::zeros(m, 1),
+        w_ef: w_ef.clone(),
+        delta_free_e: vec![0.0; m],
+        delta_measured: (&w_ef * &truth).iter().copied().collect(),
+        w_aa: DMatrix::identity(1, 1) * 1e-3,
+        w_af: DMatrix::zeros(1, 2),
+        delta_free_a: vec![0.0],
+        actuators: vec![ActuatorInput::Force(0.0)],
+        push_only: vec![false, false],
+    };
+    let plain = problem.solve(&IntensityParams::default()).unwrap();
+    assert_eq!(plain.regularization_shrink, 0.0);
+    assert!(plain.regularization_warning().is_none());
+    for (eps, warned) in [(1e-4, false), (1e-2, true), (1e-1, true)] {
+        let params = IntensityParams {
+            regularization: eps,
+            ..Default::default()
+        };
+        let e = problem.solve(&params).unwrap();
+        assert_eq!(e.status, QpStatus::Solved);
+        let factor = e.forces[1] / truth[1];
+        assert!(
+            (factor - (1.0 - e.regularization_shrink)).abs() < 1e-6,
+            "ε {eps}: weakest force scaled by {factor}, shrink {}",
+            e.regularization_shrink
+        );
+        assert_eq!(
+            e.regularization_warning().is_some(),
+            warned,
+            "ε {eps}: {e:?}"
+        );
+    }
+}
