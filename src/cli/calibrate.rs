@@ -22,7 +22,9 @@ color_NNNN.png and intrinsics.json (Open3D \
 format), as `softsense scene generate` writes them. The rough start pose is \
 {\"robot_from_camera\": 4x4} (--start, default SCENE_DIR/rough_pose.json); it should be \
 within about 10 degrees and 30 mm. Writes calibration.json (robot_from_camera and the \
-cable tensions and shortenings) into SCENE_DIR or --out.",
+cable tensions and shortenings) into SCENE_DIR or --out. `softsense sense` on that folder \
+then takes its pose, and its cable inputs for frames without recorded ones \
+(actuators.json); calibrate on a frame where nothing touches the robot.",
     after_help = "Example:\n  softsense calibrate clouds/scenes/calib meshes/models/robot.toml \
 --start clouds/scenes/calib/rough_pose.json"
 )]
