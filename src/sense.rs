@@ -31,7 +31,7 @@
 //! ```
 
 use crate::calibrate::ActuatorCalibration;
-use crate::contact::{detect_contacts, ContactParams};
+use crate::contact::{detect_contacts, Contact, ContactParams};
 use crate::fem::mesh::Surface;
 use crate::fem::model::Model;
 use crate::fem::solve::{CableControl, MappedPoint, Solution, SolverState};
@@ -874,6 +874,19 @@ impl Sensor {
         Ok(())
     }
 
+    /// Where objects touch the robot in `obs` (robot frame): the contacts a frame is sensed
+    /// with (`SenseParams::contact`), none when no object point is in the crop.
+    pub fn contacts(
+        &self,
+        obs: &Observation,
+    ) -> Result<Vec<Contact>, crate::segment::SegmentError> {
+        if obs.objects.is_empty() {
+            return Ok(Vec::new());
+        }
+        let robot: Vec<[f32; 3]> = obs.robot.iter().map(|p| p.map(|c| c as f32)).collect();
+        detect_contacts(&robot, &obs.objects, &self.params.contact)
+    }
+
     /// Reads `frame` of `rec`, cropped to the robot's box, split by the colour model.
     pub fn observe(&self, rec: &Recording, frame: usize) -> SenseResult<Observation> {
         rec.observe(frame, &self.params, Some(self.bounds))
@@ -1171,12 +1184,7 @@ impl Sensor {
         let free = self.free_solve(&model).map_err(|e| fail(&e))?;
         report.timings.free_solve = ms(clock.elapsed());
         let clock = std::time::Instant::now();
-        let robot_f32: Vec<[f32; 3]> = obs.robot.iter().map(|p| p.map(|c| c as f32)).collect();
-        let contacts = if obs.objects.is_empty() {
-            Vec::new()
-        } else {
-            detect_contacts(&robot_f32, &obs.objects, &self.params.contact).map_err(|e| fail(&e))?
-        };
+        let contacts = self.contacts(obs).map_err(|e| fail(&e))?;
         report.timings.contacts = ms(clock.elapsed());
         let surface = &self.surface;
         let mut features = self.features.clone();

@@ -87,6 +87,9 @@ pub fn run(args: &CalibrateArgs) -> CliResult {
     std::fs::write(&out, text)
         .map_err(|e| CliError::Result(format!("{}: cannot write: {e}", out.display())))?;
     eprintln!("wrote {}", out.display());
+    if cal.status != CalibrationStatus::PoorFit {
+        touch_check(args, &model, &params, &cal)?;
+    }
     if args.json {
         print_json(&serde_json::to_value(&cal).map_err(|e| CliError::Result(e.to_string()))?)?;
     } else {
@@ -123,6 +126,53 @@ pub fn run(args: &CalibrateArgs) -> CliResult {
              or wrong model",
             cal.residual_rms * 1e3
         )));
+    }
+    Ok(())
+}
+
+/// Warns when an object touches the robot in the calibrated frame: the calibration then
+/// took its dent for the robot's shape (and the cable inputs bent to match it). The frame
+/// is seen as `sense` would see it at the calibrated pose: cropped above the table, robot
+/// and objects by colour, the same contact detection.
+fn touch_check(
+    args: &CalibrateArgs,
+    model: &Model,
+    params: &CalibrateParams,
+    cal: &softsense::calibrate::Calibration,
+) -> CliResult {
+    use softsense::sense::{Recording, SenseParams, Sensor};
+    let camera =
+        softsense::io::intrinsics::read_camera_model(args.scene_dir.join("intrinsics.json"))
+            .map_err(softsense::Error::from)?;
+    let rec = Recording {
+        dir: args.scene_dir.clone(),
+        camera,
+        robot_from_camera: cal.robot_from_camera,
+        pose_file: args.scene_dir.join("calibration.json"),
+        frames: vec![args.frame],
+        actuators: None,
+        calibrated: None,
+        truth: None,
+    };
+    let sense_params = SenseParams {
+        robot_color: params.robot_color,
+        ..Default::default()
+    };
+    let sensor = Sensor::new(model.clone(), cal.robot_from_camera, sense_params);
+    let obs = sensor
+        .observe(&rec, args.frame)
+        .map_err(|e| CliError::Lib(e.into()))?;
+    let contacts = sensor
+        .contacts(&obs)
+        .map_err(|e| CliError::Result(e.to_string()))?;
+    for c in &contacts {
+        let [x, y, z] = c.centroid.map(|v| v * 1e3);
+        eprintln!(
+            "warning: frame {}: an object touches the robot at ({x:.1}, {y:.1}, {z:.1}) mm \
+             (robot frame, {} contact points): the calibration took its dent for the \
+             robot's shape; calibrate on a frame where nothing touches the robot (--frame)",
+            args.frame, c.points
+        );
     }
     Ok(())
 }
