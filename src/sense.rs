@@ -208,6 +208,8 @@ pub struct Recording {
     /// came from one: for frames without recorded inputs, see
     /// [`Sensor::use_calibrated_inputs`].
     pub calibrated: Option<Vec<ActuatorCalibration>>,
+    /// The model file the calibration names (`calibration.json`'s `model`), as written.
+    pub calibration_model: Option<String>,
     /// The generator's truth, if any (used for error reports only).
     pub truth: Option<Truth>,
 }
@@ -230,6 +232,10 @@ struct PoseFile {
     /// The cable inputs `softsense calibrate` found (calibration.json only).
     #[serde(default)]
     actuators: Option<Vec<ActuatorCalibration>>,
+    /// The model file the calibration used, relative to the file's folder unless absolute
+    /// (calibration.json only).
+    #[serde(default)]
+    model: Option<String>,
 }
 
 /// Points of one frame in the robot frame, split by the colour model.
@@ -373,6 +379,7 @@ impl Recording {
             camera,
             robot_from_camera: pose.robot_from_camera,
             calibrated: pose.actuators,
+            calibration_model: pose.model,
             pose_file,
             frames,
             actuators,
@@ -380,17 +387,33 @@ impl Recording {
         })
     }
 
-    /// The model file named by the truth (generated scenes), if any. A relative path is
-    /// taken from the recording's folder; if nothing is there, as it is (recordings made
-    /// before 2026-11-24 name it from the directory `scene generate` ran in).
+    /// The model file named by the truth (generated scenes), else by the calibration, if
+    /// any (see [`Recording::model_named_by`]). A relative path is taken from the
+    /// recording's folder; if nothing is there, as it is (recordings made before
+    /// 2026-11-24 name it from the directory `scene generate` ran in).
     pub fn model_path(&self) -> Option<PathBuf> {
-        let named = PathBuf::from(&self.truth.as_ref()?.model_path);
+        let named = PathBuf::from(match &self.truth {
+            Some(t) => &t.model_path,
+            None => self.calibration_model.as_ref()?,
+        });
         let in_dir = self.dir.join(&named);
         Some(if named.is_relative() && in_dir.exists() {
             in_dir
         } else {
             named
         })
+    }
+
+    /// The file that names [`Recording::model_path`]: `truth.json`, else the pose file
+    /// (`calibration.json`); `None` when neither names a model.
+    pub fn model_named_by(&self) -> Option<PathBuf> {
+        if self.truth.is_some() {
+            Some(self.dir.join("truth.json"))
+        } else {
+            self.calibration_model
+                .as_ref()
+                .map(|_| self.pose_file.clone())
+        }
     }
 
     /// The recorded actuator inputs of `frame`, if any.

@@ -21,10 +21,11 @@ SCENE_DIR holds depth_NNNN.png (millimetres unless intrinsics.json gives a depth
 color_NNNN.png and intrinsics.json (Open3D \
 format), as `softsense scene generate` writes them. The rough start pose is \
 {\"robot_from_camera\": 4x4} (--start, default SCENE_DIR/rough_pose.json); it should be \
-within about 10 degrees and 30 mm. Writes calibration.json (robot_from_camera and the \
-cable tensions and shortenings) into SCENE_DIR or --out. `softsense sense` on that folder \
-then takes its pose, and its cable inputs for frames without recorded ones \
-(actuators.json); calibrate on a frame where nothing touches the robot.",
+within about 10 degrees and 30 mm. Writes calibration.json (robot_from_camera, the \
+cable tensions and shortenings, and the model file's path) into SCENE_DIR or --out. \
+`softsense sense` on that folder then takes its pose, its model, and its cable inputs for \
+frames without recorded ones (actuators.json); calibrate on a frame where nothing \
+touches the robot.",
     after_help = "Example:\n  softsense calibrate clouds/scenes/calib meshes/models/robot.toml \
 --start clouds/scenes/calib/rough_pose.json"
 )]
@@ -82,7 +83,18 @@ pub fn run(args: &CalibrateArgs) -> CliResult {
         .out
         .clone()
         .unwrap_or_else(|| args.scene_dir.join("calibration.json"));
-    let text = serde_json::to_string_pretty(&cal)
+    // The result, and the model it used (relative to the file's folder where it can be),
+    // so that `sense` on the folder finds the model without --model.
+    let mut result = serde_json::to_value(&cal).map_err(|e| CliError::Result(e.to_string()))?;
+    let out_dir = match out.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let model_named = softsense::scene::relative_to(&args.model, &out_dir)
+        .or_else(|| std::fs::canonicalize(&args.model).ok())
+        .unwrap_or_else(|| args.model.clone());
+    result["model"] = serde_json::Value::String(model_named.display().to_string());
+    let text = serde_json::to_string_pretty(&result)
         .map_err(|e| CliError::Result(format!("cannot encode the result: {e}")))?;
     std::fs::write(&out, text)
         .map_err(|e| CliError::Result(format!("{}: cannot write: {e}", out.display())))?;
@@ -91,7 +103,7 @@ pub fn run(args: &CalibrateArgs) -> CliResult {
         touch_check(args, &model, &params, &cal)?;
     }
     if args.json {
-        print_json(&serde_json::to_value(&cal).map_err(|e| CliError::Result(e.to_string()))?)?;
+        print_json(&result)?;
     } else {
         let m = cal.robot_from_camera;
         outln!(
@@ -152,6 +164,7 @@ fn touch_check(
         frames: vec![args.frame],
         actuators: None,
         calibrated: None,
+        calibration_model: None,
         truth: None,
     };
     let sense_params = SenseParams {

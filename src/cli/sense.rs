@@ -43,8 +43,9 @@ Generate a scene first with `softsense scene generate SCENE.toml OUT_DIR`."
 pub struct SenseArgs {
     /// Recording folder.
     pub scene_dir: PathBuf,
-    /// FE model file (TOML); default: the model named in the folder's truth.json (a path
-    /// relative to the folder), so a recording copied away from its model needs this.
+    /// FE model file (TOML); default: the model named in the folder's truth.json, else in
+    /// its calibration.json (a path relative to the folder), so a recording copied away
+    /// from its model needs this.
     #[arg(long, value_name = "MODEL.toml")]
     pub model: Option<PathBuf>,
     /// Number of surface feature points (the thesis used 51).
@@ -86,18 +87,19 @@ pub fn run(args: &SenseArgs) -> CliResult {
     let model_path = match (&args.model, rec.model_path()) {
         (Some(m), _) => m.clone(),
         (None, Some(m)) if !m.exists() => {
+            let by = rec.model_named_by().unwrap_or_default();
             return Err(CliError::Usage(format!(
-                "{}'s truth.json names its model as {}, which is not there (from the recording's folder, or from here): give --model MODEL.toml",
-                args.scene_dir.display(),
+                "{} names the model as {}, which is not there (from the recording's folder, or from here): give --model MODEL.toml",
+                by.display(),
                 m.display()
-            )))
+            )));
         }
         (None, Some(m)) => m,
         (None, None) => {
             return Err(CliError::Usage(format!(
-                "{} has no truth.json naming its model: give --model MODEL.toml",
-                args.scene_dir.display()
-            )))
+            "{} has no truth.json or calibration.json naming its model: give --model MODEL.toml",
+            args.scene_dir.display()
+        )))
         }
     };
     let model = Model::load(&model_path, None).map_err(|e| CliError::Lib(e.into()))?;

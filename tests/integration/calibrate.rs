@@ -138,6 +138,12 @@ fn calibrate_cli_writes_the_pose_and_inputs_from_the_committed_rough_start() {
     let (dt, dr) = pose_difference(&got, &truth);
     assert!(dt <= 1e-3 && dr.to_degrees() <= 0.2, "{dt} m {dr} rad");
     assert_eq!(written["actuators"].as_array().unwrap().len(), 4);
+    // The model it used, relative to the file's folder, for `sense` to find.
+    let named = tmp.path().join(written["model"].as_str().unwrap());
+    assert_eq!(
+        std::fs::canonicalize(named).unwrap(),
+        std::fs::canonicalize(root.join("meshes/models/robot.toml")).unwrap()
+    );
 }
 
 #[test]
@@ -254,6 +260,11 @@ fn a_recording_without_recorded_inputs_is_sensed_with_the_calibrated_ones() {
     assert!(stderr.contains("cable inputs the model file's"), "{stderr}");
     assert!(frames.iter().all(|f| !f.0), "{frames:?}");
     assert!(frames[1].1.unwrap() > 0.5, "{frames:?}");
+    // Without truth.json, the model is the one calibration.json names.
+    std::fs::remove_file(dir.join("truth.json")).unwrap();
+    let (frames, stderr) = sense_errors(&dir);
+    assert_eq!(frames.len(), 3, "{stderr}");
+    assert!(stderr.contains("meshes/models/robot.toml"), "{stderr}");
 }
 
 #[test]
