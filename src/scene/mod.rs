@@ -18,6 +18,7 @@ pub mod raycast;
 pub mod sensor;
 
 use crate::fem::material::Material;
+use crate::fem::mesh::Surface;
 use crate::fem::model::Model;
 use crate::fem::solve::{CableControl, MappedPoint, PointLoad, Problem};
 use camera::{Camera, CameraSpec};
@@ -321,8 +322,11 @@ pub const MAX_LOAD_OFFSET: f64 = 0.02;
 
 /// Frame `index`'s FE problem (the model with the frame's cable inputs and loads), and
 /// each load's surface node and point of application; every input checked, nothing solved.
+/// `surface` is the model mesh's (the same for every frame: cables and loads do not change
+/// the mesh).
 fn frame_problem(
     model: &Model,
+    surface: &Surface,
     spec: &SceneSpec,
     index: usize,
 ) -> SceneResult<(Problem, Vec<(usize, MappedPoint)>)> {
@@ -350,7 +354,6 @@ fn frame_problem(
             }
         };
     }
-    let surface = problem.mesh.surface();
     let rest = problem.mesh.nodes_in_rest.clone();
     let mut nodes_of_loads = Vec::new();
     for (k, l) in frame.loads.iter().enumerate() {
@@ -395,9 +398,9 @@ pub fn render_frame(scene: &Scene, model: &Model, index: usize) -> SceneResult<R
         .frames
         .get(index)
         .ok_or_else(|| SceneError::Spec(format!("no frame {index}")))?;
-    let (problem, nodes_of_loads) = frame_problem(model, spec, index)?;
+    let surface = model.problem.mesh.surface();
+    let (problem, nodes_of_loads) = frame_problem(model, &surface, spec, index)?;
     let rest = &problem.mesh.nodes_in_rest;
-    let surface = problem.mesh.surface();
     let sol = problem.solve_static(&model.newton)?;
     if !sol.converged {
         return Err(SceneError::NotConverged { frame: index });
@@ -583,8 +586,9 @@ pub fn generate(
     let total = spec.frames.len();
     // Every frame's inputs are checked before any is solved: a slip in the last frame
     // should not cost the minutes of the ones before it.
+    let surface = model.problem.mesh.surface();
     for i in 0..total {
-        frame_problem(&model, spec, i)?;
+        frame_problem(&model, &surface, spec, i)?;
     }
     let mut frames = Vec::new();
     for i in 0..total {
