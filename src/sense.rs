@@ -35,7 +35,6 @@ use crate::contact::{detect_contacts, Contact, ContactParams};
 use crate::fem::mesh::Surface;
 use crate::fem::model::Model;
 use crate::fem::solve::{CableControl, MappedPoint, Solution, SolverState};
-use crate::fem::tet4::Tangent;
 use crate::inverse::frame::{
     choose_locations, estimate, estimate_from, factorize_loop_tangent, Candidate, FrameEstimate,
     FrameParams, LinearisationPoint, LoopTimings,
@@ -776,6 +775,10 @@ pub fn default_window() -> usize {
     }
 }
 
+/// Locations tried, per round of a frame's location choice, after the chosen one could not
+/// be estimated (each next-best by the same choice without the failed ones).
+const LOCATION_RETRIES: usize = 2;
+
 /// Free solves kept by a [`Sensor`]: one per distinct actuator input, the latest ones.
 const FREE_CACHE: usize = 8;
 
@@ -786,10 +789,6 @@ const FREE_CACHE: usize = 8;
 struct FreeState {
     solution: Solution,
     solver: Option<SolverState>,
-    /// The same at the tangent the location choice linearises with
-    /// ([`crate::fem::solve::Solver::tangent_at`]): the first round of every frame's choice
-    /// is at the free state. Made when a frame first needs it (one with a contact).
-    choice: OnceLock<Option<SolverState>>,
 }
 
 /// Cable inputs closer than this (m or N) are the same input for the free-solve cache: far
@@ -941,7 +940,6 @@ impl Sensor {
         };
         let s = Arc::new(FreeState {
             solver: free_solver_state(model, &s),
-            choice: OnceLock::new(),
             solution: s,
         });
         if let Ok(mut cache) = self.free_cache.lock() {
@@ -1336,8 +1334,11 @@ impl Sensor {
             // Seen contacts: the options of each are the surface nodes near its centroid;
             // the data choose among them (linearised), at the actuated state and once more
             // at the estimated state.
+            // Where the choice linearises: node positions, cable tensions and a solver
+            // state there (the free equilibrium's, then the last estimate's).
             let mut x = free.solution.positions.clone();
-            let mut state = None;
+            let mut tensions = free.solution.cable_tension.clone();
+            let mut state = free.solver.clone();
             // The chosen node of each contact.
             let mut chosen: Vec<usize> = Vec::new();
             let mut out = None;
@@ -1357,7 +1358,10 @@ impl Sensor {
             // The options of each contact (surface nodes near its centroid at node positions
             // `x`, and their candidates) and the data's choice among them, linearised at
             // `x` with `state` (a solver state there, if any).
-            let choose = |x: &[[f64; 3]], state: Option<SolverState>| {
+            let choose = |x: &[[f64; 3]],
+                          tensions: &[f64],
+                          state: Option<SolverState>,
+                          excluded: &[Vec<usize>]| {
                 let normals = vertex_normals(x, &surface.triangles);
                 let options: Vec<(Vec<usize>, Vec<Vec<Candidate>>)> = contacts
                     .iter()
@@ -1384,10 +1388,12 @@ impl Sensor {
                     &all,
                     LinearisationPoint {
                         positions: x,
+                        tensions,
                         state,
                     },
                     &self.params.frame,
                     self.params.max_combinations,
+                    excluded,
                 )?;
                 let picked: Vec<usize> = pick
                     .iter()
@@ -1444,7 +1450,7 @@ impl Sensor {
                     },
                     || {
                         let clock = std::time::Instant::now();
-                        let c = choose(&t.positions, t.solver.clone());
+                        let c = choose(&t.positions, tensions_of(t), t.solver.clone(), &[]);
                         (c, ms(clock.elapsed()))
                     },
                 );
@@ -1457,6 +1463,7 @@ impl Sensor {
                             .map(|i| contact_group(i, nodes[i], ranges[i].clone()))
                             .collect();
                         x = est.positions.clone();
+                        tensions = tensions_of(&est).to_vec();
                         state = est.solver.take();
                         let kept = matches!(&choice.0, Ok((_, _, picked)) if *picked == nodes);
                         chosen = nodes;
@@ -1468,42 +1475,61 @@ impl Sensor {
                     )),
                 }
             }
-            if first_round == 0 {
-                // A solver state at x, for the choice to reuse.
-                state = free
-                    .choice
-                    .get_or_init(|| choice_solver_state(&model, &free.solution))
-                    .clone();
-            }
-            for _round in first_round..2 {
-                let clock = std::time::Instant::now();
-                // The last estimate's state also starts the next frame.
-                let (options, pick, picked) = choose(
-                    &x,
-                    if want_track {
-                        state.clone()
-                    } else {
-                        state.take()
-                    },
-                )
-                .map_err(|e| fail(&e))?;
-                report.timings.mapping += ms(clock.elapsed());
-                if picked == chosen && out.is_some() {
-                    break;
+            'rounds: for _round in first_round..2 {
+                // Combinations whose estimate failed in this round (the FE model could not
+                // carry the estimated load there, e.g. an element inverted under a point
+                // load at a corner node): the next-best one is estimated instead.
+                let mut failed: Vec<Vec<usize>> = Vec::new();
+                loop {
+                    let clock = std::time::Instant::now();
+                    // The last estimate's state also starts the next frame.
+                    let (options, pick, picked) = choose(
+                        &x,
+                        &tensions,
+                        if want_track || !failed.is_empty() {
+                            state.clone()
+                        } else {
+                            state.take()
+                        },
+                        &failed,
+                    )
+                    .map_err(|e| fail(&e))?;
+                    report.timings.mapping += ms(clock.elapsed());
+                    if picked == chosen && out.is_some() {
+                        break 'rounds;
+                    }
+                    let mut cands = Vec::new();
+                    let mut groups = Vec::new();
+                    for (i, ((nodes, opts), &k)) in options.iter().zip(&pick).enumerate() {
+                        let start = cands.len();
+                        cands.extend_from_slice(&opts[k]);
+                        groups.push(contact_group(i, nodes[k], start..cands.len()));
+                    }
+                    match solve(&cands) {
+                        Ok(mut est) => {
+                            report.account(&est);
+                            chosen = picked;
+                            x = est.positions.clone();
+                            tensions = tensions_of(&est).to_vec();
+                            state = est.solver.take();
+                            out = Some((est, cands, groups));
+                            break;
+                        }
+                        Err(e) if failed.len() < LOCATION_RETRIES => {
+                            report.warnings.push(format!(
+                                "contact location (nodes {picked:?}) could not be estimated ({e}); the next-best location is estimated instead"
+                            ));
+                            failed.push(pick);
+                        }
+                        Err(e) if out.is_some() => {
+                            report.warnings.push(format!(
+                                "contact location (nodes {picked:?}) could not be estimated ({e}); the first round's location is kept"
+                            ));
+                            break 'rounds;
+                        }
+                        Err(e) => return Err(fail(&e)),
+                    }
                 }
-                chosen = picked;
-                let mut cands = Vec::new();
-                let mut groups = Vec::new();
-                for (i, ((nodes, opts), &k)) in options.iter().zip(&pick).enumerate() {
-                    let start = cands.len();
-                    cands.extend_from_slice(&opts[k]);
-                    groups.push(contact_group(i, nodes[k], start..cands.len()));
-                }
-                let mut est = solve(&cands).map_err(|e| fail(&e))?;
-                report.account(&est);
-                x = est.positions.clone();
-                state = est.solver.take();
-                out = Some((est, cands, groups));
             }
             let mut out = out.ok_or_else(|| FrameStatus::NotSolved("no estimate".into()))?;
             // `state` is the last estimate's solver state.
@@ -1684,15 +1710,10 @@ fn free_solver_state(model: &Model, free: &Solution) -> Option<SolverState> {
     Some(solver.into_state())
 }
 
-/// A solver state at the free equilibrium `free` of `model` (without loads) with the
-/// location choice's tangent factorized (see [`choose_locations`]); `None` if that fails.
-fn choice_solver_state(model: &Model, free: &Solution) -> Option<SolverState> {
-    let base = model.problem.without_loads();
-    let mut solver = base.solver().ok()?;
-    solver
-        .tangent_at(&free.positions, Tangent::default())
-        .ok()?;
-    Some(solver.into_state())
+/// The cable tensions of an estimate's last FE state (none if it has none: a choice
+/// linearised there then fails and says so).
+fn tensions_of(est: &FrameEstimate) -> &[f64] {
+    est.solution.as_ref().map_or(&[], |s| &s.cable_tension[..])
 }
 
 struct Group {

@@ -618,12 +618,18 @@ fn linearise(
 /// Where [`choose_locations`] linearises.
 #[derive(Debug)]
 pub struct LinearisationPoint<'a> {
-    /// Node positions of an equilibrium of the model without the candidate loads (m).
+    /// Node positions of an equilibrium of the model (m): its free equilibrium, or one under
+    /// a previous estimate's loads (point loads do not enter the tangent).
     pub positions: &'a [[f64; 3]],
+    /// The cable tensions of that equilibrium (N, one per cable): the choice linearises on
+    /// Newton's own matrix there, the material tangent plus the cables' geometric stiffness
+    /// under these tensions, as the sensing loop does ([`estimate`]).
+    pub tensions: &'a [f64],
     /// A solver state of the same model whose elements were evaluated at `positions` (e.g.
     /// [`FrameEstimate::solver`]) saves evaluating them, and one that holds the choice's
-    /// very tangent factorized (bit for bit) saves factorizing it; any other state only
-    /// costs that reuse, never the choice. `None`: both are done.
+    /// very tangent factorized (bit for bit; e.g. an estimate's, which ends factorized
+    /// there) saves factorizing it; any other state only costs that reuse, never the
+    /// choice. `None`: both are done.
     pub state: Option<SolverState>,
 }
 
@@ -638,12 +644,15 @@ const PRUNE_MARGIN: f64 = 1e-6;
 
 /// Location mapping by the data: for each seen contact, a list of options (each option the
 /// candidate forces of one location, e.g. three directions at one surface node). Linearised
-/// once at the equilibrium node positions `at` (the material tangent, or its rotated
-/// fallback where that is indefinite: [`Solver::tangent_at`]), with the compliance of every
+/// once at the equilibrium `at` (on Newton's matrix, as the sensing loop: see
+/// [`LinearisationPoint::tensions`]), with the compliance of every
 /// option's rows in one computation; every combination of one option per contact is solved
 /// as an intensity QP and the combination with the smallest residual wins. Returns the
 /// chosen option per contact. More than `max_combinations` combinations: coordinate descent
-/// from the first options instead.
+/// from the first options instead. Combinations in `excluded` (one option index per
+/// contact, e.g. ones whose estimate failed) are never chosen; an error if nothing else is
+/// left.
+#[allow(clippy::too_many_arguments)]
 pub fn choose_locations(
     model: &Model,
     registrar: &Registrar,
@@ -652,7 +661,10 @@ pub fn choose_locations(
     at: LinearisationPoint<'_>,
     params: &FrameParams,
     max_combinations: usize,
+    excluded: &[Vec<usize>],
 ) -> InverseResult<Vec<usize>> {
+    let every_excluded =
+        || InverseError::Intensity("every combination of location options was excluded".into());
     if options.iter().any(|o| o.is_empty()) {
         return Err(InverseError::Intensity(
             "a contact has no location option".into(),
@@ -672,13 +684,28 @@ pub fn choose_locations(
     }
     let LinearisationPoint {
         positions: at,
+        tensions,
         state,
     } = at;
+    if tensions.len() != model.problem.cables.len() {
+        return Err(InverseError::Intensity(format!(
+            "{} cable tensions for {} cables",
+            tensions.len(),
+            model.problem.cables.len()
+        )));
+    }
     let mut solver = match state {
         Some(s) => base.solver_from(s)?,
         None => base.solver()?,
     };
-    solver.tangent_at(at, Tangent::default())?;
+    // The loop's linearisation: on the material tangent alone the choice ranked the
+    // options by a poorer model of how the state moves under a load (indefinite at sensed
+    // states, so the rotated fallback), and at the free state it then picked another node
+    // than at the estimated state on 5 of 5 probe_side frames, each costing a second
+    // estimate; on Newton's matrix, 2 of 5.
+    let newton_tangent = model.newton.tangent;
+    solver.assemble(at, newton_tangent)?;
+    factorize_loop_tangent(&mut solver, at, tensions, newton_tangent)?;
     let (joint, _) = linearise(
         &solver,
         at,
@@ -702,6 +729,9 @@ pub fn choose_locations(
         }
     };
     let residual = |choice: &[usize]| -> f64 {
+        if excluded.iter().any(|e| e == choice) {
+            return f64::INFINITY;
+        }
         match sub_problem(choice).solve(&params.intensity) {
             Ok(e) if e.status.is_solution() => e.residual_rms,
             _ => f64::INFINITY,
@@ -731,6 +761,10 @@ pub fn choose_locations(
                 choice[k] = 0;
                 k += 1;
             }
+        }
+        all.retain(|c| !excluded.contains(c));
+        if all.is_empty() {
+            return Err(every_excluded());
         }
         // Branch and bound: without its push-only bounds a combination's problem is a least
         // squares in closed form that never fits worse than its QP, so once a QP has fitted
@@ -795,6 +829,9 @@ pub fn choose_locations(
         if !improved {
             break;
         }
+    }
+    if excluded.contains(&best) {
+        return Err(every_excluded());
     }
     Ok(best)
 }
