@@ -133,14 +133,24 @@ fn a_force_step_the_fe_model_cannot_follow_is_halved_and_the_frame_is_sensed() {
         !report.warnings.iter().any(|w| w.starts_with("unreliable"))
     );
     assert!(report.halvings > 0, "no step was halved");
-    // Without halving the same frame fails: the test above exercises the halving.
+    // Without halving the estimate at the chosen place fails (the frame then fails, or
+    // another location is tried): the test above exercises the halving.
     let mut params = SenseParams::default();
     params.frame.max_halvings = 0;
     let (report, _) = sense_generated(303, LEG_PLACE, LEG_FORCE, params);
+    eprintln!(
+        "without halving: {:?}, {:?}",
+        report.status, report.warnings
+    );
     assert!(
-        matches!(report.status, FrameStatus::NotSolved(_)),
-        "{:?}",
-        report.status
+        matches!(report.status, FrameStatus::NotSolved(_))
+            || report
+                .warnings
+                .iter()
+                .any(|w| w.starts_with("contact location") && w.contains("could not be estimated")),
+        "{:?}, {:?}",
+        report.status,
+        report.warnings
     );
 }
 
