@@ -1480,10 +1480,12 @@ impl Sensor {
                 // carry the estimated load there, e.g. an element inverted under a point
                 // load at a corner node): the next-best one is estimated instead.
                 let mut failed: Vec<Vec<usize>> = Vec::new();
+                // Why the last of them failed.
+                let mut last_failure = None;
                 loop {
                     let clock = std::time::Instant::now();
                     // The last estimate's state also starts the next frame.
-                    let (options, pick, picked) = choose(
+                    let choice = choose(
                         &x,
                         &tensions,
                         if want_track || !failed.is_empty() {
@@ -1492,9 +1494,27 @@ impl Sensor {
                             state.take()
                         },
                         &failed,
-                    )
-                    .map_err(|e| fail(&e))?;
+                    );
                     report.timings.mapping += ms(clock.elapsed());
+                    let (options, pick, picked) = match (choice, last_failure.take()) {
+                        (Ok(c), failure) => {
+                            if let Some(e) = failure {
+                                report.warnings.push(format!(
+                                    "{e}; the next-best location is estimated instead"
+                                ));
+                            }
+                            c
+                        }
+                        // No location left to try (e.g. a contact with a single option).
+                        (Err(_), Some(e)) if out.is_some() => {
+                            report.warnings.push(format!(
+                                "{e}; no other location is left: the first round's location is kept"
+                            ));
+                            break 'rounds;
+                        }
+                        (Err(_), Some(e)) => return Err(FrameStatus::NotSolved(e)),
+                        (Err(e), None) => return Err(fail(&e)),
+                    };
                     if picked == chosen && out.is_some() {
                         break 'rounds;
                     }
@@ -1516,8 +1536,8 @@ impl Sensor {
                             break;
                         }
                         Err(e) if failed.len() < LOCATION_RETRIES => {
-                            report.warnings.push(format!(
-                                "contact location (nodes {picked:?}) could not be estimated ({e}); the next-best location is estimated instead"
+                            last_failure = Some(format!(
+                                "contact location (nodes {picked:?}) could not be estimated ({e})"
                             ));
                             failed.push(pick);
                         }
