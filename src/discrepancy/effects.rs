@@ -192,7 +192,7 @@ pub fn apply_model(
     Ok(())
 }
 
-/// Rotation matrix exp([ω]x) (Rodrigues).
+/// Rotation matrix exp(\[ω\]x) (Rodrigues).
 pub fn rotation(w: [f64; 3]) -> [[f64; 3]; 3] {
     let th = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
     let k = if th > 1e-15 {

@@ -5,7 +5,7 @@
 //! sigma = C : eps, and the nodal force f_a = V R sigma g_a (g_a the rest shape-function
 //! gradients). This is the gradient of E = 1/2 (R^T x - X)^T K0 (R^T x - X), so its exact
 //! derivative (the consistent tangent) is symmetric; it includes dR from
-//! (tr(S) I - S) w = axial(R^T dF - dF^T R), dR = R [w]x.
+//! (tr(S) I - S) w = axial(R^T dF - dF^T R), dR = R \[w\]x.
 
 use super::material::Material;
 use super::mesh::signed_volume;

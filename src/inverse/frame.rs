@@ -411,7 +411,7 @@ pub fn estimate_from(
 }
 
 /// The points behind the offsets of the features visible at node positions `x` (the rows
-/// of [`linearise`]'s problem, in its order): row i's offset is the mean of its n_i points,
+/// of the sensing loop's linearised problem, in its order): row i's offset is the mean of its n_i points,
 /// so with independent points of variance s² the covariance of rows i and j is
 /// s² n_ij / (n_i n_j), n_ij the points they share. s² is the median, over the rows, of the
 /// points' scatter about their offset.
@@ -424,7 +424,7 @@ pub struct SharedPoints {
 }
 
 impl SharedPoints {
-    /// Registers `features` at `x` as [`linearise`] does. `None` unless the matches average
+    /// Registers `features` at `x` as the sensing loop's linearisation does. `None` unless the matches average
     /// (`params.average`) and some row has two points or more.
     pub fn register(
         registrar: &Registrar,

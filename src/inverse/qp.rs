@@ -71,7 +71,7 @@ impl Default for QpParams {
     }
 }
 
-/// A second-order cone on an affine image: ‖(G x + h)[1..]‖ ≤ (G x + h)[0].
+/// A second-order cone on an affine image: ‖(G x + h)\[1..\]‖ ≤ (G x + h)\[0\].
 #[derive(Clone, Debug)]
 pub struct SecondOrderCone {
     /// k x n matrix (k ≥ 2).

@@ -3,7 +3,7 @@
 //!
 //! - [`euclidean`]: PCL `EuclideanClusterExtraction` (strict radius, size filter, clusters
 //!   by size descending, indices ascending);
-//! - [`region_growing_rgb`]: PCL `RegionGrowingRGB`, ported step by step, with a
+//! - [`mod@region_growing_rgb`]: PCL `RegionGrowingRGB`, ported step by step, with a
 //!   near-linear segment adjacency and merge;
 //! - [`geometric`]: our own mode (support plane, smooth growing on normals, convexity
 //!   and colour merge), far closer to human labels than colour alone; pick a mode with
@@ -39,7 +39,7 @@ pub use region_growing_rgb::{region_growing_rgb, RegionGrowingParams, Segment, S
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(tag = "mode", rename_all = "lowercase")]
 pub enum SegmentMode {
-    /// PCL 1.13 `RegionGrowingRGB`, exact ([`region_growing_rgb`]).
+    /// PCL 1.13 `RegionGrowingRGB`, exact ([`mod@region_growing_rgb`]).
     Pcl(RegionGrowingParams),
     /// Our geometric mode: support plane, smooth growing, convexity merge
     /// ([`segment_geometric`]).
