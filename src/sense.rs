@@ -1488,7 +1488,7 @@ impl Sensor {
                     let choice = choose(
                         &x,
                         &tensions,
-                        if want_track || !failed.is_empty() {
+                        if want_track {
                             state.clone()
                         } else {
                             state.take()
