@@ -30,10 +30,12 @@ use std::path::PathBuf;
 ///
 /// Where no contact is seen (a weight hanging by a string), the model's force points
 /// ([[force_points]] in the model file) are the candidate locations. Where one is seen,
-/// the data choose the touched node among the surface nodes near it. If the FE model
-/// cannot carry the estimated load at the chosen node (an element inverts, or Newton
-/// finds no equilibrium), the next best node is tried, and a warning names the node
-/// that failed.
+/// the data choose the touched node among the surface nodes near it: first at the
+/// unloaded state, again after two FE updates under the estimated load, and again at
+/// the estimated state (up to twice); whenever the choice moves, the new node is
+/// estimated. If the FE model cannot carry the estimated load at the chosen node (an
+/// element inverts, or Newton finds no equilibrium), the next best node is tried, and a
+/// warning names the node that failed.
 #[derive(Debug, Args)]
 #[command(
     about = "The main job: where the robot is touched and how hard, frame by frame",

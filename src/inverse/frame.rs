@@ -227,6 +227,60 @@ pub fn estimate_from(
     forces: Option<&[f64]>,
     params: &FrameParams,
 ) -> InverseResult<FrameEstimate> {
+    sensing_loop(
+        model, registrar, features, candidates, start, state, forces, None, params,
+    )
+}
+
+/// Goes on with a loop that stopped before its forces settled (at `params.max_updates`,
+/// e.g. a short first try): its next FE update is under the forces of its last QP,
+/// Newton warm-started at its last state, as the loop itself would have gone on (only the
+/// relaxation starts afresh). `state`: its solver state ([`FrameEstimate::solver`], if
+/// taken out). The updates count on from its own: `params.max_updates` bounds the total.
+/// Errors if `candidates` are not the loop's.
+pub fn estimate_onwards(
+    model: &Model,
+    registrar: &Registrar,
+    features: &[SurfaceFeature],
+    candidates: &[Candidate],
+    from: &FrameEstimate,
+    state: Option<SolverState>,
+    params: &FrameParams,
+) -> InverseResult<FrameEstimate> {
+    if from.applied.len() != candidates.len() || from.estimate.forces.len() != candidates.len() {
+        return Err(InverseError::Intensity(format!(
+            "a loop of {} candidates cannot go on with {}",
+            from.applied.len(),
+            candidates.len()
+        )));
+    }
+    sensing_loop(
+        model,
+        registrar,
+        features,
+        candidates,
+        from.solution.as_ref(),
+        state,
+        Some(&from.estimate.forces),
+        Some(from),
+        params,
+    )
+}
+
+/// The loop of [`estimate_from`], or with `onwards` of [`estimate_onwards`] (then `forces`
+/// are its last QP's and `start` its last state).
+#[allow(clippy::too_many_arguments)]
+fn sensing_loop(
+    model: &Model,
+    registrar: &Registrar,
+    features: &[SurfaceFeature],
+    candidates: &[Candidate],
+    start: Option<&Solution>,
+    state: Option<SolverState>,
+    forces: Option<&[f64]>,
+    onwards: Option<&FrameEstimate>,
+    params: &FrameParams,
+) -> InverseResult<FrameEstimate> {
     if let Some(f) = forces {
         if f.len() != candidates.len() || f.iter().any(|v| !v.is_finite()) {
             return Err(InverseError::Intensity(format!(
@@ -245,11 +299,11 @@ pub fn estimate_from(
     }
     // Starting forces with a state and a solver state: the previous loop's end, taken as
     // the first FE update's state.
-    let mut resume = forces.is_some() && start.is_some() && state.is_some();
+    let mut resume = onwards.is_none() && forces.is_some() && start.is_some() && state.is_some();
     let mut forces = forces.map_or_else(|| vec![0.0; candidates.len()], <[f64]>::to_vec);
     let mut last: Option<(IntensityEstimate, usize, IntensityProblem)> = None;
     let mut x = rest.clone();
-    let mut updates = 0;
+    let mut updates = onwards.map_or(0, |o| o.updates);
     let mut prev: Option<Solution> = None;
     let mut omega = 1.0f64;
     let mut r_prev: Option<Vec<f64>> = None;
@@ -259,11 +313,19 @@ pub fn estimate_from(
     let abs_tol = newton.abs_tol;
     newton.max_iterations = newton.max_iterations.min(params.fe_max_iterations);
     // Largest load change (N) applied since the last FE state: the forcing term's scale.
-    let mut step = 0.0f64;
+    let mut step = onwards.map_or(0.0f64, |o| {
+        o.applied
+            .iter()
+            .zip(&forces)
+            .fold(0.0f64, |m, (a, f)| m.max((f - a).abs()))
+    });
     // Largest cable self-compliance W_aa (m/N) of the last linearisation.
-    let mut cable_compliance = 0.0f64;
-    // The forces of the last good FE state (`prev`), from which a failed step is halved.
-    let mut applied = forces.clone();
+    let mut cable_compliance = onwards.map_or(0.0f64, |o| {
+        (0..o.problem.w_aa.nrows()).fold(0.0, |m, i| m.max(o.problem.w_aa[(i, i)]))
+    });
+    // The forces of the last good FE state (`prev`, else `start`), from which a failed
+    // step is halved.
+    let mut applied = onwards.map_or_else(|| forces.clone(), |o| o.applied.clone());
     let mut halvings = 0;
     let mut settled = false;
     while updates < params.max_updates {
