@@ -36,8 +36,8 @@ use crate::fem::mesh::Surface;
 use crate::fem::model::Model;
 use crate::fem::solve::{CableControl, MappedPoint, Solution, SolverState};
 use crate::inverse::frame::{
-    choose_locations, estimate, estimate_from, estimate_onwards, factorize_loop_tangent, Candidate,
-    FrameEstimate, FrameParams, LinearisationPoint, LoopTimings,
+    choose_locations, estimate, estimate_after_choice, estimate_from, estimate_onwards,
+    factorize_loop_tangent, Candidate, FrameEstimate, FrameParams, LinearisationPoint, LoopTimings,
 };
 use crate::inverse::intensity::Identifiability;
 use crate::inverse::par_map;
@@ -1399,7 +1399,7 @@ impl Sensor {
                     })
                     .collect();
                 let all: Vec<Vec<Vec<Candidate>>> = options.iter().map(|o| o.1.clone()).collect();
-                let pick = choose_locations(
+                let choice = choose_locations(
                     &model,
                     &registrar,
                     features,
@@ -1413,12 +1413,13 @@ impl Sensor {
                     self.params.max_combinations,
                     excluded,
                 )?;
-                let picked: Vec<usize> = pick
+                let picked: Vec<usize> = choice
+                    .pick
                     .iter()
                     .zip(&options)
                     .map(|(&k, (nodes, _))| nodes[k])
                     .collect();
-                Ok::<_, crate::inverse::InverseError>((options, pick, picked))
+                Ok::<_, crate::inverse::InverseError>((options, choice, picked))
             };
             // A tracked frame: the loop starts from the previous frame's locations and
             // forces, and, at the same time, the data choose the locations linearised at
@@ -1518,6 +1519,8 @@ impl Sensor {
             // Whether `out` is a preview: an estimate stopped after `preview_updates` FE
             // updates before it settled.
             let mut partial = false;
+            // Whether the choice linearises at the free state (`x` is its positions).
+            let mut at_free = first_round == 0;
             'rounds: while rounds > 0 {
                 rounds -= 1;
                 // Combinations whose estimate failed in this round (the FE model could not
@@ -1541,7 +1544,7 @@ impl Sensor {
                         &failed,
                     );
                     report.timings.mapping += ms(clock.elapsed());
-                    let (options, pick, picked) = match (choice, last_failure.take()) {
+                    let (options, choice, picked) = match (choice, last_failure.take()) {
                         (Ok(c), failure) => {
                             if let Some(e) = failure {
                                 report.warnings.push(format!(
@@ -1560,6 +1563,7 @@ impl Sensor {
                         (Err(_), Some(e)) => return Err(FrameStatus::NotSolved(e)),
                         (Err(e), None) => return Err(fail(&e)),
                     };
+                    let pick = choice.pick.clone();
                     let stands = picked == chosen && out.is_some();
                     if stands && !std::mem::take(&mut partial) {
                         break 'rounds;
@@ -1581,15 +1585,31 @@ impl Sensor {
                         }
                         // The first estimate of an untracked frame is a preview.
                         let preview = out.is_none() && first_round == 0 && preview_updates > 0;
-                        let params = if preview {
-                            FrameParams {
+                        let solved = if !preview {
+                            solve_with(&cands, &self.params.frame)
+                        } else {
+                            let params = FrameParams {
                                 max_updates: preview_updates,
                                 ..self.params.frame.clone()
+                            };
+                            if at_free && preview_updates >= 2 {
+                                // The choice's QP at the free state is the loop's first
+                                // update there.
+                                estimate_after_choice(
+                                    &model,
+                                    &registrar,
+                                    features,
+                                    &cands,
+                                    &free.solution,
+                                    free.solver.clone(),
+                                    &choice,
+                                    &params,
+                                )
+                            } else {
+                                solve_with(&cands, &params)
                             }
-                        } else {
-                            self.params.frame.clone()
                         };
-                        (solve_with(&cands, &params), cands, groups, preview)
+                        (solved, cands, groups, preview)
                     };
                     match solved {
                         Ok(mut est) => {
@@ -1597,6 +1617,7 @@ impl Sensor {
                             partial = preview && !est.settled;
                             chosen = picked;
                             x = est.positions.clone();
+                            at_free = false;
                             tensions = tensions_of(&est).to_vec();
                             state = est.solver.take();
                             out = Some((est, cands, groups));

@@ -228,7 +228,15 @@ pub fn estimate_from(
     params: &FrameParams,
 ) -> InverseResult<FrameEstimate> {
     sensing_loop(
-        model, registrar, features, candidates, start, state, forces, None, params,
+        model,
+        registrar,
+        features,
+        candidates,
+        start,
+        state,
+        forces,
+        Onwards::No,
+        params,
     )
 }
 
@@ -262,13 +270,53 @@ pub fn estimate_onwards(
         from.solution.as_ref(),
         state,
         Some(&from.estimate.forces),
-        Some(from),
+        Onwards::Loop(from),
         params,
     )
 }
 
-/// The loop of [`estimate_from`], or with `onwards` of [`estimate_onwards`] (then `forces`
-/// are its last QP's and `start` its last state).
+/// [`estimate`] for the candidates of a location `choice` made at `start` (its
+/// linearisation point: positions and tensions of `start`): the choice's QP is the loop's
+/// first update there, so the loop goes on from its forces (the first FE update is under
+/// them, Newton warm-started at `start`) and counts it as one update. `state`: a solver
+/// state at `start`, as for [`estimate`]. Errors if `candidates` are not the choice's.
+#[allow(clippy::too_many_arguments)]
+pub fn estimate_after_choice(
+    model: &Model,
+    registrar: &Registrar,
+    features: &[SurfaceFeature],
+    candidates: &[Candidate],
+    start: &Solution,
+    state: Option<SolverState>,
+    choice: &LocationChoice,
+    params: &FrameParams,
+) -> InverseResult<FrameEstimate> {
+    sensing_loop(
+        model,
+        registrar,
+        features,
+        candidates,
+        Some(start),
+        state,
+        Some(&choice.estimate.forces),
+        Onwards::Choice(choice),
+        params,
+    )
+}
+
+/// Where [`sensing_loop`] goes on from.
+#[derive(Clone, Copy)]
+enum Onwards<'a> {
+    /// Nowhere: from zero forces, or resuming a previous loop's end (see [`estimate_from`]).
+    No,
+    /// A loop stopped early ([`estimate_onwards`]).
+    Loop(&'a FrameEstimate),
+    /// A location choice's QP at `start` ([`estimate_after_choice`]).
+    Choice(&'a LocationChoice),
+}
+
+/// The loop of [`estimate_from`], [`estimate_onwards`] or [`estimate_after_choice`]
+/// (`onwards`; for the last two `forces` are the last QP's and `start` its state).
 #[allow(clippy::too_many_arguments)]
 fn sensing_loop(
     model: &Model,
@@ -278,7 +326,7 @@ fn sensing_loop(
     start: Option<&Solution>,
     state: Option<SolverState>,
     forces: Option<&[f64]>,
-    onwards: Option<&FrameEstimate>,
+    onwards: Onwards<'_>,
     params: &FrameParams,
 ) -> InverseResult<FrameEstimate> {
     if let Some(f) = forces {
@@ -299,33 +347,51 @@ fn sensing_loop(
     }
     // Starting forces with a state and a solver state: the previous loop's end, taken as
     // the first FE update's state.
-    let mut resume = onwards.is_none() && forces.is_some() && start.is_some() && state.is_some();
+    let mut resume =
+        matches!(onwards, Onwards::No) && forces.is_some() && start.is_some() && state.is_some();
     let mut forces = forces.map_or_else(|| vec![0.0; candidates.len()], <[f64]>::to_vec);
     let mut last: Option<(IntensityEstimate, usize, IntensityProblem)> = None;
     let mut x = rest.clone();
-    let mut updates = onwards.map_or(0, |o| o.updates);
+    let mut updates = match onwards {
+        Onwards::No => 0,
+        Onwards::Loop(o) => o.updates,
+        Onwards::Choice(_) => 1,
+    };
     let mut prev: Option<Solution> = None;
     let mut omega = 1.0f64;
-    let mut r_prev: Option<Vec<f64>> = None;
+    // After a choice's QP (the first update, from zero forces), its forces are the change.
+    let mut r_prev: Option<Vec<f64>> = match onwards {
+        Onwards::Choice(_) => Some(forces.clone()),
+        _ => None,
+    };
     // The previous update's solver state (before the first, the caller's): its last
     // element evaluation is at `x`, where the next Newton solve starts.
     let mut carry = state;
     let abs_tol = newton.abs_tol;
     newton.max_iterations = newton.max_iterations.min(params.fe_max_iterations);
     // Largest load change (N) applied since the last FE state: the forcing term's scale.
-    let mut step = onwards.map_or(0.0f64, |o| {
-        o.applied
-            .iter()
-            .zip(&forces)
-            .fold(0.0f64, |m, (a, f)| m.max((f - a).abs()))
-    });
-    // Largest cable self-compliance W_aa (m/N) of the last linearisation.
-    let mut cable_compliance = onwards.map_or(0.0f64, |o| {
-        (0..o.problem.w_aa.nrows()).fold(0.0, |m, i| m.max(o.problem.w_aa[(i, i)]))
-    });
     // The forces of the last good FE state (`prev`, else `start`), from which a failed
     // step is halved.
-    let mut applied = onwards.map_or_else(|| forces.clone(), |o| o.applied.clone());
+    let mut applied = match onwards {
+        Onwards::No => forces.clone(),
+        Onwards::Loop(o) => o.applied.clone(),
+        Onwards::Choice(_) => vec![0.0; forces.len()],
+    };
+    let mut step = match onwards {
+        Onwards::No => 0.0f64,
+        _ => applied
+            .iter()
+            .zip(&forces)
+            .fold(0.0f64, |m, (a, f)| m.max((f - a).abs())),
+    };
+    // Largest cable self-compliance W_aa (m/N) of the last linearisation.
+    let max_diagonal =
+        |w: &nalgebra::DMatrix<f64>| (0..w.nrows()).fold(0.0f64, |m, i| m.max(w[(i, i)]));
+    let mut cable_compliance = match onwards {
+        Onwards::No => 0.0,
+        Onwards::Loop(o) => max_diagonal(&o.problem.w_aa),
+        Onwards::Choice(c) => max_diagonal(&c.problem.w_aa),
+    };
     let mut halvings = 0;
     let mut settled = false;
     while updates < params.max_updates {
@@ -402,7 +468,7 @@ fn sensing_loop(
             &mut timings,
         )?;
         carry = Some(solver.into_state());
-        cable_compliance = (0..prob.w_aa.nrows()).fold(0.0, |m, i| m.max(prob.w_aa[(i, i)]));
+        cable_compliance = max_diagonal(&prob.w_aa);
         let clock = std::time::Instant::now();
         let est = prob.solve(&params.intensity)?;
         timings.qp += ms_since(clock);
@@ -714,7 +780,7 @@ const PRUNE_MARGIN: f64 = 1e-6;
 /// [`LinearisationPoint::tensions`]), with the compliance of every
 /// option's rows in one computation; every combination of one option per contact is solved
 /// as an intensity QP and the combination with the smallest residual wins. Returns the
-/// chosen option per contact. More than `max_combinations` combinations: coordinate descent
+/// chosen option per contact, with its QP. More than `max_combinations` combinations: coordinate descent
 /// from the first options instead. Combinations in `excluded` (one option index per
 /// contact, e.g. ones whose estimate failed) are never chosen; an error if nothing else is
 /// left.
@@ -728,7 +794,7 @@ pub fn choose_locations(
     params: &FrameParams,
     max_combinations: usize,
     excluded: &[Vec<usize>],
-) -> InverseResult<Vec<usize>> {
+) -> InverseResult<LocationChoice> {
     let every_excluded =
         || InverseError::Intensity("every combination of location options was excluded".into());
     if options.iter().any(|o| o.is_empty()) {
@@ -868,36 +934,61 @@ pub fn choose_locations(
                 }
             }
         }
-        return Ok(all.swap_remove(won.1));
-    }
-    let mut best_r = residual(&best);
-    for _sweep in 0..3 {
-        let mut improved = false;
-        for g in 0..options.len() {
-            // The trials of group g differ from `best` in entry g only, whatever the loop
-            // below has accepted so far: solve them together, accept in order.
-            let trials: Vec<Vec<usize>> = (0..options[g].len())
-                .map(|c| {
-                    let mut trial = best.clone();
-                    trial[g] = c;
-                    trial
-                })
-                .collect();
-            let rs = par_map(&trials, |t| residual(t));
-            for (trial, r) in trials.into_iter().zip(rs) {
-                if r < best_r {
-                    best_r = r;
-                    best = trial;
-                    improved = true;
+        best = all.swap_remove(won.1);
+    } else {
+        // Coordinate descent from the first options.
+        let mut best_r = residual(&best);
+        for _sweep in 0..3 {
+            let mut improved = false;
+            for g in 0..options.len() {
+                // The trials of group g differ from `best` in entry g only, whatever the loop
+                // below has accepted so far: solve them together, accept in order.
+                let trials: Vec<Vec<usize>> = (0..options[g].len())
+                    .map(|c| {
+                        let mut trial = best.clone();
+                        trial[g] = c;
+                        trial
+                    })
+                    .collect();
+                let rs = par_map(&trials, |t| residual(t));
+                for (trial, r) in trials.into_iter().zip(rs) {
+                    if r < best_r {
+                        best_r = r;
+                        best = trial;
+                        improved = true;
+                    }
                 }
             }
+            if !improved {
+                break;
+            }
         }
-        if !improved {
-            break;
+        if excluded.contains(&best) {
+            return Err(every_excluded());
         }
     }
-    if excluded.contains(&best) {
-        return Err(every_excluded());
+    // The winner's QP, solved once more to keep it.
+    let problem = sub_problem(&best);
+    let estimate = problem.solve(&params.intensity)?;
+    if !estimate.status.is_solution() {
+        return Err(InverseError::NotSolved(estimate.status));
     }
-    Ok(best)
+    Ok(LocationChoice {
+        pick: best,
+        problem,
+        estimate,
+    })
+}
+
+/// What [`choose_locations`] chose.
+#[derive(Clone, Debug)]
+pub struct LocationChoice {
+    /// The chosen option per contact.
+    pub pick: Vec<usize>,
+    /// Its intensity problem at the linearisation point (the candidates of the chosen
+    /// options, in contact order).
+    pub problem: IntensityProblem,
+    /// Its QP's solution there: the forces a sensing loop started at that point would get
+    /// from its first FE update ([`estimate_after_choice`]).
+    pub estimate: IntensityEstimate,
 }
