@@ -113,7 +113,8 @@ pub struct SenseParams {
     /// At most this many options per contact, nearest first (16).
     pub location_options: usize,
     /// The first estimate of an untracked frame with seen contacts is a preview: it stops
-    /// after this many FE updates (2; 0: no preview) unless it settles first, and the
+    /// after this many FE updates (2; 0 or 1: no preview, the first update being at the
+    /// unloaded state itself) unless it settles first, and the
     /// choice is made again at its state, nearer the estimated one than the free state is.
     /// If the locations stand the estimate goes on from there; else the new ones are
     /// estimated from the start. On the 55 held-out single-probe frames with a seen contact
@@ -1499,6 +1500,8 @@ impl Sensor {
             // `location_checks` at estimated states; each that picks other locations than
             // the last estimate's has them estimated.
             let preview_updates = self.params.preview_updates;
+            // The first update is at the free state itself: a preview needs two.
+            let previews = preview_updates >= 2;
             // A preview's estimate goes on from where it stopped.
             let finish = |p: &FrameEstimate, cands: &[Candidate], state: Option<SolverState>| {
                 estimate_onwards(
@@ -1512,7 +1515,7 @@ impl Sensor {
                 )
             };
             let mut rounds = match first_round {
-                0 => 1 + usize::from(preview_updates > 0) + self.params.location_checks,
+                0 => 1 + usize::from(previews) + self.params.location_checks,
                 1 => self.params.location_checks,
                 _ => 0,
             };
@@ -1584,7 +1587,7 @@ impl Sensor {
                             groups.push(contact_group(i, nodes[k], start..cands.len()));
                         }
                         // The first estimate of an untracked frame is a preview.
-                        let preview = out.is_none() && first_round == 0 && preview_updates > 0;
+                        let preview = out.is_none() && first_round == 0 && previews;
                         let solved = if !preview {
                             solve_with(&cands, &self.params.frame)
                         } else {
@@ -1592,7 +1595,7 @@ impl Sensor {
                                 max_updates: preview_updates,
                                 ..self.params.frame.clone()
                             };
-                            if at_free && preview_updates >= 2 {
+                            if at_free {
                                 // The choice's QP at the free state is the loop's first
                                 // update there.
                                 estimate_after_choice(

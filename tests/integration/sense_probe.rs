@@ -458,3 +458,36 @@ fn a_preview_whose_locations_stand_goes_on_to_the_forces_of_a_full_first_estimat
     // Not the same path: the frames whose preview went on stop elsewhere within the rule.
     assert!(went_on > 0, "no frame's preview went on");
 }
+
+#[test]
+fn every_preview_length_and_number_of_checks_senses_a_probe_frame() {
+    // probe_side frame 1, where the first choice moves (at the preview's state, or without
+    // a preview at the estimated state): each setting, down to no preview and no check,
+    // ends with an estimate, at the touched node once any later choice is allowed. (A
+    // preview of one FE update is none: that update is at the unloaded state itself.)
+    let (rec, sensor) = bundled("probe_side", SenseParams::default());
+    let obs = sensor.observe(&rec, 1).unwrap();
+    let truth = rec.truth_of(1).unwrap();
+    for (preview_updates, location_checks) in [(0, 0), (0, 1), (1, 0), (1, 1), (2, 0), (3, 2)] {
+        let params = SenseParams {
+            preview_updates,
+            location_checks,
+            ..SenseParams::default()
+        };
+        let sensor = Sensor::new(sensor.model.clone(), rec.robot_from_camera, params);
+        let report = sensor.sense(1, &obs, rec.actuators_of(1));
+        let e = &compare(&report, truth)[0];
+        eprintln!(
+            "preview {preview_updates}, checks {location_checks}: {:?}, node {:?}, {} FE updates, {:.1} mm, {:.1}%",
+            report.status,
+            report.forces.first().and_then(|f| f.node),
+            report.updates,
+            1e3 * e.location_error,
+            100.0 * e.force_error
+        );
+        assert!(matches!(report.status, FrameStatus::Sensed));
+        if preview_updates > 1 || location_checks > 0 {
+            assert!(e.location_error < 0.005, "{e:?}");
+        }
+    }
+}
