@@ -255,7 +255,8 @@ pub fn estimate_onwards(
     state: Option<SolverState>,
     params: &FrameParams,
 ) -> InverseResult<FrameEstimate> {
-    if from.applied.len() != candidates.len() || from.estimate.forces.len() != candidates.len() {
+    // (The QP forces are checked against `candidates` by the loop.)
+    if from.applied.len() != candidates.len() {
         return Err(InverseError::Intensity(format!(
             "a loop of {} candidates cannot go on with {}",
             from.applied.len(),

@@ -87,3 +87,8 @@ pub fn generated_recording(body: &str) -> (tempfile::TempDir, softsense::sense::
     let rec = softsense::sense::Recording::open(&out).unwrap();
     (dir, rec)
 }
+
+/// The largest difference between two forces' components (N).
+pub fn largest_component_gap(a: [f64; 3], b: [f64; 3]) -> f64 {
+    (0..3).fold(0.0f64, |m, k| m.max((a[k] - b[k]).abs()))
+}

@@ -441,7 +441,7 @@ fn a_preview_whose_locations_stand_goes_on_to_the_forces_of_a_full_first_estimat
             * params
                 .force_tol
                 .max(params.sigma_tol * fa.sigma.max(fb.sigma));
-        let d = (0..3).fold(0.0f64, |m, k| m.max((fa.force[k] - fb.force[k]).abs()));
+        let d = crate::common::largest_component_gap(fa.force, fb.force);
         eprintln!(
             "frame {frame}: node {:?}, {} / {} FE updates, forces {:.3} mN apart (tolerance {:.3} mN)",
             fa.node,

@@ -52,7 +52,7 @@ fn a_growing_press_is_tracked_and_agrees_with_its_frames_sensed_alone() {
         // Both are the loop's fixed point, each to within its stop rule (`force_tol`, or a
         // quarter of a component's σ), so they differ by at most twice that per component.
         let tol = 2.0 * params.force_tol.max(params.sigma_tol * a.sigma);
-        let d = (0..3).fold(0.0f64, |m, k| m.max((a.force[k] - b.force[k]).abs()));
+        let d = crate::common::largest_component_gap(a.force, b.force);
         eprintln!(
             "frame {}: tracked {}, {} FE updates (alone {}), |F| {:.4} N, differs by {:.2} mN (tolerance {:.2} mN)",
             r.frame,
@@ -135,7 +135,7 @@ fn a_hanging_weight_stream_resumes_every_force_point_and_agrees_with_its_frames_
         let (a, b) = (&r.forces[0], &solo.forces[0]);
         assert_eq!(a.source, b.source, "frame {}", r.frame);
         let tol = 2.0 * params.force_tol.max(params.sigma_tol * a.sigma);
-        let d = (0..3).fold(0.0f64, |m, k| m.max((a.force[k] - b.force[k]).abs()));
+        let d = crate::common::largest_component_gap(a.force, b.force);
         assert!(d <= tol, "frame {}: {d} N apart", r.frame);
     }
 }
@@ -174,7 +174,7 @@ fn two_probes_are_tracked_whichever_order_their_contacts_are_listed_in() {
                 * params
                     .force_tol
                     .max(params.sigma_tol * a.sigma.min(b.sigma));
-            let d = (0..3).fold(0.0f64, |m, k| m.max((a.force[k] - b.force[k]).abs()));
+            let d = crate::common::largest_component_gap(a.force, b.force);
             eprintln!(
                 "frame {}: node {:?} differs by {:.2} mN (tolerance {:.2} mN)",
                 r.frame,
