@@ -54,10 +54,16 @@ fn main() {
     // `--held-out SEED FRAMES OUT.toml`: a scene drawn the same way with another seed, to
     // check settings chosen on the committed scenes on data they were not chosen on.
     let args: Vec<String> = std::env::args().skip(1).collect();
+    // `--hd` (after the other arguments): the scene's camera is the 1280x720 stream
+    // (`CameraSpec::d415_1280x720`), the same loads and pose.
     fn usage() -> ! {
-        eprintln!("usage: make_probe_scenes [--held-out SEED FRAMES OUT.toml]");
+        eprintln!("usage: make_probe_scenes [--held-out SEED FRAMES OUT.toml [--hd]]");
         std::process::exit(2);
     }
+    let (args, hd) = match args.split_last() {
+        Some((last, rest)) if last == "--hd" && !rest.is_empty() => (rest.to_vec(), true),
+        _ => (args, false),
+    };
     let held_out = match args.as_slice() {
         [] => None,
         [flag, seed, frames, out] if flag == "--held-out" => {
@@ -110,6 +116,14 @@ fn main() {
             "../../meshes/models/robot.toml",
             &root.join("meshes/models/robot.toml").display().to_string(),
         );
+        if hd {
+            let c = CameraSpec::d415_1280x720();
+            let _ = write!(
+                scene,
+                "\n[camera]\nwidth = {}\nheight = {}\nfx = {:.1}\nfy = {:.1}\ncx = {:.1}\ncy = {:.1}\n",
+                c.width, c.height, c.fx, c.fy, c.cx, c.cy
+            );
+        }
         for _ in 0..frames {
             let v = candidates[(rng.next() * candidates.len() as f64) as usize];
             let _ = write!(scene, "\n[[frames]]\n{}", probe(&mut rng, v));

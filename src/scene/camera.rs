@@ -43,6 +43,46 @@ impl Default for CameraSpec {
     }
 }
 
+impl CameraSpec {
+    /// The same D415-like camera and pose as [`CameraSpec::default`] at its 1280x720 stream:
+    /// the same vertical field of view (fy = 922.5 px, 1.5 times the 640x480 stream's 615) and
+    /// a wider 16:9 horizontal one, so a surface patch gets about 2.25 times the pixels.
+    /// In a scene file:
+    ///
+    /// ```toml
+    /// [camera]
+    /// width = 1280
+    /// height = 720
+    /// fx = 922.5
+    /// fy = 922.5
+    /// cx = 639.5
+    /// cy = 359.5
+    /// ```
+    ///
+    /// ```
+    /// use softsense::scene::camera::{Camera, CameraSpec};
+    /// let (sd, hd) = (CameraSpec::default(), CameraSpec::d415_1280x720());
+    /// assert_eq!((hd.width, hd.height), (1280, 720));
+    /// // A pixel row of the 640x480 stream is 1.5 rows of the 1280x720 one.
+    /// let (a, b) = (Camera::new(sd).unwrap(), Camera::new(hd).unwrap());
+    /// let (ra, rb) = (a.ray(319.5, 0.0), b.ray(639.5, 359.5 - 1.5 * 239.5));
+    /// assert!((0..3).all(|k| (ra[k] - rb[k]).abs() < 1e-12));
+    /// ```
+    pub fn d415_1280x720() -> Self {
+        let sd = Self::default();
+        let scale = 1.5;
+        Self {
+            width: 1280,
+            height: 720,
+            fx: sd.fx * scale,
+            fy: sd.fy * scale,
+            cx: 639.5,
+            cy: 359.5,
+            ..sd
+        }
+    }
+}
+
 /// A camera ready for ray casting: rotation columns are the camera axes in the robot frame.
 #[derive(Clone, Debug, Serialize)]
 pub struct Camera {

@@ -3,6 +3,7 @@
 //! (clouds/scenes/two_probes). The location is chosen by the data among the surface nodes
 //! near each seen contact; the force is 3-D (pushing normal + two tangential components).
 use softsense::fem::model::Model;
+use softsense::scene::camera::CameraSpec;
 use softsense::sense::{
     compare, FrameReport, FrameStatus, LoadError, Recording, SenseParams, Sensor,
 };
@@ -64,9 +65,53 @@ fn a_probe_at_five_random_places_is_located_within_five_mm_and_five_percent() {
 }
 
 #[test]
-#[ignore = "acceptance NOT met yet: two probes at once, 5 of 6 loads within 5 mm and 5% (6/6 located within 0.3 mm; frame 0's first probe is 8.7% off, its tangential part)"]
+#[ignore = "acceptance NOT met at 640x480: two probes at once, 5 of 6 loads within 5 mm and 5% (6/6 located within 0.3 mm; frame 0's first probe is 8.7% off, its tangential part); the same loads seen at 1280x720 are, see the next test"]
 fn two_simultaneous_probes_are_both_found_within_five_percent() {
     assert!(within(&run("two_probes")));
+}
+
+/// The bundled two-probe scene's loads and noise draw (`clouds/scenes/two_probes.toml`,
+/// seed 12), seen by the same camera at its 1280x720 stream (`CameraSpec::d415_1280x720`:
+/// about 2.25 times the pixels on each patch), generated here. Measured: within 0.1 mm and
+/// 0.9-4.3% (the 640x480 frames: 1.0-8.7%, see the ignored test above). Over nine noise
+/// draws of the same loads (seeds 12-20), 52 of 54 loads come out within 5% at 1280x720 and
+/// 42 of 54 at 640x480; on two-probe frames paired from held-out places, neither
+/// resolution is reliable (see the README's "Camera resolution").
+#[test]
+fn two_simultaneous_probes_seen_at_1280x720_are_both_found_within_five_percent() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let scene = std::fs::read_to_string(root.join("clouds/scenes/two_probes.toml")).unwrap();
+    // `generated_recording` writes its own (absolute) model path.
+    let mut body: String = scene
+        .lines()
+        .filter(|l| !l.starts_with("model"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    let c = CameraSpec::d415_1280x720();
+    body += &format!(
+        "\n[camera]\nwidth = {}\nheight = {}\nfx = {}\nfy = {}\ncx = {}\ncy = {}\n",
+        c.width, c.height, c.fx, c.fy, c.cx, c.cy
+    );
+    let (_dir, rec) = crate::common::generated_recording(&body);
+    assert_eq!(rec.camera.intrinsics.width, 1280);
+    let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
+    let sensor = Sensor::new(model, rec.robot_from_camera, SenseParams::default());
+    let mut errors = Vec::new();
+    for &frame in &rec.frames {
+        let obs = sensor.observe(&rec, frame).unwrap();
+        let report = sensor.sense(frame, &obs, rec.actuators_of(frame));
+        assert!(report.reliable, "frame {frame}: {:?}", report.warnings);
+        for e in compare(&report, rec.truth_of(frame).unwrap()) {
+            eprintln!(
+                "1280x720 frame {frame}: location error {:.1} mm, 3-D force error {:.1}%",
+                1e3 * e.location_error,
+                100.0 * e.force_error
+            );
+            errors.push((frame, e));
+        }
+    }
+    assert_eq!(errors.len(), 6);
+    assert!(within(&errors));
 }
 
 /// Generates a one-frame probe scene (sensor noise on, scene `seed`) with the probe at `at`
