@@ -780,6 +780,65 @@ pub enum ModelInputs {
     Calibration,
 }
 
+/// [`Sensor::sense_frames`] with `workers` tasks on rayon's pool, each taking the next of
+/// `frames` as soon as it is free and sensing it with `one`; the results go to `emit` in
+/// frame order, on the calling thread.
+#[cfg(feature = "parallel")]
+fn in_parallel<E>(
+    frames: &[usize],
+    workers: usize,
+    one: &(impl Fn(usize) -> (SenseResult<Observation>, FrameReport) + Sync),
+    mut emit: impl FnMut(&SenseResult<Observation>, FrameReport) -> Result<(), E>,
+) -> Result<(), E> {
+    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+    let lead = 2 * workers;
+    let (next, emitted, stop) = (
+        AtomicUsize::new(0),
+        AtomicUsize::new(0),
+        AtomicBool::new(false),
+    );
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::scope(|scope| {
+        let (next, emitted, stop) = (&next, &emitted, &stop);
+        // rayon's scope blocks its caller until every task is done: a helper thread waits
+        // for it, while this one emits.
+        scope.spawn(move || {
+            rayon::scope(|tasks| {
+                for _ in 0..workers {
+                    let tx = tx.clone();
+                    tasks.spawn(move |_| loop {
+                        let i = next.fetch_add(1, Ordering::Relaxed);
+                        let Some(&frame) = frames.get(i) else { break };
+                        // Not too far ahead of the output.
+                        while i >= emitted.load(Ordering::Acquire) + lead
+                            && !stop.load(Ordering::Relaxed)
+                        {
+                            std::thread::sleep(std::time::Duration::from_micros(200));
+                        }
+                        if stop.load(Ordering::Relaxed) || tx.send((i, one(frame))).is_err() {
+                            break;
+                        }
+                    });
+                }
+            });
+        });
+        let mut ready = std::collections::BTreeMap::new();
+        let mut want = 0;
+        for (i, done) in rx {
+            ready.insert(i, done);
+            while let Some((obs, report)) = ready.remove(&want) {
+                want += 1;
+                if let Err(e) = emit(&obs, report) {
+                    stop.store(true, Ordering::Relaxed);
+                    return Err(e);
+                }
+                emitted.store(want, Ordering::Release);
+            }
+        }
+        Ok(())
+    })
+}
+
 /// Frames [`Sensor::sense_frames`] senses side by side by default: one per thread of
 /// rayon's pool (`RAYON_NUM_THREADS` or the cores), 1 without the `parallel` feature.
 pub fn default_window() -> usize {
@@ -1124,13 +1183,23 @@ impl Sensor {
         Ok(())
     }
 
-    /// Observes and senses `frames` of `rec`, `window` frames at a time in parallel, and
-    /// hands each observation and report to `emit` in frame order (`window` 0 or 1: one at a
-    /// time). Frames are independent, so a report is the one [`Sensor::sense`] gives for
-    /// its frame alone, whatever the window and thread count. Much of a frame's FE work is
-    /// serial (sparse Cholesky, scatter), so with two or more threads a window of two keeps
-    /// the cores busy: more frames per second, each taking longer. An unreadable frame gets
-    /// [`FrameStatus::Unreadable`]. Stops at the first error of `emit`.
+    /// Observes and senses `frames` of `rec`, up to `window` frames at a time in parallel,
+    /// and hands each observation and report to `emit` in frame order (`window` 0 or 1, or
+    /// without the `parallel` feature: one at a time). Frames are independent, so a report
+    /// is the one [`Sensor::sense`] gives for its frame alone, whatever the window and
+    /// thread count. An unreadable frame gets [`FrameStatus::Unreadable`]. Stops at the
+    /// first error of `emit` (frames already being sensed are finished and dropped).
+    ///
+    /// The frames are `window` tasks on rayon's pool, each taking the next frame as soon as
+    /// it is free; a frame's own parallel stages (element evaluations, location QPs) nest in
+    /// the same pool, so a core whose task has run out of frames helps the ones still
+    /// running. Much of a frame's FE work is serial (sparse Cholesky, scatter), so on two
+    /// cores two frames side by side get through more frames per second than one at a time,
+    /// each taking longer. Until 2026-11-26 the frames went in pairs in lockstep, and a
+    /// pair waited for its slower frame: against that, measured in 8 paired rounds, probe
+    /// frames (some take a second estimate) stream 1.26 times (probe_side) and 1.28 times
+    /// (two_probes) as fast, the even tip_weight frames 0.98 times. A task runs at most
+    /// `2 * window` frames ahead of the last one emitted.
     ///
     /// ```no_run
     /// # use softsense::sense::{Recording, SenseParams, Sensor};
@@ -1151,18 +1220,23 @@ impl Sensor {
         window: usize,
         mut emit: impl FnMut(&SenseResult<Observation>, FrameReport) -> Result<(), E>,
     ) -> Result<(), E> {
-        for chunk in frames.chunks(window.max(1)) {
-            let done = par_map(chunk, |&frame| {
-                let obs = self.observe(rec, frame);
-                let report = match &obs {
-                    Ok(o) => self.sense(frame, o, rec.actuators_of(frame)),
-                    Err(e) => FrameReport::empty(frame, FrameStatus::Unreadable(e.to_string())),
-                };
-                (obs, report)
-            });
-            for (obs, report) in done {
-                emit(&obs, report)?;
-            }
+        let one = |frame: usize| {
+            let obs = self.observe(rec, frame);
+            let report = match &obs {
+                Ok(o) => self.sense(frame, o, rec.actuators_of(frame)),
+                Err(e) => FrameReport::empty(frame, FrameStatus::Unreadable(e.to_string())),
+            };
+            (obs, report)
+        };
+        #[cfg(feature = "parallel")]
+        if window.min(frames.len()) > 1 {
+            return in_parallel(frames, window.min(frames.len()), &one, emit);
+        }
+        #[cfg(not(feature = "parallel"))]
+        let _ = window;
+        for &frame in frames {
+            let (obs, report) = one(frame);
+            emit(&obs, report)?;
         }
         Ok(())
     }

@@ -70,9 +70,9 @@ pub struct SenseArgs {
     #[arg(long, value_name = "OUT_DIR")]
     pub render: Option<PathBuf>,
     /// Frames sensed at the same time (default: the number of threads, from
-    /// RAYON_NUM_THREADS or the cores). Output stays in frame order and every frame's
-    /// answer is the same for any value; more frames at once raise the frames per second
-    /// while each frame takes longer.
+    /// RAYON_NUM_THREADS or the cores); each next frame goes to the first that is done.
+    /// Output stays in frame order and every frame's answer is the same for any value;
+    /// more frames at once raise the frames per second while each frame takes longer.
     #[arg(long, value_name = "N", value_parser = super::parse_positive)]
     pub window: Option<usize>,
     /// Sense the frames as a live stream: each frame whose contacts are where the previous

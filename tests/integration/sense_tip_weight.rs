@@ -230,3 +230,57 @@ fn a_frame_with_fewer_feature_rows_than_unknowns_is_flagged_unreliable() {
         report.warnings
     );
 }
+
+/// `sense_frames` on the tip-weight scene with `window`: (frame, status, forces) in the
+/// order emitted.
+fn streamed(window: usize) -> Vec<(usize, FrameStatus, Vec<[f64; 3]>)> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let rec = Recording::open(&root.join("clouds/scenes/tip_weight")).unwrap();
+    let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
+    let sensor = Sensor::new(model, rec.robot_from_camera, SenseParams::default());
+    let mut out = Vec::new();
+    sensor
+        .sense_frames(&rec, &rec.frames, window, |_, r| {
+            out.push((
+                r.frame,
+                r.status,
+                r.forces.iter().map(|f| f.force).collect(),
+            ));
+            Ok::<(), ()>(())
+        })
+        .unwrap();
+    out
+}
+
+#[test]
+fn frames_sensed_side_by_side_come_out_in_order_with_the_answers_of_one_at_a_time() {
+    // Each task takes the next frame when it is free, so frames finish out of order; the
+    // output is in frame order all the same, and each answer is the frame's own.
+    let one = streamed(1);
+    assert_eq!(one.iter().map(|f| f.0).collect::<Vec<_>>(), [0, 1, 2, 3]);
+    assert!(one.iter().all(|f| f.1 == FrameStatus::Sensed));
+    for window in [2, 3, 8] {
+        assert_eq!(streamed(window), one, "window {window}");
+    }
+}
+
+#[test]
+fn an_error_from_the_consumer_stops_the_stream_and_is_returned() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let rec = Recording::open(&root.join("clouds/scenes/tip_weight")).unwrap();
+    let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
+    let sensor = Sensor::new(model, rec.robot_from_camera, SenseParams::default());
+    for window in [1, 2] {
+        let mut seen = Vec::new();
+        let result = sensor.sense_frames(&rec, &rec.frames, window, |_, r| {
+            seen.push(r.frame);
+            if r.frame == 1 {
+                Err(format!("consumer stopped at frame {}", r.frame))
+            } else {
+                Ok(())
+            }
+        });
+        assert_eq!(result, Err("consumer stopped at frame 1".to_string()));
+        assert_eq!(seen, [0, 1], "window {window}");
+    }
+}
