@@ -117,12 +117,8 @@ fn main() {
             &root.join("meshes/models/robot.toml").display().to_string(),
         );
         if hd {
-            let c = CameraSpec::d415_1280x720();
-            let _ = write!(
-                scene,
-                "\n[camera]\nwidth = {}\nheight = {}\nfx = {:.1}\nfy = {:.1}\ncx = {:.1}\ncy = {:.1}\n",
-                c.width, c.height, c.fx, c.fy, c.cx, c.cy
-            );
+            let camera = toml::to_string(&CameraSpec::d415_1280x720()).expect("camera as TOML");
+            let _ = write!(scene, "\n[camera]\n{camera}");
         }
         for _ in 0..frames {
             let v = candidates[(rng.next() * candidates.len() as f64) as usize];

@@ -87,11 +87,8 @@ fn two_simultaneous_probes_seen_at_1280x720_are_both_found_within_five_percent()
         .filter(|l| !l.starts_with("model"))
         .map(|l| format!("{l}\n"))
         .collect();
-    let c = CameraSpec::d415_1280x720();
-    body += &format!(
-        "\n[camera]\nwidth = {}\nheight = {}\nfx = {}\nfy = {}\ncx = {}\ncy = {}\n",
-        c.width, c.height, c.fx, c.fy, c.cx, c.cy
-    );
+    body += "\n[camera]\n";
+    body += &toml::to_string(&CameraSpec::d415_1280x720()).unwrap();
     let (_dir, rec) = crate::common::generated_recording(&body);
     assert_eq!(rec.camera.intrinsics.width, 1280);
     let model = Model::load(&rec.model_path().unwrap(), None).unwrap();

@@ -231,13 +231,19 @@ fn a_frame_with_fewer_feature_rows_than_unknowns_is_flagged_unreliable() {
     );
 }
 
-/// `sense_frames` on the tip-weight scene with `window`: (frame, status, forces) in the
-/// order emitted.
-fn streamed(window: usize) -> Vec<(usize, FrameStatus, Vec<[f64; 3]>)> {
+/// The tip-weight recording and a sensor for it with the default parameters.
+fn tip_weight_sensor() -> (Recording, Sensor) {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let rec = Recording::open(&root.join("clouds/scenes/tip_weight")).unwrap();
     let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
     let sensor = Sensor::new(model, rec.robot_from_camera, SenseParams::default());
+    (rec, sensor)
+}
+
+/// `sense_frames` on the tip-weight scene with `window`: (frame, status, forces) in the
+/// order emitted.
+fn streamed(window: usize) -> Vec<(usize, FrameStatus, Vec<[f64; 3]>)> {
+    let (rec, sensor) = tip_weight_sensor();
     let mut out = Vec::new();
     sensor
         .sense_frames(&rec, &rec.frames, window, |_, r| {
@@ -266,10 +272,7 @@ fn frames_sensed_side_by_side_come_out_in_order_with_the_answers_of_one_at_a_tim
 
 #[test]
 fn an_error_from_the_consumer_stops_the_stream_and_is_returned() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let rec = Recording::open(&root.join("clouds/scenes/tip_weight")).unwrap();
-    let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
-    let sensor = Sensor::new(model, rec.robot_from_camera, SenseParams::default());
+    let (rec, sensor) = tip_weight_sensor();
     for window in [1, 2] {
         let mut seen = Vec::new();
         let result = sensor.sense_frames(&rec, &rec.frames, window, |_, r| {
