@@ -11,6 +11,7 @@ use softsense::fem::model::Model;
 use softsense::register::vertex_normals;
 use softsense::scene::camera::CameraSpec;
 use softsense::scene::raycast::Bvh;
+use softsense::scene::sensor::SensorModel;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -54,18 +55,31 @@ fn main() {
     // `--held-out SEED FRAMES OUT.toml`: a scene drawn the same way with another seed, to
     // check settings chosen on the committed scenes on data they were not chosen on.
     let args: Vec<String> = std::env::args().skip(1).collect();
-    // `--hd` (after the other arguments): the scene's camera is the 1280x720 stream
-    // (`CameraSpec::d415_1280x720`), the same loads and pose.
+    // After them, `--hd`: the scene's camera is the 1280x720 stream
+    // (`CameraSpec::d415_1280x720`, the same loads and pose), with the depth noise of the
+    // same disparity noise at its focal length (`SensorModel::for_camera`); `--depth-unit M`:
+    // the depth PNG's unit (m, default 0.001).
     fn usage() -> ! {
-        eprintln!("usage: make_probe_scenes [--held-out SEED FRAMES OUT.toml [--hd]]");
+        eprintln!(
+            "usage: make_probe_scenes [--held-out SEED FRAMES OUT.toml [--hd] [--depth-unit M]]"
+        );
         std::process::exit(2);
     }
-    let (args, hd) = match args.split_last() {
-        Some((last, rest)) if last == "--hd" && !rest.is_empty() => (rest.to_vec(), true),
-        _ => (args, false),
-    };
+    let (mut hd, mut depth_unit) = (false, None);
+    let mut rest = args.iter();
+    let mut args = Vec::new();
+    while let Some(a) = rest.next() {
+        match a.as_str() {
+            "--hd" => hd = true,
+            "--depth-unit" => match rest.next().map(|v| v.parse::<f64>()) {
+                Some(Ok(u)) if u > 0.0 => depth_unit = Some(u),
+                _ => usage(),
+            },
+            _ => args.push(a.clone()),
+        }
+    }
     let held_out = match args.as_slice() {
-        [] => None,
+        [] if !hd && depth_unit.is_none() => None,
         [flag, seed, frames, out] if flag == "--held-out" => {
             match (seed.parse::<u64>(), frames.parse::<usize>()) {
                 (Ok(seed), Ok(frames)) => Some((seed, frames, out.clone())),
@@ -117,8 +131,23 @@ fn main() {
             &root.join("meshes/models/robot.toml").display().to_string(),
         );
         if hd {
-            let camera = toml::to_string(&CameraSpec::d415_1280x720()).expect("camera as TOML");
+            let camera = CameraSpec::d415_1280x720();
+            let k = SensorModel::for_camera(&camera).depth_k;
+            scene = scene.replace(
+                "depth_k = 0.002        # sigma = k z^2: 0.5 mm at 0.5 m",
+                &format!(
+                    "depth_k = {k:.7}    # the same disparity noise at fx {}: 0.33 mm at 0.5 m",
+                    camera.fx
+                ),
+            );
+            let camera = toml::to_string(&camera).expect("camera as TOML");
             let _ = write!(scene, "\n[camera]\n{camera}");
+        }
+        if let Some(u) = depth_unit {
+            scene = scene.replace(
+                "color_sigma = 3.0\n",
+                &format!("color_sigma = 3.0\ndepth_unit = {u}\n"),
+            );
         }
         for _ in 0..frames {
             let v = candidates[(rng.next() * candidates.len() as f64) as usize];

@@ -2,6 +2,7 @@
 //! grazing angles and silhouette edges, colour noise. Every random draw is a hash of
 //! (seed, frame, pixel, stream), so results do not depend on thread scheduling.
 
+use super::camera::CameraSpec;
 use serde::{Deserialize, Serialize};
 
 /// Sensor-model parameters.
@@ -10,7 +11,9 @@ use serde::{Deserialize, Serialize};
 pub struct SensorModel {
     /// Master switch: false gives exact depth (still quantised to the depth unit).
     pub enabled: bool,
-    /// Depth noise coefficient k in σ = k·z² (1/m; 0.002 gives 0.5 mm at 0.5 m).
+    /// Depth noise coefficient k in σ = k·z² (1/m; 0.002 gives 0.5 mm at 0.5 m). It holds
+    /// for one focal length: a camera with more pixels across the same view has a smaller k
+    /// (see [`SensorModel::for_camera`]).
     pub depth_k: f64,
     /// Depth unit of the PNG (m); 0.001 = millimetres.
     pub depth_unit: f64,
@@ -60,6 +63,36 @@ pub fn normal(seed: u64, frame: u64, pixel: u64, stream: u64) -> f64 {
 }
 
 impl SensorModel {
+    /// The default model for a stereo depth camera with `camera`'s focal length: the same
+    /// disparity noise as the default has at [`CameraSpec::default`]'s 615 px, so `depth_k`
+    /// is 0.002 × 615 / fx (1/m). Everything else is the default's, millimetre depth unit
+    /// included.
+    ///
+    /// A stereo camera measures the disparity d = fx·b/z (b its baseline), so a disparity
+    /// noise of σ_d pixels is a depth noise of σ_z = z²·σ_d / (fx·b): at a fixed σ_d, k =
+    /// σ_d / (fx·b) falls as the focal length in pixels grows. The default's k at 615 px is
+    /// σ_d ≈ 0.068 px for a D415's 55 mm baseline. This is why Intel's tuning guide runs the
+    /// D415 at 1280x720: lower resolutions degrade its depth precision.
+    ///
+    /// ```
+    /// use softsense::scene::camera::CameraSpec;
+    /// use softsense::scene::sensor::SensorModel;
+    /// let sd = SensorModel::for_camera(&CameraSpec::default());
+    /// assert_eq!(sd.depth_k, SensorModel::default().depth_k);
+    /// // The 1280x720 stream: 1.5 times the focal length, two thirds of the depth noise
+    /// // (0.33 mm at 0.5 m against 0.5 mm).
+    /// let hd = SensorModel::for_camera(&CameraSpec::d415_1280x720());
+    /// assert!((hd.depth_k - 0.002 / 1.5).abs() < 1e-12);
+    /// assert_eq!(hd.depth_unit, 0.001);
+    /// ```
+    pub fn for_camera(camera: &CameraSpec) -> Self {
+        let default = Self::default();
+        Self {
+            depth_k: default.depth_k * CameraSpec::default().fx / camera.fx,
+            ..default
+        }
+    }
+
     /// Checks every field's range; the error names the first bad one.
     pub fn validate(&self) -> Result<(), String> {
         let checks = [
