@@ -567,7 +567,8 @@ pub struct ForceEstimate {
     pub force: [f64; 3],
     /// Its magnitude (N).
     pub magnitude: f64,
-    /// One-sigma uncertainty of the magnitude (N), from the sensor noise and W.
+    /// One-sigma uncertainty of the magnitude (N), from the sensor noise, W and the rows'
+    /// residuals (see [`crate::inverse::frame::FrameEstimate::use_shared_point_uncertainty`]).
     pub sigma: f64,
     /// The largest one-sigma of the force over all directions (N): the square root of
     /// `covariance`'s largest eigenvalue (NaN if it has a NaN). Where `sigma` is small but

@@ -158,10 +158,13 @@ impl FrameEstimate {
     /// Replaces the forces' Gauss-Markov σ (independent feature rows, the loop's) with their
     /// covariance from the points the rows share ([`SharedPoints`] at `positions`):
     /// neighbouring features average some of the same points, so their offsets' errors are
-    /// correlated, and near a contact, where the force is decided, they overlap most. The
-    /// forces do not change. `registrar` and `features` must be the estimate's own. Returns
-    /// whether the σ were replaced (not when a match is the single nearest point or the
-    /// forces are not identifiable).
+    /// correlated, and near a contact, where the force is decided, they overlap most. A row
+    /// whose residual is larger than its spread from the points' noise has its errors
+    /// scaled up to its residual (the rows' correlations kept): what the noise model leaves
+    /// out (e.g. a bias in how the points near the probe's edge are selected) shows in the
+    /// residuals, and the σ then cover it. The forces do not change. `registrar` and
+    /// `features` must be the estimate's own. Returns whether the σ were replaced (not when
+    /// a match is the single nearest point or the forces are not identifiable).
     pub fn use_shared_point_uncertainty(
         &mut self,
         registrar: &Registrar,
@@ -172,7 +175,24 @@ impl FrameEstimate {
         else {
             return false;
         };
-        let Some(cov) = self.problem.force_covariance_with(|a| shared.sandwich(a)) else {
+        let e = &self.estimate;
+        let Some(residuals) = self.problem.residuals(&e.actuator_forces, &e.forces) else {
+            return false;
+        };
+        if residuals.len() != shared.rows.len() {
+            return false;
+        }
+        // sqrt(max(1, r_i² / C_ii)): never below the noise model.
+        let scale: Vec<f64> = residuals
+            .iter()
+            .enumerate()
+            .map(|(i, r)| (r * r / shared.row_variance(i)).max(1.0).sqrt())
+            .map(|s| if s.is_finite() { s } else { 1.0 })
+            .collect();
+        let Some(cov) = self
+            .problem
+            .force_covariance_with(|a| shared.sandwich_scaled(a, &scale))
+        else {
             return false;
         };
         self.estimate.force_sigma = (0..cov.nrows())
@@ -614,7 +634,22 @@ impl SharedPoints {
     /// without forming C: s² Σ_points v vᵀ, v = Σ over the rows holding the point of
     /// b's column / n_row.
     pub fn sandwich(&self, b: &nalgebra::DMatrix<f64>) -> Option<nalgebra::DMatrix<f64>> {
-        if b.ncols() != self.rows.len() {
+        self.sandwich_scaled(b, &vec![1.0; self.rows.len()])
+    }
+
+    /// Row i's variance in [`SharedPoints::matrix`], s² / n_i (m²).
+    pub fn row_variance(&self, i: usize) -> f64 {
+        self.point_variance / self.rows[i].len() as f64
+    }
+
+    /// [`SharedPoints::sandwich`] with row i's errors scaled by `scale[i]`: B D C D Bᵀ, D =
+    /// diag(scale), the rows' correlations unchanged. `None` when a length does not fit.
+    pub fn sandwich_scaled(
+        &self,
+        b: &nalgebra::DMatrix<f64>,
+        scale: &[f64],
+    ) -> Option<nalgebra::DMatrix<f64>> {
+        if b.ncols() != self.rows.len() || scale.len() != self.rows.len() {
             return None;
         }
         let k = b.nrows();
@@ -623,7 +658,7 @@ impl SharedPoints {
         for (_, owners) in self.owners() {
             v.fill(0.0);
             for &i in &owners {
-                let w = 1.0 / self.rows[i].len() as f64;
+                let w = scale[i] / self.rows[i].len() as f64;
                 v.axpy(w, &b.column(i), 1.0);
             }
             out.ger(self.point_variance, &v, &v, 1.0);

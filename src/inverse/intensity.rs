@@ -21,6 +21,11 @@ pub enum ActuatorInput {
     Displacement(f64),
 }
 
+/// `wei x − target`: the rows' residuals at the unknowns `x` ([actuators, forces]).
+fn residuals_of(wei: &DMatrix<f64>, target: &[f64], x: &[f64]) -> DVector<f64> {
+    wei * DVector::from_column_slice(x) - DVector::from_column_slice(target)
+}
+
 /// The data of one intensity QP (all normal-space, SI).
 #[derive(Clone, Debug)]
 pub struct IntensityProblem {
@@ -239,8 +244,7 @@ impl IntensityProblem {
                 regularization_shrink,
             });
         }
-        let x = DVector::from_column_slice(&sol.x);
-        let r = &wei * &x - DVector::from_column_slice(&target);
+        let r = residuals_of(&wei, &target, &sol.x);
         let residual_rms = (r.norm_squared() / m as f64).sqrt();
         let mut abs: Vec<f64> = r.iter().map(|v| v.abs()).collect();
         let residual_robust = 1.4826 * crate::math::median(&mut abs);
@@ -255,6 +259,18 @@ impl IntensityProblem {
             identifiability: ident,
             regularization_shrink,
         })
+    }
+
+    /// Each feature row's residual (m) at `actuator_forces` and `forces` (e.g. an
+    /// estimate's): the predicted offset W_ea λ_a + W_ef λ_f less the measured one
+    /// (δ_measured − δ_free_e). `None` when the lengths do not fit the problem.
+    pub fn residuals(&self, actuator_forces: &[f64], forces: &[f64]) -> Option<Vec<f64>> {
+        if actuator_forces.len() != self.w_ea.ncols() || forces.len() != self.w_ef.ncols() {
+            return None;
+        }
+        let (wei, target, _) = self.weighted();
+        let x: Vec<f64> = actuator_forces.iter().chain(forces).copied().collect();
+        Some(residuals_of(&wei, &target, &x).iter().copied().collect())
     }
 
     /// The residual RMS of this problem without its push-only bounds: the least squares

@@ -367,6 +367,16 @@ fn feature_rows_that_average_shared_points_get_correlated_offsets() {
     let direct = &b * &c * b.transpose();
     let fast = shared.sandwich(&b).unwrap();
     assert!((&direct - &fast).amax() <= 1e-12 * fast.amax());
+    // Rows scaled (as residuals beyond their noise scale them): B D C D Bᵀ.
+    let scale: Vec<f64> = (0..m).map(|i| 1.0 + (i % 5) as f64).collect();
+    let d = nalgebra::DMatrix::from_diagonal(&nalgebra::DVector::from_vec(scale.clone()));
+    let direct = &b * &d * &c * &d * b.transpose();
+    let fast = shared.sandwich_scaled(&b, &scale).unwrap();
+    assert!((&direct - &fast).amax() <= 1e-12 * fast.amax());
+    assert!(shared.sandwich_scaled(&b, &scale[1..]).is_none());
+    for i in 0..m {
+        assert!((shared.row_variance(i) - c[(i, i)]).abs() <= 1e-15 * c[(i, i)]);
+    }
     eprintln!("{m} rows, {sharing} pairs sharing points");
 }
 

@@ -369,6 +369,29 @@ proptest! {
 }
 
 #[test]
+fn a_problem_s_residuals_are_zero_at_its_truth_and_give_the_estimate_s_rms() {
+    let (mut p, la, lf) = synthetic(vec![ActuatorInput::Force(0.0); 2]);
+    let r = p.residuals(&la, &lf).unwrap();
+    assert_eq!(r.len(), 12);
+    assert!(r.iter().all(|v| v.abs() < 1e-15), "{r:?}");
+    // One row off by 1e-5 m: its residual is that offset, with the sign of predicted less
+    // measured.
+    p.delta_measured[3] += 1e-5;
+    let r = p.residuals(&la, &lf).unwrap();
+    assert!((r[3] + 1e-5).abs() < 1e-15);
+    let e = p.solve(&IntensityParams::default()).unwrap();
+    let r = p.residuals(&e.actuator_forces, &e.forces).unwrap();
+    let rms = (r.iter().map(|v| v * v).sum::<f64>() / r.len() as f64).sqrt();
+    assert!(
+        (rms - e.residual_rms).abs() <= 1e-12 * e.residual_rms,
+        "{rms} vs {}",
+        e.residual_rms
+    );
+    assert!(p.residuals(&la, &lf[..1]).is_none());
+    assert!(p.residuals(&la[..1], &lf).is_none());
+}
+
+#[test]
 fn a_singular_problem_has_no_unbounded_residual() {
     let (mut p, _, _) = synthetic(vec![ActuatorInput::Force(0.0); 2]);
     // Two identical force columns: without the bounds their split is not determined.
