@@ -133,8 +133,13 @@ fn main() {
         if hd {
             let camera = CameraSpec::d415_1280x720();
             let k = SensorModel::for_camera(&camera).depth_k;
+            let sd_noise = "depth_k = 0.002        # sigma = k z^2: 0.5 mm at 0.5 m";
+            assert!(
+                scene.contains(sd_noise),
+                "the header sets the 640x480 depth noise"
+            );
             scene = scene.replace(
-                "depth_k = 0.002        # sigma = k z^2: 0.5 mm at 0.5 m",
+                sd_noise,
                 &format!(
                     "depth_k = {k:.7}    # the same disparity noise at fx {}: 0.33 mm at 0.5 m",
                     camera.fx
@@ -144,6 +149,10 @@ fn main() {
             let _ = write!(scene, "\n[camera]\n{camera}");
         }
         if let Some(u) = depth_unit {
+            assert!(
+                scene.contains("color_sigma = 3.0\n"),
+                "the header ends its [sensor]"
+            );
             scene = scene.replace(
                 "color_sigma = 3.0\n",
                 &format!("color_sigma = 3.0\ndepth_unit = {u}\n"),
