@@ -73,6 +73,18 @@ pub fn project_root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
+/// A bundled scene (`clouds/scenes/<scene>`) and a sensor for it with `params`.
+pub fn bundled(
+    scene: &str,
+    params: softsense::sense::SenseParams,
+) -> (softsense::sense::Recording, softsense::sense::Sensor) {
+    let rec = softsense::sense::Recording::open(&project_root().join("clouds/scenes").join(scene))
+        .unwrap();
+    let model = softsense::fem::model::Model::load(&rec.model_path().unwrap(), None).unwrap();
+    let sensor = softsense::sense::Sensor::new(model, rec.robot_from_camera, params);
+    (rec, sensor)
+}
+
 /// Generates the scene whose TOML body follows `model = "<the bundled robot>"` into a
 /// temporary folder and opens it as a recording; the folder lives as long as the guard.
 pub fn generated_recording(body: &str) -> (tempfile::TempDir, softsense::sense::Recording) {

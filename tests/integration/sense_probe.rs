@@ -10,14 +10,7 @@ use softsense::sense::{
 };
 use std::path::Path;
 
-/// A bundled scene (`clouds/scenes/<scene>`) and a sensor for it with `params`.
-fn bundled(scene: &str, params: SenseParams) -> (Recording, Sensor) {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let rec = Recording::open(&root.join("clouds/scenes").join(scene)).unwrap();
-    let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
-    let sensor = Sensor::new(model, rec.robot_from_camera, params);
-    (rec, sensor)
-}
+use crate::common::bundled;
 
 fn run(scene: &str) -> Vec<(usize, LoadError)> {
     let (rec, sensor) = bundled(scene, SenseParams::default());

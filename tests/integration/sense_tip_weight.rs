@@ -233,11 +233,7 @@ fn a_frame_with_fewer_feature_rows_than_unknowns_is_flagged_unreliable() {
 
 /// The tip-weight recording and a sensor for it with the default parameters.
 fn tip_weight_sensor() -> (Recording, Sensor) {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let rec = Recording::open(&root.join("clouds/scenes/tip_weight")).unwrap();
-    let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
-    let sensor = Sensor::new(model, rec.robot_from_camera, SenseParams::default());
-    (rec, sensor)
+    crate::common::bundled("tip_weight", SenseParams::default())
 }
 
 /// `sense_frames` on the tip-weight scene with `window`: (frame, status, forces) in the
