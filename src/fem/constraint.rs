@@ -343,7 +343,7 @@ impl Solver<'_> {
         rows: &[ConstraintRow],
     ) -> FemResult<Compliance> {
         self.tangent_at(x, Default::default())?;
-        let mut full = self.problem.external_forces();
+        let mut full = self.external_forces();
         for (f, fi) in full.iter_mut().zip(&self.internal_force) {
             *f -= fi;
         }

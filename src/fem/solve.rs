@@ -220,6 +220,9 @@ pub struct SolverSetup {
     dofs: Arc<DofMap>,
     pattern: Arc<Pattern>,
     symbolic: Arc<SymbolicCholesky<usize>>,
+    /// [`Problem::lumped_masses`] at one density (its bits, the masses): every Newton
+    /// iteration and linearisation needs the body forces.
+    lumped: OnceLock<(u64, Vec<f64>)>,
 }
 
 impl std::fmt::Debug for SolverSetup {
@@ -280,6 +283,7 @@ impl SolverSetup {
             dofs: Arc::new(dofs),
             pattern: Arc::new(pattern),
             symbolic: Arc::new(symbolic),
+            lumped: OnceLock::new(),
         })
     }
 
@@ -433,9 +437,17 @@ impl Problem {
 
     /// Body forces: gravity on the lumped masses (node-major 3n).
     pub fn body_forces(&self) -> Vec<f64> {
+        self.body_forces_with(|| std::borrow::Cow::Owned(self.lumped_masses()))
+    }
+
+    /// [`Problem::body_forces`] with the lumped masses from `masses`.
+    fn body_forces_with<'a>(
+        &self,
+        masses: impl FnOnce() -> std::borrow::Cow<'a, [f64]>,
+    ) -> Vec<f64> {
         let mut f = vec![0.0; 3 * self.mesh.num_nodes()];
         if self.density != 0.0 && self.gravity != [0.0; 3] {
-            for (v, m) in self.lumped_masses().iter().enumerate() {
+            for (v, m) in masses().iter().enumerate() {
                 for k in 0..3 {
                     f[3 * v + k] += m * self.gravity[k];
                 }
@@ -446,7 +458,11 @@ impl Problem {
 
     /// External forces from gravity and point loads (node-major 3n).
     pub fn external_forces(&self) -> Vec<f64> {
-        let mut f = self.body_forces();
+        self.add_point_loads(self.body_forces())
+    }
+
+    /// `f` (node-major 3n) plus the point loads.
+    fn add_point_loads(&self, mut f: Vec<f64>) -> Vec<f64> {
         for l in &self.loads {
             for (n, w) in l.at.nodes.iter().zip(l.at.weights) {
                 for k in 0..3 {
@@ -490,22 +506,23 @@ impl Problem {
         if !state.setup.fits(self) {
             return self.solver();
         }
-        let mut solver = Solver::with_setup(self, state.setup)?;
-        if state.material == self.material
+        let setup = state.setup;
+        let reusable = state.material == self.material
             && state.formulation == self.formulation
             && state.young_scale == self.young_scale
-            && state.values.len() == solver.values.len()
-            && state.l_values.len() == solver.l_values.len()
-        {
-            solver.l_values = state.l_values;
-            solver.values = state.values;
-            solver.internal_force = state.internal_force;
-            solver.elements = state.elements;
-            solver.elements_at = state.elements_at;
-            solver.elements_tangent = state.elements_tangent;
-            solver.factor_of = state.factor_of;
-            solver.failed_of = state.failed_of;
+            && state.values.len() == setup.pattern.nnz()
+            && state.l_values.len() == setup.symbolic.len_val();
+        if !reusable {
+            return Solver::with_setup(self, setup);
         }
+        let mut solver = Solver::with_buffers(self, setup, state.l_values, state.values)?;
+        solver.internal_force = state.internal_force;
+        solver.elements = state.elements;
+        solver.elements_at = state.elements_at;
+        solver.elements_tangent = state.elements_tangent;
+        solver.scattered = state.scattered;
+        solver.factor_of = state.factor_of;
+        solver.failed_of = state.failed_of;
         Ok(solver)
     }
 
@@ -572,6 +589,10 @@ pub struct Solver<'p> {
     /// which tangent (empty: none yet).
     elements_at: Vec<[f64; 3]>,
     elements_tangent: Tangent,
+    /// K as scattered from `elements` (empty: not yet): assembling again at `elements_at`
+    /// with the same tangent copies it instead of scattering again (the values a Newton
+    /// step or a linearisation added the cables to are restored for the next one).
+    scattered: Vec<f64>,
     /// Whether `l_values` holds the factor of the current `values`.
     factored: bool,
     /// The values `l_values` is the factor of (empty: none). A factorization of the same
@@ -614,6 +635,7 @@ pub struct SolverState {
     elements: Arc<Vec<ElementState>>,
     elements_at: Vec<[f64; 3]>,
     elements_tangent: Tangent,
+    scattered: Vec<f64>,
     factor_of: Vec<f64>,
     failed_of: Vec<f64>,
 }
@@ -642,6 +664,20 @@ impl<'p> Solver<'p> {
         } else {
             Arc::new(SolverSetup::new(problem)?)
         };
+        let l_values = Arc::new(vec![0.0; setup.symbolic.len_val()]);
+        let values = vec![0.0; setup.pattern.nnz()];
+        Self::with_buffers(problem, setup, l_values, values)
+    }
+
+    /// A solver on `setup` (which fits `problem`) with the factor and matrix buffers given:
+    /// [`Problem::solver_from`] hands over a state's instead of zeroing new ones it would
+    /// drop (the factor's is the largest buffer of a solver).
+    fn with_buffers(
+        problem: &'p Problem,
+        setup: Arc<SolverSetup>,
+        l_values: Arc<Vec<f64>>,
+        values: Vec<f64>,
+    ) -> FemResult<Self> {
         let n = problem.mesh.num_nodes();
         let points = problem
             .loads
@@ -664,8 +700,6 @@ impl<'p> Solver<'p> {
                 "prescribed displacement of node {v} is invalid"
             )));
         }
-        let l_values = vec![0.0; setup.symbolic.len_val()];
-        let nnz = setup.pattern.nnz();
         Ok(Self {
             problem,
             dofs: setup.dofs.clone(),
@@ -673,12 +707,13 @@ impl<'p> Solver<'p> {
             rest: setup.rest.clone(),
             symbolic: setup.symbolic.clone(),
             setup,
-            l_values: Arc::new(l_values),
-            values: vec![0.0; nnz],
+            l_values,
+            values,
             internal_force: Vec::new(),
             elements: Arc::default(),
             elements_at: Vec::new(),
             elements_tangent: Tangent::default(),
+            scattered: Vec::new(),
             factored: false,
             factor_of: Vec::new(),
             failed_of: Vec::new(),
@@ -699,6 +734,7 @@ impl<'p> Solver<'p> {
             elements: self.elements,
             elements_at: self.elements_at,
             elements_tangent: self.elements_tangent,
+            scattered: self.scattered,
             factor_of: self.factor_of,
             failed_of: self.failed_of,
         }
@@ -709,6 +745,27 @@ impl<'p> Solver<'p> {
     /// failed to factorize, last.
     pub fn factorizations(&self) -> usize {
         self.factorizations
+    }
+
+    /// The problem's body forces ([`Problem::body_forces`], the same values), the lumped
+    /// masses computed once per setup and density.
+    pub fn body_forces(&self) -> Vec<f64> {
+        let p = self.problem;
+        p.body_forces_with(|| {
+            let bits = p.density.to_bits();
+            // Kept for the first density asked for (a problem's density rarely changes).
+            let (b, m) = self.setup.lumped.get_or_init(|| (bits, p.lumped_masses()));
+            if *b == bits {
+                std::borrow::Cow::Borrowed(m.as_slice())
+            } else {
+                std::borrow::Cow::Owned(p.lumped_masses())
+            }
+        })
+    }
+
+    /// The problem's external forces ([`Problem::external_forces`], the same values).
+    pub fn external_forces(&self) -> Vec<f64> {
+        self.problem.add_point_loads(self.body_forces())
     }
 
     /// Number of free DOFs.
@@ -770,6 +827,7 @@ impl<'p> Solver<'p> {
     /// `elements` and sums the internal forces.
     fn evaluate(&mut self, x: &[[f64; 3]], tangent: Tangent) -> FemResult<()> {
         self.elements_at.clear();
+        self.scattered.clear();
         let p = self.problem;
         let tets = &p.mesh.tets;
         let rest_nodes = &p.mesh.nodes_in_rest;
@@ -814,11 +872,17 @@ impl<'p> Solver<'p> {
     }
 
     /// K from the element tangents of the last evaluation (serial, in element order).
+    /// Kept in `scattered`; a copy of it if it is there already.
     fn scatter_elements(&mut self) {
+        if self.scattered.len() == self.values.len() {
+            self.values.copy_from_slice(&self.scattered);
+            return;
+        }
         self.values.iter_mut().for_each(|v| *v = 0.0);
         for (e, s) in self.elements.iter().enumerate() {
             self.pattern.scatter(e, &s.tangent, &mut self.values);
         }
+        self.scattered.clone_from(&self.values);
     }
 
     /// K from the rotated tangents R K0 Rᵀ of the stored element rotations (the values
@@ -1072,7 +1136,7 @@ impl<'p> Solver<'p> {
             }
             None => p.initial_positions(),
         };
-        let f_ext_full = p.external_forces();
+        let f_ext_full = self.external_forces();
         let l0: Vec<f64> = p
             .cables
             .iter()

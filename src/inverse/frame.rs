@@ -755,7 +755,7 @@ fn linearise(
     }
     let nf = candidates.len();
     // Loads enter only as candidate rows: the free residual has the body forces alone.
-    let mut full = base.body_forces();
+    let mut full = solver.body_forces();
     for (f, fi) in full.iter_mut().zip(&solver.internal_force) {
         *f -= fi;
     }
