@@ -577,7 +577,7 @@ pub struct Solver<'p> {
     pub(crate) symbolic: Arc<SymbolicCholesky<usize>>,
     setup: Arc<SolverSetup>,
     /// Values of the supernodal factor L (reused between factorizations).
-    pub(crate) l_values: Arc<Vec<f64>>,
+    pub(crate) l_values: Arc<FactorValues>,
     /// Values of K (upper triangle) after the last assembly.
     pub values: Vec<f64>,
     /// Internal forces (node-major 3n) after the last assembly.
@@ -607,13 +607,68 @@ pub struct Solver<'p> {
     factorizations: usize,
 }
 
-/// `buf` to be overwritten whole: taken over if no other state shares it, else a fresh
-/// buffer of the same length filled with `fill` (no copy of contents about to be lost).
-fn overwritten<T: Clone>(buf: &mut Arc<Vec<T>>, fill: T) -> &mut Vec<T> {
-    if Arc::get_mut(buf).is_none() {
-        *buf = Arc::new(vec![fill; buf.len()]);
+/// The values of a supernodal Cholesky factor. When the last solver or state holding
+/// them lets go, the buffer joins [`SPARE_FACTORS`] for the next factorization that needs
+/// a fresh one: a shared factor is never overwritten, and a frame's FE updates start from
+/// shared states (the free solve's, a location choice's), so each would otherwise zero a
+/// new factor-sized buffer (on the bundled robot a tenth of the FE update's time went to
+/// zeroing and faulting in those pages).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct FactorValues(Vec<f64>);
+
+impl std::ops::Deref for FactorValues {
+    type Target = [f64];
+    fn deref(&self) -> &[f64] {
+        &self.0
     }
-    Arc::make_mut(buf)
+}
+
+impl Drop for FactorValues {
+    fn drop(&mut self) {
+        if self.0.len() < SPARE_FACTOR_MIN_LEN {
+            return;
+        }
+        if let Ok(mut spare) = SPARE_FACTORS.lock() {
+            if spare.len() < SPARE_FACTORS_MAX {
+                spare.push(std::mem::take(&mut self.0));
+            }
+        }
+    }
+}
+
+/// Factor buffers no solver holds any more (see [`FactorValues`]); their contents are
+/// stale and every use overwrites them whole.
+static SPARE_FACTORS: std::sync::Mutex<Vec<Vec<f64>>> = std::sync::Mutex::new(Vec::new());
+
+/// At most this many spare factor buffers are kept (a frame's solvers, two frames at once).
+const SPARE_FACTORS_MAX: usize = 6;
+
+/// Smaller factors are not kept: zeroing them costs less than the lock.
+const SPARE_FACTOR_MIN_LEN: usize = 1 << 14;
+
+impl FactorValues {
+    /// A buffer of `len` values to be overwritten whole: a spare one of that length if there
+    /// is one (stale contents), else zeros.
+    fn fresh(len: usize) -> Self {
+        if len >= SPARE_FACTOR_MIN_LEN {
+            if let Ok(mut spare) = SPARE_FACTORS.lock() {
+                if let Some(i) = spare.iter().position(|b| b.len() == len) {
+                    return Self(spare.swap_remove(i));
+                }
+            }
+        }
+        Self(vec![0.0; len])
+    }
+}
+
+/// `buf` to be overwritten whole: taken over if no other state shares it, else a fresh
+/// buffer of the same length (no copy of contents about to be lost).
+fn overwritten(buf: &mut Arc<FactorValues>) -> &mut [f64] {
+    if Arc::get_mut(buf).is_none() {
+        *buf = Arc::new(FactorValues::fresh(buf.len()));
+    }
+    // Not shared now: no copy.
+    &mut Arc::make_mut(buf).0
 }
 
 /// What a [`Solver`] leaves for the next solver of a problem that differs only in its
@@ -629,7 +684,7 @@ pub struct SolverState {
     material: Material,
     formulation: Formulation,
     young_scale: Vec<f64>,
-    l_values: Arc<Vec<f64>>,
+    l_values: Arc<FactorValues>,
     values: Vec<f64>,
     internal_force: Vec<f64>,
     elements: Arc<Vec<ElementState>>,
@@ -664,7 +719,7 @@ impl<'p> Solver<'p> {
         } else {
             Arc::new(SolverSetup::new(problem)?)
         };
-        let l_values = Arc::new(vec![0.0; setup.symbolic.len_val()]);
+        let l_values = Arc::new(FactorValues::fresh(setup.symbolic.len_val()));
         let values = vec![0.0; setup.pattern.nnz()];
         Self::with_buffers(problem, setup, l_values, values)
     }
@@ -675,7 +730,7 @@ impl<'p> Solver<'p> {
     fn with_buffers(
         problem: &'p Problem,
         setup: Arc<SolverSetup>,
-        l_values: Arc<Vec<f64>>,
+        l_values: Arc<FactorValues>,
         values: Vec<f64>,
     ) -> FemResult<Self> {
         let n = problem.mesh.num_nodes();
@@ -936,7 +991,7 @@ impl<'p> Solver<'p> {
         )
         .map_err(|e| FemError::Linalg(format!("{e:?}")))?;
         match self.symbolic.factorize_numeric_llt(
-            overwritten(&mut self.l_values, 0.0),
+            overwritten(&mut self.l_values),
             mat,
             Side::Upper,
             Default::default(),
