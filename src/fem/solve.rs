@@ -577,14 +577,15 @@ pub struct Solver<'p> {
     pub(crate) symbolic: Arc<SymbolicCholesky<usize>>,
     setup: Arc<SolverSetup>,
     /// Values of the supernodal factor L (reused between factorizations).
-    pub(crate) l_values: Arc<FactorValues>,
+    pub(crate) l_values: Arc<Pooled<f64>>,
     /// Values of K (upper triangle) after the last assembly.
     pub values: Vec<f64>,
     /// Internal forces (node-major 3n) after the last assembly.
     pub internal_force: Vec<f64>,
     /// Element states of the last assembly (corotational: only the tangent blocks of
-    /// [`Pattern::block_mask`] are computed, the others are zero).
-    pub elements: Arc<Vec<ElementState>>,
+    /// [`Pattern::block_mask`] are computed, the others hold whatever the buffer held:
+    /// the scatter reads no others).
+    pub(crate) elements: Arc<Pooled<ElementState>>,
     /// Node positions at which `elements` and `internal_force` were evaluated, and with
     /// which tangent (empty: none yet).
     elements_at: Vec<[f64; 3]>,
@@ -607,65 +608,90 @@ pub struct Solver<'p> {
     factorizations: usize,
 }
 
-/// The values of a supernodal Cholesky factor. When the last solver or state holding
-/// them lets go, the buffer joins [`SPARE_FACTORS`] for the next factorization that needs
-/// a fresh one: a shared factor is never overwritten, and a frame's FE updates start from
-/// shared states (the free solve's, a location choice's), so each would otherwise zero a
-/// new factor-sized buffer (on the bundled robot a tenth of the FE update's time went to
-/// zeroing and faulting in those pages).
+/// A large buffer of a solver (a factor's values, the element states) that joins its
+/// type's pool of spares when the last solver or state holding it lets go, for the next
+/// solver that needs a fresh one. A shared buffer is never overwritten, and a frame's FE
+/// updates start from shared states (the free solve's, a location choice's): without the
+/// pools each made and filled a new factor-sized and element-sized buffer (on the bundled
+/// robot 12% of a probe frame went to filling and faulting in those pages).
 #[derive(Clone, Debug, Default)]
-pub(crate) struct FactorValues(Vec<f64>);
+pub(crate) struct Pooled<T: Spare>(Vec<T>);
 
-impl std::ops::Deref for FactorValues {
-    type Target = [f64];
-    fn deref(&self) -> &[f64] {
+/// A buffer element type with a pool of spare buffers ([`Pooled`]).
+pub(crate) trait Spare: Clone + Send + Sized + 'static {
+    /// The spare buffers (stale contents; every use overwrites what it reads).
+    fn pool() -> &'static std::sync::Mutex<Vec<Vec<Self>>>;
+}
+
+impl Spare for f64 {
+    fn pool() -> &'static std::sync::Mutex<Vec<Vec<Self>>> {
+        static POOL: std::sync::Mutex<Vec<Vec<f64>>> = std::sync::Mutex::new(Vec::new());
+        &POOL
+    }
+}
+
+impl Spare for ElementState {
+    fn pool() -> &'static std::sync::Mutex<Vec<Vec<Self>>> {
+        static POOL: std::sync::Mutex<Vec<Vec<ElementState>>> = std::sync::Mutex::new(Vec::new());
+        &POOL
+    }
+}
+
+/// At most this many spares are kept per type (a frame's solvers, two frames at once).
+const SPARES_MAX: usize = 6;
+
+/// Smaller buffers are not kept: filling them costs less than the lock.
+const SPARE_MIN_BYTES: usize = 1 << 17;
+
+impl<T: Spare> Pooled<T> {
+    /// A spare buffer of `len` items (stale contents), if the pool has one.
+    fn spare(len: usize) -> Option<Self> {
+        if len * std::mem::size_of::<T>() < SPARE_MIN_BYTES {
+            return None;
+        }
+        let mut pool = T::pool().lock().ok()?;
+        let i = pool.iter().position(|b| b.len() == len)?;
+        Some(Self(pool.swap_remove(i)))
+    }
+
+    /// A buffer of `len` items to be overwritten whole: a spare one (stale contents), else
+    /// `len` copies of `fill`.
+    fn fresh(len: usize, fill: T) -> Self {
+        Self::spare(len).unwrap_or_else(|| Self(vec![fill; len]))
+    }
+}
+
+impl<T: Spare> std::ops::Deref for Pooled<T> {
+    type Target = Vec<T>;
+    fn deref(&self) -> &Vec<T> {
         &self.0
     }
 }
 
-impl Drop for FactorValues {
-    fn drop(&mut self) {
-        if self.0.len() < SPARE_FACTOR_MIN_LEN {
-            return;
-        }
-        if let Ok(mut spare) = SPARE_FACTORS.lock() {
-            if spare.len() < SPARE_FACTORS_MAX {
-                spare.push(std::mem::take(&mut self.0));
-            }
-        }
+impl<T: Spare> std::ops::DerefMut for Pooled<T> {
+    fn deref_mut(&mut self) -> &mut Vec<T> {
+        &mut self.0
     }
 }
 
-/// Factor buffers no solver holds any more (see [`FactorValues`]); their contents are
-/// stale and every use overwrites them whole.
-static SPARE_FACTORS: std::sync::Mutex<Vec<Vec<f64>>> = std::sync::Mutex::new(Vec::new());
-
-/// At most this many spare factor buffers are kept (a frame's solvers, two frames at once).
-const SPARE_FACTORS_MAX: usize = 6;
-
-/// Smaller factors are not kept: zeroing them costs less than the lock.
-const SPARE_FACTOR_MIN_LEN: usize = 1 << 14;
-
-impl FactorValues {
-    /// A buffer of `len` values to be overwritten whole: a spare one of that length if there
-    /// is one (stale contents), else zeros.
-    fn fresh(len: usize) -> Self {
-        if len >= SPARE_FACTOR_MIN_LEN {
-            if let Ok(mut spare) = SPARE_FACTORS.lock() {
-                if let Some(i) = spare.iter().position(|b| b.len() == len) {
-                    return Self(spare.swap_remove(i));
-                }
+impl<T: Spare> Drop for Pooled<T> {
+    fn drop(&mut self) {
+        if self.0.len() * std::mem::size_of::<T>() < SPARE_MIN_BYTES {
+            return;
+        }
+        if let Ok(mut pool) = T::pool().lock() {
+            if pool.len() < SPARES_MAX {
+                pool.push(std::mem::take(&mut self.0));
             }
         }
-        Self(vec![0.0; len])
     }
 }
 
 /// `buf` to be overwritten whole: taken over if no other state shares it, else a fresh
 /// buffer of the same length (no copy of contents about to be lost).
-fn overwritten(buf: &mut Arc<FactorValues>) -> &mut [f64] {
+fn overwritten(buf: &mut Arc<Pooled<f64>>) -> &mut [f64] {
     if Arc::get_mut(buf).is_none() {
-        *buf = Arc::new(FactorValues::fresh(buf.len()));
+        *buf = Arc::new(Pooled::fresh(buf.len(), 0.0));
     }
     // Not shared now: no copy.
     &mut Arc::make_mut(buf).0
@@ -684,10 +710,10 @@ pub struct SolverState {
     material: Material,
     formulation: Formulation,
     young_scale: Vec<f64>,
-    l_values: Arc<FactorValues>,
+    l_values: Arc<Pooled<f64>>,
     values: Vec<f64>,
     internal_force: Vec<f64>,
-    elements: Arc<Vec<ElementState>>,
+    elements: Arc<Pooled<ElementState>>,
     elements_at: Vec<[f64; 3]>,
     elements_tangent: Tangent,
     scattered: Vec<f64>,
@@ -719,7 +745,7 @@ impl<'p> Solver<'p> {
         } else {
             Arc::new(SolverSetup::new(problem)?)
         };
-        let l_values = Arc::new(FactorValues::fresh(setup.symbolic.len_val()));
+        let l_values = Arc::new(Pooled::fresh(setup.symbolic.len_val(), 0.0));
         let values = vec![0.0; setup.pattern.nnz()];
         Self::with_buffers(problem, setup, l_values, values)
     }
@@ -730,7 +756,7 @@ impl<'p> Solver<'p> {
     fn with_buffers(
         problem: &'p Problem,
         setup: Arc<SolverSetup>,
-        l_values: Arc<FactorValues>,
+        l_values: Arc<Pooled<f64>>,
         values: Vec<f64>,
     ) -> FemResult<Self> {
         let n = problem.mesh.num_nodes();
@@ -889,7 +915,9 @@ impl<'p> Solver<'p> {
         let m = &p.material;
         let form = p.formulation;
         // Overwritten whole: a buffer shared with another state is left to it, not copied.
-        let mut states = Arc::try_unwrap(std::mem::take(&mut self.elements)).unwrap_or_default();
+        let n = self.rest.len();
+        let mut states = Arc::try_unwrap(std::mem::take(&mut self.elements))
+            .unwrap_or_else(|_| Pooled::spare(n).unwrap_or_default());
         let pattern = &self.pattern;
         eval_elements(&self.rest, &mut states, |e, r, out| {
             let t = tets[e];
@@ -915,7 +943,7 @@ impl<'p> Solver<'p> {
         }
         self.internal_force.clear();
         self.internal_force.resize(3 * p.mesh.num_nodes(), 0.0);
-        for (t, s) in tets.iter().zip(&states) {
+        for (t, s) in tets.iter().zip(states.iter()) {
             for (a, &v) in t.iter().enumerate() {
                 for k in 0..3 {
                     self.internal_force[3 * v + k] += s.force[3 * a + k];
