@@ -32,7 +32,7 @@ use crate::scene::raycast::Bvh;
 use serde::Serialize;
 
 /// Registration parameters.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct RegisterParams {
     /// Number of feature points (thesis: 51).
     pub features: usize,
@@ -174,7 +174,21 @@ pub struct Registrar {
     origin: [f64; 3],
     cell: f64,
     dims: [usize; 3],
+    /// The last few [`Registrar::match_features`] calls, newest last.
+    memo: std::sync::Mutex<Vec<Registered>>,
 }
+
+/// One [`Registrar::match_features`] call: its inputs and its matches.
+struct Registered {
+    features: Vec<SurfaceFeature>,
+    positions: Vec<[f64; 3]>,
+    params: RegisterParams,
+    matches: Vec<Option<LineMatch>>,
+}
+
+/// Calls [`Registrar::match_features`] remembers (a frame's estimate and the location
+/// choices at its states, two frames' worth in a tracked stream's parallel steps).
+const MEMO_CALLS: usize = 4;
 
 impl Registrar {
     /// Indexes the finite points.
@@ -233,6 +247,7 @@ impl Registrar {
             origin: lo,
             cell,
             dims,
+            memo: Default::default(),
         }
     }
 
@@ -393,6 +408,56 @@ impl Registrar {
             }
         }
         out
+    }
+
+    /// The match of each feature at node positions `positions` (its point and the normal
+    /// of its triangle there; `None`: hidden, or a degenerate triangle). Remembered: the
+    /// same features, positions and parameters, bit for bit, get the same matches without
+    /// the search (a frame's location choice linearises at the state its last estimate
+    /// ended at, where every feature was matched already).
+    pub fn match_features(
+        &self,
+        features: &[SurfaceFeature],
+        positions: &[[f64; 3]],
+        params: &RegisterParams,
+    ) -> Vec<Option<LineMatch>> {
+        let bits = |a: &[[f64; 3]], b: &[[f64; 3]]| {
+            a.len() == b.len()
+                && a.iter()
+                    .flatten()
+                    .zip(b.iter().flatten())
+                    .all(|(u, v)| u.to_bits() == v.to_bits())
+        };
+        let same = |r: &Registered| {
+            r.params == *params && r.features == features && bits(&r.positions, positions)
+        };
+        if let Ok(memo) = self.memo.lock() {
+            if let Some(r) = memo.iter().find(|r| same(r)) {
+                return r.matches.clone();
+            }
+        }
+        let matches: Vec<Option<LineMatch>> = features
+            .iter()
+            .map(|f| {
+                let n = f.normal(positions);
+                if n == [0.0; 3] {
+                    return None;
+                }
+                self.match_feature(f.position(positions), n, params)
+            })
+            .collect();
+        if let Ok(mut memo) = self.memo.lock() {
+            if memo.len() >= MEMO_CALLS {
+                memo.remove(0);
+            }
+            memo.push(Registered {
+                features: features.to_vec(),
+                positions: positions.to_vec(),
+                params: params.clone(),
+                matches: matches.clone(),
+            });
+        }
+        matches
     }
 
     /// Matches every feature node; `None` entries are hidden features.

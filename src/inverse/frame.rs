@@ -721,13 +721,10 @@ fn linearise(
     // Register at the current state.
     let mut rows = Vec::new();
     let mut measured = Vec::new();
-    for f in features {
-        let (p, n) = (f.position(x), f.normal(x));
-        if n == [0.0; 3] {
-            continue;
-        }
-        if let Some(m) = registrar.match_feature(p, n, &params.register) {
-            let row = ConstraintRow::along(RowKind::Effector, &f.mapped(), n)?;
+    let matches = registrar.match_features(features, x, &params.register);
+    for (f, m) in features.iter().zip(matches) {
+        if let Some(m) = m {
+            let row = ConstraintRow::along(RowKind::Effector, &f.mapped(), f.normal(x))?;
             measured.push(row.value(x) + m.offset);
             rows.push(row);
         }

@@ -426,3 +426,54 @@ fn an_averaged_match_reports_the_very_points_it_averaged() {
     };
     assert!(reg.match_feature_points(p, n, &single).is_none());
 }
+
+#[test]
+fn remembered_feature_matches_equal_fresh_ones_and_follow_the_positions() {
+    let (rest, disp, _, _, pts) = setup();
+    let m = TetMesh::structured_box([0.0, 0.0, 0.0], [0.1, 0.04, 0.02], [10, 4, 2]).unwrap();
+    let s = m.surface();
+    let feats = surface_features(&rest, &s, &FeatureParams::default());
+    let reg = Registrar::new(&pts);
+    let params = RegisterParams {
+        average: true,
+        d_m: 0.004,
+        ..RegisterParams::default()
+    };
+    let fresh = |x: &[[f64; 3]], p: &RegisterParams| -> Vec<Option<(u64, u64, usize)>> {
+        feats
+            .iter()
+            .map(|f| {
+                Registrar::new(&pts)
+                    .match_feature(f.position(x), f.normal(x), p)
+                    .map(|m| (m.offset.to_bits(), m.line_distance.to_bits(), m.points))
+            })
+            .collect()
+    };
+    let bits = |ms: Vec<Option<softsense::register::LineMatch>>| -> Vec<Option<(u64, u64, usize)>> {
+        ms.into_iter()
+            .map(|m| m.map(|m| (m.offset.to_bits(), m.line_distance.to_bits(), m.points)))
+            .collect()
+    };
+    // Asked twice (the second from memory), at two states, and with other parameters: each
+    // answer is the fresh search's, bit for bit.
+    for _ in 0..2 {
+        for x in [&disp, &rest] {
+            assert_eq!(
+                bits(reg.match_features(&feats, x, &params)),
+                fresh(x, &params)
+            );
+        }
+    }
+    let narrow = RegisterParams {
+        d_m: 0.001,
+        ..params.clone()
+    };
+    assert_eq!(
+        bits(reg.match_features(&feats, &disp, &narrow)),
+        fresh(&disp, &narrow)
+    );
+    // The states and the parameters change the matches (else the test could not tell a
+    // memory that ignores them).
+    assert_ne!(fresh(&disp, &params), fresh(&rest, &params));
+    assert_ne!(fresh(&disp, &params), fresh(&disp, &narrow));
+}
