@@ -466,8 +466,8 @@ impl Recording {
     ) -> SenseResult<Observation> {
         let t0 = std::time::Instant::now();
         let (dp, cp) = self.frame_paths(frame);
-        let cloud = read_frame(&dp, cp.exists().then_some(cp.as_path()), &self.camera)?;
-        let colors = cloud.colors.clone().unwrap_or_default();
+        let mut cloud = read_frame(&dp, cp.exists().then_some(cp.as_path()), &self.camera)?;
+        let colors = cloud.colors.take().unwrap_or_default();
         let t1 = std::time::Instant::now();
         // Filter: to the robot frame, cropped to the working box.
         let t = &self.robot_from_camera;
@@ -494,18 +494,24 @@ impl Recording {
         let mut obs = Observation {
             width: cloud.width,
             height: cloud.height,
-            color: colors.clone(),
             ..Default::default()
         };
+        let is_robot = |c: [u8; 3]| {
+            let lab = rgb_to_lab(c);
+            let chroma = (lab[1] * lab[1] + lab[2] * lab[2]).sqrt();
+            let dh = (lab[2].atan2(lab[1]) - ref_hue + std::f64::consts::PI)
+                .rem_euclid(2.0 * std::f64::consts::PI)
+                - std::f64::consts::PI;
+            chroma >= params.min_chroma && dh.abs() <= tol
+        };
+        // Each distinct colour is classified once: a frame's robot pixels share a few
+        // thousand colours among tens of thousands of pixels, and a Lab conversion costs
+        // three cube roots.
+        let mut seen: std::collections::HashMap<[u8; 3], bool> = Default::default();
         for (i, q) in kept {
-            let robot = colors.get(i).is_some_and(|&c| {
-                let lab = rgb_to_lab(c);
-                let chroma = (lab[1] * lab[1] + lab[2] * lab[2]).sqrt();
-                let dh = (lab[2].atan2(lab[1]) - ref_hue + std::f64::consts::PI)
-                    .rem_euclid(2.0 * std::f64::consts::PI)
-                    - std::f64::consts::PI;
-                chroma >= params.min_chroma && dh.abs() <= tol
-            });
+            let robot = colors
+                .get(i)
+                .is_some_and(|&c| *seen.entry(c).or_insert_with(|| is_robot(c)));
             if robot {
                 obs.robot.push(q);
                 obs.robot_pixels.push(i);
@@ -514,6 +520,7 @@ impl Recording {
                 obs.object_pixels.push(i);
             }
         }
+        obs.color = colors;
         let t3 = std::time::Instant::now();
         obs.timings.read = ms(t1 - t0);
         obs.timings.crop = ms(t2 - t1);
