@@ -619,7 +619,9 @@ pub(crate) struct Pooled<T: Spare>(Vec<T>);
 
 /// A buffer element type with a pool of spare buffers ([`Pooled`]).
 pub(crate) trait Spare: Clone + Send + Sized + 'static {
-    /// The spare buffers (stale contents; every use overwrites what it reads).
+    /// The spare buffers (stale contents; every use overwrites what it reads: faer zeroes
+    /// a factor's values before it factorizes, and an element evaluation writes every
+    /// element's force, stress, rotation and stored tangent blocks).
     fn pool() -> &'static std::sync::Mutex<Vec<Vec<Self>>>;
 }
 
