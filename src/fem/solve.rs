@@ -437,17 +437,14 @@ impl Problem {
 
     /// Body forces: gravity on the lumped masses (node-major 3n).
     pub fn body_forces(&self) -> Vec<f64> {
-        self.body_forces_with(|| std::borrow::Cow::Owned(self.lumped_masses()))
+        self.body_forces_of(&self.lumped_masses())
     }
 
-    /// [`Problem::body_forces`] with the lumped masses from `masses`.
-    fn body_forces_with<'a>(
-        &self,
-        masses: impl FnOnce() -> std::borrow::Cow<'a, [f64]>,
-    ) -> Vec<f64> {
+    /// [`Problem::body_forces`] on the lumped masses `masses`.
+    fn body_forces_of(&self, masses: &[f64]) -> Vec<f64> {
         let mut f = vec![0.0; 3 * self.mesh.num_nodes()];
         if self.density != 0.0 && self.gravity != [0.0; 3] {
-            for (v, m) in masses().iter().enumerate() {
+            for (v, m) in masses.iter().enumerate() {
                 for k in 0..3 {
                     f[3 * v + k] += m * self.gravity[k];
                 }
@@ -834,16 +831,12 @@ impl<'p> Solver<'p> {
     /// masses computed once per setup and density.
     pub fn body_forces(&self) -> Vec<f64> {
         let p = self.problem;
-        p.body_forces_with(|| {
-            let bits = p.density.to_bits();
-            // Kept for the first density asked for (a problem's density rarely changes).
-            let (b, m) = self.setup.lumped.get_or_init(|| (bits, p.lumped_masses()));
-            if *b == bits {
-                std::borrow::Cow::Borrowed(m.as_slice())
-            } else {
-                std::borrow::Cow::Owned(p.lumped_masses())
-            }
-        })
+        let bits = p.density.to_bits();
+        // Kept for the first density asked for (a problem's density rarely changes).
+        match self.setup.lumped.get_or_init(|| (bits, p.lumped_masses())) {
+            (b, masses) if *b == bits => p.body_forces_of(masses),
+            _ => p.body_forces(),
+        }
     }
 
     /// The problem's external forces ([`Problem::external_forces`], the same values).

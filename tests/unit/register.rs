@@ -439,11 +439,12 @@ fn remembered_feature_matches_equal_fresh_ones_and_follow_the_positions() {
         d_m: 0.004,
         ..RegisterParams::default()
     };
+    let unremembered = Registrar::new(&pts);
     let fresh = |x: &[[f64; 3]], p: &RegisterParams| -> Vec<Option<(u64, u64, usize)>> {
         feats
             .iter()
             .map(|f| {
-                Registrar::new(&pts)
+                unremembered
                     .match_feature(f.position(x), f.normal(x), p)
                     .map(|m| (m.offset.to_bits(), m.line_distance.to_bits(), m.points))
             })
