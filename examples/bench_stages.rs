@@ -245,6 +245,26 @@ fn run_sense(dir: &Path, repeat: usize) -> Result<(Vec<f64>, Value, usize), Stri
     }
     stream.sort_by(f64::total_cmp);
     medians.push(json!(["stream", stream[stream.len() / 2]]));
+    // The same stream on one thread, one frame at a time: the work per frame on one core,
+    // and with the line above how the stream scales with the cores (frames are
+    // independent, so more cores sense more frames side by side).
+    #[cfg(feature = "parallel")]
+    {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .map_err(|e| e.to_string())?;
+        let mut one = Vec::new();
+        for _ in 0..repeat {
+            let t0 = Instant::now();
+            pool.install(|| {
+                sensor.sense_frames(&rec, &rec.frames, 1, |_, _| Ok::<(), String>(()))
+            })?;
+            one.push(t0.elapsed().as_secs_f64() * 1e3 / rec.frames.len().max(1) as f64);
+        }
+        one.sort_by(f64::total_cmp);
+        medians.push(json!(["stream_one_thread", one[one.len() / 2]]));
+    }
     // As a tracked stream (`Sensor::track_frames`, `sense --track`): wall ms per frame of
     // whole passes (the first frame of each starts cold), and the median wall ms from one
     // emitted frame to the next over the frames that started from the one before (`null`

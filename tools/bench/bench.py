@@ -38,7 +38,7 @@ def print_stage_table():
     """Per-stage medians of the whole-chain (`sense`) inputs, with frames per second."""
     if not STAGE_MS:
         return
-    extra = ("stream", "track", "track_steady")
+    extra = ("stream", "stream_one_thread", "track", "track_steady")
     names = [n for n in next(iter(STAGE_MS.values())).keys() if n not in extra]
     print(f"\nsoftsense whole chain per frame (`sense`), median ms per stage; {THESIS}\n")
     print("frames/s: one frame at a time (1000 / total); stream frames/s: `sense_frames` with as "
@@ -57,6 +57,22 @@ def print_stage_table():
         print(f"| {os.path.basename(path)} | " + " | ".join(fmt(st[n]) for n in names)
               + f" | {rate(st.get('total'))} | {rate(st.get('stream'))}"
               + f" | {rate(st.get('track'))} | {rate(st.get('track_steady'))} |")
+    # How the stream scales with the cores: the same stream on one thread.
+    if any(st.get("stream_one_thread") for st in STAGE_MS.values()):
+        threads = os.environ.get("RAYON_NUM_THREADS") or str(os.cpu_count())
+        print(f"\nstream on one thread against the stream above ({threads} threads): frames "
+              "are independent, so the stream scales with the cores; threads for 30 frames/s = "
+              "30 / (one-thread frames/s), at the one-thread rate per core (a lower bound: "
+              "the measured scaling is below the thread count)\n")
+        print(f"| scene | stream frames/s, 1 thread | stream frames/s, {threads} threads "
+              "| scaling | threads for 30 frames/s |")
+        print("| --- | ---: | ---: | ---: | ---: |")
+        for path, st in STAGE_MS.items():
+            one, many = st.get("stream_one_thread"), st.get("stream")
+            if not one or not many:
+                continue
+            print(f"| {os.path.basename(path)} | {rate(one)} | {rate(many)} | {one / many:.2f}x"
+                  f" | {30 * one / 1e3:.1f} |")
 
 
 def run_oracle(cmd_prefix, spec, path, repeat):
