@@ -820,6 +820,36 @@ impl<'p> Solver<'p> {
         }
     }
 
+    /// Forgets what lets work be skipped: where the element states were evaluated, the
+    /// kept scatter of K, and which values the factor (or a failed factorization) was
+    /// of. The next [`Solver::assemble`] evaluates every element and the next
+    /// [`Solver::factorize`] factorizes, whatever they were given before. The results are
+    /// the same either way; this is for timing the work itself (the FE benchmarks call it
+    /// before each repetition, which would otherwise time the reuse).
+    ///
+    /// ```
+    /// # use softsense::fem::model::Model;
+    /// # use softsense::fem::tet4::Tangent;
+    /// # let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    /// # let model = Model::load(&root.join("meshes/models/robot.toml"), None)?;
+    /// let x = model.problem.mesh.nodes_in_rest.clone();
+    /// let mut solver = model.problem.solver()?;
+    /// solver.tangent_at(&x, Tangent::Rotated)?;
+    /// let before = solver.factorizations();
+    /// solver.tangent_at(&x, Tangent::Rotated)?; // the same values: skipped
+    /// assert_eq!(solver.factorizations(), before);
+    /// solver.forget_reuse();
+    /// solver.tangent_at(&x, Tangent::Rotated)?; // done again
+    /// assert_eq!(solver.factorizations(), before + 1);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn forget_reuse(&mut self) {
+        self.elements_at.clear();
+        self.scattered.clear();
+        self.factor_of.clear();
+        self.failed_of.clear();
+    }
+
     /// Numeric factorizations this solver attempted, failed ones included (not those of
     /// a state it took over): [`Solver::factorize`] skips values it has factorized, or
     /// failed to factorize, last.
