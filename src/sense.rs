@@ -143,6 +143,14 @@ pub struct SenseParams {
     /// Largest number of option combinations tried exhaustively (400); beyond, coordinate
     /// descent.
     pub max_combinations: usize,
+    /// A frame with more seen contacts than this (6) is not estimated: it gets
+    /// [`FrameStatus::TooManyContacts`]. Probes and fingers touch a robot in a few places;
+    /// dozens of contacts come from depth and colour that do not match (two frames'
+    /// images mixed, a camera out of sync) or from objects all around the robot. Estimated
+    /// anyway, such a frame took 6 s (a probe_side colour frame with another scene's
+    /// depth: 21 contacts, each FE estimate of their locations failing) and gave no
+    /// answer. Every generated frame so far, bundled and held out, had at most 2.
+    pub max_contacts: usize,
     /// At a seen contact, estimate a 3-D force (inward normal, pushing only, plus two
     /// tangential components) instead of a normal force alone (true).
     pub three_d: bool,
@@ -199,6 +207,7 @@ impl Default for SenseParams {
             preview_updates: 2,
             location_checks: 2,
             max_combinations: 400,
+            max_contacts: 6,
             local_features_radius: 0.03,
             local_feature_pool: 600,
             track_radius: 0.005,
@@ -543,6 +552,13 @@ pub enum FrameStatus {
     Unreadable(String),
     /// The FE model or the QP failed; the message says how.
     NotSolved(String),
+    /// More contacts seen than [`SenseParams::max_contacts`]: not estimated.
+    TooManyContacts {
+        /// Contacts seen.
+        seen: usize,
+        /// The limit.
+        max: usize,
+    },
 }
 
 impl std::fmt::Display for FrameStatus {
@@ -553,6 +569,10 @@ impl std::fmt::Display for FrameStatus {
             FrameStatus::NoFeatures => write!(f, "no feature point registered"),
             FrameStatus::Unreadable(e) => write!(f, "unreadable: {e}"),
             FrameStatus::NotSolved(e) => write!(f, "not solved: {e}"),
+            FrameStatus::TooManyContacts { seen, max } => write!(
+                f,
+                "too many contacts: {seen} seen, the limit is {max} (--max-contacts); not estimated (depth and colour that do not match, or objects all around the robot?)"
+            ),
         }
     }
 }
@@ -1307,6 +1327,12 @@ impl Sensor {
         let clock = std::time::Instant::now();
         let contacts = self.contacts(obs).map_err(|e| fail(&e))?;
         report.timings.contacts = ms(clock.elapsed());
+        if contacts.len() > self.params.max_contacts {
+            return Err(FrameStatus::TooManyContacts {
+                seen: contacts.len(),
+                max: self.params.max_contacts,
+            });
+        }
         let surface = &self.surface;
         let mut features = self.features.clone();
         let r2 = self.params.local_features_radius.powi(2);

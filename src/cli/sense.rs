@@ -61,6 +61,13 @@ pub struct SenseArgs {
     /// Robot colour (sRGB) for the colour model.
     #[arg(long, value_name = "R,G,B", value_parser = super::parse_rgb, default_value = "40,200,60")]
     pub robot_color: [u8; 3],
+    /// A frame with more seen contacts than this is not estimated: its status says "too
+    /// many contacts". Dozens of contacts come from depth and colour that do not match or
+    /// from objects all around the robot, not from touches, and estimating them takes
+    /// seconds per frame for no answer.
+    #[arg(long, value_name = "N", default_value_t = SenseParams::default().max_contacts,
+          value_parser = super::parse_positive)]
+    pub max_contacts: usize,
     /// Print one JSON object per frame (JSON lines) instead of a table.
     #[arg(long)]
     pub json: bool,
@@ -111,6 +118,7 @@ pub fn run(args: &SenseArgs) -> CliResult {
     let model = Model::load(&model_path, None).map_err(|e| CliError::Lib(e.into()))?;
     let mut params = SenseParams {
         robot_color: args.robot_color,
+        max_contacts: args.max_contacts,
         ..Default::default()
     };
     params.features.count = args.features;

@@ -258,25 +258,91 @@ fn bad_frames_get_their_own_status_and_the_stream_goes_on() {
     );
     assert!(!summary.contains("inf"), "{summary}");
     // Tracked, the same statuses; a bad frame leaves nothing to start from.
-    let out = sense(&[
+    let tracked = answers_of(&[
         dir.path().to_str().unwrap(),
         "--json",
         "--track",
         "--model",
         "meshes/models/robot.toml",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let tracked = answers(&out);
     let status: Vec<&str> = tracked
         .iter()
         .map(|f| f["status"].as_str().unwrap())
         .collect();
     assert_eq!(status, ["sensed", "no_robot", "no_robot", "unreadable"]);
     assert!(tracked.iter().all(|f| f["tracked"] == false), "{tracked:?}");
+}
+
+#[test]
+fn a_frame_with_more_contacts_than_the_limit_gets_its_own_status_and_the_stream_goes_on() {
+    // probe_side's frames 0 and 1, frame 1's depth taken from another scene (two_probes):
+    // the robot's colour then sits at other depths, and the robot is "touched" in about
+    // twenty places. Estimated, that frame took 6 s and failed; over the limit it is not
+    // estimated, says why, and frame 0 is sensed as before.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let src = root.join("clouds/scenes/probe_side");
+    let dir = tempfile::tempdir().unwrap();
+    for entry in std::fs::read_dir(&src).unwrap() {
+        let p = entry.unwrap().path();
+        let name = p.file_name().unwrap().to_str().unwrap().to_string();
+        // Frames 2-4 left out: two frames say it all.
+        if ["_0002.", "_0003.", "_0004."]
+            .iter()
+            .any(|f| name.contains(f))
+        {
+            continue;
+        }
+        std::fs::copy(&p, dir.path().join(&name)).unwrap();
+    }
+    std::fs::copy(
+        root.join("clouds/scenes/two_probes/depth_0000.png"),
+        dir.path().join("depth_0001.png"),
+    )
+    .unwrap();
+    let frames = answers_of(&[
+        dir.path().to_str().unwrap(),
+        "--json",
+        "--model",
+        "meshes/models/robot.toml",
+    ]);
+    assert_eq!(frames.len(), 2, "{frames:?}");
+    assert_eq!(frames[0]["status"], "sensed", "{}", frames[0]);
+    assert_eq!(frames[1]["status"], "too_many_contacts", "{}", frames[1]);
+    let seen = frames[1]["detail"]["seen"].as_u64().unwrap();
+    assert!(seen > 6, "{}", frames[1]);
+    assert_eq!(frames[1]["detail"]["max"], 6, "{}", frames[1]);
+    assert!(frames[1]["forces"].as_array().unwrap().is_empty());
+    // The table says it in words, with the limit given (frame 0's one contact is within
+    // it); a limit of 0 is refused.
+    let out = sense(&[
+        dir.path().to_str().unwrap(),
+        "--model",
+        "meshes/models/robot.toml",
+        "--max-contacts",
+        "1",
+    ]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains(&format!(
+            "frame    1: too many contacts: {seen} seen, the limit is 1"
+        )),
+        "{text}"
+    );
+    assert!(text.contains("frame    0: sensed"), "{text}");
+    let out = sense(&[dir.path().to_str().unwrap(), "--max-contacts", "0"]);
+    assert_eq!(out.status.code(), Some(2));
+}
+
+/// Runs `sense` with `args` (`--json` among them), which must succeed, and returns
+/// [`answers`].
+fn answers_of(args: &[&str]) -> Vec<serde_json::Value> {
+    let out = sense(args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    answers(&out)
 }
 
 /// The JSON lines of a run without the wall-clock fields.
