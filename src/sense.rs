@@ -386,14 +386,18 @@ impl Recording {
             dir.join("camera_pose.json")
         };
         let pose: PoseFile = read_json(&pose_file)?;
-        if !pose
-            .robot_from_camera
-            .iter()
-            .flatten()
-            .all(|v| v.is_finite())
-        {
-            return Err(file_err(&pose_file, "robot_from_camera is not finite"));
-        }
+        // A scale or shear in the pose would put every point somewhere else, and frames
+        // were then estimated with nonsense, flagged unreliable at best.
+        crate::calibrate::pose_from_matrix(&pose.robot_from_camera).map_err(|e| {
+            let why = match e {
+                crate::calibrate::CalibrateError::Pose(why) => why,
+                e => e.to_string(),
+            };
+            file_err(
+                &pose_file,
+                format!("robot_from_camera is not a rigid transform: {why}"),
+            )
+        })?;
         let opt = |name: &str| {
             let p = dir.join(name);
             p.exists().then_some(p)

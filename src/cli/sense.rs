@@ -214,9 +214,35 @@ pub fn run(args: &SenseArgs) -> CliResult {
         .iter()
         .all(|r| !matches!(r.status, FrameStatus::Sensed))
     {
-        return Err(CliError::Result("no frame could be sensed".into()));
+        return Err(CliError::Result(format!(
+            "no frame could be sensed{}",
+            no_robot_hint(&reports)
+        )));
     }
     Ok(())
+}
+
+/// Where every frame read had no robot, what to check: with no point at all in the box
+/// around the robot, the camera pose; with points there but too few of the robot's
+/// colour, the colour.
+fn no_robot_hint(reports: &[FrameReport]) -> String {
+    let read: Vec<&FrameReport> = reports
+        .iter()
+        .filter(|r| !matches!(r.status, FrameStatus::Unreadable(_)))
+        .collect();
+    if read.is_empty() || !read.iter().all(|r| r.status == FrameStatus::NoRobot) {
+        return String::new();
+    }
+    if read.iter().all(|r| r.robot_points + r.object_points == 0) {
+        "; no point of any frame falls in the box around the robot: check the camera pose \
+         (robot_from_camera maps camera coordinates to the robot's, in metres; not its \
+         inverse)"
+            .into()
+    } else {
+        "; the box around the robot holds points, but too few of the robot's colour: check \
+         --robot-color"
+            .into()
+    }
 }
 
 /// Why the frame stream stopped early.

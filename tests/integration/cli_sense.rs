@@ -333,6 +333,80 @@ fn a_frame_with_more_contacts_than_the_limit_gets_its_own_status_and_the_stream_
     assert_eq!(out.status.code(), Some(2));
 }
 
+#[test]
+fn sense_refuses_a_pose_that_is_not_rigid_and_says_what_to_check_when_no_frame_has_the_robot() {
+    // tip_weight's frame 0 alone, with its camera pose scaled, inverted, then right but
+    // with a robot colour nothing in the frame has.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let src = root.join("clouds/scenes/tip_weight");
+    let dir = tempfile::tempdir().unwrap();
+    for name in [
+        "depth_0000.png",
+        "color_0000.png",
+        "intrinsics.json",
+        "camera_pose.json",
+    ] {
+        std::fs::copy(src.join(name), dir.path().join(name)).unwrap();
+    }
+    let pose_path = dir.path().join("camera_pose.json");
+    let pose: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&pose_path).unwrap()).unwrap();
+    let m: Vec<Vec<f64>> = serde_json::from_value(pose["robot_from_camera"].clone()).unwrap();
+    let write_pose = |m: &[Vec<f64>]| {
+        std::fs::write(
+            &pose_path,
+            serde_json::json!({ "robot_from_camera": m }).to_string(),
+        )
+        .unwrap();
+    };
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            dir.path().to_str().unwrap(),
+            "--model",
+            "meshes/models/robot.toml",
+        ];
+        args.extend_from_slice(extra);
+        let out = sense(&args);
+        assert!(!out.status.success(), "{out:?}");
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    // Scaled: refused before any frame.
+    let mut scaled = m.clone();
+    for row in scaled.iter_mut().take(3) {
+        for v in row.iter_mut().take(3) {
+            *v *= 1.01;
+        }
+    }
+    write_pose(&scaled);
+    let err = run(&[]);
+    assert!(
+        err.contains("camera_pose.json: robot_from_camera is not a rigid transform"),
+        "{err}"
+    );
+    // Inverted (camera_from_robot, a common mix-up): rigid, but nothing is near the robot.
+    // [Rᵀ, -Rᵀ t; 0 0 0 1].
+    let inverse: Vec<Vec<f64>> = (0..4)
+        .map(|i| {
+            (0..4)
+                .map(|j| match (i, j) {
+                    (3, 3) => 1.0,
+                    (3, _) => 0.0,
+                    (_, 3) => -(0..3).map(|k| m[k][i] * m[k][3]).sum::<f64>(),
+                    _ => m[j][i],
+                })
+                .collect()
+        })
+        .collect();
+    write_pose(&inverse);
+    let err = run(&[]);
+    assert!(err.contains("no frame could be sensed"), "{err}");
+    assert!(err.contains("check the camera pose"), "{err}");
+    // The right pose and a colour nothing has: the colour is what to check.
+    write_pose(&m);
+    let err = run(&["--robot-color", "20,20,230"]);
+    assert!(err.contains("check --robot-color"), "{err}");
+}
+
 /// Runs `sense` with `args` (`--json` among them), which must succeed, and returns
 /// [`answers`].
 fn answers_of(args: &[&str]) -> Vec<serde_json::Value> {
