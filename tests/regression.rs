@@ -2,16 +2,6 @@
 mod common;
 
 use softsense::sense::{FrameStatus, Recording, SenseParams, Sensor};
-use std::path::Path;
-
-/// Copies `files` of the bundled scene `scene` into `dir`, each under its own name or the
-/// one given.
-fn copy_from(scene: &str, files: &[(&str, &str)], dir: &Path) {
-    let src = common::project_root().join("clouds/scenes").join(scene);
-    for (from, to) in files {
-        std::fs::copy(src.join(from), dir.join(to)).unwrap();
-    }
-}
 
 /// Until 2026-11-26 `Recording::open` checked only that the pose was finite: a pose whose
 /// rotation block was scaled was sensed as if it were right (every point moved; on
@@ -20,7 +10,7 @@ fn copy_from(scene: &str, files: &[(&str, &str)], dir: &Path) {
 fn a_camera_pose_with_a_scaled_rotation_was_sensed_as_if_it_were_rigid() {
     let dir = tempfile::tempdir().unwrap();
     let same = |name| (name, name);
-    copy_from(
+    common::copy_scene_files(
         "probe_side",
         &[
             same("intrinsics.json"),
@@ -50,7 +40,7 @@ fn a_camera_pose_with_a_scaled_rotation_was_sensed_as_if_it_were_rigid() {
 #[test]
 fn a_frame_showing_twenty_one_contacts_took_six_seconds_to_fail() {
     let dir = tempfile::tempdir().unwrap();
-    copy_from(
+    common::copy_scene_files(
         "probe_side",
         &[
             ("intrinsics.json", "intrinsics.json"),
@@ -60,7 +50,7 @@ fn a_frame_showing_twenty_one_contacts_took_six_seconds_to_fail() {
         ],
         dir.path(),
     );
-    copy_from(
+    common::copy_scene_files(
         "two_probes",
         &[("depth_0000.png", "depth_0000.png")],
         dir.path(),

@@ -73,6 +73,16 @@ pub fn project_root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
+/// Copies files of the bundled scene `clouds/scenes/<scene>` into `dir`, each pair
+/// `(name there, name in dir)`: a recording made of chosen frames, or of frames mixed
+/// from two scenes.
+pub fn copy_scene_files(scene: &str, files: &[(&str, &str)], dir: &std::path::Path) {
+    let src = project_root().join("clouds/scenes").join(scene);
+    for (from, to) in files {
+        std::fs::copy(src.join(from), dir.join(to)).unwrap();
+    }
+}
+
 /// A bundled scene (`clouds/scenes/<scene>`) and a sensor for it with `params`.
 pub fn bundled(
     scene: &str,

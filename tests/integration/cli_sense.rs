@@ -121,16 +121,7 @@ fn sense_on_a_missing_or_empty_folder_fails_with_a_message() {
 #[test]
 fn sense_without_a_model_asks_for_one() {
     // A recording without truth.json names no model: the user must give --model.
-    let dir = tempfile::tempdir().unwrap();
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("clouds/scenes/tip_weight");
-    for f in [
-        "depth_0000.png",
-        "color_0000.png",
-        "intrinsics.json",
-        "camera_pose.json",
-    ] {
-        std::fs::copy(src.join(f), dir.path().join(f)).unwrap();
-    }
+    let dir = tip_weight_frame_0();
     let out = sense(&[dir.path().to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--model"));
@@ -279,26 +270,27 @@ fn a_frame_with_more_contacts_than_the_limit_gets_its_own_status_and_the_stream_
     // the robot's colour then sits at other depths, and the robot is "touched" in about
     // twenty places. Estimated, that frame took 6 s and failed; over the limit it is not
     // estimated, says why, and frame 0 is sensed as before.
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let src = root.join("clouds/scenes/probe_side");
+    // Frames 2-4 left out: two frames say it all.
     let dir = tempfile::tempdir().unwrap();
-    for entry in std::fs::read_dir(&src).unwrap() {
-        let p = entry.unwrap().path();
-        let name = p.file_name().unwrap().to_str().unwrap().to_string();
-        // Frames 2-4 left out: two frames say it all.
-        if ["_0002.", "_0003.", "_0004."]
-            .iter()
-            .any(|f| name.contains(f))
-        {
-            continue;
-        }
-        std::fs::copy(&p, dir.path().join(&name)).unwrap();
-    }
-    std::fs::copy(
-        root.join("clouds/scenes/two_probes/depth_0000.png"),
-        dir.path().join("depth_0001.png"),
-    )
-    .unwrap();
+    let same = |name| (name, name);
+    crate::common::copy_scene_files(
+        "probe_side",
+        &[
+            same("intrinsics.json"),
+            same("camera_pose.json"),
+            same("actuators.json"),
+            same("truth.json"),
+            same("depth_0000.png"),
+            same("color_0000.png"),
+            same("color_0001.png"),
+        ],
+        dir.path(),
+    );
+    crate::common::copy_scene_files(
+        "two_probes",
+        &[("depth_0000.png", "depth_0001.png")],
+        dir.path(),
+    );
     let frames = answers_of(&[
         dir.path().to_str().unwrap(),
         "--json",
@@ -337,17 +329,7 @@ fn a_frame_with_more_contacts_than_the_limit_gets_its_own_status_and_the_stream_
 fn sense_refuses_a_pose_that_is_not_rigid_and_says_what_to_check_when_no_frame_has_the_robot() {
     // tip_weight's frame 0 alone, with its camera pose scaled, inverted, then right but
     // with a robot colour nothing in the frame has.
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let src = root.join("clouds/scenes/tip_weight");
-    let dir = tempfile::tempdir().unwrap();
-    for name in [
-        "depth_0000.png",
-        "color_0000.png",
-        "intrinsics.json",
-        "camera_pose.json",
-    ] {
-        std::fs::copy(src.join(name), dir.path().join(name)).unwrap();
-    }
+    let dir = tip_weight_frame_0();
     let pose_path = dir.path().join("camera_pose.json");
     let pose: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&pose_path).unwrap()).unwrap();
@@ -405,6 +387,24 @@ fn sense_refuses_a_pose_that_is_not_rigid_and_says_what_to_check_when_no_frame_h
     write_pose(&m);
     let err = run(&["--robot-color", "20,20,230"]);
     assert!(err.contains("check --robot-color"), "{err}");
+}
+
+/// A folder with tip_weight's frame 0 and its intrinsics and camera pose (no truth.json,
+/// so no model named).
+fn tip_weight_frame_0() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    let same = |name| (name, name);
+    crate::common::copy_scene_files(
+        "tip_weight",
+        &[
+            same("depth_0000.png"),
+            same("color_0000.png"),
+            same("intrinsics.json"),
+            same("camera_pose.json"),
+        ],
+        dir.path(),
+    );
+    dir
 }
 
 /// Runs `sense` with `args` (`--json` among them), which must succeed, and returns
