@@ -1,0 +1,143 @@
+#!/usr/bin/env bash
+# Shows that a change leaves every answer as it was: runs `softsense sense --json` (plain
+# and --track) on every bundled recording, `calibrate --json` on the calibration scene and
+# `fem solve --json` / `fem compliance --json` on every bundled model, `scene generate` on
+# two bundled scene files (every written file's bytes) and `hidden` + `explain --json` on a
+# small hidden-effect dataset, at BASE_REV and at
+# the working tree, and compares the outputs with the timings taken out. Forces, sigmas,
+# statuses and warnings must agree to the bit (the JSON's shortest round-trip decimals).
+#
+# Usage: tools/check_same_answers.sh BASE_REV        compare the working tree with BASE_REV
+#        tools/check_same_answers.sh --save DIR      write the working tree's answers to DIR
+#        tools/check_same_answers.sh --against DIR   compare the working tree with DIR
+# Env:   SAME_ANSWERS_PROFILE (release, default; or dev: answers do not depend on it),
+#        SAME_ANSWERS_TARGET (target folder for BASE_REV's build, default
+#        ${TMPDIR:-/tmp}/softsense-same-answers-target).
+set -euo pipefail
+
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$root"
+profile="${SAME_ANSWERS_PROFILE:-release}"
+profile_flag=()
+bin_dir=debug
+if [ "$profile" = release ]; then
+    profile_flag=(--release)
+    bin_dir=release
+fi
+
+# Runs every answer-producing command with BIN from the repository at REPO into OUT.
+answers() {
+    local bin="$1" repo="$2" out="$3"
+    mkdir -p "$out"
+    local scene
+    for scene in tip_weight probe_press probe_side two_probes; do
+        "$bin" sense "$repo/clouds/scenes/$scene" --json >"$out/sense_$scene.jsonl" 2>/dev/null
+        "$bin" sense "$repo/clouds/scenes/$scene" --json --track >"$out/track_$scene.jsonl" 2>/dev/null
+    done
+    "$bin" calibrate "$repo/clouds/scenes/calib" "$repo/meshes/models/robot.toml" \
+        --start "$repo/clouds/scenes/calib/rough_pose.json" --out "$out/calibration.json" \
+        --json >"$out/calibrate.json" 2>/dev/null
+    local spec
+    for spec in tip_weight two_probes; do
+        "$bin" scene generate "$repo/clouds/scenes/$spec.toml" "$out/gen_$spec" >/dev/null 2>&1
+        (cd "$out/gen_$spec" && sha256sum $(ls | sort)) >"$out/scene_$spec.sha256"
+        rm -rf "${out:?}/gen_$spec"
+    done
+    "$bin" hidden "$out/hidden" --model "$repo/meshes/models/robot.toml" --effects young \
+        --seed 3 --frames 6 >/dev/null 2>&1
+    "$bin" explain "$repo/meshes/models/robot.toml" "$out/hidden/frames" --json \
+        >"$out/explain.json" 2>/dev/null
+    rm -rf "${out:?}/hidden"
+    local model
+    for model in "$repo"/meshes/models/*.toml; do
+        local name
+        name="$(basename "$model" .toml)"
+        "$bin" fem solve "$model" --json >"$out/fem_solve_$name.json" 2>/dev/null || echo "exit $?" >>"$out/fem_solve_$name.json"
+        "$bin" fem compliance "$model" --json >"$out/fem_compliance_$name.json" 2>/dev/null || echo "exit $?" >>"$out/fem_compliance_$name.json"
+    done
+}
+
+# Drops timing fields (wall-clock) and absolute paths, so only answers are compared.
+normalise() {
+    python3 - "$1" <<'EOF'
+import json, re, sys, pathlib
+TIMING = re.compile(r"(^|_)(ms|seconds|secs|time|timings|wall|elapsed|fps|frames_per_second)($|_)")
+def clean(v):
+    if isinstance(v, dict):
+        return {k: clean(x) for k, x in v.items() if not TIMING.search(k)}
+    if isinstance(v, list):
+        return [clean(x) for x in v]
+    if isinstance(v, str) and "/" in v:
+        return pathlib.PurePath(v).name
+    return v
+for path in sorted(pathlib.Path(sys.argv[1]).iterdir()):
+    text = path.read_text()
+    try:
+        out = [json.dumps(clean(json.loads(text)), sort_keys=True)]
+    except json.JSONDecodeError:
+        out = []
+        for line in text.splitlines():
+            try:
+                out.append(json.dumps(clean(json.loads(line)), sort_keys=True))
+            except json.JSONDecodeError:
+                out.append(line)
+    path.write_text("\n".join(out) + "\n")
+EOF
+}
+
+build_here() {
+    cargo build -q "${profile_flag[@]}" --bin softsense
+    echo "${CARGO_TARGET_DIR:-$root/target}/$bin_dir/softsense"
+}
+
+compare() {
+    local base="$1" head="$2"
+    if diff -r "$base" "$head" >/dev/null; then
+        echo "check_same_answers: identical ($(ls "$head" | wc -l) outputs)"
+    else
+        echo "check_same_answers: answers differ:" >&2
+        diff -r "$base" "$head" | head -40 >&2
+        exit 1
+    fi
+}
+
+work="$(mktemp -d)"
+trap 'rm -rf "$work"' EXIT
+
+case "${1:-}" in
+--save)
+    dir="${2:?--save needs a folder}"
+    bin="$(build_here)"
+    answers "$bin" "$root" "$dir"
+    normalise "$dir"
+    echo "check_same_answers: saved $(ls "$dir" | wc -l) outputs to $dir"
+    ;;
+--against)
+    dir="${2:?--against needs a folder}"
+    bin="$(build_here)"
+    answers "$bin" "$root" "$work/head"
+    normalise "$work/head"
+    compare "$dir" "$work/head"
+    ;;
+"" | -h | --help)
+    sed -n 2,14p "$0" | sed 's/^# \{0,1\}//'
+    exit 2
+    ;;
+*)
+    base_rev="$1"
+    git rev-parse --verify -q "$base_rev^{commit}" >/dev/null || {
+        echo "check_same_answers: $base_rev is not a commit" >&2
+        exit 2
+    }
+    git worktree add -q --detach "$work/base" "$base_rev"
+    trap 'git worktree remove --force "$work/base"; rm -rf "$work"' EXIT
+    base_target="${SAME_ANSWERS_TARGET:-${TMPDIR:-/tmp}/softsense-same-answers-target}"
+    (cd "$work/base" && CARGO_TARGET_DIR="$base_target" cargo build -q "${profile_flag[@]}" --bin softsense)
+    answers "$base_target/$bin_dir/softsense" "$work/base" "$work/base_out"
+    normalise "$work/base_out"
+    bin="$(build_here)"
+    answers "$bin" "$root" "$work/head"
+    normalise "$work/head"
+    compare "$work/base_out" "$work/head"
+    ;;
+esac
