@@ -262,40 +262,7 @@ impl<'a> LoopState<'a> {
         candidates: &[Candidate],
         start: Start<'a>,
     ) -> InverseResult<Self> {
-        // (start, state, starting forces, the loop gone on from, the updates it counts).
-        let (near, carry, forces, onwards) = match start {
-            Start::Unloaded { near, state } => (near, state, None, Onwards::No),
-            Start::Resume {
-                solution,
-                state,
-                forces,
-            } => (solution, state, Some(forces), Onwards::No),
-            Start::Onwards { from, state } => {
-                // (The QP forces are checked against `candidates` below.)
-                if from.applied.len() != candidates.len() {
-                    return Err(InverseError::Intensity(format!(
-                        "a loop of {} candidates cannot go on with {}",
-                        from.applied.len(),
-                        candidates.len()
-                    )));
-                }
-                let forces = Some(&from.estimate.forces[..]);
-                (from.solution.as_ref(), state, forces, Onwards::Loop(from))
-            }
-            Start::AfterChoice { at, state, choice } => {
-                let forces = Some(&choice.estimate.forces[..]);
-                (Some(at), state, forces, Onwards::Choice(choice))
-            }
-        };
-        if let Some(f) = forces {
-            if f.len() != candidates.len() || f.iter().any(|v| !v.is_finite()) {
-                return Err(InverseError::Intensity(format!(
-                    "{} starting forces for {} candidates (or not finite)",
-                    f.len(),
-                    candidates.len()
-                )));
-            }
-        }
+        let (near, carry, forces, onwards) = starting_point(start, candidates.len())?;
         let model = inputs.model;
         let params = inputs.params;
         let mut newton = model.newton.clone();
@@ -541,6 +508,53 @@ impl<'a> LoopState<'a> {
             timings: self.timings,
         })
     }
+}
+
+/// A loop's start, for `n` candidates: the equilibrium to start at, a solver state there,
+/// the starting forces, and the loop gone on from.
+type StartingPoint<'a> = (
+    Option<&'a Solution>,
+    Option<SolverState>,
+    Option<&'a [f64]>,
+    Onwards<'a>,
+);
+
+/// What `start` starts a loop of `n` candidates from (checked).
+fn starting_point(start: Start<'_>, n: usize) -> InverseResult<StartingPoint<'_>> {
+    let (near, carry, forces, onwards) = match start {
+        Start::Unloaded { near, state } => (near, state, None, Onwards::No),
+        Start::Resume {
+            solution,
+            state,
+            forces,
+        } => (solution, state, Some(forces), Onwards::No),
+        Start::Onwards { from, state } => {
+            // (The QP forces are checked below.)
+            if from.applied.len() != n {
+                return Err(InverseError::Intensity(format!(
+                    "a loop of {} candidates cannot go on with {}",
+                    from.applied.len(),
+                    n
+                )));
+            }
+            let forces = Some(&from.estimate.forces[..]);
+            (from.solution.as_ref(), state, forces, Onwards::Loop(from))
+        }
+        Start::AfterChoice { at, state, choice } => {
+            let forces = Some(&choice.estimate.forces[..]);
+            (Some(at), state, forces, Onwards::Choice(choice))
+        }
+    };
+    if let Some(f) = forces {
+        if f.len() != n || f.iter().any(|v| !v.is_finite()) {
+            return Err(InverseError::Intensity(format!(
+                "{} starting forces for {} candidates (or not finite)",
+                f.len(),
+                n
+            )));
+        }
+    }
+    Ok((near, carry, forces, onwards))
 }
 
 /// Where the loop goes on from.

@@ -204,22 +204,7 @@ fn force_points(
             model.force_points.len()
         ));
     }
-    let sets: Vec<Vec<Candidate>> = model
-        .force_points
-        .iter()
-        .map(|fp| {
-            fp.rows
-                .iter()
-                .map(|r| Candidate {
-                    at: fp.point,
-                    direction: r.entries.iter().fold([0.0; 3], |a, e| {
-                        [a[0] + e.1[0], a[1] + e.1[1], a[2] + e.1[2]]
-                    }),
-                    push_only: true,
-                })
-                .collect()
-        })
-        .collect();
+    let sets = force_point_candidates(model);
     let ends = force_point_ends(prev, &frame.cables, sets.len());
     let index: Vec<usize> = (0..sets.len()).collect();
     let results = par_map(&index, |&i| match ends.and_then(|e| e[i].as_ref()) {
@@ -234,31 +219,7 @@ fn force_points(
         None => frame.solve(&sets[i]),
     });
     report.tracked = ends.is_some_and(|e| e.iter().any(Option::is_some));
-    let mut point_ends: Vec<Option<FrameEstimate>> = Vec::new();
-    let mut chosen: Option<usize> = None;
-    for (fp, result) in model.force_points.iter().zip(results) {
-        match result {
-            Ok(e) => {
-                report.account(&e);
-                let residual = e.estimate.residual_rms;
-                let better = chosen.is_none_or(|b| {
-                    point_ends[b]
-                        .as_ref()
-                        .is_some_and(|c| residual < c.estimate.residual_rms)
-                });
-                if better {
-                    chosen = Some(point_ends.len());
-                }
-                point_ends.push(Some(e));
-            }
-            Err(e) => {
-                report
-                    .warnings
-                    .push(format!("force point {}: {e}", fp.name));
-                point_ends.push(None);
-            }
-        }
-    }
+    let (mut point_ends, chosen) = best_force_point(model, results, report);
     if let Some(b) = chosen {
         if let Some(est) = point_ends[b].take() {
             let group = Group {
@@ -291,4 +252,60 @@ fn force_points(
         groups: Vec::new(),
         force_points: None,
     })
+}
+
+/// The candidate forces of each of `model`'s declared force points: one per row, along the
+/// row's summed entries, pushing only.
+fn force_point_candidates(model: &crate::fem::model::Model) -> Vec<Vec<Candidate>> {
+    model
+        .force_points
+        .iter()
+        .map(|fp| {
+            fp.rows
+                .iter()
+                .map(|r| Candidate {
+                    at: fp.point,
+                    direction: r.entries.iter().fold([0.0; 3], |a, e| {
+                        [a[0] + e.1[0], a[1] + e.1[1], a[2] + e.1[2]]
+                    }),
+                    push_only: true,
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Each force point's estimate (`None` where it failed, with a warning) and the one with
+/// the smallest residual, the first on a tie.
+fn best_force_point(
+    model: &crate::fem::model::Model,
+    results: Vec<InverseResult<FrameEstimate>>,
+    report: &mut FrameReport,
+) -> (Vec<Option<FrameEstimate>>, Option<usize>) {
+    let mut point_ends: Vec<Option<FrameEstimate>> = Vec::new();
+    let mut chosen: Option<usize> = None;
+    for (fp, result) in model.force_points.iter().zip(results) {
+        match result {
+            Ok(e) => {
+                report.account(&e);
+                let residual = e.estimate.residual_rms;
+                let better = chosen.is_none_or(|b| {
+                    point_ends[b]
+                        .as_ref()
+                        .is_some_and(|c| residual < c.estimate.residual_rms)
+                });
+                if better {
+                    chosen = Some(point_ends.len());
+                }
+                point_ends.push(Some(e));
+            }
+            Err(e) => {
+                report
+                    .warnings
+                    .push(format!("force point {}: {e}", fp.name));
+                point_ends.push(None);
+            }
+        }
+    }
+    (point_ends, chosen)
 }

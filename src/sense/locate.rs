@@ -428,17 +428,21 @@ impl Rounds<'_, '_> {
     /// The final estimate: a preview left standing (its locations' next-best could not be
     /// estimated) is finished first.
     fn finish(mut self) -> Result<Estimated, FrameStatus> {
-        if let Held::Preview(p) = std::mem::replace(&mut self.held, Held::Nothing) {
-            let start = Start::Onwards {
-                from: &p.est,
-                state: self.at.state.take(),
-            };
-            let mut est =
-                estimate(&self.frame.inputs, &p.candidates, start).map_err(|e| fail(&e))?;
-            self.report.account(&est);
-            self.at.state = est.solver.take();
-            self.held = Held::Estimate(Located { est, ..p });
-        }
+        let held = std::mem::replace(&mut self.held, Held::Nothing);
+        self.held = match held {
+            Held::Preview(p) => {
+                let start = Start::Onwards {
+                    from: &p.est,
+                    state: self.at.state.take(),
+                };
+                let mut est =
+                    estimate(&self.frame.inputs, &p.candidates, start).map_err(|e| fail(&e))?;
+                self.report.account(&est);
+                self.at.state = est.solver.take();
+                Held::Estimate(Located { est, ..p })
+            }
+            other => other,
+        };
         let (Held::Preview(mut out) | Held::Estimate(mut out)) = self.held else {
             return Err(FrameStatus::NotSolved("no estimate".into()));
         };

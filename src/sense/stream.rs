@@ -2,11 +2,15 @@
 //! frame as soon as it is free, and the reports are handed on in frame order.
 
 use super::{FrameReport, FrameStatus, Observation, Recording, SenseResult, Sensor};
+#[cfg(feature = "parallel")]
 use std::collections::BTreeMap;
+#[cfg(feature = "parallel")]
 use std::sync::atomic::{AtomicUsize, Ordering};
+#[cfg(feature = "parallel")]
 use std::sync::{mpsc, Condvar, Mutex};
 
 /// A frame's observation and report.
+#[cfg(feature = "parallel")]
 type Sensed = (SenseResult<Observation>, FrameReport);
 
 /// Frames [`Sensor::sense_frames`] senses side by side by default: one per thread of
@@ -80,11 +84,13 @@ impl Sensor {
 
 /// How far the workers may run ahead of the output: the number of frames emitted so far
 /// (`None` once the output has stopped), and a signal when it changes.
+#[cfg(feature = "parallel")]
 struct Gate {
     emitted: Mutex<Option<usize>>,
     changed: Condvar,
 }
 
+#[cfg(feature = "parallel")]
 impl Gate {
     /// Waits until frame `i` is fewer than `lead` frames ahead of the output; false if the
     /// output stopped.
