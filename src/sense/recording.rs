@@ -27,7 +27,7 @@ pub struct Recording {
     pub actuators: Option<Vec<Vec<ActuatorTruth>>>,
     /// The cable inputs of the calibration (`calibration.json`'s `actuators`), if the pose
     /// came from one: for frames without recorded inputs, see
-    /// [`Sensor::use_calibrated_inputs`].
+    /// [`Sensor::use_calibrated_inputs`](super::Sensor::use_calibrated_inputs).
     pub calibrated: Option<Vec<ActuatorCalibration>>,
     /// The model file the calibration names (`calibration.json`'s `model`), as written.
     pub calibration_model: Option<String>,

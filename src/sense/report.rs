@@ -199,10 +199,11 @@ pub struct FrameReport {
     pub residual_robust: f64,
     /// FE updates in the last estimate.
     pub updates: usize,
-    /// Whether the frame started from the previous frame's estimate ([`Sensor::track_frames`](super::Sensor::track_frames)):
-    /// its contacts were where the previous frame's were (or neither frame saw one), so the
-    /// previous locations and forces were the starting point instead of a choice and a
-    /// loop from the unloaded state.
+    /// Whether the frame started from the previous frame's estimate
+    /// ([`Sensor::track_frames`](super::Sensor::track_frames)): its contacts were where the
+    /// previous frame's were (or neither frame saw one), so the previous locations and
+    /// forces were the starting point instead of a choice and a loop from the unloaded
+    /// state.
     pub tracked: bool,
     /// Force steps halved because their FE update failed, over the frame's estimates
     /// (`FrameParams::max_halvings`).

@@ -96,10 +96,11 @@ impl Sensor {
     }
 }
 
-/// Whether a frame with cable inputs `inputs` and contacts seen at `centroids` can
-/// start from `track`: the same inputs, and each contact within
-/// `radius` ([`SenseParams::track_radius`](super::SenseParams::track_radius)) of exactly one of the track's (contact detection does
-/// not keep an order from frame to frame). Returns, for each contact, the track's.
+/// Whether a frame with cable inputs `inputs` and contacts seen at `centroids` can start
+/// from `track`: the same inputs, and each contact within `radius`
+/// ([`SenseParams::track_radius`](super::SenseParams::track_radius)) of exactly one of the
+/// track's (contact detection does not keep an order from frame to frame). Returns, for
+/// each contact, the track's.
 fn track_order(
     track: &Track,
     radius: f64,
