@@ -5,8 +5,8 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use softsense::fem::model::Model;
 use softsense::sense::{
-    compare, median_timings, FrameReport, FrameStatus, Observation, Recording, SenseParams, Sensor,
-    StageTimings,
+    compare, default_window, median_timings, FrameReport, FrameStatus, LoadError, Observation,
+    Recording, SenseParams, SenseResult, Sensor, StageTimings,
 };
 use std::path::PathBuf;
 
@@ -97,24 +97,7 @@ pub struct SenseArgs {
 
 pub fn run(args: &SenseArgs) -> CliResult {
     let rec = Recording::open(&args.scene_dir).map_err(|e| CliError::Lib(e.into()))?;
-    let model_path = match (&args.model, rec.model_path()) {
-        (Some(m), _) => m.clone(),
-        (None, Some(m)) if !m.exists() => {
-            let by = rec.model_named_by().unwrap_or_default();
-            return Err(CliError::Usage(format!(
-                "{} names the model as {}, which is not there (from the recording's folder, or from here): give --model MODEL.toml",
-                by.display(),
-                m.display()
-            )));
-        }
-        (None, Some(m)) => m,
-        (None, None) => {
-            return Err(CliError::Usage(format!(
-            "{} has no truth.json or calibration.json naming its model: give --model MODEL.toml",
-            args.scene_dir.display()
-        )))
-        }
-    };
+    let model_path = model_path(args, &rec)?;
     let model = Model::load(&model_path, None).map_err(|e| CliError::Lib(e.into()))?;
     let mut params = SenseParams {
         robot_color: args.robot_color,
@@ -157,12 +140,10 @@ pub fn run(args: &SenseArgs) -> CliResult {
     let window = if args.track {
         1
     } else {
-        args.window.unwrap_or_else(softsense::sense::default_window)
+        args.window.unwrap_or_else(default_window)
     };
     let clock = std::time::Instant::now();
-    let each = |obs: &softsense::sense::SenseResult<softsense::sense::Observation>,
-                mut report: FrameReport|
-     -> Result<(), Halt> {
+    let each = |obs: &SenseResult<Observation>, mut report: FrameReport| -> Result<(), Halt> {
         let frame = report.frame;
         if let Some(t) = rec.truth_of(frame) {
             report.errors = Some(compare(&report, t));
@@ -220,6 +201,26 @@ pub fn run(args: &SenseArgs) -> CliResult {
         )));
     }
     Ok(())
+}
+
+/// The model file: `--model`, else the one the recording names.
+fn model_path(args: &SenseArgs, rec: &Recording) -> Result<PathBuf, CliError> {
+    match (&args.model, rec.model_path()) {
+        (Some(m), _) => Ok(m.clone()),
+        (None, Some(m)) if !m.exists() => {
+            let by = rec.model_named_by().unwrap_or_default();
+            Err(CliError::Usage(format!(
+                "{} names the model as {}, which is not there (from the recording's folder, or from here): give --model MODEL.toml",
+                by.display(),
+                m.display()
+            )))
+        }
+        (None, Some(m)) => Ok(m),
+        (None, None) => Err(CliError::Usage(format!(
+            "{} has no truth.json or calibration.json naming its model: give --model MODEL.toml",
+            args.scene_dir.display()
+        ))),
+    }
 }
 
 /// Where every frame read had no robot, what to check: with no point at all in the box
@@ -373,7 +374,7 @@ fn summary(reports: &[FrameReport], wall_ms: f64, window: usize, track: bool) {
 /// The errors of all loads against the truth in one line. A load with no estimate (its
 /// frame was not sensed, or no force was found) counts as 100% off in the force and
 /// magnitude errors; the location error is over the loads that have an estimate.
-fn truth_summary(errors: &[&softsense::sense::LoadError]) -> String {
+fn truth_summary(errors: &[&LoadError]) -> String {
     let stats = |v: Vec<f64>| {
         let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
         (mean, v.iter().copied().fold(0.0, f64::max))

@@ -1,5 +1,8 @@
-//! The inverse model: a small QP layer over clarabel ([`qp`]) and the normal-space intensity
-//! QP of thesis 4.5.2 (equations 4.14-4.18, [`intensity`]).
+//! The inverse model: a small QP layer over clarabel ([`qp`]), the normal-space intensity
+//! QP of thesis 4.5.2 (equations 4.14-4.18, [`intensity`]), and the per-frame sensing loop
+//! built on them: one entry, [`estimate`] (the loop, [`sensing`]), its linearisation
+//! ([`linearise`]), the choice of contact locations ([`locations`]) and the forces'
+//! uncertainty from shared points ([`uncertainty`]).
 //!
 //! ```
 //! use softsense::inverse::qp::{QpProblem, QpStatus};
@@ -13,9 +16,17 @@
 //! assert!((s.x[0] - 2.0).abs() < 1e-6);
 //! ```
 
-pub mod frame;
 pub mod intensity;
+pub mod linearise;
+pub mod locations;
 pub mod qp;
+pub mod sensing;
+pub mod uncertainty;
+
+pub use linearise::{Candidate, LinearisationPoint};
+pub use locations::{choose_locations, LocationChoice};
+pub use sensing::{estimate, FrameEstimate, FrameInputs, FrameParams, LoopTimings, Start};
+pub use uncertainty::SharedPoints;
 
 use thiserror::Error;
 

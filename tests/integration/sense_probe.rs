@@ -328,7 +328,7 @@ fn a_frame_the_model_cannot_explain_is_sensed_but_flagged_unreliable() {
 
 #[test]
 fn feature_rows_that_average_shared_points_get_correlated_offsets() {
-    use softsense::inverse::frame::SharedPoints;
+    use softsense::inverse::SharedPoints;
     use softsense::register::Registrar;
     let (rec, sensor) = bundled("probe_side", SenseParams::default());
     let obs = sensor.observe(&rec, 0).unwrap();
@@ -475,7 +475,7 @@ fn a_force_is_warned_about_exactly_when_its_largest_sigma_is_over_the_fraction()
 #[test]
 fn a_preview_whose_locations_stand_goes_on_to_the_forces_of_a_full_first_estimate() {
     // probe_side: on frames 3 and 4 the choice at the preview's state keeps the free
-    // state's pick, so the preview's loop goes on (`estimate_onwards`) where a full first
+    // state's pick, so the preview's loop goes on (`Start::Onwards`) where a full first
     // estimate (no preview) runs from zero. Both stop at the loop's fixed point, each within
     // its stop rule (`force_tol`, or a quarter of a component's σ). (Frame 0 settles within
     // the preview; on frames 1 and 2 the choice moves at the preview's state, to the node

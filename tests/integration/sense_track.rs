@@ -102,10 +102,10 @@ fn a_frame_resumed_from_its_own_end_keeps_its_forces() {
     let frame = rec.frames[4];
     let obs = sensor.observe(&rec, frame).unwrap();
     let actuators = rec.actuators_of(frame);
-    let (first, track) = sensor.sense_tracked(frame, &obs, actuators, None);
+    let (first, track) = sensor.track(frame, &obs, actuators, None);
     let track = track.expect("a reliable frame with a contact leaves a track");
     assert_eq!(track.nodes(), &[first.forces[0].node.unwrap()]);
-    let (again, _) = sensor.sense_tracked(frame, &obs, actuators, Some(&track));
+    let (again, _) = sensor.track(frame, &obs, actuators, Some(&track));
     assert!(again.tracked);
     assert!(again.updates <= 2, "resumed: {} FE updates", again.updates);
     let params = &sensor.params.frame;

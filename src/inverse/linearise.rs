@@ -1,0 +1,144 @@
+//! The sensing loop's linearisation: candidate forces ([`Candidate`]), the tangent the loop
+//! factorizes at an equilibrium, and the intensity problem linearised there.
+
+use super::intensity::{ActuatorInput, IntensityProblem};
+use super::sensing::{ms_since, FrameParams, LoopTimings};
+use super::{InverseError, InverseResult};
+use crate::fem::constraint::{ConstraintRow, RowKind};
+use crate::fem::solve::{CableControl, MappedPoint, Solver, SolverState};
+use crate::fem::tet4::Tangent;
+use crate::register::{Registrar, SurfaceFeature};
+
+/// A candidate force: a point on the mesh and the force direction (unit after normalising).
+#[derive(Clone, Copy, Debug)]
+pub struct Candidate {
+    /// Where the force acts.
+    pub at: MappedPoint,
+    /// Direction of a positive intensity.
+    pub direction: [f64; 3],
+    /// Whether the intensity is bounded below by zero (a push, or a hanging weight).
+    pub push_only: bool,
+}
+
+impl Candidate {
+    /// A pushing-only force on node `node` along `direction`.
+    pub fn at_node(node: usize, direction: [f64; 3]) -> Self {
+        Self {
+            at: MappedPoint::node(node),
+            direction,
+            push_only: true,
+        }
+    }
+}
+
+/// Where [`choose_locations`](super::choose_locations) linearises.
+#[derive(Debug)]
+pub struct LinearisationPoint<'a> {
+    /// Node positions of an equilibrium of the model (m): its free equilibrium, or one under
+    /// a previous estimate's loads (point loads do not enter the tangent).
+    pub positions: &'a [[f64; 3]],
+    /// The cable tensions of that equilibrium (N, one per cable): the choice linearises on
+    /// Newton's own matrix there, the material tangent plus the cables' geometric stiffness
+    /// under these tensions, as the sensing loop does ([`estimate`](super::estimate)).
+    pub tensions: &'a [f64],
+    /// A solver state of the same model whose elements were evaluated at `positions` (e.g.
+    /// [`FrameEstimate::solver`](super::FrameEstimate::solver)) saves evaluating them, and one that holds the choice's
+    /// very tangent factorized (bit for bit; e.g. an estimate's, which ends factorized
+    /// there) saves factorizing it; any other state only costs that reuse, never the
+    /// choice. `None`: both are done.
+    pub state: Option<SolverState>,
+}
+
+/// Factorizes the sensing loop's linearisation at `x`, an equilibrium the solver's Newton
+/// solve (with `tangent`) just reached: the material tangent of its last assembly plus the
+/// cables' geometric stiffness under `tensions` (see [`estimate`](super::estimate)).
+pub(crate) fn factorize_loop_tangent(
+    solver: &mut Solver<'_>,
+    x: &[[f64; 3]],
+    tensions: &[f64],
+    tangent: Tangent,
+) -> crate::fem::FemResult<()> {
+    if tangent == Tangent::default() {
+        solver.factorize_assembled_with_cables(x, tensions)
+    } else {
+        solver.factorize_with_cables(x, tensions)
+    }
+}
+
+/// The intensity problem linearised at node positions `x` (an equilibrium of the solver's
+/// problem without its point loads, plus some candidate loads; the solver holds the tangent
+/// factorised at `x`): features registered at `x`, compliance of the feature, actuator and
+/// candidate rows. Returns the problem and the number of visible features.
+pub(crate) fn linearise(
+    solver: &Solver<'_>,
+    x: &[[f64; 3]],
+    registrar: &Registrar,
+    features: &[SurfaceFeature],
+    candidates: &[Candidate],
+    params: &FrameParams,
+    timings: &mut LoopTimings,
+) -> InverseResult<(IntensityProblem, usize)> {
+    let base = solver.problem;
+    let rest = &base.mesh.nodes_in_rest;
+    let clock = std::time::Instant::now();
+    // Register at the current state.
+    let mut rows = Vec::new();
+    let mut measured = Vec::new();
+    let matches = registrar.match_features(features, x, &params.register);
+    for (f, m) in features.iter().zip(matches) {
+        if let Some(m) = m {
+            let row = ConstraintRow::along(RowKind::Effector, &f.mapped(), f.normal(x))?;
+            measured.push(row.value(x) + m.offset);
+            rows.push(row);
+        }
+    }
+    let visible = rows.len();
+    timings.register += ms_since(clock);
+    let clock = std::time::Instant::now();
+    let ne = rows.len();
+    let mut inputs = Vec::new();
+    for c in &base.cables {
+        let row = ConstraintRow::cable(c, x);
+        inputs.push(match c.control {
+            CableControl::Force(f) => ActuatorInput::Force(f),
+            CableControl::Displacement(s) => {
+                // Target in row units: value(x) + (s_target - s(x)).
+                let s_now = c.length(rest) - c.length(x);
+                ActuatorInput::Displacement(row.value(x) + s - s_now)
+            }
+        });
+        rows.push(row);
+    }
+    let na = base.cables.len();
+    for c in candidates {
+        rows.push(ConstraintRow::along(RowKind::Force, &c.at, c.direction)?);
+    }
+    let nf = candidates.len();
+    // Loads enter only as candidate rows: the free residual has the body forces alone.
+    let mut full = solver.body_forces();
+    for (f, fi) in full.iter_mut().zip(&solver.internal_force) {
+        *f -= fi;
+    }
+    let r = solver.dofs.gather(&full);
+    // W_ee is not used: skip the products among the feature rows.
+    let comp = solver.compliance_skipping(&rows, x, &r, ne)?;
+    timings.compliance += ms_since(clock);
+    let e: Vec<usize> = (0..ne).collect();
+    let a: Vec<usize> = (ne..ne + na).collect();
+    let fo: Vec<usize> = (ne + na..ne + na + nf).collect();
+    let prob = IntensityProblem {
+        w_ea: comp.block(&e, &a),
+        w_ef: comp.block(&e, &fo),
+        delta_free_e: comp.delta_free[..ne].to_vec(),
+        delta_measured: measured,
+        w_aa: comp.block(&a, &a),
+        w_af: comp.block(&a, &fo),
+        delta_free_a: comp.delta_free[ne..ne + na].to_vec(),
+        actuators: inputs,
+        push_only: candidates.iter().map(|c| c.push_only).collect(),
+    };
+    if ne == 0 {
+        return Err(InverseError::Intensity("no visible feature point".into()));
+    }
+    Ok((prob, visible))
+}

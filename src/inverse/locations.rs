@@ -1,0 +1,278 @@
+//! Location mapping by the data ([`choose_locations`]): for each seen contact a few options
+//! (surface nodes near it), and the combination whose intensity QP fits the frame best.
+
+use super::intensity::{IntensityEstimate, IntensityProblem};
+use super::linearise::{factorize_loop_tangent, linearise, Candidate, LinearisationPoint};
+use super::sensing::{FrameInputs, FrameParams, LoopTimings};
+use super::{par_map, InverseError, InverseResult};
+
+/// Combinations whose QPs [`choose_locations`] solves at a time (in parallel), in order of
+/// their lower bounds: usually the first is the winner and prunes the rest. Fixed, so the
+/// work done does not depend on the thread count (the choice never does).
+const PRUNE_BATCH: usize = 2;
+
+/// Relative margin by which a lower bound must exceed the best QP residual before its
+/// combination is skipped: far above the rounding of either.
+const PRUNE_MARGIN: f64 = 1e-6;
+
+/// What [`choose_locations`] chose.
+#[derive(Clone, Debug)]
+pub struct LocationChoice {
+    /// The chosen option per contact.
+    pub pick: Vec<usize>,
+    /// Its intensity problem at the linearisation point (the candidates of the chosen
+    /// options, in contact order).
+    pub problem: IntensityProblem,
+    /// Its QP's solution there: the forces a sensing loop started at that point would get
+    /// from its first FE update ([`Start::AfterChoice`](super::Start::AfterChoice)).
+    pub estimate: IntensityEstimate,
+}
+
+/// Location mapping by the data: for each seen contact, a list of options (each option the
+/// candidate forces of one location, e.g. three directions at one surface node). Linearised
+/// once at the equilibrium `at` (on Newton's matrix, as the sensing loop: see
+/// [`LinearisationPoint::tensions`]), with the compliance of every option's rows in one
+/// computation; every combination of one option per contact is solved as an intensity QP
+/// and the combination with the smallest residual wins. Returns the chosen option per
+/// contact, with its QP. More than `max_combinations` combinations: coordinate descent from
+/// the first options instead. Combinations in `excluded` (one option index per contact,
+/// e.g. ones whose estimate failed) are never chosen; an error if nothing else is left.
+/// `inputs.candidates` are not used.
+pub fn choose_locations(
+    inputs: &FrameInputs<'_>,
+    options: &[Vec<Vec<Candidate>>],
+    at: LinearisationPoint<'_>,
+    max_combinations: usize,
+    excluded: &[Vec<usize>],
+) -> InverseResult<LocationChoice> {
+    if options.iter().any(|o| o.is_empty()) {
+        return Err(InverseError::Intensity(
+            "a contact has no location option".into(),
+        ));
+    }
+    // Columns of each option in the joint candidate list.
+    let mut all = Vec::new();
+    let mut cols: Vec<Vec<Vec<usize>>> = Vec::new();
+    for group in options {
+        let mut g = Vec::new();
+        for opt in group {
+            g.push((all.len()..all.len() + opt.len()).collect());
+            all.extend_from_slice(opt);
+        }
+        cols.push(g);
+    }
+    let combinations = Combinations {
+        joint: joint_problem(inputs, &all, at)?,
+        cols,
+        excluded,
+        params: inputs.params,
+    };
+    let sizes: Vec<usize> = options.iter().map(|o| o.len()).collect();
+    let total: usize = sizes
+        .iter()
+        .copied()
+        .try_fold(1usize, |a, b| a.checked_mul(b))
+        .unwrap_or(usize::MAX);
+    let best = if total <= max_combinations {
+        combinations.exhaustive(&sizes, total)?
+    } else {
+        combinations.descent(&sizes)?
+    };
+    // The winner's QP, solved once more to keep it.
+    let problem = combinations.sub_problem(&best);
+    let estimate = problem.solve(&inputs.params.intensity)?;
+    if !estimate.status.is_solution() {
+        return Err(InverseError::NotSolved(estimate.status));
+    }
+    Ok(LocationChoice {
+        pick: best,
+        problem,
+        estimate,
+    })
+}
+
+/// The intensity problem of every option's candidates `all` at once, linearised at `at`.
+fn joint_problem(
+    inputs: &FrameInputs<'_>,
+    all: &[Candidate],
+    at: LinearisationPoint<'_>,
+) -> InverseResult<IntensityProblem> {
+    let model = inputs.model;
+    let base = model.problem.without_loads();
+    let LinearisationPoint {
+        positions: at,
+        tensions,
+        state,
+    } = at;
+    if tensions.len() != model.problem.cables.len() {
+        return Err(InverseError::Intensity(format!(
+            "{} cable tensions for {} cables",
+            tensions.len(),
+            model.problem.cables.len()
+        )));
+    }
+    let mut solver = match state {
+        Some(s) => base.solver_from(s)?,
+        None => base.solver()?,
+    };
+    // The loop's linearisation: on the material tangent alone the choice ranked the
+    // options by a poorer model of how the state moves under a load (indefinite at sensed
+    // states, so the rotated fallback), and at the free state it then picked another node
+    // than at the estimated state on 5 of 5 probe_side frames, each costing a second
+    // estimate; on Newton's matrix, 2 of 5.
+    let newton_tangent = model.newton.tangent;
+    solver.assemble(at, newton_tangent)?;
+    factorize_loop_tangent(&mut solver, at, tensions, newton_tangent)?;
+    let (joint, _) = linearise(
+        &solver,
+        at,
+        inputs.registrar,
+        inputs.features,
+        all,
+        inputs.params,
+        &mut LoopTimings::default(),
+    )?;
+    Ok(joint)
+}
+
+fn every_excluded() -> InverseError {
+    InverseError::Intensity("every combination of location options was excluded".into())
+}
+
+/// The combinations of one option per contact, as sub-problems of the joint one.
+struct Combinations<'a> {
+    /// Every option's candidates, linearised together.
+    joint: IntensityProblem,
+    /// Columns of each option in `joint`, per contact.
+    cols: Vec<Vec<Vec<usize>>>,
+    /// Combinations never chosen.
+    excluded: &'a [Vec<usize>],
+    params: &'a FrameParams,
+}
+
+impl Combinations<'_> {
+    /// The intensity problem of one option per contact (`choice`).
+    fn sub_problem(&self, choice: &[usize]) -> IntensityProblem {
+        let joint = &self.joint;
+        let idx: Vec<usize> = choice
+            .iter()
+            .zip(&self.cols)
+            .flat_map(|(&c, g)| g[c].iter().copied())
+            .collect();
+        IntensityProblem {
+            w_ef: joint.w_ef.select_columns(idx.iter()),
+            w_af: joint.w_af.select_columns(idx.iter()),
+            push_only: idx.iter().map(|&i| joint.push_only[i]).collect(),
+            ..joint.clone()
+        }
+    }
+
+    /// The QP residual of `choice` (infinite when excluded or not solved).
+    fn residual(&self, choice: &[usize]) -> f64 {
+        if self.excluded.iter().any(|e| e == choice) {
+            return f64::INFINITY;
+        }
+        match self.sub_problem(choice).solve(&self.params.intensity) {
+            Ok(e) if e.status.is_solution() => e.residual_rms,
+            _ => f64::INFINITY,
+        }
+    }
+
+    /// The best of every combination (`total` of them, contact k having `sizes[k]` options).
+    fn exhaustive(&self, sizes: &[usize], total: usize) -> InverseResult<Vec<usize>> {
+        // Every combination (odometer order); the first smallest wins.
+        let mut all = Vec::with_capacity(total);
+        let mut choice = vec![0; sizes.len()];
+        'odometer: loop {
+            all.push(choice.clone());
+            let mut k = 0;
+            loop {
+                if k == choice.len() {
+                    break 'odometer;
+                }
+                choice[k] += 1;
+                if choice[k] < sizes[k] {
+                    break;
+                }
+                choice[k] = 0;
+                k += 1;
+            }
+        }
+        all.retain(|c| !self.excluded.contains(c));
+        if all.is_empty() {
+            return Err(every_excluded());
+        }
+        // Branch and bound: without its push-only bounds a combination's problem is a least
+        // squares in closed form that never fits worse than its QP, so once a QP has fitted
+        // better than a combination's bound (with a margin far above rounding), that
+        // combination cannot win. The QPs run in order of their bounds, a batch at a time
+        // in parallel, and stop at the first batch whose bounds all lose. The choice is the
+        // exhaustive search's: the smallest QP residual, the first in odometer order on a tie.
+        // (With a regularization the QP's objective is not the residual: no bounds.)
+        let bounds: Vec<f64> = if self.params.intensity.regularization > 0.0 {
+            vec![0.0; all.len()]
+        } else {
+            par_map(&all, |c| {
+                self.sub_problem(c)
+                    .unbounded_residual_rms()
+                    .filter(|b| b.is_finite())
+                    .unwrap_or(0.0)
+            })
+        };
+        let mut order: Vec<usize> = (0..all.len()).collect();
+        order.sort_by(|&i, &j| bounds[i].total_cmp(&bounds[j]).then(i.cmp(&j)));
+        let mut won = (f64::INFINITY, 0usize);
+        for batch in order.chunks(PRUNE_BATCH) {
+            let live: Vec<usize> = batch
+                .iter()
+                .copied()
+                .filter(|&i| bounds[i] <= won.0 * (1.0 + PRUNE_MARGIN))
+                .collect();
+            if live.is_empty() {
+                break;
+            }
+            let rs = par_map(&live, |&i| self.residual(&all[i]));
+            for (i, r) in live.into_iter().zip(rs) {
+                if r < won.0 || (r == won.0 && i < won.1) {
+                    won = (r, i);
+                }
+            }
+        }
+        Ok(all.swap_remove(won.1))
+    }
+
+    /// Coordinate descent from the first options (contact k having `sizes[k]` options).
+    fn descent(&self, sizes: &[usize]) -> InverseResult<Vec<usize>> {
+        let mut best = vec![0; sizes.len()];
+        let mut best_r = self.residual(&best);
+        for _sweep in 0..3 {
+            let mut improved = false;
+            for (g, &size) in sizes.iter().enumerate() {
+                // The trials of group g differ from `best` in entry g only, whatever the loop
+                // below has accepted so far: solve them together, accept in order.
+                let trials: Vec<Vec<usize>> = (0..size)
+                    .map(|c| {
+                        let mut trial = best.clone();
+                        trial[g] = c;
+                        trial
+                    })
+                    .collect();
+                let rs = par_map(&trials, |t| self.residual(t));
+                for (trial, r) in trials.into_iter().zip(rs) {
+                    if r < best_r {
+                        best_r = r;
+                        best = trial;
+                        improved = true;
+                    }
+                }
+            }
+            if !improved {
+                break;
+            }
+        }
+        if self.excluded.contains(&best) {
+            return Err(every_excluded());
+        }
+        Ok(best)
+    }
+}

@@ -1,0 +1,182 @@
+//! How sure the forces are: the covariance of the features' offsets from the points they
+//! share ([`SharedPoints`]), and the forces' covariance from it
+//! ([`FrameEstimate::use_shared_point_uncertainty`]).
+
+use super::sensing::FrameEstimate;
+use crate::register::{RegisterParams, Registrar, SurfaceFeature};
+
+impl FrameEstimate {
+    /// Replaces the forces' Gauss-Markov σ (independent feature rows, the loop's) with their
+    /// covariance from the points the rows share ([`SharedPoints`] at `positions`):
+    /// neighbouring features average some of the same points, so their offsets' errors are
+    /// correlated, and near a contact, where the force is decided, they overlap most. A row
+    /// whose residual is larger than its spread from the points' noise has its errors
+    /// scaled up to its residual (the rows' correlations kept): what the noise model leaves
+    /// out (e.g. a bias in how the points near the probe's edge are selected) shows in the
+    /// residuals, and the σ then cover it. The forces do not change. `registrar` and
+    /// `features` must be the estimate's own. Returns whether the σ were replaced (not when
+    /// a match is the single nearest point or the forces are not identifiable).
+    pub fn use_shared_point_uncertainty(
+        &mut self,
+        registrar: &Registrar,
+        features: &[SurfaceFeature],
+        params: &RegisterParams,
+    ) -> bool {
+        let Some(shared) = SharedPoints::register(registrar, features, &self.positions, params)
+        else {
+            return false;
+        };
+        let e = &self.estimate;
+        let Some(residuals) = self.problem.residuals(&e.actuator_forces, &e.forces) else {
+            return false;
+        };
+        if residuals.len() != shared.rows.len() {
+            return false;
+        }
+        // sqrt(max(1, r_i² / C_ii)): never below the noise model.
+        let scale: Vec<f64> = residuals
+            .iter()
+            .enumerate()
+            .map(|(i, r)| (r * r / shared.row_variance(i)).max(1.0).sqrt())
+            .map(|s| if s.is_finite() { s } else { 1.0 })
+            .collect();
+        let Some(cov) = self
+            .problem
+            .force_covariance_with(|a| shared.sandwich_scaled(a, &scale))
+        else {
+            return false;
+        };
+        self.estimate.force_sigma = (0..cov.nrows())
+            .map(|i| cov[(i, i)].max(0.0).sqrt())
+            .collect();
+        self.estimate.force_covariance = Some(cov);
+        true
+    }
+}
+
+/// The points behind the offsets of the features visible at node positions `x` (the rows
+/// of the sensing loop's linearised problem, in its order): row i's offset is the mean of its n_i points,
+/// so with independent points of variance s² the covariance of rows i and j is
+/// s² n_ij / (n_i n_j), n_ij the points they share. s² is the median, over the rows, of the
+/// points' scatter about their offset.
+#[derive(Clone, Debug)]
+pub struct SharedPoints {
+    /// Each row's points (indices into the registrar's finite points, ascending).
+    pub rows: Vec<Vec<u32>>,
+    /// Per-point variance along the line, s² (m²).
+    pub point_variance: f64,
+}
+
+impl SharedPoints {
+    /// Registers `features` at `x` as the sensing loop's linearisation does. `None` unless the matches average
+    /// (`params.average`) and some row has two points or more.
+    pub fn register(
+        registrar: &Registrar,
+        features: &[SurfaceFeature],
+        x: &[[f64; 3]],
+        params: &RegisterParams,
+    ) -> Option<Self> {
+        if !params.average {
+            return None;
+        }
+        let mut rows = Vec::new();
+        let mut variances = Vec::new();
+        for f in features {
+            let (p, n) = (f.position(x), f.normal(x));
+            if n == [0.0; 3] {
+                continue;
+            }
+            // The same matches as `linearise` (visible there exactly when here).
+            let Some((m, pts, scatter)) = registrar.match_feature_points(p, n, params) else {
+                continue;
+            };
+            if m.points > 1 {
+                variances.push(scatter / (m.points - 1) as f64);
+            }
+            rows.push(pts);
+        }
+        if variances.is_empty() {
+            return None;
+        }
+        let point_variance = crate::math::median(&mut variances);
+        Some(Self {
+            rows,
+            point_variance,
+        })
+    }
+
+    /// The covariance of the rows' offsets (m², rows x rows).
+    pub fn matrix(&self) -> nalgebra::DMatrix<f64> {
+        let m = self.rows.len();
+        let mut c = nalgebra::DMatrix::<f64>::zeros(m, m);
+        for (_, owners) in self.owners() {
+            for &a in &owners {
+                for &b in &owners {
+                    c[(a, b)] += 1.0;
+                }
+            }
+        }
+        let n: Vec<f64> = self.rows.iter().map(|r| r.len() as f64).collect();
+        for i in 0..m {
+            for j in 0..m {
+                c[(i, j)] *= self.point_variance / (n[i] * n[j]);
+            }
+        }
+        c
+    }
+
+    /// B C Bᵀ for the rows' covariance C ([`SharedPoints::matrix`]) and `b` (k x rows),
+    /// without forming C: s² Σ_points v vᵀ, v = Σ over the rows holding the point of
+    /// b's column / n_row.
+    pub fn sandwich(&self, b: &nalgebra::DMatrix<f64>) -> Option<nalgebra::DMatrix<f64>> {
+        self.sandwich_scaled(b, &vec![1.0; self.rows.len()])
+    }
+
+    /// Row i's variance in [`SharedPoints::matrix`], s² / n_i (m²).
+    pub fn row_variance(&self, i: usize) -> f64 {
+        self.point_variance / self.rows[i].len() as f64
+    }
+
+    /// [`SharedPoints::sandwich`] with row i's errors scaled by `scale[i]`: B D C D Bᵀ, D =
+    /// diag(scale), the rows' correlations unchanged. `None` when a length does not fit.
+    pub fn sandwich_scaled(
+        &self,
+        b: &nalgebra::DMatrix<f64>,
+        scale: &[f64],
+    ) -> Option<nalgebra::DMatrix<f64>> {
+        if b.ncols() != self.rows.len() || scale.len() != self.rows.len() {
+            return None;
+        }
+        let k = b.nrows();
+        let mut out = nalgebra::DMatrix::<f64>::zeros(k, k);
+        let mut v = nalgebra::DVector::<f64>::zeros(k);
+        for (_, owners) in self.owners() {
+            v.fill(0.0);
+            for &i in &owners {
+                let w = scale[i] / self.rows[i].len() as f64;
+                v.axpy(w, &b.column(i), 1.0);
+            }
+            out.ger(self.point_variance, &v, &v, 1.0);
+        }
+        Some(out)
+    }
+
+    /// Each point used, with the rows holding it (ascending), in point order.
+    fn owners(&self) -> Vec<(u32, Vec<usize>)> {
+        let mut pairs: Vec<(u32, usize)> = self
+            .rows
+            .iter()
+            .enumerate()
+            .flat_map(|(i, r)| r.iter().map(move |&q| (q, i)))
+            .collect();
+        pairs.sort_unstable();
+        let mut out: Vec<(u32, Vec<usize>)> = Vec::new();
+        for (q, i) in pairs {
+            match out.last_mut() {
+                Some((p, rows)) if *p == q => rows.push(i),
+                _ => out.push((q, vec![i])),
+            }
+        }
+        out
+    }
+}

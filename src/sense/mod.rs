@@ -1,0 +1,264 @@
+//! Marker-free force sensing, frame by frame (thesis 4.5, Algorithms 4.1-4.2): an RGB-D
+//! frame in, "touched here, this hard" out.
+//!
+//! Per frame: depth + colour → points in the camera frame → the robot frame
+//! (`robot_from_camera`) → crop to the robot's working box above the table → robot points by
+//! a colour model (hue and chroma in CIELAB, robust to shading) and object points (the rest)
+//! → KD-tree contact detection and Euclidean grouping ([`crate::contact`]) → location mapping
+//! (each contact to the nearest surface node of the FE model at the actuated state, refined at
+//! the estimated state) → registration of the surface features along their normal lines
+//! ([`crate::register`]) → the intensity QP with FE updates ([`crate::inverse::estimate`]).
+//! Where no contact is seen (a weight hanging by a thin string), the model's declared force
+//! points are the candidates and the one that explains the frame best is reported.
+//!
+//! A recording is a folder as written by `softsense scene generate` ([`Recording`]). Without
+//! recorded inputs, the model's are used: the model file's, or the calibration's after
+//! [`Sensor::use_calibrated_inputs`] (`rec.calibrated`), as `softsense sense` does.
+//!
+//! The API: [`Sensor::observe`] reads a frame, [`Sensor::sense`] senses it alone and
+//! [`Sensor::track`] as the next frame of a stream; [`Sensor::sense_frames`] senses many
+//! frames side by side and [`Sensor::track_frames`] one after the other as a stream.
+//!
+//! ```no_run
+//! use softsense::sense::{Recording, SenseParams, Sensor};
+//! let rec = Recording::open("clouds/scenes/tip_weight".as_ref()).unwrap();
+//! let model = softsense::fem::model::Model::load(&rec.model_path().unwrap(), None).unwrap();
+//! let sensor = Sensor::new(model, rec.robot_from_camera, SenseParams::default());
+//! for &frame in &rec.frames {
+//!     let obs = sensor.observe(&rec, frame).unwrap();
+//!     let report = sensor.sense(frame, &obs, rec.actuators_of(frame));
+//!     println!("{:?}", report.forces);
+//! }
+//! ```
+
+mod estimate;
+mod free;
+mod locate;
+mod observe;
+mod params;
+mod recording;
+mod report;
+mod stream;
+mod track;
+
+pub use free::SAME_INPUT;
+pub use observe::Observation;
+pub use params::SenseParams;
+pub use recording::Recording;
+pub use report::{
+    compare, largest_sigma, median_timings, ForceEstimate, FrameReport, FrameStatus, LoadError,
+    StageTimings,
+};
+pub use stream::default_window;
+pub use track::Track;
+
+use crate::calibrate::ActuatorCalibration;
+use crate::fem::mesh::Surface;
+use crate::fem::model::Model;
+use crate::fem::solve::CableControl;
+use crate::register::{surface_features, FeatureParams, SurfaceFeature};
+use crate::scene::ActuatorTruth;
+use free::FreeSolves;
+use serde::Serialize;
+use thiserror::Error;
+
+/// Errors of the sensing stage (per recording; per-frame failures are [`FrameStatus`]es).
+#[derive(Debug, Error)]
+pub enum SenseError {
+    /// A file of the recording is missing or unreadable.
+    #[error("{path}: {message}")]
+    File {
+        /// The file.
+        path: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// The recording folder has no frames.
+    #[error("{0}: no depth_NNNN.png frames")]
+    NoFrames(String),
+    /// Image or intrinsics reading failed.
+    #[error(transparent)]
+    Io(#[from] crate::io::IoError),
+    /// Calibrated cable inputs that do not fit the model.
+    #[error("calibrated cable inputs: {0}")]
+    Calibration(String),
+}
+
+/// `Result` of the sensing stage.
+pub type SenseResult<T> = std::result::Result<T, SenseError>;
+
+/// The per-recording state: the model and its features.
+pub struct Sensor {
+    /// The FE model (its cable controls are replaced per frame by recorded inputs).
+    pub model: Model,
+    /// Feature points on the surface.
+    pub features: Vec<SurfaceFeature>,
+    /// Parameters.
+    pub params: SenseParams,
+    /// A dense pool of features (same rules), from which those near a seen contact join
+    /// the frame's features.
+    pub local_pool: Vec<SurfaceFeature>,
+    /// The camera centre in the robot frame (m).
+    pub eye: [f64; 3],
+    /// Crop box in the robot frame (m).
+    pub bounds: [[f64; 3]; 2],
+    /// The model's surface (triangles and nodes), computed once.
+    pub surface: Surface,
+    /// Free solves of the latest distinct actuator inputs (a stream repeats them).
+    free: FreeSolves,
+    /// Where the model's own cable inputs (used for frames without recorded ones) come
+    /// from.
+    model_inputs: ModelInputs,
+}
+
+/// Where the cable inputs of a frame without recorded ones come from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ModelInputs {
+    /// The model file's `[[cables]]`.
+    #[default]
+    ModelFile,
+    /// A calibration's ([`Sensor::use_calibrated_inputs`]).
+    Calibration,
+}
+
+impl Sensor {
+    /// Prepares the features (flat patches the camera at `robot_from_camera` sees).
+    pub fn new(model: Model, robot_from_camera: [[f64; 4]; 4], mut params: SenseParams) -> Self {
+        let eye = [0, 1, 2].map(|r| robot_from_camera[r][3]);
+        params.features.eye = Some(eye);
+        let surface = model.problem.mesh.surface();
+        let features = surface_features(
+            &model.problem.mesh.nodes_in_rest,
+            &surface,
+            &params.features,
+        );
+        let local_pool = if params.local_features_radius > 0.0 {
+            surface_features(
+                &model.problem.mesh.nodes_in_rest,
+                &surface,
+                &FeatureParams {
+                    count: params.local_feature_pool,
+                    ..params.features.clone()
+                },
+            )
+        } else {
+            Vec::new()
+        };
+        // The pool's farthest-point sampling starts like the global one's, so it holds the
+        // global features too: near a contact they are registered twice, and count twice.
+        // Kept on purpose: dropping the repeats lowered the residual spread of frames whose
+        // force sits a node off enough to pass the fit check (see docs/sensing.md).
+        let [lo, hi] = model.problem.mesh.bbox();
+        let m = params.crop_margin;
+        let bounds = [
+            [lo[0] - m, lo[1] - m, lo[2] + params.table_clearance],
+            [hi[0] + m, hi[1] + m, hi[2] + m],
+        ];
+        Self {
+            model,
+            features,
+            params,
+            local_pool,
+            eye,
+            bounds,
+            surface,
+            free: FreeSolves::default(),
+            model_inputs: ModelInputs::ModelFile,
+        }
+    }
+
+    /// Where the cable inputs of frames without recorded ones come from.
+    pub fn model_inputs(&self) -> ModelInputs {
+        self.model_inputs
+    }
+
+    /// Takes the cable inputs a calibration found (thesis 3.3: the camera pose and the
+    /// initial actuator inputs) as the model's own, for frames without recorded inputs:
+    /// each cable keeps the model file's control and takes the calibrated value of it (a
+    /// displacement-controlled cable its shortening, a force-controlled one its tension).
+    /// Recorded inputs ([`Recording::actuators_of`]) still take precedence. A calibrated
+    /// cable the model does not have, or a value that is not finite, is refused: the
+    /// calibration is of another model.
+    pub fn use_calibrated_inputs(&mut self, calibrated: &[ActuatorCalibration]) -> SenseResult<()> {
+        let mut cables = self.model.problem.cables.clone();
+        for a in calibrated {
+            let c = cables
+                .iter_mut()
+                .find(|c| c.name == a.name)
+                .ok_or_else(|| {
+                    SenseError::Calibration(format!(
+                        "the model has no cable named {:?} (its cables: {})",
+                        a.name,
+                        self.model
+                            .problem
+                            .cables
+                            .iter()
+                            .map(|c| c.name.as_str())
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ))
+                })?;
+            if !(a.tension.is_finite() && a.shortening.is_finite()) {
+                return Err(SenseError::Calibration(format!(
+                    "cable {:?}: tension {} N, shortening {} m",
+                    a.name, a.tension, a.shortening
+                )));
+            }
+            c.control = match c.control {
+                CableControl::Displacement(_) => CableControl::Displacement(a.shortening),
+                CableControl::Force(_) => CableControl::Force(a.tension),
+            };
+        }
+        self.model.problem.cables = cables;
+        // The free solves were of the old inputs.
+        self.free = FreeSolves::default();
+        self.model_inputs = ModelInputs::Calibration;
+        Ok(())
+    }
+
+    /// The model with `actuators` as its cable controls (by name; unknown names ignored).
+    fn actuated(&self, actuators: Option<&[ActuatorTruth]>) -> Model {
+        let mut model = self.model.clone();
+        model.problem.loads.clear();
+        for a in actuators.unwrap_or_default() {
+            if let Some(c) = model.problem.cables.iter_mut().find(|c| c.name == a.name) {
+                c.control = if a.displacement_controlled {
+                    CableControl::Displacement(a.shortening)
+                } else {
+                    CableControl::Force(a.tension)
+                };
+            }
+        }
+        model
+    }
+
+    /// Senses one frame. Never fails: problems are in the report's status.
+    pub fn sense(
+        &self,
+        frame: usize,
+        obs: &Observation,
+        actuators: Option<&[ActuatorTruth]>,
+    ) -> FrameReport {
+        self.sense_frame(frame, obs, actuators, None, false).0
+    }
+
+    /// [`Sensor::sense`] as a frame of a stream, starting from `prev`, what the previous
+    /// frame left, when the cable inputs are the same and its contacts are seen again (each
+    /// within [`SenseParams::track_radius`]): the previous locations and forces start the
+    /// loop, while the location choice is made at the previous state; if it keeps the
+    /// locations the estimate stands (else it is made again at the estimated state, and a
+    /// new location is estimated as in an untracked frame). A frame without contacts after
+    /// one without contacts resumes each declared force point's loop. Returns the report
+    /// ([`FrameReport::tracked`] says whether it started from `prev`) and what this frame
+    /// leaves for the next (`None` when it failed or was flagged unreliable).
+    pub fn track(
+        &self,
+        frame: usize,
+        obs: &Observation,
+        actuators: Option<&[ActuatorTruth]>,
+        prev: Option<&Track>,
+    ) -> (FrameReport, Option<Track>) {
+        self.sense_frame(frame, obs, actuators, prev, true)
+    }
+}

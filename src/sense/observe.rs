@@ -1,0 +1,135 @@
+//! What a frame shows: its points in the robot frame, cropped to the robot's working box and
+//! split by a colour model into robot and objects ([`Observation`]), and where the objects
+//! touch the robot ([`Sensor::contacts`]).
+
+use super::report::ms;
+use super::{Recording, SenseParams, SenseResult, Sensor};
+use crate::contact::{detect_contacts, Contact};
+use crate::io::rgbd::read_frame;
+use crate::segment::color::rgb_to_lab;
+
+/// Points of one frame in the robot frame, split by the colour model.
+#[derive(Clone, Debug, Default)]
+pub struct Observation {
+    /// Robot points (m, robot frame).
+    pub robot: Vec<[f64; 3]>,
+    /// Other points inside the crop: what may touch the robot (m, robot frame).
+    pub objects: Vec<[f32; 3]>,
+    /// Pixel index of each robot point.
+    pub robot_pixels: Vec<usize>,
+    /// Pixel index of each object point.
+    pub object_pixels: Vec<usize>,
+    /// Image size.
+    pub width: u32,
+    /// Image size.
+    pub height: u32,
+    /// The colour frame, row-major.
+    pub color: Vec<[u8; 3]>,
+    /// Time spent reading, cropping and segmenting this frame (the other stages are zero).
+    pub timings: super::StageTimings,
+}
+
+impl Sensor {
+    /// Reads `frame` of `rec`, cropped to the robot's box, split by the colour model.
+    pub fn observe(&self, rec: &Recording, frame: usize) -> SenseResult<Observation> {
+        observe(rec, frame, &self.params, Some(self.bounds))
+    }
+
+    /// Where objects touch the robot in `obs` (robot frame): the contacts a frame is sensed
+    /// with (`SenseParams::contact`), none when no object point is in the crop.
+    pub fn contacts(
+        &self,
+        obs: &Observation,
+    ) -> Result<Vec<Contact>, crate::segment::SegmentError> {
+        if obs.objects.is_empty() {
+            return Ok(Vec::new());
+        }
+        let robot: Vec<[f32; 3]> = obs.robot.iter().map(|p| p.map(|c| c as f32)).collect();
+        detect_contacts(&robot, &obs.objects, &self.params.contact)
+    }
+}
+
+/// Reads `frame` of `rec` and splits its points (robot frame, cropped to `bounds` when
+/// given) into robot and objects by the colour model of `params`.
+fn observe(
+    rec: &Recording,
+    frame: usize,
+    params: &SenseParams,
+    bounds: Option<[[f64; 3]; 2]>,
+) -> SenseResult<Observation> {
+    let t0 = std::time::Instant::now();
+    let (dp, cp) = rec.frame_paths(frame);
+    let mut cloud = read_frame(&dp, cp.exists().then_some(cp.as_path()), &rec.camera)?;
+    let colors = cloud.colors.take().unwrap_or_default();
+    let t1 = std::time::Instant::now();
+    let kept = crop(&cloud.positions, &rec.robot_from_camera, bounds);
+    let t2 = std::time::Instant::now();
+    // Segment: robot points by the colour model, the rest are objects.
+    let is_robot = colour_model(params);
+    let mut obs = Observation {
+        width: cloud.width,
+        height: cloud.height,
+        ..Default::default()
+    };
+    // Each distinct colour is classified once: a frame's robot pixels share a few
+    // thousand colours among tens of thousands of pixels, and a Lab conversion costs
+    // three cube roots.
+    let mut seen: std::collections::HashMap<[u8; 3], bool> = Default::default();
+    for (i, q) in kept {
+        let robot = colors
+            .get(i)
+            .is_some_and(|&c| *seen.entry(c).or_insert_with(|| is_robot(c)));
+        if robot {
+            obs.robot.push(q);
+            obs.robot_pixels.push(i);
+        } else {
+            obs.objects.push(q.map(|c| c as f32));
+            obs.object_pixels.push(i);
+        }
+    }
+    obs.color = colors;
+    let t3 = std::time::Instant::now();
+    obs.timings.read = ms(t1 - t0);
+    obs.timings.crop = ms(t2 - t1);
+    obs.timings.segment = ms(t3 - t2);
+    Ok(obs)
+}
+
+/// Filter: the finite points in the robot frame (`t`, robot from camera), cropped to
+/// `bounds` when given, with their pixel indices.
+fn crop(
+    positions: &[[f32; 3]],
+    t: &[[f64; 4]; 4],
+    bounds: Option<[[f64; 3]; 2]>,
+) -> Vec<(usize, [f64; 3])> {
+    positions
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| p.iter().all(|c| c.is_finite()))
+        .filter_map(|(i, p)| {
+            let pc = p.map(|c| c as f64);
+            let q =
+                [0, 1, 2].map(|r| t[r][0] * pc[0] + t[r][1] * pc[1] + t[r][2] * pc[2] + t[r][3]);
+            match bounds {
+                Some([lo, hi]) if (0..3).any(|k| q[k] < lo[k] || q[k] > hi[k]) => None,
+                _ => Some((i, q)),
+            }
+        })
+        .collect()
+}
+
+/// Whether a colour is the robot's: hue within `hue_tolerance_deg` of the reference colour
+/// in CIELAB's a-b plane, chroma at least `min_chroma`.
+fn colour_model(params: &SenseParams) -> impl Fn([u8; 3]) -> bool + '_ {
+    let reference = rgb_to_lab(params.robot_color);
+    let ref_hue = reference[2].atan2(reference[1]);
+    let tol = params.hue_tolerance_deg.to_radians();
+    move |c: [u8; 3]| {
+        let lab = rgb_to_lab(c);
+        let chroma = (lab[1] * lab[1] + lab[2] * lab[2]).sqrt();
+        let dh = (lab[2].atan2(lab[1]) - ref_hue + std::f64::consts::PI)
+            .rem_euclid(2.0 * std::f64::consts::PI)
+            - std::f64::consts::PI;
+        chroma >= params.min_chroma && dh.abs() <= tol
+    }
+}

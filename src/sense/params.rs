@@ -1,0 +1,111 @@
+//! Tunables of the sensing chain ([`SenseParams`]).
+
+use crate::contact::ContactParams;
+use crate::inverse::FrameParams;
+use crate::register::FeatureParams;
+
+/// Parameters of the sensing chain.
+#[derive(Clone, Debug)]
+pub struct SenseParams {
+    /// Reference colour of the robot's silicone (sRGB); default the scene generator's green.
+    pub robot_color: [u8; 3],
+    /// Largest hue difference in CIELAB's a-b plane from the reference colour (degrees, 25).
+    pub hue_tolerance_deg: f64,
+    /// Smallest CIELAB chroma of a robot point (12): grey table and dark holes are not robot.
+    pub min_chroma: f64,
+    /// Margin around the model's bounding box kept by the crop (m, 0.03).
+    pub crop_margin: f64,
+    /// Points lower than the model's lowest point plus this are the table (m, 0.004).
+    pub table_clearance: f64,
+    /// Contact detection: more than 3 robot neighbours within 12 mm, groups 5 mm apart of
+    /// 10-2000 points.
+    // The thesis used 4 mm with its camera closer; see docs/sensing.md for why 12 mm.
+    pub contact: ContactParams,
+    /// Feature points: 300 on flat patches the camera sees, each at least 5 mm inside its
+    /// patch (`flat_radius`, equal to the registration's `d_m`).
+    pub features: FeatureParams,
+    /// Registration, intensity QP and FE updates.
+    pub frame: FrameParams,
+    /// Surface nodes within this of a seen contact's centroid are its location options (m,
+    /// 0.015).
+    // The probe hides the touched point, so the touching points' centroid sits ~8 mm off.
+    pub location_radius: f64,
+    /// At most this many options per contact, nearest first (16).
+    pub location_options: usize,
+    /// FE updates of the preview, the first estimate of an untracked frame with seen
+    /// contacts, after which the choice is made again (2; 0 or 1: no preview).
+    pub preview_updates: usize,
+    /// How many times the choice is made again at an estimated state (2); each time it
+    /// picks other locations, they are estimated.
+    pub location_checks: usize,
+    /// Pool features within this of a seen contact join the frame's features (m, 0.03; 0:
+    /// off).
+    pub local_features_radius: f64,
+    /// Size of the dense feature pool (600).
+    pub local_feature_pool: usize,
+    /// A tracked frame ([`Sensor::track_frames`](super::Sensor::track_frames)) starts from
+    /// the previous one's estimate when each contact is within this of where it was (m,
+    /// 0.005).
+    pub track_radius: f64,
+    /// Largest number of option combinations tried exhaustively (400); beyond, coordinate
+    /// descent.
+    pub max_combinations: usize,
+    /// A frame with more seen contacts than this is not estimated (6):
+    /// [`FrameStatus::TooManyContacts`](super::FrameStatus::TooManyContacts).
+    // Dozens of contacts come from depth and colour that do not match, not from touches.
+    pub max_contacts: usize,
+    /// At a seen contact, estimate a 3-D force (inward normal, pushing only, plus two
+    /// tangential components) instead of a normal force alone (true).
+    pub three_d: bool,
+    /// A frame is unreliable when its residual's robust spread exceeds this many times the
+    /// expected noise `frame.intensity.sensor_sigma` (1.5).
+    pub poor_fit: f64,
+    /// Warn that a force's direction (or magnitude) is uncertain when its largest one-sigma
+    /// ([`ForceEstimate::sigma_max`](super::ForceEstimate::sigma_max)) exceeds this fraction
+    /// of its magnitude (0.025).
+    pub direction_warning: f64,
+}
+
+impl Default for SenseParams {
+    fn default() -> Self {
+        let mut frame = FrameParams::default();
+        // Each matched offset averages the points within 5 mm of the normal line: ~100 at
+        // the D415-like 0.8 mm spacing at 0.5 m, of 0.5 mm depth noise and 1 mm depth steps
+        // (0.29 mm) each: 0.58 mm / 10 ≈ 0.05 mm.
+        let d_m = 0.005;
+        frame.register.d_m = d_m;
+        frame.intensity.sensor_sigma = 5e-5;
+        frame.max_updates = 20;
+        // 1 mN: far below the 5% of the lightest load (0.26 N) the estimates are held to.
+        frame.force_tol = 1e-3;
+        Self {
+            robot_color: [40, 200, 60],
+            hue_tolerance_deg: 25.0,
+            min_chroma: 12.0,
+            crop_margin: 0.03,
+            table_clearance: 0.004,
+            contact: ContactParams {
+                radius_m: 0.012,
+                ..ContactParams::default()
+            },
+            features: FeatureParams {
+                count: 300,
+                flat_radius: d_m,
+                ..FeatureParams::default()
+            },
+            frame,
+            three_d: true,
+            poor_fit: 1.5,
+            direction_warning: 0.025,
+            location_radius: 0.015,
+            location_options: 16,
+            preview_updates: 2,
+            location_checks: 2,
+            max_combinations: 400,
+            max_contacts: 6,
+            local_features_radius: 0.03,
+            local_feature_pool: 600,
+            track_radius: 0.005,
+        }
+    }
+}

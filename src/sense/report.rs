@@ -1,0 +1,494 @@
+//! What the sensor reports per frame: the outcome ([`FrameStatus`]), the estimated forces
+//! ([`ForceEstimate`]) with their uncertainty, where the time went ([`StageTimings`]), and
+//! the errors against a generator's truth ([`compare`]).
+
+use super::SenseParams;
+use crate::fem::model::Model;
+use crate::inverse::intensity::{Identifiability, IntensityEstimate};
+use crate::inverse::{Candidate, FrameEstimate, LoopTimings};
+use crate::math::{dot, norm, sub, unit};
+use crate::scene::FrameTruth;
+use serde::Serialize;
+
+/// Milliseconds of a duration.
+pub(super) fn ms(d: std::time::Duration) -> f64 {
+    d.as_secs_f64() * 1e3
+}
+
+/// Where the time of one frame went (ms). Stage times add up the work done in each stage:
+/// where candidate estimates run in parallel (rayon) they are summed over threads, so their
+/// sum can exceed `total`, the wall time of the frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct StageTimings {
+    /// Decoding the depth and colour PNGs and back-projecting depth into points.
+    pub read: f64,
+    /// Filter: transform to the robot frame and crop to the working box.
+    pub crop: f64,
+    /// Segment: the colour model splitting robot and object points.
+    pub segment: f64,
+    /// The free FE solve at the frame's actuator inputs (near zero when cached).
+    pub free_solve: f64,
+    /// Contact detection (KD-tree) and Euclidean grouping.
+    pub contacts: f64,
+    /// Location mapping: options per contact, their linearisation and the QPs choosing one.
+    pub mapping: f64,
+    /// Registration of the features along their normal lines (grid build included).
+    pub register: f64,
+    /// FE updates: Newton solves under the estimated forces.
+    pub fe_update: f64,
+    /// Compliance: tangent factorisation at the updated state and W = H K⁻¹ Hᵀ.
+    pub compliance: f64,
+    /// Intensity QPs (clarabel), identifiability and uncertainty included.
+    pub qp: f64,
+    /// Wall time of the whole frame: read to report.
+    pub total: f64,
+}
+
+impl StageTimings {
+    /// Stage names and values, in chain order (`total` last).
+    pub fn named(&self) -> [(&'static str, f64); 11] {
+        [
+            ("read", self.read),
+            ("crop", self.crop),
+            ("segment", self.segment),
+            ("free_solve", self.free_solve),
+            ("contacts", self.contacts),
+            ("mapping", self.mapping),
+            ("register", self.register),
+            ("fe_update", self.fe_update),
+            ("compliance", self.compliance),
+            ("qp", self.qp),
+            ("total", self.total),
+        ]
+    }
+
+    /// Adds the loop timings of one frame estimate.
+    fn add_loop(&mut self, t: &LoopTimings) {
+        self.register += t.register;
+        self.fe_update += t.fe_update;
+        self.compliance += t.compliance;
+        self.qp += t.qp;
+    }
+}
+
+/// Per-stage medians over frames (ms), in [`StageTimings::named`] order.
+pub fn median_timings(timings: &[StageTimings]) -> Vec<(&'static str, f64)> {
+    let named: Vec<_> = timings.iter().map(|t| t.named()).collect();
+    StageTimings::default()
+        .named()
+        .iter()
+        .enumerate()
+        .map(|(k, (name, _))| {
+            let mut v: Vec<f64> = named.iter().map(|n| n[k].1).collect();
+            (*name, crate::math::median(&mut v))
+        })
+        .collect()
+}
+
+/// What happened to a frame.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "status", content = "detail", rename_all = "snake_case")]
+pub enum FrameStatus {
+    /// Forces estimated.
+    Sensed,
+    /// Too few robot points (the colour model found no robot).
+    NoRobot,
+    /// No feature point could be registered.
+    NoFeatures,
+    /// The frame could not be read.
+    Unreadable(String),
+    /// The FE model or the QP failed; the message says how.
+    NotSolved(String),
+    /// More contacts seen than [`SenseParams::max_contacts`]: not estimated.
+    TooManyContacts {
+        /// Contacts seen.
+        seen: usize,
+        /// The limit.
+        max: usize,
+    },
+}
+
+impl std::fmt::Display for FrameStatus {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            FrameStatus::Sensed => write!(f, "sensed"),
+            FrameStatus::NoRobot => write!(f, "no robot (too few points of the robot's colour)"),
+            FrameStatus::NoFeatures => write!(f, "no feature point registered"),
+            FrameStatus::Unreadable(e) => write!(f, "unreadable: {e}"),
+            FrameStatus::NotSolved(e) => write!(f, "not solved: {e}"),
+            FrameStatus::TooManyContacts { seen, max } => write!(
+                f,
+                "too many contacts: {seen} seen, the limit is {max} (--max-contacts); not estimated (depth and colour that do not match, or objects all around the robot?)"
+            ),
+        }
+    }
+}
+
+/// One estimated force.
+#[derive(Clone, Debug, Serialize)]
+pub struct ForceEstimate {
+    /// Where the location came from: `contact` (seen) or `force point <name>` (declared).
+    pub source: String,
+    /// The seen contact's centroid (robot frame, m), for seen contacts.
+    pub seen_at: Option<[f64; 3]>,
+    /// Contact points in the seen group.
+    pub contact_points: usize,
+    /// The mapped FE location at the estimated state (robot frame, m).
+    pub location: [f64; 3],
+    /// The mapped surface node (seen contacts).
+    pub node: Option<usize>,
+    /// Force vector (N, robot frame).
+    pub force: [f64; 3],
+    /// Its magnitude (N).
+    pub magnitude: f64,
+    /// One-sigma uncertainty of the magnitude (N), from the sensor noise, W and the rows'
+    /// residuals (see [`crate::inverse::FrameEstimate::use_shared_point_uncertainty`]).
+    pub sigma: f64,
+    /// The largest one-sigma of the force over all directions (N): the square root of
+    /// `covariance`'s largest eigenvalue (NaN if it has a NaN). Where `sigma` is small but
+    /// this is not, the magnitude is known and the direction is not: the force's error is
+    /// mostly tangential, along the covariance's longest axis.
+    pub sigma_max: f64,
+    /// Covariance of `force` (N², robot frame x, y, z; rows). The tangential spread is
+    /// often several times the magnitude's: normal-line registration sees a tangential
+    /// force only through the faces it tilts. One-sigma of a component along a unit
+    /// vector u: sqrt(uᵀ C u); `sigma` is that along the force.
+    pub covariance: [[f64; 3]; 3],
+}
+
+/// Errors of one estimated load against the truth.
+#[derive(Clone, Debug, Serialize)]
+pub struct LoadError {
+    /// The true load's force (N).
+    pub truth_force: [f64; 3],
+    /// The true location (deformed, m).
+    pub truth_at: [f64; 3],
+    /// Index of the matched estimate (nearest location), if any.
+    pub estimate: Option<usize>,
+    /// Distance between the estimated and true locations (m).
+    pub location_error: f64,
+    /// |f_est − f_true| / |f_true|.
+    pub force_error: f64,
+    /// | |f_est| − |f_true| | / |f_true|.
+    pub magnitude_error: f64,
+}
+
+/// The result of one frame.
+#[derive(Clone, Debug, Serialize)]
+pub struct FrameReport {
+    /// Frame number.
+    pub frame: usize,
+    /// Outcome.
+    #[serde(flatten)]
+    pub status: FrameStatus,
+    /// Robot and object points seen.
+    pub robot_points: usize,
+    /// Object points inside the crop.
+    pub object_points: usize,
+    /// Estimated forces.
+    pub forces: Vec<ForceEstimate>,
+    /// Actuator forces (N), one per cable, by name.
+    pub actuators: Vec<(String, f64)>,
+    /// Visible feature points of the last registration, and all.
+    pub features_visible: usize,
+    /// Number of feature points.
+    pub features: usize,
+    /// RMS of the normal-displacement residual (m).
+    pub residual_rms: f64,
+    /// Robust spread of the same residual (1.4826 × median |residual|, m).
+    pub residual_robust: f64,
+    /// FE updates in the last estimate.
+    pub updates: usize,
+    /// Whether the frame started from the previous frame's estimate
+    /// ([`Sensor::track_frames`](super::Sensor::track_frames)): its contacts were where the
+    /// previous frame's were (or neither frame saw one), so the previous locations and
+    /// forces were the starting point instead of a choice and a loop from the unloaded
+    /// state.
+    pub tracked: bool,
+    /// Force steps halved because their FE update failed, over the frame's estimates
+    /// (`FrameParams::max_halvings`).
+    pub halvings: usize,
+    /// Whether the estimate passed the fit checks: the forces settled within
+    /// `FrameParams::max_updates`, the residual is within [`SenseParams::poor_fit`] times
+    /// the expected noise, and the forces are identifiable (no warning in
+    /// `identifiability`). An unreliable frame keeps its estimate; its `warnings` say which
+    /// check failed. False when nothing was estimated.
+    pub reliable: bool,
+    /// Identifiability of the last QP.
+    pub identifiability: Option<Identifiability>,
+    /// Warnings a user should read.
+    pub warnings: Vec<String>,
+    /// Errors against the truth, when the recording has one.
+    pub errors: Option<Vec<LoadError>>,
+    /// Wall time of sensing the frame, reading excluded (ms).
+    pub ms: f64,
+    /// Where the time went, per stage (ms; reading included in `total`).
+    pub timings: StageTimings,
+    /// Node positions of the final FE state (m, robot frame; empty if none), for pictures.
+    #[serde(skip)]
+    pub positions: Vec<[f64; 3]>,
+}
+
+impl FrameReport {
+    /// Adds the loop timings and halvings of one of the frame's estimates.
+    pub(super) fn account(&mut self, est: &FrameEstimate) {
+        self.timings.add_loop(&est.timings);
+        self.halvings += est.halvings;
+    }
+
+    /// A report with `status` and nothing estimated yet.
+    pub fn empty(frame: usize, status: FrameStatus) -> Self {
+        Self {
+            frame,
+            status,
+            robot_points: 0,
+            object_points: 0,
+            forces: Vec::new(),
+            actuators: Vec::new(),
+            features_visible: 0,
+            features: 0,
+            residual_rms: f64::NAN,
+            residual_robust: f64::NAN,
+            updates: 0,
+            tracked: false,
+            halvings: 0,
+            reliable: false,
+            identifiability: None,
+            warnings: Vec::new(),
+            errors: None,
+            ms: 0.0,
+            timings: StageTimings::default(),
+            positions: Vec::new(),
+        }
+    }
+}
+
+/// The candidates of one reported force: a seen contact's, or a declared force point's.
+pub(super) struct Group {
+    /// Where the location came from (`contact`, `force point <name>`).
+    pub source: String,
+    /// The seen contact's centroid (robot frame, m).
+    pub seen_at: Option<[f64; 3]>,
+    /// Contact points in the seen group.
+    pub points: usize,
+    /// The chosen surface node (seen contacts).
+    pub node: Option<usize>,
+    /// Its candidates (a range of the estimate's).
+    pub range: std::ops::Range<usize>,
+}
+
+impl FrameReport {
+    /// Fills in the final estimate `est` of the frame (its σ already from shared points):
+    /// fit, identifiability and the actuator forces of `model`, with their warnings, then
+    /// the force of each group of `candidates`.
+    pub(super) fn describe(
+        &mut self,
+        est: &FrameEstimate,
+        candidates: &[Candidate],
+        groups: &[Group],
+        model: &Model,
+        params: &SenseParams,
+    ) {
+        let e = &est.estimate;
+        self.features_visible = est.visible;
+        self.positions.clone_from(&est.positions);
+        self.residual_rms = e.residual_rms;
+        self.updates = est.updates;
+        let noise = params.frame.intensity.sensor_sigma;
+        self.residual_robust = e.residual_robust;
+        let fits = e.residual_robust <= params.poor_fit * noise;
+        self.reliable = est.settled && fits;
+        if !est.settled {
+            self.warnings.push(format!(
+                "unreliable: the forces did not settle within {} FE updates",
+                est.updates
+            ));
+        }
+        if !fits {
+            self.warnings.push(format!(
+                "unreliable: the residual's robust spread ({:.3} mm) is {:.1} times the expected noise ({:.3} mm): the model cannot explain this frame with its force locations (a contact not seen, a wrong location, or a deformation the loop did not follow)",
+                e.residual_robust * 1e3,
+                e.residual_robust / noise,
+                noise * 1e3
+            ));
+        }
+        self.identifiability = Some(e.identifiability.clone());
+        if let Some(w) = &e.identifiability.warning {
+            self.reliable = false;
+            self.warnings.push(format!("unreliable: {w}"));
+        }
+        if let Some(w) = e.regularization_warning() {
+            self.warnings.push(w);
+        }
+        self.actuators = model
+            .problem
+            .cables
+            .iter()
+            .map(|c| c.name.clone())
+            .zip(e.actuator_forces.iter().copied())
+            .collect();
+        for g in groups {
+            let force = force_estimate(g, e, candidates, &est.positions);
+            self.forces.push(force);
+        }
+        self.warn_uncertain_directions(params.direction_warning);
+    }
+
+    /// A warning for each force whose largest σ is more than `limit` of its magnitude
+    /// (forces within 2σ of zero excepted).
+    fn warn_uncertain_directions(&mut self, limit: f64) {
+        for (i, f) in self.forces.iter().enumerate() {
+            if f.magnitude > 2.0 * f.sigma_max && f.sigma_max > limit * f.magnitude {
+                // The longest axis is along the force when the magnitude's σ is most of it.
+                let what = if f.sigma >= 0.5 * f.sigma_max {
+                    "its magnitude"
+                } else {
+                    "its direction"
+                };
+                self.warnings.push(format!(
+                    "force {i}: {what} is uncertain: 3-D σ {:.1} mN is {:.1}% of |F| (more than {:.1}%), σ of |F| {:.1} mN",
+                    f.sigma_max * 1e3,
+                    100.0 * f.sigma_max / f.magnitude,
+                    100.0 * limit,
+                    f.sigma * 1e3
+                ));
+            }
+        }
+    }
+}
+
+/// The force of group `g` in the estimate `e` of `cands` at node positions `positions`:
+/// the sum of its candidates' forces, with its magnitude's σ and its covariance.
+fn force_estimate(
+    g: &Group,
+    e: &IntensityEstimate,
+    cands: &[Candidate],
+    positions: &[[f64; 3]],
+) -> ForceEstimate {
+    let mut f = [0.0; 3];
+    let mut var = 0.0;
+    for k in g.range.clone() {
+        let d = unit(cands[k].direction);
+        for q in 0..3 {
+            f[q] += e.forces[k] * d[q];
+        }
+    }
+    let magnitude = norm(f);
+    // The components' (co)variance: the sandwich's when the estimate has it, else
+    // the independent σ.
+    let cov_kl = |k: usize, l: usize| match &e.force_covariance {
+        Some(cov) if cov.nrows() == cands.len() => cov[(k, l)],
+        _ if k == l => e.force_sigma.get(k).copied().unwrap_or(f64::NAN).powi(2),
+        _ => 0.0,
+    };
+    // Magnitude sigma: that (co)variance projected on the force direction.
+    let proj = |k: usize| {
+        if magnitude > 0.0 {
+            dot(unit(cands[k].direction), f) / magnitude
+        } else {
+            1.0
+        }
+    };
+    // The same in the robot frame: Σ_kl u_k u_lᵀ cov_kl.
+    let mut covariance = [[0.0; 3]; 3];
+    for k in g.range.clone() {
+        let uk = unit(cands[k].direction);
+        for l in g.range.clone() {
+            let ul = unit(cands[l].direction);
+            let c = cov_kl(k, l);
+            var += proj(k) * proj(l) * c;
+            for (a, row) in covariance.iter_mut().enumerate() {
+                for (b, v) in row.iter_mut().enumerate() {
+                    *v += uk[a] * ul[b] * c;
+                }
+            }
+        }
+    }
+    let var = var.max(0.0);
+    let at = cands[g.range.start].at.position(positions);
+    ForceEstimate {
+        source: g.source.clone(),
+        seen_at: g.seen_at,
+        contact_points: g.points,
+        location: at,
+        node: g.node,
+        force: f,
+        magnitude,
+        sigma: var.sqrt(),
+        sigma_max: largest_sigma(&covariance),
+        covariance,
+    }
+}
+
+/// The square root of a symmetric 3x3 covariance's largest eigenvalue (0 for a negative
+/// one from rounding), NaN when an entry is not finite.
+pub fn largest_sigma(covariance: &[[f64; 3]; 3]) -> f64 {
+    if covariance.iter().flatten().any(|v| !v.is_finite()) {
+        return f64::NAN;
+    }
+    let m = nalgebra::Matrix3::from_fn(|r, c| 0.5 * (covariance[r][c] + covariance[c][r]));
+    m.symmetric_eigenvalues().max().max(0.0).sqrt()
+}
+
+/// Matches each true load to the nearest estimate and reports the errors.
+pub fn compare(report: &FrameReport, truth: &FrameTruth) -> Vec<LoadError> {
+    truth
+        .loads
+        .iter()
+        .map(|l| {
+            let best = report
+                .forces
+                .iter()
+                .enumerate()
+                .map(|(i, f)| (i, norm(sub(f.location, l.at_deformed))))
+                .min_by(|a, b| a.1.total_cmp(&b.1));
+            let mag = l.magnitude.max(f64::MIN_POSITIVE);
+            match best {
+                Some((i, d)) => {
+                    let f = &report.forces[i];
+                    LoadError {
+                        truth_force: l.force,
+                        truth_at: l.at_deformed,
+                        estimate: Some(i),
+                        location_error: d,
+                        force_error: norm(sub(f.force, l.force)) / mag,
+                        magnitude_error: (f.magnitude - l.magnitude).abs() / mag,
+                    }
+                }
+                None => LoadError {
+                    truth_force: l.force,
+                    truth_at: l.at_deformed,
+                    estimate: None,
+                    location_error: f64::INFINITY,
+                    force_error: 1.0,
+                    magnitude_error: 1.0,
+                },
+            }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::largest_sigma;
+
+    #[test]
+    fn the_largest_sigma_of_a_rotated_covariance_is_its_longest_axis() {
+        // diag(1, 4, 9) turned 30° about z: the axes keep their lengths.
+        let (s, c) = (0.5f64, 3f64.sqrt() / 2.0);
+        let r = nalgebra::Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0);
+        let m = r
+            * nalgebra::Matrix3::from_diagonal(&nalgebra::Vector3::new(1.0, 4.0, 9.0))
+            * r.transpose();
+        let cov = [0, 1, 2].map(|i| [0, 1, 2].map(|j| m[(i, j)]));
+        assert!((largest_sigma(&cov) - 3.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_covariance_with_a_nan_has_no_largest_sigma() {
+        let mut cov = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        cov[1][2] = f64::NAN;
+        assert!(largest_sigma(&cov).is_nan());
+        assert_eq!(largest_sigma(&[[0.0; 3]; 3]), 0.0);
+    }
+}
