@@ -86,7 +86,14 @@ EOF
 }
 
 build_here() {
-    cargo build -q "${profile_flag[@]}" --bin softsense
+    # In the dev profile, build the binary as `cargo test` does (with the test targets, so
+    # dev-dependency features are unified the same way): a bare `--bin` build would give a
+    # second feature set, rebuild much of the tree and overwrite the binary the tests use.
+    local targets=(--bin softsense)
+    if [ "$profile" = dev ]; then
+        targets+=(--tests)
+    fi
+    cargo build -q "${profile_flag[@]}" "${targets[@]}"
     echo "${CARGO_TARGET_DIR:-$root/target}/$bin_dir/softsense"
 }
 
