@@ -144,7 +144,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let m: [[f64; 4]; 4] = serde_json::from_value(pose["robot_from_camera"].clone())?;
     let camera = softsense::io::intrinsics::read_camera_model(scene.join("intrinsics.json"))?;
     let k = camera.intrinsics;
-    let cam = View::from_robot_from_camera(&m, k)?.camera_from_robot;
+    let cam = *View::from_matrix(k, &m)?.camera_from_robot();
     let mask: Vec<bool> = frame
         .pixels()
         .iter()

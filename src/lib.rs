@@ -27,6 +27,7 @@
 #![warn(missing_docs, rustdoc::broken_intra_doc_links)]
 
 pub mod calibrate;
+pub mod camera;
 pub mod cloud;
 pub mod contact;
 pub mod discrepancy;

@@ -9,8 +9,6 @@ mod cli;
 mod cli_segment;
 #[path = "integration/cli_sense.rs"]
 mod cli_sense;
-#[path = "integration/explain_hidden.rs"]
-mod explain_hidden;
 #[path = "integration/fem_cantilever.rs"]
 mod fem_cantilever;
 #[path = "integration/fem_diamond.rs"]

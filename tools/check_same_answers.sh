@@ -40,7 +40,12 @@ answers() {
     local spec
     for spec in tip_weight two_probes; do
         "$bin" scene generate "$repo/clouds/scenes/$spec.toml" "$out/gen_$spec" >/dev/null 2>&1
-        (cd "$out/gen_$spec" && sha256sum $(ls | sort)) >"$out/scene_$spec.sha256"
+        # Images by their bytes; JSON files by content (they name paths relative to OUT).
+        (cd "$out/gen_$spec" && sha256sum $(ls | grep -v '\.json$' | sort)) >"$out/scene_$spec.sha256"
+        local json
+        for json in "$out/gen_$spec"/*.json; do
+            cp "$json" "$out/scene_${spec}_$(basename "$json")"
+        done
         rm -rf "${out:?}/gen_$spec"
     done
     "$bin" hidden "$out/hidden" --model "$repo/meshes/models/robot.toml" --effects young \
@@ -86,7 +91,14 @@ EOF
 }
 
 build_here() {
-    cargo build -q "${profile_flag[@]}" --bin softsense
+    # In the dev profile, build the binary as `cargo test` does (with the test targets, so
+    # dev-dependency features are unified the same way): a bare `--bin` build would give a
+    # second feature set, rebuild much of the tree and overwrite the binary the tests use.
+    local targets=(--bin softsense)
+    if [ "$profile" = dev ]; then
+        targets+=(--tests)
+    fi
+    cargo build -q "${profile_flag[@]}" "${targets[@]}"
     echo "${CARGO_TARGET_DIR:-$root/target}/$bin_dir/softsense"
 }
 

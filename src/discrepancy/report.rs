@@ -278,7 +278,7 @@ pub fn write_pictures(
         cx,
         cy,
     };
-    let view = View::from_robot_from_camera(&camera.robot_from_camera, intr).map_err(rerr)?;
+    let view = View::from_matrix(intr, &camera.robot_from_camera).map_err(|e| rerr(e.into()))?;
     let before = mean_residual_mm(x, 0);
     let after = mean_residual_mm(x, 1);
     let lim = before

@@ -101,3 +101,11 @@ pub enum RenderError {
         message: String,
     },
 }
+
+impl From<crate::math::pose::PoseError> for RenderError {
+    fn from(e: crate::math::pose::PoseError) -> Self {
+        match e {
+            crate::math::pose::PoseError::NotRigid { reason } => RenderError::NotRigid { reason },
+        }
+    }
+}

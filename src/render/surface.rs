@@ -187,7 +187,7 @@ fn rasterize(
     let cam: Vec<[f64; 3]> = mesh
         .vertices_in_robot
         .iter()
-        .map(|p| view.camera_from_robot.apply(*p))
+        .map(|p| view.camera_from_robot().apply(*p))
         .collect();
     for (t, tri) in mesh.triangles.iter().enumerate() {
         let p = tri.map(|i| cam[i]);

@@ -30,6 +30,7 @@ pub mod knn {
 pub mod metrics;
 pub mod region_growing_rgb;
 pub mod robot;
+pub mod robot_color;
 
 pub use euclidean::{euclidean_clusters, EuclideanParams};
 pub use geometric::{segment_geometric, GeometricParams, GeometricSegmentation};

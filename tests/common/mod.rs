@@ -22,7 +22,7 @@ pub fn data_dir(test: &str) -> Option<PathBuf> {
         None => {
             skipped(
                 test,
-                "SOFTSENSE_DATA is not set (see ../shared/data/README.md)",
+                "SOFTSENSE_DATA is not set (the real-data folder: see docs/testing.md)",
             );
             None
         }

@@ -3,6 +3,7 @@
 //! test that no drawing call panics on any input.
 use proptest::prelude::*;
 use softsense::io::intrinsics::PinholeIntrinsics;
+use softsense::math::pose::PoseError;
 use softsense::render::*;
 use softsense::scene::camera::{Camera, CameraSpec};
 
@@ -279,19 +280,16 @@ fn projection_inverts_the_scene_cameras_back_projection() {
             (uv[0] - u).abs() < 1e-9 && (uv[1] - v).abs() < 1e-9,
             "{uv:?} vs ({u}, {v})"
         );
-        let view = View {
-            camera_from_robot: pose,
-            intrinsics: k,
-        };
+        let view = View::from_camera_from_robot(k, pose);
         let (uv2, z2) = view.project_robot(p_robot).unwrap();
         assert!((uv2[0] - u).abs() < 1e-9 && (uv2[1] - v).abs() < 1e-9 && (z2 - z).abs() < 1e-12);
     }
     // The same through the conveniences a `sense` caller uses.
-    let view = View::from_robot_from_camera(&cam.robot_from_camera(), k).unwrap();
+    let view = View::from_matrix(k, &cam.robot_from_camera()).unwrap();
     let tip = cam.backproject(300.0, 200.0, 0.45);
     let (uv, _) = view.project_robot(tip).unwrap();
     assert!((uv[0] - 300.0).abs() < 1e-9 && (uv[1] - 200.0).abs() < 1e-9);
-    let arrow = ForceArrow::from_robot(&view.camera_from_robot, tip, [0.0, 0.0, -1.0], None);
+    let arrow = ForceArrow::from_robot(view.camera_from_robot(), tip, [0.0, 0.0, -1.0], None);
     assert!((arrow.start_in_camera[2] - 0.45).abs() < 1e-12);
     // Gravity points down in the image (+v) for this camera looking down at the robot.
     let f = arrow.force_in_camera;
@@ -318,7 +316,7 @@ fn poses_invert_rigidly_and_reject_non_rigid_matrices() {
     }
     assert!(matches!(
         Pose::from_matrix(&scaled),
-        Err(RenderError::NotRigid { .. })
+        Err(PoseError::NotRigid { .. })
     ));
     let mut mirrored = m;
     for row in mirrored.iter_mut().take(3) {
@@ -326,7 +324,7 @@ fn poses_invert_rigidly_and_reject_non_rigid_matrices() {
     }
     assert!(matches!(
         Pose::from_matrix(&mirrored),
-        Err(RenderError::NotRigid { .. })
+        Err(PoseError::NotRigid { .. })
     ));
     let mut bad = m;
     bad[3] = [0.0, 0.0, 1.0, 1.0];
@@ -338,9 +336,8 @@ fn poses_invert_rigidly_and_reject_non_rigid_matrices() {
 
 /// A 100x100 camera at the origin looking along +z.
 fn straight_view() -> View {
-    View {
-        camera_from_robot: Pose::identity(),
-        intrinsics: PinholeIntrinsics {
+    View::from_camera_from_robot(
+        PinholeIntrinsics {
             width: 100,
             height: 100,
             fx: 100.0,
@@ -348,7 +345,8 @@ fn straight_view() -> View {
             cx: 49.5,
             cy: 49.5,
         },
-    }
+        Pose::identity(),
+    )
 }
 
 /// A triangle at depth z facing the camera at the origin (normal towards −z), size s.
@@ -815,7 +813,7 @@ proptest! {
         let vertices = [[a[0], a[1], r], [b[0], b[1], width], [c[0], c[1], alpha], [0.0, 0.0, 1.0]];
         let triangles = [[0, 1, 2], [0, 2, 3], [1, 3, 2]];
         let per_vertex: Vec<f64> = (0..4).map(|i| values.get(i).copied().unwrap_or(r)).collect();
-        let view = View { camera_from_robot: Pose { rotation: Pose::identity().rotation, translation: [b[0], c[1], a[1]] }, intrinsics: k };
+        let view = View::from_camera_from_robot(k, Pose { rotation: Pose::identity().rotation, translation: [b[0], c[1], a[1]] });
         let markers = [([a[0], b[1], 1.0], r)];
         let mesh = SurfaceMesh { vertices_in_robot: &vertices, triangles: &triangles, values: SurfaceValues::PerVertex(&per_vertex), markers: &markers };
         let map_params = SurfaceMapParams { range: Some([r, width]), ..Default::default() };

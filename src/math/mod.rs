@@ -2,6 +2,8 @@
 //!
 //! Point clouds store `f32`; the FE core and QPs use the `f64` aliases below.
 
+pub mod pose;
+
 /// A 3-D point in `f64`.
 pub type Point3 = nalgebra::Point3<f64>;
 /// A 3-D vector in `f64`.

@@ -1,0 +1,7 @@
+//! Acceptance tier: accuracy sweeps, explain datasets, calibration from many starts and
+//! other acceptance-sized runs. Not part of a plain `cargo test` (the target has
+//! `test = false`); run it with `cargo test --test acceptance` (`.ci/run` does).
+mod common;
+
+#[path = "acceptance/explain_hidden.rs"]
+mod explain_hidden;
