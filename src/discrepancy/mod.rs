@@ -22,6 +22,14 @@
 //! held-out tests, is the new start. Every re-solve is warm-started from the frame's
 //! nominal solution; a chord step that overshoots is halved.
 //!
+//! Files: [`params`](DiscrepancyParams), `workflow` (entry points, shared state), `frame`
+//! (per-frame problem, nominal solve, sensitivities), `residual` (residuals, region
+//! statistics), `fit` (linear and exact fits), `select` (the choice between effects),
+//! `holdout` (split, confirmation), [`explanation`](Explanation) (what is reported),
+//! [`effects`], [`features`], [`data`] (frames folder), [`generate`] (hidden-effect
+//! datasets), [`report`] (report folder; its pictures are drawn by
+//! [`crate::render::discrepancy`]).
+//!
 //! ```
 //! use softsense::discrepancy::effects::{rotation, rotation_vector};
 //! let w = [0.01, -0.02, 0.005];

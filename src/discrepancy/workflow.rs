@@ -52,15 +52,22 @@ pub(super) struct Workflow<'a> {
     pub(super) model: &'a Model,
     pub(super) rec: &'a Recording,
     pub(super) params: &'a DiscrepancyParams,
+    /// Feature points on the rest surface.
     pub(super) features: Vec<Feature>,
+    /// Surface triangles (for occlusion tests).
     pub(super) triangles: Vec<[usize; 3]>,
+    /// Leg of each tetrahedron (None: base block and top platform).
     pub(super) legs: Vec<Option<usize>>,
+    /// Candidate effects; a candidate index points in here.
     pub(super) kinds: Vec<EffectKind>,
+    /// Per-frame contexts, in recording order.
     pub(super) frames: Vec<FrameCtx>,
+    /// Normal-line registration of the features.
     pub(super) register: RegisterParams,
 }
 
 impl<'a> Workflow<'a> {
+    /// Chooses the features and candidates and builds every frame's context.
     pub(super) fn new(
         model: &'a Model,
         rec: &'a Recording,
@@ -107,6 +114,7 @@ impl<'a> Workflow<'a> {
         Ok(w)
     }
 
+    /// The effects of candidate indices with their parameters.
     pub(super) fn effects_of(&self, kept: &[(usize, Vec<f64>)]) -> Vec<Effect> {
         kept.iter()
             .map(|(c, p)| Effect {
