@@ -4,10 +4,12 @@
 use super::{print_json, CliError, CliResult};
 use clap::Args;
 use softsense::calibrate::{
-    calibrate, read_pose, read_scene_robot_points, CalibrateParams, CalibrationStatus,
+    calibrate, read_pose, read_scene_robot_points, CalibrateParams, Calibration, CalibrationStatus,
+    IterationReport,
 };
 use softsense::fem::model::Model;
-use std::path::PathBuf;
+use softsense::math::Iso3;
+use std::path::{Path, PathBuf};
 
 /// Calibrate the camera-to-robot transform and the cable inputs from a frame.
 #[derive(Args, Debug)]
@@ -51,6 +53,39 @@ pub struct CalibrateArgs {
 /// Runs `softsense calibrate`.
 pub fn run(args: &CalibrateArgs) -> CliResult {
     let params = CalibrateParams::default();
+    let start = start_pose(args)?;
+    let model = Model::load(&args.model, None).map_err(softsense::Error::from)?;
+    let points = read_scene_robot_points(&args.scene_dir, args.frame, &params)
+        .map_err(softsense::Error::from)?;
+    eprintln!("{} robot points in frame {}", points.len(), args.frame);
+    let cal = calibrate(&model, &points, &start, &params, print_progress)
+        .map_err(softsense::Error::from)?;
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| args.scene_dir.join("calibration.json"));
+    let result = write_result(args, &cal, &out)?;
+    eprintln!("wrote {}", out.display());
+    if cal.status != CalibrationStatus::PoorFit {
+        touch_check(args, &model, &params, &cal)?;
+    }
+    if args.json {
+        print_json(&result)?;
+    } else {
+        print_summary(&cal)?;
+    }
+    if cal.status == CalibrationStatus::PoorFit {
+        return Err(CliError::Result(format!(
+            "the fit did not match the frame (residual RMS {:.3} mm): start pose too far off \
+             or wrong model",
+            cal.residual_rms * 1e3
+        )));
+    }
+    Ok(())
+}
+
+/// The rough start pose: --start or SCENE_DIR/rough_pose.json.
+fn start_pose(args: &CalibrateArgs) -> Result<Iso3, CliError> {
     let start_path = args
         .start
         .clone()
@@ -62,30 +97,31 @@ pub fn run(args: &CalibrateArgs) -> CliResult {
             start_path.display()
         )));
     }
-    let start = read_pose(&start_path).map_err(softsense::Error::from)?;
-    let model = Model::load(&args.model, None).map_err(softsense::Error::from)?;
-    let points = read_scene_robot_points(&args.scene_dir, args.frame, &params)
-        .map_err(softsense::Error::from)?;
-    eprintln!("{} robot points in frame {}", points.len(), args.frame);
-    let cal = calibrate(&model, &points, &start, &params, |i, r| {
-        eprintln!(
-            "iteration {i}: rms {:.3} mm over {} points, pose moved {:.3} mm {:.4} deg, \
-             tensions moved {:.4} N",
-            r.residual_rms * 1e3,
-            r.matched,
-            r.translation_change * 1e3,
-            r.rotation_change.to_degrees(),
-            r.tension_change
-        )
-    })
-    .map_err(softsense::Error::from)?;
-    let out = args
-        .out
-        .clone()
-        .unwrap_or_else(|| args.scene_dir.join("calibration.json"));
-    // The result, and the model it used (relative to the file's folder where it can be),
-    // so that `sense` on the folder finds the model without --model.
-    let mut result = serde_json::to_value(&cal).map_err(|e| CliError::Result(e.to_string()))?;
+    Ok(read_pose(&start_path).map_err(softsense::Error::from)?)
+}
+
+/// One line per outer iteration on stderr.
+fn print_progress(i: usize, r: &IterationReport) {
+    eprintln!(
+        "iteration {i}: rms {:.3} mm over {} points, pose moved {:.3} mm {:.4} deg, \
+         tensions moved {:.4} N",
+        r.residual_rms * 1e3,
+        r.matched,
+        r.translation_change * 1e3,
+        r.rotation_change.to_degrees(),
+        r.tension_change
+    )
+}
+
+/// Writes the result to `out` with the model it used (relative to the file's folder where
+/// it can be), so that `sense` on the folder finds the model without --model; returns
+/// what it wrote.
+fn write_result(
+    args: &CalibrateArgs,
+    cal: &Calibration,
+    out: &Path,
+) -> Result<serde_json::Value, CliError> {
+    let mut result = serde_json::to_value(cal).map_err(|e| CliError::Result(e.to_string()))?;
     let out_dir = match out.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
@@ -96,48 +132,37 @@ pub fn run(args: &CalibrateArgs) -> CliResult {
     result["model"] = serde_json::Value::String(model_named.display().to_string());
     let text = serde_json::to_string_pretty(&result)
         .map_err(|e| CliError::Result(format!("cannot encode the result: {e}")))?;
-    std::fs::write(&out, text)
+    std::fs::write(out, text)
         .map_err(|e| CliError::Result(format!("{}: cannot write: {e}", out.display())))?;
-    eprintln!("wrote {}", out.display());
-    if cal.status != CalibrationStatus::PoorFit {
-        touch_check(args, &model, &params, &cal)?;
-    }
-    if args.json {
-        print_json(&result)?;
-    } else {
-        let m = cal.robot_from_camera;
+    Ok(result)
+}
+
+/// The human-readable summary on stdout: status, pose matrix, cable inputs.
+fn print_summary(cal: &Calibration) -> CliResult {
+    outln!(
+        "status {:?} after {} iterations, residual RMS {:.3} mm over {} points",
+        cal.status,
+        cal.iterations,
+        cal.residual_rms * 1e3,
+        cal.points
+    )?;
+    outln!("robot_from_camera:")?;
+    for row in cal.robot_from_camera {
         outln!(
-            "status {:?} after {} iterations, residual RMS {:.3} mm over {} points",
-            cal.status,
-            cal.iterations,
-            cal.residual_rms * 1e3,
-            cal.points
+            "  {:>10.6} {:>10.6} {:>10.6} {:>10.6}",
+            row[0],
+            row[1],
+            row[2],
+            row[3]
         )?;
-        outln!("robot_from_camera:")?;
-        for row in m {
-            outln!(
-                "  {:>10.6} {:>10.6} {:>10.6} {:>10.6}",
-                row[0],
-                row[1],
-                row[2],
-                row[3]
-            )?;
-        }
-        for a in &cal.actuators {
-            outln!(
-                "cable {:<8} tension {:>8.4} N  shortening {:>8.3} mm",
-                a.name,
-                a.tension,
-                a.shortening * 1e3
-            )?;
-        }
     }
-    if cal.status == CalibrationStatus::PoorFit {
-        return Err(CliError::Result(format!(
-            "the fit did not match the frame (residual RMS {:.3} mm): start pose too far off \
-             or wrong model",
-            cal.residual_rms * 1e3
-        )));
+    for a in &cal.actuators {
+        outln!(
+            "cable {:<8} tension {:>8.4} N  shortening {:>8.3} mm",
+            a.name,
+            a.tension,
+            a.shortening * 1e3
+        )?;
     }
     Ok(())
 }
@@ -150,7 +175,7 @@ fn touch_check(
     args: &CalibrateArgs,
     model: &Model,
     params: &CalibrateParams,
-    cal: &softsense::calibrate::Calibration,
+    cal: &Calibration,
 ) -> CliResult {
     use softsense::sense::{Recording, SenseParams, Sensor};
     let camera =

@@ -5,10 +5,11 @@ use super::{print_json, CliError, CliResult};
 use clap::Args;
 use softsense::discrepancy::data::load_frames;
 use softsense::discrepancy::generate::{generate_dataset, layout, DatasetSpec, EFFECT_TYPES};
-use softsense::discrepancy::report::{describe, write_pictures, write_report};
-use softsense::discrepancy::{explain, DiscrepancyParams, Outcome};
+use softsense::discrepancy::report::{describe, write_report};
+use softsense::discrepancy::{explain, DiscrepancyParams, Explanation, Outcome};
 use softsense::fem::model::Model;
-use std::path::PathBuf;
+use softsense::render::discrepancy::{recorded_image_size, write_discrepancy_pictures};
+use std::path::{Path, PathBuf};
 
 /// Find where the model and the recorded frames disagree, name the missing effect, add it
 /// to the model and show the held-out residual before and after.
@@ -43,6 +44,33 @@ pub fn run(args: &ExplainArgs) -> CliResult {
         ..Default::default()
     };
     let x = explain(&model, &rec, &params).map_err(softsense::Error::from)?;
+    print_outcome(&x);
+    if let Some(out) = &args.out {
+        let text = report_model_text(&args.model)?;
+        let surface = model.problem.mesh.surface();
+        // Pictures first: the report links those that were written.
+        if let Err(e) = write_discrepancy_pictures(
+            out,
+            &x,
+            &model.problem.mesh.nodes_in_rest,
+            &surface.triangles,
+            &rec.camera,
+            recorded_image_size(&rec.camera),
+        ) {
+            eprintln!("pictures not written: {e}");
+        }
+        write_report(out, &x, &text, &model.units).map_err(softsense::Error::from)?;
+        eprintln!("report: {}", out.join("index.md").display());
+    }
+    if args.json {
+        let v = serde_json::to_value(&x).map_err(|e| CliError::Result(e.to_string()))?;
+        print_json(&v)?;
+    }
+    Ok(())
+}
+
+/// The answer and the held-out RMS before and after, on stderr.
+fn print_outcome(x: &Explanation) {
     match &x.outcome {
         Outcome::NoMissingEffect => eprintln!("no missing effect: residual at the noise floor"),
         Outcome::Explained { effects } => {
@@ -62,51 +90,28 @@ pub fn run(args: &ExplainArgs) -> CliResult {
             b.noise_rms * 1e3
         );
     }
-    if let Some(out) = &args.out {
-        let text = std::fs::read_to_string(&args.model)
-            .map_err(|e| CliError::Result(format!("{}: {e}", args.model.display())))?;
-        // The updated model lives in the report folder: point it at the mesh absolutely.
-        let mut v: toml::Value =
-            toml::from_str(&text).map_err(|e| CliError::Result(e.to_string()))?;
-        if let Some(mesh) = v.get_mut("mesh").and_then(|m| m.as_table_mut()) {
-            if let Some(p) = mesh.get("path").and_then(|p| p.as_str()) {
-                let pb = PathBuf::from(p);
-                if pb.is_relative() && !p.contains("${") {
-                    let base = args.model.parent().unwrap_or(std::path::Path::new("."));
-                    let abs = std::fs::canonicalize(base.join(&pb)).unwrap_or(base.join(&pb));
-                    mesh.insert(
-                        "path".into(),
-                        toml::Value::String(abs.display().to_string()),
-                    );
-                }
+}
+
+/// The model file's text for the report folder: the updated model lives there, so a
+/// relative mesh path is made absolute.
+fn report_model_text(model: &Path) -> Result<String, CliError> {
+    let text = std::fs::read_to_string(model)
+        .map_err(|e| CliError::Result(format!("{}: {e}", model.display())))?;
+    let mut v: toml::Value = toml::from_str(&text).map_err(|e| CliError::Result(e.to_string()))?;
+    if let Some(mesh) = v.get_mut("mesh").and_then(|m| m.as_table_mut()) {
+        if let Some(p) = mesh.get("path").and_then(|p| p.as_str()) {
+            let pb = PathBuf::from(p);
+            if pb.is_relative() && !p.contains("${") {
+                let base = model.parent().unwrap_or(Path::new("."));
+                let abs = std::fs::canonicalize(base.join(&pb)).unwrap_or(base.join(&pb));
+                mesh.insert(
+                    "path".into(),
+                    toml::Value::String(abs.display().to_string()),
+                );
             }
         }
-        let text = toml::to_string(&v).map_err(|e| CliError::Result(e.to_string()))?;
-        let surface = model.problem.mesh.surface();
-        let [fx, fy, cx, cy] = rec.camera.intrinsics;
-        let _ = (fx, fy);
-        let size = [
-            (2.0 * cx + 1.0).round() as u32,
-            (2.0 * cy + 1.0).round() as u32,
-        ];
-        if let Err(e) = write_pictures(
-            out,
-            &x,
-            &model.problem.mesh.nodes_in_rest,
-            &surface.triangles,
-            &rec.camera,
-            size,
-        ) {
-            eprintln!("pictures not written: {e}");
-        }
-        write_report(out, &x, &text, &model.units).map_err(softsense::Error::from)?;
-        eprintln!("report: {}", out.join("index.md").display());
     }
-    if args.json {
-        let v = serde_json::to_value(&x).map_err(|e| CliError::Result(e.to_string()))?;
-        print_json(&v)?;
-    }
-    Ok(())
+    toml::to_string(&v).map_err(|e| CliError::Result(e.to_string()))
 }
 
 /// Generate a hidden-effect dataset: OUT_DIR/frames (what `explain` reads) and

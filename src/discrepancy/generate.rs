@@ -254,6 +254,21 @@ fn write_json(path: &Path, v: &impl Serialize) -> DiscrepancyResult<()> {
     })
 }
 
+/// The world a dataset is rendered from: the truth model and what differs from the
+/// recorded inputs and camera.
+struct TrueWorld {
+    /// The nominal model with the hidden model effects.
+    model: Model,
+    /// Inputs actually applied per frame.
+    applied: Vec<FrameInput>,
+    /// The true camera.
+    camera: CameraSpec,
+    /// Depth error: relative scale and offset (m).
+    depth: (f64, f64),
+    /// Stiffening per newton of total tension, if hidden.
+    stiffening: Option<f64>,
+}
+
 /// Generates a dataset: frames into `frames_dir`, the truth into `truth_path` (keep it
 /// outside `frames_dir`).
 pub fn generate_dataset(
@@ -278,11 +293,36 @@ pub fn generate_dataset(
         .iter()
         .map(|e| draw(e, &mut rng, spec.magnitude, &nominal, spec.frames))
         .collect::<DiscrepancyResult<Vec<_>>>()?;
-    // Recorded inputs: force-controlled cables, tensions from a Latin hypercube: every
-    // cable sweeps the whole range once (one frame per stratum, in its own random order),
-    // so the cables vary independently and the design stays well conditioned for any
-    // number of frames (independent uniform draws can leave a cable nearly constant or
-    // two cables nearly collinear over 8 frames, hiding per-cable effects).
+    let recorded = recorded_inputs(spec, &nominal, &mut rng);
+    let world = true_world(spec, &nominal, &hidden, &recorded)?;
+    render_frames(spec, &world, frames_dir)?;
+    let recorded_cam = Camera::new(spec.camera.clone())
+        .ok_or_else(|| DiscrepancyError::Data("degenerate camera".into()))?;
+    write_json(
+        &frames_dir.join("intrinsics.json"),
+        &recorded_cam.open3d_intrinsics(),
+    )?;
+    write_json(
+        &frames_dir.join("camera_pose.json"),
+        &serde_json::json!({ "robot_from_camera": recorded_cam.robot_from_camera() }),
+    )?;
+    write_json(&frames_dir.join("sensor.json"), &spec.sensor)?;
+    write_json(&frames_dir.join("inputs.json"), &recorded)?;
+    let truth = DatasetTruth {
+        spec: spec.clone(),
+        hidden,
+        applied: world.applied,
+    };
+    write_json(truth_path, &truth)?;
+    Ok(truth)
+}
+
+/// Recorded inputs: force-controlled cables, tensions from a Latin hypercube.
+fn recorded_inputs(spec: &DatasetSpec, nominal: &Model, rng: &mut Rng) -> Vec<FrameInput> {
+    // Every cable sweeps the whole range once (one frame per stratum, in its own random
+    // order), so the cables vary independently and the design stays well conditioned for
+    // any number of frames (independent uniform draws can leave a cable nearly constant
+    // or two cables nearly collinear over 8 frames, hiding per-cable effects).
     let n = spec.frames;
     let tensions: Vec<Vec<f64>> = nominal
         .problem
@@ -303,7 +343,7 @@ pub fn generate_dataset(
                 .collect()
         })
         .collect();
-    let recorded: Vec<FrameInput> = (0..n)
+    (0..n)
         .map(|i| FrameInput {
             cables: nominal
                 .problem
@@ -318,18 +358,30 @@ pub fn generate_dataset(
                 .collect(),
             loads: Vec::new(),
         })
-        .collect();
-    let mut applied = recorded.clone();
-    let mut truth_model = nominal.clone();
+        .collect()
+}
+
+/// The true world: the hidden effects applied to the nominal model, the recorded inputs
+/// and the recorded camera.
+fn true_world(
+    spec: &DatasetSpec,
+    nominal: &Model,
+    hidden: &[Hidden],
+    recorded: &[FrameInput],
+) -> DiscrepancyResult<TrueWorld> {
+    let mut w = TrueWorld {
+        model: nominal.clone(),
+        applied: recorded.to_vec(),
+        camera: spec.camera.clone(),
+        depth: (0.0, 0.0),
+        stiffening: None,
+    };
     let legs = tet_legs(&nominal.problem);
-    let mut camera = spec.camera.clone();
-    let mut depth = (0.0, 0.0);
-    let mut stiffening = None;
-    for h in &hidden {
+    for h in hidden {
         match h {
             Hidden::Library(e) => match e.kind {
                 EffectKind::ActuatorOffset => {
-                    for f in &mut applied {
+                    for f in &mut w.applied {
                         for (c, off) in f.cables.iter_mut().zip(&e.params) {
                             c.force = c.force.map(|v| v + off);
                         }
@@ -337,14 +389,14 @@ pub fn generate_dataset(
                 }
                 EffectKind::CameraPose => {
                     let p = &e.params;
-                    camera = true_camera(&camera, [p[0], p[1], p[2]], [p[3], p[4], p[5]])?;
+                    w.camera = true_camera(&w.camera, [p[0], p[1], p[2]], [p[3], p[4], p[5]])?;
                 }
-                EffectKind::Depth => depth = (e.params[0], e.params[1]),
-                _ => apply_model(&mut truth_model.problem, std::slice::from_ref(e), &legs)?,
+                EffectKind::Depth => w.depth = (e.params[0], e.params[1]),
+                _ => apply_model(&mut w.model.problem, std::slice::from_ref(e), &legs)?,
             },
             Hidden::VaryingLoad { node, forces } => {
                 let at = nominal.problem.mesh.nodes_in_rest[*node];
-                for (f, force) in applied.iter_mut().zip(forces) {
+                for (f, force) in w.applied.iter_mut().zip(forces) {
                     f.loads.push(LoadInput {
                         kind: LoadKind::Weight,
                         at,
@@ -353,9 +405,14 @@ pub fn generate_dataset(
                     });
                 }
             }
-            Hidden::Stiffening { beta } => stiffening = Some(*beta),
+            Hidden::Stiffening { beta } => w.stiffening = Some(*beta),
         }
     }
+    Ok(w)
+}
+
+/// Renders every frame of the true world into `frames_dir` (depth and colour PNGs).
+fn render_frames(spec: &DatasetSpec, w: &TrueWorld, frames_dir: &Path) -> DiscrepancyResult<()> {
     // Render at a 16x finer depth unit, apply any depth error, then quantise once to the
     // recorded unit: quantising twice would add noise the sensor model does not have.
     let mut fine_sensor = spec.sensor.clone();
@@ -367,16 +424,16 @@ pub fn generate_dataset(
             seed: spec.seed,
             table_half: 0.3,
             colors: Default::default(),
-            camera: camera.clone(),
+            camera: w.camera.clone(),
             sensor: fine_sensor.clone(),
-            frames: applied.clone(),
+            frames: w.applied.clone(),
         },
         model_path: spec.model.clone(),
     };
-    let (w, h) = (camera.width, camera.height);
-    for (i, input) in applied.iter().enumerate() {
-        let mut m = truth_model.clone();
-        if let Some(beta) = stiffening {
+    let depth = w.depth;
+    for (i, input) in w.applied.iter().enumerate() {
+        let mut m = w.model.clone();
+        if let Some(beta) = w.stiffening {
             let total: f64 = input.cables.iter().filter_map(|c| c.force).sum();
             let e = m.problem.material;
             m.problem.material =
@@ -395,41 +452,35 @@ pub fn generate_dataset(
                 (z / unit).round().clamp(0.0, 65535.0) as u16
             })
             .collect();
-        let file_err = |p: &Path, e: String| DiscrepancyError::File {
-            path: p.display().to_string(),
-            message: e,
-        };
-        let dp = frames_dir.join(format!("depth_{i:04}.png"));
-        image::ImageBuffer::<image::Luma<u16>, _>::from_raw(w, h, d)
-            .ok_or_else(|| file_err(&dp, "depth buffer size".into()))?
-            .save(&dp)
-            .map_err(|e| file_err(&dp, e.to_string()))?;
-        let cp = frames_dir.join(format!("color_{i:04}.png"));
         let flat: Vec<u8> = r.color.iter().flatten().copied().collect();
-        image::RgbImage::from_raw(w, h, flat)
-            .ok_or_else(|| file_err(&cp, "colour buffer size".into()))?
-            .save(&cp)
-            .map_err(|e| file_err(&cp, e.to_string()))?;
+        write_pngs(frames_dir, i, [w.camera.width, w.camera.height], d, flat)?;
     }
-    let recorded_cam = Camera::new(spec.camera.clone())
-        .ok_or_else(|| DiscrepancyError::Data("degenerate camera".into()))?;
-    write_json(
-        &frames_dir.join("intrinsics.json"),
-        &recorded_cam.open3d_intrinsics(),
-    )?;
-    write_json(
-        &frames_dir.join("camera_pose.json"),
-        &serde_json::json!({ "robot_from_camera": recorded_cam.robot_from_camera() }),
-    )?;
-    write_json(&frames_dir.join("sensor.json"), &spec.sensor)?;
-    write_json(&frames_dir.join("inputs.json"), &recorded)?;
-    let truth = DatasetTruth {
-        spec: spec.clone(),
-        hidden,
-        applied,
+    Ok(())
+}
+
+/// Writes `depth_NNNN.png` (16-bit) and `color_NNNN.png` of frame `i`.
+fn write_pngs(
+    frames_dir: &Path,
+    i: usize,
+    [w, h]: [u32; 2],
+    depth: Vec<u16>,
+    color: Vec<u8>,
+) -> DiscrepancyResult<()> {
+    let file_err = |p: &Path, e: String| DiscrepancyError::File {
+        path: p.display().to_string(),
+        message: e,
     };
-    write_json(truth_path, &truth)?;
-    Ok(truth)
+    let dp = frames_dir.join(format!("depth_{i:04}.png"));
+    image::ImageBuffer::<image::Luma<u16>, _>::from_raw(w, h, depth)
+        .ok_or_else(|| file_err(&dp, "depth buffer size".into()))?
+        .save(&dp)
+        .map_err(|e| file_err(&dp, e.to_string()))?;
+    let cp = frames_dir.join(format!("color_{i:04}.png"));
+    image::RgbImage::from_raw(w, h, color)
+        .ok_or_else(|| file_err(&cp, "colour buffer size".into()))?
+        .save(&cp)
+        .map_err(|e| file_err(&cp, e.to_string()))?;
+    Ok(())
 }
 
 /// The rotation vector of a camera-pose truth (for checks): the measured-from-true rotation

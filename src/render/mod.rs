@@ -14,6 +14,7 @@
 //!   candidate effect) and legend boxes.
 //! - [`sense_overlay`]: the robot segment, feature points, contacts and force arrows over
 //!   a colour frame; [`side_by_side`] puts before/after panels together.
+//! - [`discrepancy`]: the pictures of an `explain` report.
 //!
 //! Pixel centres are at integer coordinates, as in the pinhole model. Drawing never panics:
 //! shapes are clipped to the canvas, and NaN or infinite coordinates draw nothing.
@@ -36,6 +37,7 @@
 mod canvas;
 mod chart;
 mod colormap;
+pub mod discrepancy;
 mod font;
 mod overlay;
 mod project;

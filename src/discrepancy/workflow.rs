@@ -1,0 +1,242 @@
+//! The workflow's entry points ([`explain`], [`evaluate`]) and the state every stage shares:
+//! the model, the recording, the feature points, the candidate effects and the per-frame
+//! contexts.
+
+use super::effects::{tet_legs, Effect, EffectKind};
+use super::explanation::{Explanation, FittedEffect, Outcome, RegionStats, Residual};
+use super::features::{choose_features, Feature};
+use super::frame::FrameCtx;
+use super::holdout::split_frames;
+use super::select::{significant, Search, State};
+use super::{data::Recording, DiscrepancyError, DiscrepancyParams, DiscrepancyResult};
+use crate::fem::model::Model;
+use crate::fem::solve::Problem;
+use crate::register::{farthest_point_sampling, RegisterParams};
+use nalgebra::DMatrix;
+
+/// Effects kept or tried: candidate index and parameters.
+pub(super) type Kept = Vec<(usize, Vec<f64>)>;
+
+/// Candidate nodes of an unmodelled point load: surface nodes above 30 mm spread evenly.
+pub fn load_candidates(problem: &Problem, count: usize) -> Vec<usize> {
+    let s = problem.mesh.surface();
+    let x = &problem.mesh.nodes_in_rest;
+    let c: Vec<usize> = s
+        .nodes
+        .iter()
+        .copied()
+        .filter(|&v| x[v][2] > 0.03)
+        .collect();
+    farthest_point_sampling(x, &c, count)
+}
+
+/// The library's candidate effects for a model.
+pub fn candidate_kinds(problem: &Problem, params: &DiscrepancyParams) -> Vec<EffectKind> {
+    let mut v = vec![EffectKind::Gravity, EffectKind::Young, EffectKind::Poisson];
+    v.extend((0..4).map(|leg| EffectKind::LegStiffness { leg }));
+    if !problem.cables.is_empty() {
+        v.push(EffectKind::ActuatorOffset);
+    }
+    v.push(EffectKind::CameraPose);
+    v.push(EffectKind::Depth);
+    v.extend(
+        load_candidates(problem, params.load_candidates)
+            .into_iter()
+            .map(|node| EffectKind::PointLoad { node }),
+    );
+    v
+}
+
+/// What every stage of the workflow reads.
+pub(super) struct Workflow<'a> {
+    pub(super) model: &'a Model,
+    pub(super) rec: &'a Recording,
+    pub(super) params: &'a DiscrepancyParams,
+    /// Feature points on the rest surface.
+    pub(super) features: Vec<Feature>,
+    /// Surface triangles (for occlusion tests).
+    pub(super) triangles: Vec<[usize; 3]>,
+    /// Leg of each tetrahedron (None: base block and top platform).
+    pub(super) legs: Vec<Option<usize>>,
+    /// Candidate effects; a candidate index points in here.
+    pub(super) kinds: Vec<EffectKind>,
+    /// Per-frame contexts, in recording order.
+    pub(super) frames: Vec<FrameCtx>,
+    /// Normal-line registration of the features.
+    pub(super) register: RegisterParams,
+}
+
+impl<'a> Workflow<'a> {
+    /// Chooses the features and candidates and builds every frame's context.
+    pub(super) fn new(
+        model: &'a Model,
+        rec: &'a Recording,
+        params: &'a DiscrepancyParams,
+    ) -> DiscrepancyResult<Self> {
+        let surface = model.problem.mesh.surface();
+        let rest = &model.problem.mesh.nodes_in_rest;
+        let features = choose_features(
+            rest,
+            &surface,
+            params.features,
+            params.min_feature_z,
+            params.flat_radius,
+        );
+        if features.is_empty() {
+            return Err(DiscrepancyError::Data(
+                "no feature point on the surface".into(),
+            ));
+        }
+        let legs = tet_legs(&model.problem);
+        let kinds = candidate_kinds(&model.problem, params);
+        let register = RegisterParams {
+            features: features.len(),
+            d_m: params.line_radius,
+            d_l: params.line_length,
+            average: true,
+            ..Default::default()
+        };
+        let mut w = Self {
+            model,
+            rec,
+            params,
+            features,
+            triangles: surface.triangles,
+            legs,
+            kinds,
+            frames: Vec::new(),
+            register,
+        };
+        for (i, f) in rec.frames.iter().enumerate() {
+            let ctx = w.frame_ctx(i, &f.input)?;
+            w.frames.push(ctx);
+        }
+        Ok(w)
+    }
+
+    /// The effects of candidate indices with their parameters.
+    pub(super) fn effects_of(&self, kept: &[(usize, Vec<f64>)]) -> Vec<Effect> {
+        kept.iter()
+            .map(|(c, p)| Effect {
+                kind: self.kinds[*c],
+                params: p.clone(),
+            })
+            .collect()
+    }
+
+    /// The kept effects with their 1-σ from the covariance `cov` (parameters in order).
+    fn fitted_effects(&self, kept: &Kept, cov: &DMatrix<f64>) -> Vec<FittedEffect> {
+        let mut fitted = Vec::new();
+        let mut o = 0;
+        for (c, p) in kept {
+            let sigma = (0..p.len())
+                .map(|j| {
+                    cov.get((o + j, o + j))
+                        .copied()
+                        .unwrap_or(f64::NAN)
+                        .max(0.0)
+                        .sqrt()
+                })
+                .collect();
+            o += p.len();
+            fitted.push(FittedEffect {
+                effect: Effect {
+                    kind: self.kinds[*c],
+                    params: p.clone(),
+                },
+                name: self.kinds[*c].name(),
+                sigma,
+            });
+        }
+        fitted
+    }
+}
+
+/// The answer from the statistics `eval` (last entry: all regions) with the effects kept.
+fn outcome(eval: &[RegionStats], z_significant: f64, fitted: &[FittedEffect]) -> Outcome {
+    let regions = significant(eval, z_significant);
+    let overall_ok = eval.last().is_some_and(|a| a.z <= z_significant);
+    if regions.is_empty() && overall_ok {
+        if fitted.is_empty() {
+            Outcome::NoMissingEffect
+        } else {
+            Outcome::Explained {
+                effects: fitted.to_vec(),
+            }
+        }
+    } else {
+        let regions = if regions.is_empty() {
+            vec!["all".to_string()]
+        } else {
+            regions
+        };
+        Outcome::UnexplainedResidual {
+            regions,
+            partial: fitted.to_vec(),
+        }
+    }
+}
+
+/// Runs the workflow on a model and a recording.
+pub fn explain(
+    model: &Model,
+    rec: &Recording,
+    params: &DiscrepancyParams,
+) -> DiscrepancyResult<Explanation> {
+    if !(0.0..1.0).contains(&params.holdout) {
+        return Err(DiscrepancyError::Data(format!(
+            "holdout fraction {} not in [0, 1)",
+            params.holdout
+        )));
+    }
+    let wf = Workflow::new(model, rec, params)?;
+    let split = split_frames(rec.frames.len(), params.holdout);
+    let [train, hold] = &split;
+    let res0 = wf.all_residuals(&[])?;
+    let before = wf.stats(&res0, hold);
+    let search = Search {
+        wf: &wf,
+        train,
+        hold,
+        ln_n: (wf.chi2(&res0, train).1.max(2) as f64).ln(),
+    };
+    let mut steps = Vec::new();
+    let State {
+        kept,
+        cov: cov_kept,
+        res,
+    } = search.select(&res0, &mut steps)?;
+    let after = wf.stats(&res, hold);
+    let fitted = wf.fitted_effects(&kept, &cov_kept);
+    let eval = if hold.is_empty() {
+        wf.stats(&res, train)
+    } else {
+        after.clone()
+    };
+    let outcome = outcome(&eval, params.z_significant, &fitted);
+    let pick = |r: &[Vec<Residual>]| hold.iter().map(|&i| r[i].clone()).collect::<Vec<_>>();
+    Ok(Explanation {
+        outcome,
+        split: split.clone(),
+        before,
+        after,
+        steps,
+        features: wf.features.clone(),
+        holdout_residuals: [pick(&res0), pick(&res)],
+        kept: fitted,
+    })
+}
+
+/// Held-out and training statistics (last entry: all regions) with the given effects
+/// applied exactly: a diagnostic, e.g. the residual at the true effects of a generated set.
+pub fn evaluate(
+    model: &Model,
+    rec: &Recording,
+    params: &DiscrepancyParams,
+    effects: &[Effect],
+) -> DiscrepancyResult<[Vec<RegionStats>; 2]> {
+    let wf = Workflow::new(model, rec, params)?;
+    let [train, hold] = split_frames(rec.frames.len(), params.holdout);
+    let res = wf.all_residuals(effects)?;
+    Ok([wf.stats(&res, &train), wf.stats(&res, &hold)])
+}
