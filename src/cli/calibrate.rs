@@ -181,10 +181,12 @@ fn touch_check(
     let camera =
         softsense::io::intrinsics::read_camera_model(args.scene_dir.join("intrinsics.json"))
             .map_err(softsense::Error::from)?;
+    let robot_from_camera = softsense::math::pose::Pose::from_matrix(&cal.robot_from_camera)
+        .map_err(|e| CliError::Result(e.to_string()))?;
     let rec = Recording {
         dir: args.scene_dir.clone(),
         camera,
-        robot_from_camera: cal.robot_from_camera,
+        robot_from_camera,
         pose_file: args.scene_dir.join("calibration.json"),
         frames: vec![args.frame],
         actuators: None,
@@ -193,10 +195,10 @@ fn touch_check(
         truth: None,
     };
     let sense_params = SenseParams {
-        robot_color: params.robot_color,
+        color: softsense::segment::robot_color::RobotColorModel::with_reference(params.robot_color),
         ..Default::default()
     };
-    let sensor = Sensor::new(model.clone(), cal.robot_from_camera, sense_params);
+    let sensor = Sensor::new(model.clone(), robot_from_camera, sense_params);
     let obs = sensor
         .observe(&rec, args.frame)
         .map_err(|e| CliError::Lib(e.into()))?;

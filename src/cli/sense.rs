@@ -100,7 +100,7 @@ pub fn run(args: &SenseArgs) -> CliResult {
     let model_path = model_path(args, &rec)?;
     let model = Model::load(&model_path, None).map_err(|e| CliError::Lib(e.into()))?;
     let mut params = SenseParams {
-        robot_color: args.robot_color,
+        color: softsense::segment::robot_color::RobotColorModel::with_reference(args.robot_color),
         max_contacts: args.max_contacts,
         ..Default::default()
     };
@@ -416,12 +416,12 @@ fn picture(
 ) -> Result<(), Box<dyn std::error::Error>> {
     use softsense::register::{RegisterParams, Registrar};
     use softsense::render::{
-        camera_from_robot, mask_from_indices, project_with, sense_overlay, Canvas, ContactMark,
-        FeatureMark, ForceArrow, OverlayParams, SenseOverlay,
+        mask_from_indices, project_with, sense_overlay, Canvas, ContactMark, FeatureMark,
+        ForceArrow, OverlayParams, SenseOverlay,
     };
     let frame = Canvas::from_rgb(obs.width, obs.height, obs.color.clone())?;
     let mask = mask_from_indices(obs.width, obs.height, &obs.robot_pixels);
-    let cam = camera_from_robot(&rec.robot_from_camera)?;
+    let cam = rec.robot_from_camera.inverse();
     let k = rec.camera.intrinsics;
     let px = |p: [f64; 3]| project_with(&k, cam.apply(p));
     let x = if report.positions.is_empty() {

@@ -56,6 +56,7 @@ use crate::calibrate::ActuatorCalibration;
 use crate::fem::mesh::Surface;
 use crate::fem::model::Model;
 use crate::fem::solve::CableControl;
+use crate::math::pose::Pose;
 use crate::register::{surface_features, FeatureParams, SurfaceFeature};
 use crate::scene::ActuatorTruth;
 use free::FreeSolves;
@@ -124,8 +125,8 @@ pub enum ModelInputs {
 
 impl Sensor {
     /// Prepares the features (flat patches the camera at `robot_from_camera` sees).
-    pub fn new(model: Model, robot_from_camera: [[f64; 4]; 4], mut params: SenseParams) -> Self {
-        let eye = [0, 1, 2].map(|r| robot_from_camera[r][3]);
+    pub fn new(model: Model, robot_from_camera: Pose, mut params: SenseParams) -> Self {
+        let eye = robot_from_camera.origin();
         params.features.eye = Some(eye);
         let surface = model.problem.mesh.surface();
         let features = surface_features(

@@ -6,7 +6,7 @@ use super::report::ms;
 use super::{Recording, SenseParams, SenseResult, Sensor};
 use crate::contact::{detect_contacts, Contact};
 use crate::io::rgbd::read_frame;
-use crate::segment::color::rgb_to_lab;
+use crate::math::pose::Pose;
 
 /// Points of one frame in the robot frame, split by the colour model.
 #[derive(Clone, Debug, Default)]
@@ -65,20 +65,14 @@ fn observe(
     let kept = crop(&cloud.positions, &rec.robot_from_camera, bounds);
     let t2 = std::time::Instant::now();
     // Segment: robot points by the colour model, the rest are objects.
-    let is_robot = colour_model(params);
+    let mut is_robot = params.color.classifier();
     let mut obs = Observation {
         width: cloud.width,
         height: cloud.height,
         ..Default::default()
     };
-    // Each distinct colour is classified once: a frame's robot pixels share a few
-    // thousand colours among tens of thousands of pixels, and a Lab conversion costs
-    // three cube roots.
-    let mut seen: std::collections::HashMap<[u8; 3], bool> = Default::default();
     for (i, q) in kept {
-        let robot = colors
-            .get(i)
-            .is_some_and(|&c| *seen.entry(c).or_insert_with(|| is_robot(c)));
+        let robot = colors.get(i).is_some_and(|&c| is_robot.is_robot(c));
         if robot {
             obs.robot.push(q);
             obs.robot_pixels.push(i);
@@ -99,7 +93,7 @@ fn observe(
 /// `bounds` when given, with their pixel indices.
 fn crop(
     positions: &[[f32; 3]],
-    t: &[[f64; 4]; 4],
+    robot_from_camera: &Pose,
     bounds: Option<[[f64; 3]; 2]>,
 ) -> Vec<(usize, [f64; 3])> {
     positions
@@ -107,29 +101,11 @@ fn crop(
         .enumerate()
         .filter(|(_, p)| p.iter().all(|c| c.is_finite()))
         .filter_map(|(i, p)| {
-            let pc = p.map(|c| c as f64);
-            let q =
-                [0, 1, 2].map(|r| t[r][0] * pc[0] + t[r][1] * pc[1] + t[r][2] * pc[2] + t[r][3]);
+            let q = robot_from_camera.apply(p.map(|c| c as f64));
             match bounds {
                 Some([lo, hi]) if (0..3).any(|k| q[k] < lo[k] || q[k] > hi[k]) => None,
                 _ => Some((i, q)),
             }
         })
         .collect()
-}
-
-/// Whether a colour is the robot's: hue within `hue_tolerance_deg` of the reference colour
-/// in CIELAB's a-b plane, chroma at least `min_chroma`.
-fn colour_model(params: &SenseParams) -> impl Fn([u8; 3]) -> bool + '_ {
-    let reference = rgb_to_lab(params.robot_color);
-    let ref_hue = reference[2].atan2(reference[1]);
-    let tol = params.hue_tolerance_deg.to_radians();
-    move |c: [u8; 3]| {
-        let lab = rgb_to_lab(c);
-        let chroma = (lab[1] * lab[1] + lab[2] * lab[2]).sqrt();
-        let dh = (lab[2].atan2(lab[1]) - ref_hue + std::f64::consts::PI)
-            .rem_euclid(2.0 * std::f64::consts::PI)
-            - std::f64::consts::PI;
-        chroma >= params.min_chroma && dh.abs() <= tol
-    }
 }

@@ -3,16 +3,13 @@
 use crate::contact::ContactParams;
 use crate::inverse::FrameParams;
 use crate::register::FeatureParams;
+use crate::segment::robot_color::RobotColorModel;
 
 /// Parameters of the sensing chain.
 #[derive(Clone, Debug)]
 pub struct SenseParams {
-    /// Reference colour of the robot's silicone (sRGB); default the scene generator's green.
-    pub robot_color: [u8; 3],
-    /// Largest hue difference in CIELAB's a-b plane from the reference colour (degrees, 25).
-    pub hue_tolerance_deg: f64,
-    /// Smallest CIELAB chroma of a robot point (12): grey table and dark holes are not robot.
-    pub min_chroma: f64,
+    /// Which colours are the robot's (default: the scene generator's green, hue within 25°).
+    pub color: RobotColorModel,
     /// Margin around the model's bounding box kept by the crop (m, 0.03).
     pub crop_margin: f64,
     /// Points lower than the model's lowest point plus this are the table (m, 0.004).
@@ -79,9 +76,7 @@ impl Default for SenseParams {
         // 1 mN: far below the 5% of the lightest load (0.26 N) the estimates are held to.
         frame.force_tol = 1e-3;
         Self {
-            robot_color: [40, 200, 60],
-            hue_tolerance_deg: 25.0,
-            min_chroma: 12.0,
+            color: RobotColorModel::default(),
             crop_margin: 0.03,
             table_clearance: 0.004,
             contact: ContactParams {

@@ -7,6 +7,7 @@
 use super::{SenseError, SenseResult};
 use crate::calibrate::ActuatorCalibration;
 use crate::io::intrinsics::{read_camera_model, CameraModel};
+use crate::math::pose::{Pose, PoseError};
 use crate::scene::{ActuatorTruth, FrameTruth, Truth};
 use std::path::{Path, PathBuf};
 
@@ -17,8 +18,8 @@ pub struct Recording {
     pub dir: PathBuf,
     /// Intrinsics and depth units.
     pub camera: CameraModel,
-    /// Rigid transform from camera to robot coordinates (4x4, row-major, m).
-    pub robot_from_camera: [[f64; 4]; 4],
+    /// The camera's pose in the robot frame.
+    pub robot_from_camera: Pose,
     /// Which file the pose came from.
     pub pose_file: PathBuf,
     /// Frame numbers, ascending.
@@ -87,14 +88,11 @@ impl Recording {
         let pose: PoseFile = read_json(&pose_file)?;
         // A scale or shear in the pose would put every point somewhere else, and frames
         // were then estimated with nonsense, flagged unreliable at best.
-        crate::calibrate::pose_from_matrix(&pose.robot_from_camera).map_err(|e| {
-            let why = match e {
-                crate::calibrate::CalibrateError::Pose(why) => why,
-                e => e.to_string(),
-            };
+        let robot_from_camera = Pose::from_matrix(&pose.robot_from_camera).map_err(|e| {
+            let PoseError::NotRigid { reason } = e;
             file_err(
                 &pose_file,
-                format!("robot_from_camera is not a rigid transform: {why}"),
+                format!("robot_from_camera is not a rigid transform: {reason}"),
             )
         })?;
         let opt = |name: &str| {
@@ -106,7 +104,7 @@ impl Recording {
         Ok(Self {
             dir: dir.to_path_buf(),
             camera,
-            robot_from_camera: pose.robot_from_camera,
+            robot_from_camera,
             calibrated: pose.actuators,
             calibration_model: pose.model,
             pose_file,

@@ -273,7 +273,10 @@ fn calibrated_inputs_of_another_model_are_refused_by_cable_name() {
     let model = Model::load(&root.join("meshes/models/robot.toml"), None).unwrap();
     let pose = read_pose(&root.join("clouds/scenes/calib/camera_pose.json")).unwrap();
     let m = pose.to_homogeneous();
-    let robot_from_camera = [0, 1, 2, 3].map(|r| [0, 1, 2, 3].map(|c| m[(r, c)]));
+    let robot_from_camera = softsense::math::pose::Pose::from_matrix(
+        &[0, 1, 2, 3].map(|r| [0, 1, 2, 3].map(|c| m[(r, c)])),
+    )
+    .unwrap();
     let mut sensor = softsense::sense::Sensor::new(model, robot_from_camera, Default::default());
     let cal = |name: &str, tension: f64| softsense::calibrate::ActuatorCalibration {
         name: name.into(),
