@@ -135,7 +135,14 @@ impl Camera {
             .rotate([(u - k.cx) / k.fx, (v - k.cy) / k.fy, 1.0])
     }
 
-    /// Back-projects pixel (u, v) at depth z (m) into the robot frame.
+    /// The camera-frame point seen at pixel (u, v) at depth z (m).
+    pub fn point_in_camera(&self, u: f64, v: f64, z: f64) -> [f64; 3] {
+        let k = &self.intrinsics;
+        [(u - k.cx) / k.fx * z, (v - k.cy) / k.fy * z, z]
+    }
+
+    /// Back-projects pixel (u, v) at depth z (m) into the robot frame along the pixel's
+    /// ray from the eye (the ray caster's form of `robot_from_camera · point_in_camera`).
     pub fn backproject(&self, u: f64, v: f64, z: f64) -> [f64; 3] {
         let d = self.ray(u, v);
         let e = self.eye();

@@ -7,51 +7,17 @@
 //! ([`SensorModel`]), `inputs.json` (one [`FrameInput`] per frame).
 
 use super::{DiscrepancyError, DiscrepancyResult};
+use crate::camera::Camera;
+use crate::io::intrinsics::read_camera_model;
+use crate::io::rgbd::{read_color_image, read_depth_image};
 use crate::scene::sensor::SensorModel;
 use crate::scene::FrameInput;
-use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 /// Largest accepted number of frames in a folder.
 pub const MAX_FRAMES: usize = 1000;
 /// Largest accepted image side (pixels).
 pub const MAX_SIDE: u32 = 4096;
-
-/// The recorded camera: intrinsics and its pose in the robot frame.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct CameraInfo {
-    /// Focal lengths and principal point (pixels): fx, fy, cx, cy.
-    pub intrinsics: [f64; 4],
-    /// robot_from_camera, row-major 4x4.
-    pub robot_from_camera: [[f64; 4]; 4],
-}
-
-impl CameraInfo {
-    /// Camera centre in the robot frame.
-    pub fn eye(&self) -> [f64; 3] {
-        [0, 1, 2].map(|k| self.robot_from_camera[k][3])
-    }
-
-    /// Optical axis (camera z) in the robot frame.
-    pub fn axis_z(&self) -> [f64; 3] {
-        [0, 1, 2].map(|k| self.robot_from_camera[k][2])
-    }
-
-    /// Camera depth (along the optical axis) of a robot-frame point.
-    pub fn depth_of(&self, p: [f64; 3]) -> f64 {
-        let e = self.eye();
-        let a = self.axis_z();
-        (0..3).map(|k| (p[k] - e[k]) * a[k]).sum()
-    }
-
-    /// Back-projects pixel (u, v) at depth z into the robot frame.
-    pub fn backproject(&self, u: f64, v: f64, z: f64) -> [f64; 3] {
-        let [fx, fy, cx, cy] = self.intrinsics;
-        let c = [(u - cx) / fx * z, (v - cy) / fy * z, z];
-        let m = &self.robot_from_camera;
-        [0, 1, 2].map(|k| m[k][0] * c[0] + m[k][1] * c[1] + m[k][2] * c[2] + m[k][3])
-    }
-}
 
 /// One recorded frame.
 #[derive(Clone, Debug)]
@@ -66,7 +32,7 @@ pub struct RecordedFrame {
 #[derive(Clone, Debug)]
 pub struct Recording {
     /// The camera.
-    pub camera: CameraInfo,
+    pub camera: Camera,
     /// The sensor's noise model (known from the sensor, not fitted).
     pub sensor: SensorModel,
     /// Frames in order.
@@ -90,24 +56,21 @@ pub fn is_robot_color(c: [u8; 3]) -> bool {
 
 /// Reads a frames folder (see the module docs).
 pub fn load_frames(dir: &Path) -> DiscrepancyResult<Recording> {
-    let intr: serde_json::Value = read_json(&dir.join("intrinsics.json"))?;
-    let m: Vec<f64> = intr["intrinsic_matrix"]
-        .as_array()
-        .map(|a| a.iter().filter_map(|v| v.as_f64()).collect())
-        .unwrap_or_default();
-    if m.len() != 9 || m[0] <= 0.0 || m[4] <= 0.0 {
-        return Err(DiscrepancyError::Data(
-            "intrinsics.json: bad intrinsic_matrix".into(),
-        ));
-    }
-    let pose: serde_json::Value = read_json(&dir.join("camera_pose.json"))?;
+    let file_err = |path: &Path, e: &dyn std::fmt::Display| DiscrepancyError::File {
+        path: path.display().to_string(),
+        message: e.to_string(),
+    };
+    let intrinsics_path = dir.join("intrinsics.json");
+    let intrinsics = read_camera_model(&intrinsics_path)
+        .map_err(|e| file_err(&intrinsics_path, &e))?
+        .intrinsics;
+    let pose_path = dir.join("camera_pose.json");
+    let pose: serde_json::Value = read_json(&pose_path)?;
     let robot_from_camera: [[f64; 4]; 4] =
         serde_json::from_value(pose["robot_from_camera"].clone())
             .map_err(|e| DiscrepancyError::Data(format!("camera_pose.json: {e}")))?;
-    let camera = CameraInfo {
-        intrinsics: [m[0], m[4], m[6], m[7]],
-        robot_from_camera,
-    };
+    let camera = Camera::from_matrix(intrinsics, &robot_from_camera)
+        .map_err(|e| file_err(&pose_path, &e))?;
     let sensor: SensorModel = read_json(&dir.join("sensor.json"))?;
     let inputs: Vec<FrameInput> = read_json(&dir.join("inputs.json"))?;
     if inputs.is_empty() || inputs.len() > MAX_FRAMES {
@@ -120,27 +83,24 @@ pub fn load_frames(dir: &Path) -> DiscrepancyResult<Recording> {
     for (i, input) in inputs.into_iter().enumerate() {
         let dp = dir.join(format!("depth_{i:04}.png"));
         let cp = dir.join(format!("color_{i:04}.png"));
-        let open = |p: &Path| {
-            image::open(p).map_err(|e| DiscrepancyError::File {
-                path: p.display().to_string(),
-                message: e.to_string(),
-            })
-        };
-        let depth = open(&dp)?.into_luma16();
-        let color = open(&cp)?.into_rgb8();
-        if depth.dimensions() != color.dimensions()
-            || depth.width() > MAX_SIDE
-            || depth.height() > MAX_SIDE
+        let depth = read_depth_image(&dp).map_err(|e| file_err(&dp, &e))?;
+        let color = read_color_image(&cp).map_err(|e| file_err(&cp, &e))?;
+        if (depth.width, depth.height) != (color.width, color.height)
+            || depth.width > MAX_SIDE
+            || depth.height > MAX_SIDE
         {
             return Err(DiscrepancyError::Data(format!(
                 "frame {i}: depth and colour sizes differ or are too large"
             )));
         }
         let mut points = Vec::new();
-        for (u, v, d) in depth.enumerate_pixels() {
-            let z = d.0[0] as f64 * sensor.depth_unit;
-            if z > 0.0 && is_robot_color(color.get_pixel(u, v).0) {
-                points.push(camera.backproject(u as f64, v as f64, z));
+        let robot_from_camera = camera.robot_from_camera();
+        for (pixel, (&d, &c)) in depth.data.iter().zip(&color.data).enumerate() {
+            let z = d as f64 * sensor.depth_unit;
+            if z > 0.0 && is_robot_color(c) {
+                let (u, v) = (pixel % depth.width as usize, pixel / depth.width as usize);
+                let p = camera.point_in_camera(u as f64, v as f64, z);
+                points.push(robot_from_camera.apply(p));
             }
         }
         frames.push(RecordedFrame { points, input });

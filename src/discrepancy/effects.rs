@@ -1,7 +1,7 @@
 //! The library of candidate effects: each a parametrised change of the model (or of the
 //! measurement), applied exactly for simulation and linearised for fitting.
 
-use super::data::CameraInfo;
+use crate::camera::Camera;
 use super::features::leg_of;
 use super::{DiscrepancyError, DiscrepancyResult};
 use crate::fem::material::Material;
@@ -230,7 +230,7 @@ pub fn rotation_vector(r: &[[f64; 3]; 3]) -> [f64; 3] {
 pub fn correct_points(
     points: &[[f64; 3]],
     effects: &[Effect],
-    camera: &CameraInfo,
+    camera: &Camera,
 ) -> Vec<[f64; 3]> {
     let mut out = points.to_vec();
     // Measured = nominal pose applied to a depth-scaled camera point, which equals the pose
@@ -269,7 +269,7 @@ pub fn measurement_row(
     kind: EffectKind,
     p: [f64; 3],
     n: [f64; 3],
-    camera: &CameraInfo,
+    camera: &Camera,
 ) -> Vec<f64> {
     match kind {
         EffectKind::CameraPose => {

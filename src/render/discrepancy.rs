@@ -5,18 +5,14 @@ use super::{
     bar_chart, side_by_side, surface_map, Canvas, ColorMap, RenderError, SurfaceMapParams,
     SurfaceMesh, SurfaceValues, View, WHITE,
 };
-use crate::discrepancy::data::CameraInfo;
+use crate::camera::Camera;
 use crate::discrepancy::Explanation;
 use crate::io::intrinsics::PinholeIntrinsics;
 use std::path::Path;
 
-/// The recorded image size implied by a camera's principal point (at the image centre).
-pub fn recorded_image_size(camera: &CameraInfo) -> [u32; 2] {
-    let [_, _, cx, cy] = camera.intrinsics;
-    [
-        (2.0 * cx + 1.0).round() as u32,
-        (2.0 * cy + 1.0).round() as u32,
-    ]
+/// The recorded image size.
+pub fn recorded_image_size(camera: &Camera) -> [u32; 2] {
+    [camera.intrinsics.width, camera.intrinsics.height]
 }
 
 /// Mean held-out residual per feature (mm), NaN where never seen.
@@ -46,23 +42,19 @@ pub fn write_discrepancy_pictures(
     x: &Explanation,
     rest: &[[f64; 3]],
     triangles: &[[usize; 3]],
-    camera: &CameraInfo,
+    camera: &Camera,
     size: [u32; 2],
 ) -> Result<Vec<String>, RenderError> {
     std::fs::create_dir_all(dir).map_err(|e| RenderError::Image {
         path: dir.display().to_string(),
         message: e.to_string(),
     })?;
-    let [fx, fy, cx, cy] = camera.intrinsics;
     let intr = PinholeIntrinsics {
         width: size[0],
         height: size[1],
-        fx,
-        fy,
-        cx,
-        cy,
+        ..camera.intrinsics
     };
-    let view = View::from_matrix(intr, &camera.robot_from_camera)?;
+    let view = View::new(intr, *camera.robot_from_camera());
     let surface = SurfaceMesh {
         vertices_in_robot: rest,
         triangles,

@@ -1,18 +1,23 @@
 //! Unit tests of the discrepancy module's pieces: measurement corrections, frame split,
 //! updated model file.
 
-use softsense::discrepancy::data::CameraInfo;
+use softsense::camera::Camera;
 use softsense::discrepancy::effects::{correct_points, rotation, Effect, EffectKind};
 use softsense::discrepancy::report::updated_model;
 use softsense::discrepancy::{split_frames, FittedEffect};
 use softsense::fem::model::{ModelSpec, Units};
 
-fn camera() -> CameraInfo {
+fn camera() -> Camera {
     let cam = softsense::scene::camera::Camera::new(Default::default()).unwrap();
-    CameraInfo {
-        intrinsics: [615.0, 615.0, 319.5, 239.5],
-        robot_from_camera: cam.robot_from_camera(),
-    }
+    let k = softsense::camera::PinholeIntrinsics {
+        width: 640,
+        height: 480,
+        fx: 615.0,
+        fy: 615.0,
+        cx: 319.5,
+        cy: 239.5,
+    };
+    Camera::from_matrix(k, &cam.robot_from_camera()).unwrap()
 }
 
 #[test]
