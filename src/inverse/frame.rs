@@ -446,6 +446,7 @@ fn sensing_loop(
             Err(
                 e @ (FemError::InvertedElement { .. }
                 | FemError::Singular(_)
+                | FemError::NotPositiveDefinite { .. }
                 | FemError::NoConvergence { .. }),
             ) => {
                 if halvings >= params.max_halvings || forces == applied {
