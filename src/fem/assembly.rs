@@ -119,9 +119,9 @@ impl Pattern {
             }
         }
         if row_idx.len() >= SKIP as usize {
-            return Err(super::FemError::Linalg(
-                "matrix too large for the slot index".into(),
-            ));
+            return Err(super::FemError::TooLarge {
+                entries: row_idx.len(),
+            });
         }
         let mut entries = Vec::new();
         let mut entry_ptr = Vec::with_capacity(mesh.tets.len() + 1);

@@ -4,8 +4,9 @@
 
 use super::solve::{Cable, MappedPoint, Solver};
 use super::{FemError, FemResult};
+use faer::perm::PermRef;
 use faer::reborrow::{Reborrow, ReborrowMut};
-use faer::sparse::linalg::cholesky::supernodal::SupernodalLltRef;
+use faer::sparse::linalg::cholesky::supernodal::{SupernodalLltRef, SymbolicSupernodalCholesky};
 use faer::Mat;
 use nalgebra::DMatrix;
 use serde::Serialize;
@@ -225,112 +226,19 @@ impl Solver<'_> {
         fill: impl FnOnce(&mut dyn FnMut(usize, usize, f64)),
         k: usize,
     ) -> FemResult<Mat<f64>> {
-        let nd = self.ndof();
         let sn = self.supernodal()?;
-        let ns = sn.n_supernodes();
-        let (begin, end) = (sn.supernode_begin(), sn.supernode_end());
-        // Supernode of each (permuted) row.
-        let mut sup_of = vec![0usize; nd];
-        for s in 0..ns {
-            sup_of[begin[s]..end[s]].iter_mut().for_each(|v| *v = s);
-        }
-        let inv: Vec<usize> = match self.symbolic.perm() {
-            Some(p) => p.arrays().1.to_vec(),
-            None => (0..nd).collect(),
-        };
-        // Y (permuted rows), and per supernode a bitset of the columns that reach it.
-        let words = k.div_ceil(64);
-        let mut y = Mat::<f64>::zeros(nd, k);
-        let mut active = vec![0u64; ns * words];
-        fill(&mut |r, j, v| {
-            let pr = inv[r];
-            y[(pr, j)] += v;
-            active[sup_of[pr] * words + j / 64] |= 1 << (j % 64);
-        });
+        let mut walk = ForwardWalk::new(sn, self.symbolic.perm(), self.ndof(), k);
+        fill(&mut |r, j, v| walk.add(r, j, v));
         let llt = SupernodalLltRef::new(sn, &self.l_values);
         let mut gram = Mat::<f64>::zeros(k, k);
         let mut cols = Vec::with_capacity(k);
-        let mut buf = Vec::new();
-        let mut upd = Vec::new();
-        let mut g = Vec::new();
-        for s in 0..ns {
-            cols.clear();
-            for w in 0..words {
-                let mut bits = active[s * words + w];
-                while bits != 0 {
-                    cols.push(w * 64 + bits.trailing_zeros() as usize);
-                    bits &= bits - 1;
-                }
-            }
+        let mut scratch = GramScratch::default();
+        for s in 0..sn.n_supernodes() {
+            walk.columns_at(s, &mut cols);
             if cols.is_empty() {
                 continue;
             }
-            let node = llt.supernode(s);
-            let (start, ls, pattern) = (node.start(), node.val(), node.pattern());
-            let size = ls.ncols();
-            let ka = cols.len();
-            let (ltop, lbot) = ls.split_at_row(size);
-            buf.clear();
-            buf.resize(size * ka, 0.0);
-            let mut xt = faer::MatMut::from_column_major_slice_mut(&mut buf, size, ka);
-            for (c, &j) in cols.iter().enumerate() {
-                for i in 0..size {
-                    xt[(i, c)] = y[(start + i, j)];
-                }
-            }
-            let par = if size * ka > 64 * 64 {
-                self.linalg_par()
-            } else {
-                faer::Par::Seq
-            };
-            faer::linalg::triangular_solve::solve_lower_triangular_in_place(ltop, xt.rb_mut(), par);
-            // These rows of Y are final: add their share of Yᵀ Y.
-            g.clear();
-            g.resize(ka * ka, 0.0);
-            let mut gm = faer::MatMut::from_column_major_slice_mut(&mut g, ka, ka);
-            faer::linalg::matmul::matmul(
-                gm.rb_mut(),
-                faer::Accum::Replace,
-                xt.rb().transpose(),
-                xt.rb(),
-                1.0,
-                par,
-            );
-            for (b, &jb) in cols.iter().enumerate() {
-                for (a, &ja) in cols.iter().enumerate().take(b + 1) {
-                    gram[(ja, jb)] += gm[(a, b)];
-                }
-            }
-            if pattern.is_empty() {
-                continue;
-            }
-            upd.clear();
-            upd.resize(pattern.len() * ka, 0.0);
-            let mut um = faer::MatMut::from_column_major_slice_mut(&mut upd, pattern.len(), ka);
-            faer::linalg::matmul::matmul(
-                um.rb_mut(),
-                faer::Accum::Replace,
-                lbot,
-                xt.rb(),
-                1.0,
-                par,
-            );
-            for (c, &j) in cols.iter().enumerate() {
-                for (idx, &r) in pattern.iter().enumerate() {
-                    y[(r, j)] -= um[(idx, c)];
-                }
-            }
-            // The updated rows belong to later supernodes: they are reached too.
-            let mut last = usize::MAX;
-            for &r in pattern {
-                let t = sup_of[r];
-                if t != last {
-                    for w in 0..words {
-                        active[t * words + w] |= active[s * words + w];
-                    }
-                    last = t;
-                }
-            }
+            walk.supernode_step(&llt, s, &cols, self.linalg_par(), &mut gram, &mut scratch);
         }
         Ok(gram)
     }
@@ -374,5 +282,147 @@ impl Compliance {
             .try_inverse()
             .ok_or_else(|| FemError::Singular("W_aa is singular (dependent actuators)".into()))?;
         Ok(self.block(&e, &a) * inv)
+    }
+}
+
+/// Y = L⁻¹ P B solved supernode by supernode, only where B's columns reach.
+struct ForwardWalk {
+    /// Supernode of each (permuted) row.
+    sup_of: Vec<usize>,
+    /// The fill-reducing permutation's inverse: permuted row of each DOF.
+    inv: Vec<usize>,
+    /// 64-bit words per supernode in `active`.
+    words: usize,
+    /// Y (permuted rows).
+    y: Mat<f64>,
+    /// Per supernode, a bitset of the columns that reach it.
+    active: Vec<u64>,
+}
+
+/// Buffers of [`ForwardWalk::supernode_step`], reused across supernodes.
+#[derive(Default)]
+struct GramScratch {
+    buf: Vec<f64>,
+    upd: Vec<f64>,
+    g: Vec<f64>,
+}
+
+impl ForwardWalk {
+    fn new(
+        sn: &SymbolicSupernodalCholesky<usize>,
+        perm: Option<PermRef<'_, usize>>,
+        nd: usize,
+        k: usize,
+    ) -> Self {
+        let ns = sn.n_supernodes();
+        let (begin, end) = (sn.supernode_begin(), sn.supernode_end());
+        let mut sup_of = vec![0usize; nd];
+        for s in 0..ns {
+            sup_of[begin[s]..end[s]].iter_mut().for_each(|v| *v = s);
+        }
+        let inv: Vec<usize> = match perm {
+            Some(p) => p.arrays().1.to_vec(),
+            None => (0..nd).collect(),
+        };
+        let words = k.div_ceil(64);
+        Self {
+            sup_of,
+            inv,
+            words,
+            y: Mat::<f64>::zeros(nd, k),
+            active: vec![0u64; ns * words],
+        }
+    }
+
+    /// Adds `v` to B's entry (`r`, `j`), r a DOF.
+    fn add(&mut self, r: usize, j: usize, v: f64) {
+        let pr = self.inv[r];
+        self.y[(pr, j)] += v;
+        self.active[self.sup_of[pr] * self.words + j / 64] |= 1 << (j % 64);
+    }
+
+    /// The columns that reach supernode `s`, ascending, into `cols`.
+    fn columns_at(&self, s: usize, cols: &mut Vec<usize>) {
+        cols.clear();
+        for w in 0..self.words {
+            let mut bits = self.active[s * self.words + w];
+            while bits != 0 {
+                cols.push(w * 64 + bits.trailing_zeros() as usize);
+                bits &= bits - 1;
+            }
+        }
+    }
+
+    /// Solves supernode `s`'s rows of Y for the columns `cols`, adds their share of Yᵀ Y
+    /// to `gram` and updates the rows of later supernodes they reach.
+    fn supernode_step(
+        &mut self,
+        llt: &SupernodalLltRef<'_, usize, f64>,
+        s: usize,
+        cols: &[usize],
+        linalg_par: faer::Par,
+        gram: &mut Mat<f64>,
+        scratch: &mut GramScratch,
+    ) {
+        let node = llt.supernode(s);
+        let (start, ls, pattern) = (node.start(), node.val(), node.pattern());
+        let size = ls.ncols();
+        let ka = cols.len();
+        let (ltop, lbot) = ls.split_at_row(size);
+        let GramScratch { buf, upd, g } = scratch;
+        buf.clear();
+        buf.resize(size * ka, 0.0);
+        let mut xt = faer::MatMut::from_column_major_slice_mut(buf, size, ka);
+        for (c, &j) in cols.iter().enumerate() {
+            for i in 0..size {
+                xt[(i, c)] = self.y[(start + i, j)];
+            }
+        }
+        let par = if size * ka > 64 * 64 {
+            linalg_par
+        } else {
+            faer::Par::Seq
+        };
+        faer::linalg::triangular_solve::solve_lower_triangular_in_place(ltop, xt.rb_mut(), par);
+        // These rows of Y are final: add their share of Yᵀ Y.
+        g.clear();
+        g.resize(ka * ka, 0.0);
+        let mut gm = faer::MatMut::from_column_major_slice_mut(g, ka, ka);
+        faer::linalg::matmul::matmul(
+            gm.rb_mut(),
+            faer::Accum::Replace,
+            xt.rb().transpose(),
+            xt.rb(),
+            1.0,
+            par,
+        );
+        for (b, &jb) in cols.iter().enumerate() {
+            for (a, &ja) in cols.iter().enumerate().take(b + 1) {
+                gram[(ja, jb)] += gm[(a, b)];
+            }
+        }
+        if pattern.is_empty() {
+            return;
+        }
+        upd.clear();
+        upd.resize(pattern.len() * ka, 0.0);
+        let mut um = faer::MatMut::from_column_major_slice_mut(upd, pattern.len(), ka);
+        faer::linalg::matmul::matmul(um.rb_mut(), faer::Accum::Replace, lbot, xt.rb(), 1.0, par);
+        for (c, &j) in cols.iter().enumerate() {
+            for (idx, &r) in pattern.iter().enumerate() {
+                self.y[(r, j)] -= um[(idx, c)];
+            }
+        }
+        // The updated rows belong to later supernodes: they are reached too.
+        let mut last = usize::MAX;
+        for &r in pattern {
+            let t = self.sup_of[r];
+            if t != last {
+                for w in 0..self.words {
+                    self.active[t * self.words + w] |= self.active[s * self.words + w];
+                }
+                last = t;
+            }
+        }
     }
 }

@@ -127,12 +127,35 @@ struct DataArray<'a> {
 
 /// Parses a VTK XML UnstructuredGrid with ASCII data arrays (one piece, tetrahedra only).
 pub fn parse_vtu(text: &str) -> FemResult<TetMesh> {
+    let grid = scan_vtu(text)?;
+    if !grid.grid {
+        return Err(perr("no VTKFile UnstructuredGrid element"));
+    }
+    let (np, nc) = grid.declared.ok_or_else(|| perr("no Piece element"))?;
+    let points = grid.points.ok_or_else(|| perr("no Points DataArray"))?;
+    let nodes = vtu_nodes(&points, np)?;
+    let tets = vtu_tets(&grid.cells, nc)?;
+    finish(nodes, tets)
+}
+
+/// What [`scan_vtu`] found in a VTU file.
+#[derive(Default)]
+struct VtuGrid<'a> {
+    /// A `VTKFile` of type `UnstructuredGrid` was seen.
+    grid: bool,
+    /// The piece's declared point and cell counts.
+    declared: Option<(usize, usize)>,
+    /// The `Points` data array.
+    points: Option<DataArray<'a>>,
+    /// The `Cells` data arrays.
+    cells: Vec<DataArray<'a>>,
+}
+
+/// Walks the tags of a VTU file and collects the point and cell arrays.
+fn scan_vtu(text: &str) -> FemResult<VtuGrid<'_>> {
     let mut pos = 0;
     let mut section = "";
-    let mut grid = false;
-    let mut declared: Option<(usize, usize)> = None;
-    let mut points: Option<DataArray> = None;
-    let mut cells: Vec<DataArray> = Vec::new();
+    let mut found = VtuGrid::default();
     while let Some((_, tag)) = next_tag(text, pos) {
         pos = tag.end;
         if tag.name.starts_with('?') || tag.name.starts_with('!') {
@@ -144,23 +167,16 @@ pub fn parse_vtu(text: &str) -> FemResult<TetMesh> {
                 if ty != "UnstructuredGrid" {
                     return Err(FemError::Unsupported(format!("VTK XML type {ty:?}")));
                 }
-                grid = true;
+                found.grid = true;
                 if let Some(c) = attr(tag.attrs, "compressor") {
                     return Err(FemError::Unsupported(format!("compressed VTK XML ({c})")));
                 }
             }
             ("Piece", false) => {
-                if declared.is_some() {
+                if found.declared.is_some() {
                     return Err(FemError::Unsupported("more than one Piece".into()));
                 }
-                let np = attr(tag.attrs, "NumberOfPoints")
-                    .ok_or_else(|| perr("Piece without NumberOfPoints"))?;
-                let nc = attr(tag.attrs, "NumberOfCells")
-                    .ok_or_else(|| perr("Piece without NumberOfCells"))?;
-                declared = Some((
-                    parse_num(np, "NumberOfPoints")?,
-                    parse_num(nc, "NumberOfCells")?,
-                ));
+                found.declared = Some(piece_counts(&tag)?);
             }
             ("Points" | "Cells" | "PointData" | "CellData", false) if !tag.self_closing => {
                 section = tag.name
@@ -170,45 +186,61 @@ pub fn parse_vtu(text: &str) -> FemResult<TetMesh> {
                 return Err(FemError::Unsupported("VTK XML appended data".into()))
             }
             ("DataArray", false) => {
-                let format = attr(tag.attrs, "format").unwrap_or("ascii");
-                if format != "ascii" {
-                    return Err(FemError::Unsupported(format!(
-                        "DataArray format {format:?} (only ascii)"
-                    )));
-                }
-                let body_end = if tag.self_closing {
-                    tag.end
-                } else {
-                    tag.end
-                        + text[tag.end..]
-                            .find("</DataArray")
-                            .ok_or_else(|| perr("unterminated DataArray"))?
-                };
-                let components = match attr(tag.attrs, "NumberOfComponents") {
-                    Some(c) => parse_num(c, "NumberOfComponents")?,
-                    None => 1,
-                };
-                let da = DataArray {
-                    name: attr(tag.attrs, "Name"),
-                    ty: attr(tag.attrs, "type").unwrap_or("Float32"),
-                    components,
-                    body: &text[tag.end..body_end],
-                };
-                pos = body_end;
+                let da = data_array(text, &tag)?;
+                pos = tag.end + da.body.len();
                 match section {
-                    "Points" => points = Some(da),
-                    "Cells" => cells.push(da),
+                    "Points" => found.points = Some(da),
+                    "Cells" => found.cells.push(da),
                     _ => {}
                 }
             }
             _ => {}
         }
     }
-    if !grid {
-        return Err(perr("no VTKFile UnstructuredGrid element"));
+    Ok(found)
+}
+
+/// The declared point and cell counts of a `Piece` tag.
+fn piece_counts(tag: &Tag<'_>) -> FemResult<(usize, usize)> {
+    let np =
+        attr(tag.attrs, "NumberOfPoints").ok_or_else(|| perr("Piece without NumberOfPoints"))?;
+    let nc = attr(tag.attrs, "NumberOfCells").ok_or_else(|| perr("Piece without NumberOfCells"))?;
+    Ok((
+        parse_num(np, "NumberOfPoints")?,
+        parse_num(nc, "NumberOfCells")?,
+    ))
+}
+
+/// The `DataArray` opened by `tag`, its body up to `</DataArray`.
+fn data_array<'a>(text: &'a str, tag: &Tag<'a>) -> FemResult<DataArray<'a>> {
+    let format = attr(tag.attrs, "format").unwrap_or("ascii");
+    if format != "ascii" {
+        return Err(FemError::Unsupported(format!(
+            "DataArray format {format:?} (only ascii)"
+        )));
     }
-    let (np, nc) = declared.ok_or_else(|| perr("no Piece element"))?;
-    let points = points.ok_or_else(|| perr("no Points DataArray"))?;
+    let body_end = if tag.self_closing {
+        tag.end
+    } else {
+        tag.end
+            + text[tag.end..]
+                .find("</DataArray")
+                .ok_or_else(|| perr("unterminated DataArray"))?
+    };
+    let components = match attr(tag.attrs, "NumberOfComponents") {
+        Some(c) => parse_num(c, "NumberOfComponents")?,
+        None => 1,
+    };
+    Ok(DataArray {
+        name: attr(tag.attrs, "Name"),
+        ty: attr(tag.attrs, "type").unwrap_or("Float32"),
+        components,
+        body: &text[tag.end..body_end],
+    })
+}
+
+/// The `np` node positions of the `Points` array.
+fn vtu_nodes(points: &DataArray<'_>, np: usize) -> FemResult<Vec<[f64; 3]>> {
     if points.components != 3 {
         return Err(perr(format!(
             "Points have {} components",
@@ -223,7 +255,11 @@ pub fn parse_vtu(text: &str) -> FemResult<TetMesh> {
             coords.len()
         )));
     }
-    let nodes: Vec<[f64; 3]> = coords.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+    Ok(coords.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect())
+}
+
+/// The `nc` tetrahedra of the `connectivity`, `offsets` and `types` cell arrays.
+fn vtu_tets(cells: &[DataArray<'_>], nc: usize) -> FemResult<Vec<[usize; 4]>> {
     let find = |name: &str| -> FemResult<&DataArray> {
         cells
             .iter()
@@ -268,7 +304,7 @@ pub fn parse_vtu(text: &str) -> FemResult<TetMesh> {
         tets.push(t);
         start = end;
     }
-    finish(nodes, tets)
+    Ok(tets)
 }
 
 fn check_type(ty: &str, float: bool) -> FemResult<()> {
@@ -311,7 +347,6 @@ pub fn parse_vtk_legacy(text: &str) -> FemResult<TetMesh> {
     let mut nodes: Option<Vec<[f64; 3]>> = None;
     let mut cells: Option<Vec<Vec<i64>>> = None;
     let mut types: Option<Vec<i64>> = None;
-    let remaining = |it: &std::vec::IntoIter<&str>| it.len();
     while let Some(kw) = it.next() {
         match kw.to_ascii_uppercase().as_str() {
             "DATASET" => {
@@ -320,55 +355,9 @@ pub fn parse_vtk_legacy(text: &str) -> FemResult<TetMesh> {
                     return Err(FemError::Unsupported(format!("VTK dataset {ds:?}")));
                 }
             }
-            "POINTS" => {
-                let n: usize = parse_num(it.next().unwrap_or(""), "POINTS count")?;
-                it.next(); // data type
-                if n.saturating_mul(3) > remaining(&it) {
-                    return Err(perr(format!("POINTS {n} but the file is shorter")));
-                }
-                let mut v = Vec::with_capacity(n);
-                for _ in 0..n {
-                    let mut p = [0.0; 3];
-                    for c in &mut p {
-                        *c = parse_num(it.next().unwrap_or(""), "point coordinate")?;
-                    }
-                    v.push(p);
-                }
-                nodes = Some(v);
-            }
-            "CELLS" => {
-                let n: usize = parse_num(it.next().unwrap_or(""), "CELLS count")?;
-                let size: usize = parse_num(it.next().unwrap_or(""), "CELLS size")?;
-                if size > remaining(&it) || n > size {
-                    return Err(perr(format!("CELLS {n} {size} but the file is shorter")));
-                }
-                let mut v = Vec::with_capacity(n);
-                let mut used = 0usize;
-                for _ in 0..n {
-                    let k: usize = parse_num(it.next().unwrap_or(""), "cell size")?;
-                    used += k + 1;
-                    if used > size {
-                        return Err(perr("CELLS data longer than declared"));
-                    }
-                    let mut c = Vec::with_capacity(k);
-                    for _ in 0..k {
-                        c.push(parse_num(it.next().unwrap_or(""), "cell index")?);
-                    }
-                    v.push(c);
-                }
-                cells = Some(v);
-            }
-            "CELL_TYPES" => {
-                let n: usize = parse_num(it.next().unwrap_or(""), "CELL_TYPES count")?;
-                if n > remaining(&it) {
-                    return Err(perr("CELL_TYPES longer than the file"));
-                }
-                let mut v = Vec::with_capacity(n);
-                for _ in 0..n {
-                    v.push(parse_num(it.next().unwrap_or(""), "cell type")?);
-                }
-                types = Some(v);
-            }
+            "POINTS" => nodes = Some(legacy_points(&mut it)?),
+            "CELLS" => cells = Some(legacy_cells(&mut it)?),
+            "CELL_TYPES" => types = Some(legacy_cell_types(&mut it)?),
             "POINT_DATA" | "CELL_DATA" => break,
             _ => {}
         }
@@ -394,6 +383,64 @@ pub fn parse_vtk_legacy(text: &str) -> FemResult<TetMesh> {
         tets.push(t);
     }
     finish(nodes, tets)
+}
+
+/// The tokens of a VTK legacy file after its header.
+type Tokens<'a> = std::vec::IntoIter<&'a str>;
+
+/// The section after a `POINTS` keyword: count, data type, coordinates.
+fn legacy_points(it: &mut Tokens<'_>) -> FemResult<Vec<[f64; 3]>> {
+    let n: usize = parse_num(it.next().unwrap_or(""), "POINTS count")?;
+    it.next(); // data type
+    if n.saturating_mul(3) > it.len() {
+        return Err(perr(format!("POINTS {n} but the file is shorter")));
+    }
+    let mut v = Vec::with_capacity(n);
+    for _ in 0..n {
+        let mut p = [0.0; 3];
+        for c in &mut p {
+            *c = parse_num(it.next().unwrap_or(""), "point coordinate")?;
+        }
+        v.push(p);
+    }
+    Ok(v)
+}
+
+/// The section after a `CELLS` keyword: count, size, then each cell's size and indices.
+fn legacy_cells(it: &mut Tokens<'_>) -> FemResult<Vec<Vec<i64>>> {
+    let n: usize = parse_num(it.next().unwrap_or(""), "CELLS count")?;
+    let size: usize = parse_num(it.next().unwrap_or(""), "CELLS size")?;
+    if size > it.len() || n > size {
+        return Err(perr(format!("CELLS {n} {size} but the file is shorter")));
+    }
+    let mut v = Vec::with_capacity(n);
+    let mut used = 0usize;
+    for _ in 0..n {
+        let k: usize = parse_num(it.next().unwrap_or(""), "cell size")?;
+        used += k + 1;
+        if used > size {
+            return Err(perr("CELLS data longer than declared"));
+        }
+        let mut c = Vec::with_capacity(k);
+        for _ in 0..k {
+            c.push(parse_num(it.next().unwrap_or(""), "cell index")?);
+        }
+        v.push(c);
+    }
+    Ok(v)
+}
+
+/// The section after a `CELL_TYPES` keyword: count, types.
+fn legacy_cell_types(it: &mut Tokens<'_>) -> FemResult<Vec<i64>> {
+    let n: usize = parse_num(it.next().unwrap_or(""), "CELL_TYPES count")?;
+    if n > it.len() {
+        return Err(perr("CELL_TYPES longer than the file"));
+    }
+    let mut v = Vec::with_capacity(n);
+    for _ in 0..n {
+        v.push(parse_num(it.next().unwrap_or(""), "cell type")?);
+    }
+    Ok(v)
 }
 
 // ---------------------------------------------------------------- Gmsh
@@ -434,132 +481,18 @@ pub fn parse_msh(text: &str) -> FemResult<TetMesh> {
     }
     let nodes_s = section(text, "Nodes")?;
     let elems_s = section(text, "Elements")?;
-    let mut ids: Vec<(usize, usize)> = Vec::new(); // (gmsh tag, our index)
-    let mut nodes = Vec::new();
-    let mut raw_tets: Vec<(usize, [usize; 4])> = Vec::new(); // (element number, gmsh node tags)
-    let tag = |t: &str| parse_num::<usize>(t, "tag");
-    let handle_elem = |number: usize,
-                       ty: i64,
-                       tags: &[&str],
-                       out: &mut Vec<(usize, [usize; 4])>|
-     -> FemResult<()> {
-        match (ty, gmsh_dim(ty)) {
-            (4, _) => {
-                if tags.len() < 4 {
-                    return Err(perr(format!(
-                        "element {number}: tetrahedron with {} nodes",
-                        tags.len()
-                    )));
-                }
-                out.push((
-                    number,
-                    [tag(tags[0])?, tag(tags[1])?, tag(tags[2])?, tag(tags[3])?],
-                ));
-                Ok(())
-            }
-            (_, Some(d)) if d < 3 => Ok(()),
-            _ => Err(FemError::UnsupportedCell {
-                cell: number,
-                cell_type: ty,
-            }),
-        }
-    };
+    let mut nodes = MshNodes::default();
+    let mut raw_tets: Vec<RawTet> = Vec::new();
     if version.starts_with("2.") {
-        let nr = rows(nodes_s);
-        let n: usize = parse_num(
-            nr.first().and_then(|r| r.first()).copied().unwrap_or(""),
-            "node count",
-        )?;
-        if nr.len() != n + 1 {
-            return Err(perr(format!(
-                "{} node lines for {n} nodes",
-                nr.len().saturating_sub(1)
-            )));
-        }
-        for r in &nr[1..] {
-            if r.len() < 4 {
-                return Err(perr("short node line"));
-            }
-            ids.push((tag(r[0])?, nodes.len()));
-            nodes.push([
-                parse_num(r[1], "x")?,
-                parse_num(r[2], "y")?,
-                parse_num(r[3], "z")?,
-            ]);
-        }
-        let er = rows(elems_s);
-        let m: usize = parse_num(
-            er.first().and_then(|r| r.first()).copied().unwrap_or(""),
-            "element count",
-        )?;
-        if er.len() != m + 1 {
-            return Err(perr(format!(
-                "{} element lines for {m} elements",
-                er.len().saturating_sub(1)
-            )));
-        }
-        for (i, r) in er[1..].iter().enumerate() {
-            if r.len() < 3 {
-                return Err(perr(format!("short element line {i}")));
-            }
-            let ty: i64 = parse_num(r[1], "element type")?;
-            let ntags: usize = parse_num(r[2], "tag count")?;
-            let first = 3usize.saturating_add(ntags);
-            if first > r.len() {
-                return Err(perr(format!("element line {i} shorter than its tags")));
-            }
-            handle_elem(i, ty, &r[first..], &mut raw_tets)?;
-        }
+        msh2_nodes(&rows(nodes_s), &mut nodes)?;
+        msh2_elements(&rows(elems_s), &mut raw_tets)?;
     } else if version.starts_with("4.") {
-        let nr = rows(nodes_s);
-        let mut k = 1usize; // skip header
-        while k < nr.len() {
-            let h = &nr[k];
-            if h.len() < 4 {
-                return Err(perr("short node block header"));
-            }
-            let _parametric: &str = h[2];
-            let count: usize = parse_num(h[3], "block node count")?;
-            if count.saturating_mul(2) > nr.len() - k - 1 {
-                return Err(perr("node block longer than the section"));
-            }
-            let tags = &nr[k + 1..k + 1 + count];
-            let coords = &nr[k + 1 + count..k + 1 + 2 * count];
-            for (t, c) in tags.iter().zip(coords) {
-                if c.len() < 3 || t.is_empty() {
-                    return Err(perr("short node line"));
-                }
-                ids.push((tag(t[0])?, nodes.len()));
-                nodes.push([
-                    parse_num(c[0], "x")?,
-                    parse_num(c[1], "y")?,
-                    parse_num(c[2], "z")?,
-                ]);
-            }
-            k += 1 + 2 * count;
-        }
-        let er = rows(elems_s);
-        let mut k = 1usize;
-        let mut number = 0usize;
-        while k < er.len() {
-            let h = &er[k];
-            if h.len() < 4 {
-                return Err(perr("short element block header"));
-            }
-            let ty: i64 = parse_num(h[2], "element type")?;
-            let count: usize = parse_num(h[3], "block element count")?;
-            if count > er.len() - k - 1 {
-                return Err(perr("element block longer than the section"));
-            }
-            for r in &er[k + 1..k + 1 + count] {
-                handle_elem(number, ty, r.get(1..).unwrap_or(&[]), &mut raw_tets)?;
-                number += 1;
-            }
-            k += 1 + count;
-        }
+        msh4_nodes(&rows(nodes_s), &mut nodes)?;
+        msh4_elements(&rows(elems_s), &mut raw_tets)?;
     } else {
         return Err(FemError::Unsupported(format!("Gmsh version {version}")));
     }
+    let mut ids = nodes.ids;
     ids.sort_unstable();
     let lookup = |t: usize, elem: usize| -> FemResult<usize> {
         ids.binary_search_by_key(&t, |p| p.0)
@@ -575,7 +508,160 @@ pub fn parse_msh(text: &str) -> FemResult<TetMesh> {
             lookup(t[3], *e)?,
         ]);
     }
-    finish(nodes, tets)
+    finish(nodes.positions, tets)
+}
+
+/// A tetrahedron as read: (element number, Gmsh node tags).
+type RawTet = (usize, [usize; 4]);
+
+/// The nodes of a Gmsh file as read.
+#[derive(Default)]
+struct MshNodes {
+    /// (Gmsh tag, our index) per node.
+    ids: Vec<(usize, usize)>,
+    /// Positions, in our order.
+    positions: Vec<[f64; 3]>,
+}
+
+impl MshNodes {
+    /// Adds the node of tag `t` at the coordinates `c` (at least three).
+    fn push(&mut self, t: &str, c: &[&str]) -> FemResult<()> {
+        self.ids.push((msh_tag(t)?, self.positions.len()));
+        self.positions.push([
+            parse_num(c[0], "x")?,
+            parse_num(c[1], "y")?,
+            parse_num(c[2], "z")?,
+        ]);
+        Ok(())
+    }
+}
+
+fn msh_tag(t: &str) -> FemResult<usize> {
+    parse_num::<usize>(t, "tag")
+}
+
+/// Element `number` of Gmsh type `ty` with node tags `tags`: a tetrahedron goes to `out`,
+/// lower-dimensional elements are skipped, others are an error.
+fn msh_element(number: usize, ty: i64, tags: &[&str], out: &mut Vec<RawTet>) -> FemResult<()> {
+    match (ty, gmsh_dim(ty)) {
+        (4, _) => {
+            if tags.len() < 4 {
+                return Err(perr(format!(
+                    "element {number}: tetrahedron with {} nodes",
+                    tags.len()
+                )));
+            }
+            out.push((
+                number,
+                [
+                    msh_tag(tags[0])?,
+                    msh_tag(tags[1])?,
+                    msh_tag(tags[2])?,
+                    msh_tag(tags[3])?,
+                ],
+            ));
+            Ok(())
+        }
+        (_, Some(d)) if d < 3 => Ok(()),
+        _ => Err(FemError::UnsupportedCell {
+            cell: number,
+            cell_type: ty,
+        }),
+    }
+}
+
+/// The count on the first row of an MSH 2 section, checked against its rows.
+fn msh2_count(r: &[Vec<&str>], what: &str) -> FemResult<usize> {
+    let n: usize = parse_num(
+        r.first().and_then(|r| r.first()).copied().unwrap_or(""),
+        &format!("{what} count"),
+    )?;
+    if r.len() != n + 1 {
+        return Err(perr(format!(
+            "{} {what} lines for {n} {what}s",
+            r.len().saturating_sub(1)
+        )));
+    }
+    Ok(n)
+}
+
+/// MSH 2 `$Nodes`: count, then `tag x y z` per line.
+fn msh2_nodes(nr: &[Vec<&str>], nodes: &mut MshNodes) -> FemResult<()> {
+    msh2_count(nr, "node")?;
+    for r in &nr[1..] {
+        if r.len() < 4 {
+            return Err(perr("short node line"));
+        }
+        nodes.push(r[0], &r[1..])?;
+    }
+    Ok(())
+}
+
+/// MSH 2 `$Elements`: count, then `number type ntags tags... nodes...` per line.
+fn msh2_elements(er: &[Vec<&str>], raw_tets: &mut Vec<RawTet>) -> FemResult<()> {
+    msh2_count(er, "element")?;
+    for (i, r) in er[1..].iter().enumerate() {
+        if r.len() < 3 {
+            return Err(perr(format!("short element line {i}")));
+        }
+        let ty: i64 = parse_num(r[1], "element type")?;
+        let ntags: usize = parse_num(r[2], "tag count")?;
+        let first = 3usize.saturating_add(ntags);
+        if first > r.len() {
+            return Err(perr(format!("element line {i} shorter than its tags")));
+        }
+        msh_element(i, ty, &r[first..], raw_tets)?;
+    }
+    Ok(())
+}
+
+/// MSH 4 `$Nodes`: a header, then blocks of tags followed by coordinates.
+fn msh4_nodes(nr: &[Vec<&str>], nodes: &mut MshNodes) -> FemResult<()> {
+    let mut k = 1usize; // skip header
+    while k < nr.len() {
+        let h = &nr[k];
+        if h.len() < 4 {
+            return Err(perr("short node block header"));
+        }
+        let _parametric: &str = h[2];
+        let count: usize = parse_num(h[3], "block node count")?;
+        if count.saturating_mul(2) > nr.len() - k - 1 {
+            return Err(perr("node block longer than the section"));
+        }
+        let tags = &nr[k + 1..k + 1 + count];
+        let coords = &nr[k + 1 + count..k + 1 + 2 * count];
+        for (t, c) in tags.iter().zip(coords) {
+            if c.len() < 3 || t.is_empty() {
+                return Err(perr("short node line"));
+            }
+            nodes.push(t[0], c)?;
+        }
+        k += 1 + 2 * count;
+    }
+    Ok(())
+}
+
+/// MSH 4 `$Elements`: a header, then blocks of one element type.
+fn msh4_elements(er: &[Vec<&str>], raw_tets: &mut Vec<RawTet>) -> FemResult<()> {
+    let mut k = 1usize;
+    let mut number = 0usize;
+    while k < er.len() {
+        let h = &er[k];
+        if h.len() < 4 {
+            return Err(perr("short element block header"));
+        }
+        let ty: i64 = parse_num(h[2], "element type")?;
+        let count: usize = parse_num(h[3], "block element count")?;
+        if count > er.len() - k - 1 {
+            return Err(perr("element block longer than the section"));
+        }
+        for r in &er[k + 1..k + 1 + count] {
+            msh_element(number, ty, r.get(1..).unwrap_or(&[]), raw_tets)?;
+            number += 1;
+        }
+        k += 1 + count;
+    }
+    Ok(())
 }
 
 fn rows(s: &str) -> Vec<Vec<&str>> {

@@ -23,13 +23,20 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod assembly;
+mod cable;
 pub mod constraint;
+mod factor;
 pub mod material;
 pub mod mesh;
 pub mod meshio;
 pub mod model;
+mod newton;
+mod pool;
+mod problem;
+mod setup;
 pub mod solve;
 pub mod tet4;
+mod workspace;
 
 use thiserror::Error;
 
@@ -90,9 +97,17 @@ pub enum FemError {
     /// Invalid material parameters.
     #[error("invalid material: {0}")]
     Material(String),
-    /// The model does not fix enough nodes to remove rigid motions.
+    /// The model does not fix enough nodes to remove rigid motions, or a small dense
+    /// system (cable or actuator compliance) is singular.
     #[error("singular system: {0}")]
     Singular(String),
+    /// The tangent stiffness is not positive definite: faer's sparse Cholesky met a
+    /// non-positive pivot.
+    #[error("tangent stiffness is not positive definite (non-positive pivot at column {pivot} of the permuted system)")]
+    NotPositiveDefinite {
+        /// The column of the fill-reducing permuted system with the non-positive pivot.
+        pivot: usize,
+    },
     /// The Newton iteration did not converge.
     #[error("Newton did not converge in {iterations} iterations (residual {residual:e})")]
     NoConvergence {
@@ -112,9 +127,32 @@ pub enum FemError {
     /// The model file is invalid.
     #[error("invalid model: {0}")]
     Model(String),
-    /// The sparse factorization failed for a reason other than a bad pivot.
+    /// faer could not allocate or index the sparse system.
     #[error("sparse linear algebra: {0}")]
-    Linalg(String),
+    Linalg(#[from] faer::sparse::FaerError),
+    /// The stiffness matrix has more stored entries than the element slot index can hold.
+    #[error("stiffness matrix too large: {entries} stored entries")]
+    TooLarge {
+        /// Stored entries of the upper triangle.
+        entries: usize,
+    },
+    /// A solve or compliance needs the factor of the current tangent, and there is none
+    /// (not factorized since the last assembly, or the factorization failed).
+    #[error("no factorization of the current tangent")]
+    NoFactor,
+    /// The symbolic Cholesky is simplicial where the supernodal structure is needed.
+    #[error("the Cholesky factor is not supernodal")]
+    NotSupernodal,
+}
+
+impl From<faer::linalg::solvers::LltError> for FemError {
+    fn from(e: faer::linalg::solvers::LltError) -> Self {
+        match e {
+            faer::linalg::solvers::LltError::NonPositivePivot { index } => {
+                Self::NotPositiveDefinite { pivot: index }
+            }
+        }
+    }
 }
 
 /// `Result` with [`FemError`].

@@ -290,153 +290,40 @@ impl Model {
         });
         let quality = mesh.quality()?;
         let diag = super::mesh::norm(super::mesh::sub(quality.bbox[1], quality.bbox[0]));
+        // Points given in the file may lie this far outside the mesh.
         let tol = 0.05 * diag;
-        let l = |p: [f64; 3]| p.map(|c| c * u.length);
-        let formulation = match spec.formulation.as_deref() {
-            None | Some("corotational") | Some("large") => Formulation::Corotational,
-            Some("small-strain") | Some("linear") => Formulation::SmallStrain,
-            Some(f) => return Err(FemError::Model(format!("unknown formulation {f:?}"))),
-        };
+        let formulation = parse_formulation(spec.formulation.as_deref())?;
         let material = Material::new(spec.material.young * u.pressure, spec.material.poisson)?;
         let mut p = Problem::new(mesh, material, formulation);
-        for f in &spec.fixed {
-            if let Some([lo, hi]) = f.r#box {
-                p.fixed.extend(p.mesh.nodes_in_box(l(lo), l(hi)));
-            }
-            if let Some(n) = &f.nodes {
-                p.fixed.extend(n.iter().copied());
-            }
-        }
-        p.fixed.sort_unstable();
-        p.fixed.dedup();
+        p.fixed = fixed_nodes(&spec.fixed, &p.mesh, &u);
         if let Some(m) = &spec.mass {
-            p.density = match (m.total, m.density) {
-                (Some(t), None) => t / quality.volume,
-                (None, Some(d)) => d * u.density,
-                _ => {
-                    return Err(FemError::Model(
-                        "mass needs exactly one of total or density".into(),
-                    ))
-                }
-            };
-            if !(p.density >= 0.0 && p.density.is_finite()) {
-                return Err(FemError::Model(format!(
-                    "mass density {} is invalid",
-                    p.density
-                )));
-            }
+            p.density = density(m, quality.volume, &u)?;
         }
         if let Some(g) = spec.gravity {
-            p.gravity = l(g);
+            p.gravity = u.point(g);
         }
-        for c in &spec.cables {
-            let control = match (c.shorten, c.force) {
-                (Some(d), None) => CableControl::Displacement(d * u.length),
-                (None, Some(f)) => CableControl::Force(f * u.force),
-                (None, None) => CableControl::Force(0.0),
-                _ => {
-                    return Err(FemError::Model(format!(
-                        "cable {}: give shorten or force, not both",
-                        c.name
-                    )))
-                }
-            };
-            if c.attach.is_empty() {
-                return Err(FemError::Model(format!(
-                    "cable {} has no attach point",
-                    c.name
-                )));
-            }
-            let attach = c
-                .attach
-                .iter()
-                .map(|a| MappedPoint::locate(&p.mesh, l(*a), tol))
-                .collect::<FemResult<Vec<_>>>()?;
-            p.cables.push(Cable {
-                name: c.name.clone(),
-                pull: l(c.pull),
-                attach,
-                control,
-            });
-        }
-        for ld in &spec.loads {
-            let at = match (ld.at, ld.node) {
-                (Some(a), None) => MappedPoint::locate(&p.mesh, l(a), tol)?,
-                (None, Some(n)) if n < p.mesh.num_nodes() => MappedPoint::node(n),
-                _ => {
-                    return Err(FemError::Model(
-                        "a load needs `at` or a valid `node`".into(),
-                    ))
-                }
-            };
-            p.loads.push(PointLoad {
-                at,
-                force: ld.force.map(|f| f * u.force),
-            });
-        }
-        let surface = if spec
-            .effectors
-            .iter()
-            .chain(&spec.force_points)
-            .any(|e| e.normal)
-        {
-            Some(p.mesh.surface())
-        } else {
-            None
-        };
-        let rows_for =
-            |kind: RowKind, e: &PointSpec| -> FemResult<(MappedPoint, Vec<ConstraintRow>)> {
-                let at = MappedPoint::locate(&p.mesh, l(e.at), tol)?;
-                let rows = if e.normal {
-                    let s = surface
-                        .as_ref()
-                        .ok_or_else(|| FemError::Model("no surface".into()))?;
-                    let mut n = [0.0; 3];
-                    for (v, w) in at.nodes.iter().zip(at.weights) {
-                        for (nk, sk) in n.iter_mut().zip(s.vertex_normals[*v]) {
-                            *nk += w * sk;
-                        }
-                    }
-                    vec![ConstraintRow::along(kind, &at, n)?]
-                } else if let Some(d) = e.direction {
-                    vec![ConstraintRow::along(kind, &at, d)?]
-                } else {
-                    ConstraintRow::point3(kind, &at)
-                };
-                Ok((at, rows))
-            };
-        let mut effectors = Vec::new();
-        for e in &spec.effectors {
-            let (point, rows) = rows_for(RowKind::Effector, e)?;
-            effectors.push(Effector {
-                name: e.name.clone(),
-                point,
-                rows,
-            });
-        }
-        let mut force_rows = Vec::new();
-        let mut force_points = Vec::new();
-        for e in &spec.force_points {
-            let (point, rows) = rows_for(RowKind::Force, e)?;
-            force_rows.extend(rows.iter().cloned());
-            force_points.push(Effector {
-                name: e.name.clone(),
-                point,
-                rows,
-            });
-        }
-        let mut newton = NewtonParams::default();
-        if let Some(n) = &spec.newton {
-            newton.max_iterations = n.max_iterations.unwrap_or(newton.max_iterations);
-            newton.load_steps = n.load_steps.unwrap_or(newton.load_steps);
-            newton.rel_tol = n.rel_tol.unwrap_or(newton.rel_tol);
-        }
+        p.cables = (spec.cables.iter())
+            .map(|c| cable(c, &p.mesh, &u, tol))
+            .collect::<FemResult<_>>()?;
+        p.loads = (spec.loads.iter())
+            .map(|ld| load(ld, &p.mesh, &u, tol))
+            .collect::<FemResult<_>>()?;
+        let points = PointRows::new(spec, &p.mesh, &u, tol);
+        let effectors = (spec.effectors.iter())
+            .map(|e| points.effector(RowKind::Effector, e))
+            .collect::<FemResult<Vec<_>>>()?;
+        let force_points = (spec.force_points.iter())
+            .map(|e| points.effector(RowKind::Force, e))
+            .collect::<FemResult<Vec<_>>>()?;
+        let force_rows = (force_points.iter())
+            .flat_map(|e| e.rows.iter().cloned())
+            .collect();
         Ok(Self {
             problem: p,
             effectors,
             force_rows,
             force_points,
-            newton,
+            newton: newton_params(spec.newton.as_ref()),
             units: u,
         })
     }
@@ -456,5 +343,162 @@ impl Model {
         );
         rows.extend(self.force_rows.iter().cloned());
         rows
+    }
+}
+
+impl Units {
+    /// A point or vector in file units, in SI.
+    fn point(&self, p: [f64; 3]) -> [f64; 3] {
+        p.map(|c| c * self.length)
+    }
+}
+
+/// The formulation a model file names (default corotational).
+fn parse_formulation(name: Option<&str>) -> FemResult<Formulation> {
+    match name {
+        None | Some("corotational") | Some("large") => Ok(Formulation::Corotational),
+        Some("small-strain") | Some("linear") => Ok(Formulation::SmallStrain),
+        Some(f) => Err(FemError::Model(format!("unknown formulation {f:?}"))),
+    }
+}
+
+/// The fixed nodes of the selections, sorted, without repeats.
+fn fixed_nodes(specs: &[FixedSpec], mesh: &TetMesh, u: &Units) -> Vec<usize> {
+    let mut fixed = Vec::new();
+    for f in specs {
+        if let Some([lo, hi]) = f.r#box {
+            fixed.extend(mesh.nodes_in_box(u.point(lo), u.point(hi)));
+        }
+        if let Some(n) = &f.nodes {
+            fixed.extend(n.iter().copied());
+        }
+    }
+    fixed.sort_unstable();
+    fixed.dedup();
+    fixed
+}
+
+/// The mass density (kg/m^3) from a total mass over the mesh's `volume` or a density.
+fn density(m: &MassSpec, volume: f64, u: &Units) -> FemResult<f64> {
+    let density = match (m.total, m.density) {
+        (Some(t), None) => t / volume,
+        (None, Some(d)) => d * u.density,
+        _ => {
+            return Err(FemError::Model(
+                "mass needs exactly one of total or density".into(),
+            ))
+        }
+    };
+    if !(density >= 0.0 && density.is_finite()) {
+        return Err(FemError::Model(format!(
+            "mass density {density} is invalid"
+        )));
+    }
+    Ok(density)
+}
+
+/// A cable, its attach points located in `mesh` (within `tol`).
+fn cable(c: &CableSpec, mesh: &TetMesh, u: &Units, tol: f64) -> FemResult<Cable> {
+    let control = match (c.shorten, c.force) {
+        (Some(d), None) => CableControl::Displacement(d * u.length),
+        (None, Some(f)) => CableControl::Force(f * u.force),
+        (None, None) => CableControl::Force(0.0),
+        _ => {
+            return Err(FemError::Model(format!(
+                "cable {}: give shorten or force, not both",
+                c.name
+            )))
+        }
+    };
+    if c.attach.is_empty() {
+        return Err(FemError::Model(format!(
+            "cable {} has no attach point",
+            c.name
+        )));
+    }
+    let attach = (c.attach.iter())
+        .map(|a| MappedPoint::locate(mesh, u.point(*a), tol))
+        .collect::<FemResult<Vec<_>>>()?;
+    Ok(Cable {
+        name: c.name.clone(),
+        pull: u.point(c.pull),
+        attach,
+        control,
+    })
+}
+
+/// A point load, at a located point or a node.
+fn load(ld: &LoadSpec, mesh: &TetMesh, u: &Units, tol: f64) -> FemResult<PointLoad> {
+    let at = match (ld.at, ld.node) {
+        (Some(a), None) => MappedPoint::locate(mesh, u.point(a), tol)?,
+        (None, Some(n)) if n < mesh.num_nodes() => MappedPoint::node(n),
+        _ => {
+            return Err(FemError::Model(
+                "a load needs `at` or a valid `node`".into(),
+            ))
+        }
+    };
+    Ok(PointLoad {
+        at,
+        force: ld.force.map(|f| f * u.force),
+    })
+}
+
+/// Newton options: the defaults with the file's overrides.
+fn newton_params(spec: Option<&NewtonSpec>) -> NewtonParams {
+    let mut newton = NewtonParams::default();
+    if let Some(n) = spec {
+        newton.max_iterations = n.max_iterations.unwrap_or(newton.max_iterations);
+        newton.load_steps = n.load_steps.unwrap_or(newton.load_steps);
+        newton.rel_tol = n.rel_tol.unwrap_or(newton.rel_tol);
+    }
+    newton
+}
+
+/// Locates effectors and force points and builds their rows.
+struct PointRows<'m> {
+    mesh: &'m TetMesh,
+    units: &'m Units,
+    tol: f64,
+    /// The mesh surface, if any point is measured along the surface normal.
+    surface: Option<super::mesh::Surface>,
+}
+
+impl<'m> PointRows<'m> {
+    fn new(spec: &ModelSpec, mesh: &'m TetMesh, units: &'m Units, tol: f64) -> Self {
+        let normal = (spec.effectors.iter())
+            .chain(&spec.force_points)
+            .any(|e| e.normal);
+        Self {
+            mesh,
+            units,
+            tol,
+            surface: normal.then(|| mesh.surface()),
+        }
+    }
+
+    /// The located point of `e` with its rows of `kind`: along the surface normal, along
+    /// its direction, or x, y and z.
+    fn effector(&self, kind: RowKind, e: &PointSpec) -> FemResult<Effector> {
+        let at = MappedPoint::locate(self.mesh, self.units.point(e.at), self.tol)?;
+        let rows = if e.normal {
+            let s = (self.surface.as_ref()).ok_or_else(|| FemError::Model("no surface".into()))?;
+            let mut n = [0.0; 3];
+            for (v, w) in at.nodes.iter().zip(at.weights) {
+                for (nk, sk) in n.iter_mut().zip(s.vertex_normals[*v]) {
+                    *nk += w * sk;
+                }
+            }
+            vec![ConstraintRow::along(kind, &at, n)?]
+        } else if let Some(d) = e.direction {
+            vec![ConstraintRow::along(kind, &at, d)?]
+        } else {
+            ConstraintRow::point3(kind, &at)
+        };
+        Ok(Effector {
+            name: e.name.clone(),
+            point: at,
+            rows,
+        })
     }
 }

@@ -365,6 +365,7 @@ impl<'a> LoopState<'a> {
             Err(
                 e @ (FemError::InvertedElement { .. }
                 | FemError::Singular(_)
+                | FemError::NotPositiveDefinite { .. }
                 | FemError::NoConvergence { .. }),
             ) => {
                 if self.halvings >= params.max_halvings || self.forces == self.applied {
