@@ -3,5 +3,7 @@
 //! `test = false`); run it with `cargo test --test acceptance` (`.ci/run` does).
 mod common;
 
+#[path = "acceptance/calibrate.rs"]
+mod calibrate;
 #[path = "acceptance/explain_hidden.rs"]
 mod explain_hidden;

@@ -1,9 +1,9 @@
 //! The library of candidate effects: each a parametrised change of the model (or of the
 //! measurement), applied exactly for simulation and linearised for fitting.
 
-use crate::camera::Camera;
 use super::features::leg_of;
 use super::{DiscrepancyError, DiscrepancyResult};
+use crate::camera::Camera;
 use crate::fem::material::Material;
 use crate::fem::solve::{CableControl, MappedPoint, PointLoad, Problem};
 use serde::{Deserialize, Serialize};
@@ -227,11 +227,7 @@ pub fn rotation_vector(r: &[[f64; 3]; 3]) -> [f64; 3] {
 
 /// Undoes the measurement effects on measured points (robot frame): returns the points
 /// as they would be with a correct camera pose and depth.
-pub fn correct_points(
-    points: &[[f64; 3]],
-    effects: &[Effect],
-    camera: &Camera,
-) -> Vec<[f64; 3]> {
+pub fn correct_points(points: &[[f64; 3]], effects: &[Effect], camera: &Camera) -> Vec<[f64; 3]> {
     let mut out = points.to_vec();
     // Measured = nominal pose applied to a depth-scaled camera point, which equals the pose
     // error applied to a point scaled about the nominal eye: undo the depth, then the pose.
@@ -265,12 +261,7 @@ pub fn correct_points(
 
 /// Linear sensitivity rows of a measurement effect at a feature point `p` with normal `n`:
 /// the change of the residual (measured minus model, along n) per parameter.
-pub fn measurement_row(
-    kind: EffectKind,
-    p: [f64; 3],
-    n: [f64; 3],
-    camera: &Camera,
-) -> Vec<f64> {
+pub fn measurement_row(kind: EffectKind, p: [f64; 3], n: [f64; 3], camera: &Camera) -> Vec<f64> {
     match kind {
         EffectKind::CameraPose => {
             let pxn = [

@@ -114,3 +114,11 @@ pub fn generated_recording(body: &str) -> (tempfile::TempDir, softsense::sense::
 pub fn largest_component_gap(a: [f64; 3], b: [f64; 3]) -> f64 {
     (0..3).fold(0.0f64, |m, k| m.max((a[k] - b[k]).abs()))
 }
+
+/// Runs the `softsense` binary with `args` and returns its output.
+pub fn run_cli(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_softsense"))
+        .args(args)
+        .output()
+        .expect("the softsense binary runs")
+}
