@@ -76,3 +76,41 @@ fn a_frame_showing_twenty_one_contacts_took_six_seconds_to_fail() {
     assert!(report.forces.is_empty());
     assert_eq!(report.updates, 0, "nothing was estimated");
 }
+
+/// A recording copied away from the repository keeps a `truth.json` that names the model
+/// relative to where it was generated; `sense` took that path even when the copy's
+/// `calibration.json` named a model that is there, and failed with "not there".
+#[test]
+fn a_copied_recording_used_the_truths_missing_model_over_the_calibrations() {
+    let dir = tempfile::tempdir().unwrap();
+    let same = |name| (name, name);
+    common::copy_scene_files(
+        "tip_weight",
+        &[
+            same("intrinsics.json"),
+            same("truth.json"),
+            same("depth_0000.png"),
+            same("color_0000.png"),
+        ],
+        dir.path(),
+    );
+    let pose: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(
+            common::project_root().join("clouds/scenes/tip_weight/camera_pose.json"),
+        )
+        .unwrap(),
+    )
+    .unwrap();
+    let model = common::project_root().join("meshes/models/robot.toml");
+    let calibration = serde_json::json!({
+        "robot_from_camera": pose["robot_from_camera"],
+        "model": model.to_str().unwrap(),
+    });
+    std::fs::write(dir.path().join("calibration.json"), calibration.to_string()).unwrap();
+    let rec = Recording::open(dir.path()).unwrap();
+    assert_eq!(rec.model_path(), Some(model));
+    assert_eq!(
+        rec.model_named_by(),
+        Some(dir.path().join("calibration.json"))
+    );
+}

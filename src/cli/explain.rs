@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 /// to the model and show the held-out residual before and after.
 #[derive(Args, Debug)]
 #[command(
-    after_help = "Example:\n  softsense hidden /tmp/ds --effects young --seed 3\n  \
+    after_help = "Example:\n  softsense hidden /tmp/ds --model meshes/models/robot.toml --effects young --seed 3\n  \
 softsense explain meshes/models/robot.toml /tmp/ds/frames --out /tmp/ds/report"
 )]
 pub struct ExplainArgs {
@@ -120,8 +120,8 @@ fn report_model_text(model: &Path) -> Result<String, CliError> {
 pub struct HiddenArgs {
     /// Output folder.
     out_dir: PathBuf,
-    /// Nominal model file.
-    #[arg(long, default_value = "meshes/models/robot.toml")]
+    /// Nominal model file (e.g. meshes/models/robot.toml in this repository).
+    #[arg(long)]
     model: PathBuf,
     /// Comma-separated effect types to hide (none: a null dataset).
     #[arg(long, value_delimiter = ',', value_parser = clap::builder::PossibleValuesParser::new(EFFECT_TYPES))]

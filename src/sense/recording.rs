@@ -119,27 +119,35 @@ impl Recording {
     /// recording's folder; if nothing is there, as it is (recordings made before
     /// 2026-11-24 name it from the directory `scene generate` ran in).
     pub fn model_path(&self) -> Option<PathBuf> {
-        let named = PathBuf::from(match &self.truth {
-            Some(t) => &t.model_path,
-            None => self.calibration_model.as_ref()?,
-        });
-        let in_dir = self.dir.join(&named);
-        Some(if named.is_relative() && in_dir.exists() {
-            in_dir
-        } else {
-            named
-        })
+        self.model_source().map(|(path, _)| path)
     }
 
     /// The file that names [`Recording::model_path`]: `truth.json`, else the pose file
     /// (`calibration.json`); `None` when neither names a model.
     pub fn model_named_by(&self) -> Option<PathBuf> {
-        if self.truth.is_some() {
-            Some(self.dir.join("truth.json"))
-        } else {
-            self.calibration_model
-                .as_ref()
-                .map(|_| self.pose_file.clone())
+        self.model_source().map(|(_, by)| by)
+    }
+
+    // The truth's model unless it is missing where the calibration's is there: a recording
+    // copied away from the repository keeps a truth.json naming a path that no longer
+    // resolves, while `softsense calibrate` names the model it was given.
+    fn model_source(&self) -> Option<(PathBuf, PathBuf)> {
+        let resolve = |named: &str| {
+            let named = PathBuf::from(named);
+            let in_dir = self.dir.join(&named);
+            if named.is_relative() && in_dir.exists() {
+                in_dir
+            } else {
+                named
+            }
+        };
+        let truth = self.truth.as_ref().map(|t| resolve(&t.model_path));
+        let calibration = self.calibration_model.as_deref().map(resolve);
+        match (truth, calibration) {
+            (Some(t), Some(c)) if !t.exists() && c.exists() => Some((c, self.pose_file.clone())),
+            (Some(t), _) => Some((t, self.dir.join("truth.json"))),
+            (None, Some(c)) => Some((c, self.pose_file.clone())),
+            (None, None) => None,
         }
     }
 
