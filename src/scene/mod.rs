@@ -14,7 +14,7 @@
 //! ```
 
 pub mod camera;
-pub mod raycast;
+pub use crate::geometry::raycast;
 pub mod sensor;
 
 use crate::fem::material::Material;
