@@ -50,13 +50,17 @@
 //! assert_eq!(out.segmentation.segments.len(), 2); // the table and the cube
 //! ```
 
-use super::color::{delta_e, rgb_to_lab};
+use super::color::rgb_to_lab;
 use super::region_growing_rgb::{describe, Segmentation};
 use super::{check_distance, check_threshold, SegmentError, UNSEGMENTED};
 use crate::cloud::PointCloud;
 use crate::features::{estimate_normals, Neighbourhood, NormalParams};
 use crate::search::{map_indices, KdTree, Parallelism, RadiusQuery};
-use std::collections::HashMap;
+
+mod plane;
+mod regions;
+use plane::{plane_members, support_plane};
+use regions::Regions;
 
 /// Parameters of [`segment_geometric`]. The defaults are set once from the sensor and
 /// the object sizes (Kinect-class RGB-D at 0.5-1.5 m, tabletop objects of a few cm and
@@ -200,27 +204,6 @@ fn widen(a: [f32; 3]) -> [f64; 3] {
     a.map(|v| v as f64)
 }
 
-fn find(parent: &mut [u32], mut x: u32) -> u32 {
-    while parent[x as usize] != x {
-        let up = parent[parent[x as usize] as usize];
-        parent[x as usize] = up;
-        x = up;
-    }
-    x
-}
-
-/// Small deterministic generator (xorshift64*) for RANSAC: the same cloud always gives
-/// the same plane.
-struct Rng(u64);
-impl Rng {
-    fn below(&mut self, n: usize) -> usize {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as usize % n.max(1)
-    }
-}
-
 /// Segments a cloud by geometry (see the module docs). Colours are optional (without
 /// them flat junctions always merge). Non-finite points get [`UNSEGMENTED`].
 pub fn segment_geometric(
@@ -233,270 +216,39 @@ pub fn segment_geometric(
     let pts: Vec<[f32; 3]> = finite.iter().map(|&i| cloud.positions[i]).collect();
     let m = pts.len();
     let mut labels = vec![UNSEGMENTED; cloud.len()];
-    let empty = |labels: Vec<u32>| GeometricSegmentation {
-        segmentation: Segmentation {
-            segments: Vec::new(),
-            labels,
-            grown_segments: 0,
-            colour_regions: 0,
-        },
-        support: Vec::new(),
-        plane: None,
-        spacing_m: 0.0,
-        min_points: 0,
-    };
     if m < 3 {
-        return Ok(empty(labels));
+        return Ok(GeometricSegmentation {
+            segmentation: Segmentation {
+                segments: Vec::new(),
+                labels,
+                grown_segments: 0,
+                colour_regions: 0,
+            },
+            support: Vec::new(),
+            plane: None,
+            spacing_m: 0.0,
+            min_points: 0,
+        });
     }
-    let mut sub_cloud = cloud.select(&finite);
-    sub_cloud.normals = None;
-    sub_cloud.curvature = None;
-    let normals = estimate_normals(
-        &sub_cloud,
-        &NormalParams {
-            neighbourhood: Neighbourhood::Radius(params.normal_radius_m),
-            parallelism: params.parallelism,
-            ..NormalParams::default()
-        },
-    )?;
-    let nrm: Vec<Option<[f64; 3]>> = normals
-        .normals
-        .iter()
-        .map(|n| n.iter().all(|c| c.is_finite()).then(|| widen(*n)))
-        .collect();
-    let curv = normals.curvature;
-    let tree = KdTree::build(&pts);
-    let query = RadiusQuery {
-        max_results: Some(params.max_neighbours + 1),
-        ..RadiusQuery::sorted()
-    };
-    let nbrs: Vec<Vec<u32>> = map_indices(m, params.parallelism, |i| {
-        tree.within_radius(&pts[i], params.connect_radius_m, query)
-            .into_iter()
-            .filter(|nb| nb.index != i)
-            .map(|nb| nb.index as u32)
-            .collect()
-    });
-    let spacing = median_spacing(&pts, &tree);
+    // Step 1: normals, curvature, neighbours and spacing.
+    let (geo, spacing) = point_geometry(cloud, &finite, &pts, params)?;
     let min_points = ((params.min_area_m2 / (spacing * spacing)).ceil() as usize).max(3);
-
     // Step 2: the support plane.
-    let plane = support_plane(&pts, &nrm, params);
-    let cos_plane = params.plane_normal_deg.to_radians().cos();
-    let on_plane: Vec<bool> = match plane {
-        Some(pl) => (0..m)
-            .map(|i| {
-                let p = widen(pts[i]);
-                let dist = (dot([pl[0], pl[1], pl[2]], p) + pl[3]).abs();
-                let along =
-                    nrm[i].is_some_and(|n| dot(n, [pl[0], pl[1], pl[2]]).abs() >= cos_plane);
-                dist < params.plane_distance_m && along
-            })
-            .collect(),
-        None => vec![false; m],
-    };
-
-    // Step 3: smooth region growing off the support, in ascending curvature order.
-    let cos_smooth = params.smoothness_deg.to_radians().cos();
-    let mut order: Vec<usize> = (0..m).filter(|&i| !on_plane[i]).collect();
-    order.sort_by(|&a, &b| {
-        let key = |i: usize| {
-            if curv[i].is_finite() {
-                curv[i]
-            } else {
-                f32::INFINITY
-            }
-        };
-        key(a).total_cmp(&key(b)).then(a.cmp(&b))
-    });
-    const NONE: u32 = u32::MAX;
-    let mut region = vec![NONE; m];
-    let mut n_regions = 0u32;
-    let mut queue = Vec::new();
-    for &seed in &order {
-        if region[seed] != NONE {
-            continue;
-        }
-        let r = n_regions;
-        n_regions += 1;
-        region[seed] = r;
-        queue.push(seed);
-        while let Some(cur) = queue.pop() {
-            let Some(nc) = nrm[cur] else { continue };
-            for &q in &nbrs[cur] {
-                let q = q as usize;
-                if region[q] != NONE || on_plane[q] {
-                    continue;
-                }
-                let Some(nq) = nrm[q] else { continue };
-                if dot(nc, nq).abs() < cos_smooth {
-                    continue;
-                }
-                region[q] = r;
-                if curv[q] < params.curvature_max as f32 {
-                    queue.push(q);
-                }
-            }
-        }
-    }
-    let grown = n_regions as usize;
-
-    // Step 4: small regions join their most-connected neighbour.
-    let mut parent: Vec<u32> = (0..n_regions).collect();
-    let mut size = vec![0usize; grown];
-    for &r in region.iter().filter(|&&r| r != NONE) {
-        size[r as usize] += 1;
-    }
-    for _pass in 0..8 {
-        let adj = adjacency(&region, &nbrs, &mut parent);
-        let mut best: HashMap<u32, (usize, u32)> = HashMap::new();
-        for (&(a, b), &count) in &adj {
-            for (x, y) in [(a, b), (b, a)] {
-                if size[x as usize] < min_points {
-                    let e = best.entry(x).or_insert((0, y));
-                    if count > e.0 || (count == e.0 && y < e.1) {
-                        *e = (count, y);
-                    }
-                }
-            }
-        }
-        let mut small: Vec<(usize, u32)> = best.keys().map(|&r| (size[r as usize], r)).collect();
-        small.sort_unstable();
-        let mut changed = false;
-        for (_, r) in small {
-            let (ra, rb) = (find(&mut parent, r), find(&mut parent, best[&r].1));
-            if ra == rb || size[ra as usize] >= min_points {
-                continue;
-            }
-            parent[ra as usize] = rb;
-            size[rb as usize] += size[ra as usize];
-            size[ra as usize] = 0;
-            changed = true;
-        }
-        if !changed {
-            break;
-        }
-    }
-
-    // Step 5: convexity and colour merge of the regions.
+    let plane = support_plane(&pts, &geo.nrm, params);
+    let on_plane = plane_members(&pts, &geo.nrm, plane, params);
+    // Steps 3 to 5: smooth regions, small ones joined, convex and flat junctions merged.
+    let mut regions = Regions::grow(&geo, &on_plane, params);
+    let grown = regions.count as usize;
+    regions.merge_small(&geo.nbrs, min_points);
     let labs: Option<Vec<[f64; 3]>> = cloud
         .colors
         .as_ref()
         .map(|c| finite.iter().map(|&i| rgb_to_lab(c[i])).collect());
-    let mut rn = vec![[0f64; 3]; grown];
-    let mut rc = vec![[0f64; 3]; grown];
-    let mut rcount = vec![0f64; grown];
-    for i in 0..m {
-        if region[i] == NONE {
-            continue;
-        }
-        let r = find(&mut parent, region[i]) as usize;
-        if let Some(n) = nrm[i] {
-            for a in 0..3 {
-                rn[r][a] += n[a];
-            }
-        }
-        if let Some(l) = &labs {
-            for a in 0..3 {
-                rc[r][a] += l[i][a];
-            }
-        }
-        rcount[r] += 1.0;
-    }
-    for r in 0..grown {
-        let len = norm(rn[r]);
-        if len > 0.0 {
-            rn[r] = rn[r].map(|v| v / len);
-        }
-        if rcount[r] > 0.0 {
-            rc[r] = rc[r].map(|v| v / rcount[r]);
-        }
-    }
-    let snapshot: Vec<u32> = (0..n_regions).map(|r| find(&mut parent, r)).collect();
-    let mut conv: HashMap<(u32, u32), (usize, f64)> = HashMap::new();
-    for i in 0..m {
-        if region[i] == NONE {
-            continue;
-        }
-        let a = snapshot[region[i] as usize];
-        for &j in &nbrs[i] {
-            let j = j as usize;
-            if region[j] == NONE {
-                continue;
-            }
-            let b = snapshot[region[j] as usize];
-            if a >= b {
-                continue;
-            }
-            let d = sub(pts[j], pts[i]);
-            let len = norm(d);
-            if len == 0.0 {
-                continue;
-            }
-            let na = rn[a as usize];
-            let nb = rn[b as usize];
-            let c = dot([na[0] - nb[0], na[1] - nb[1], na[2] - nb[2]], d) / len;
-            let e = conv.entry((a, b)).or_insert((0, 0.0));
-            e.0 += 1;
-            e.1 += c;
-        }
-    }
-    let sin_c = params.concavity_deg.to_radians().sin();
-    let mut pairs: Vec<((u32, u32), (usize, f64))> = conv.into_iter().collect();
-    pairs.sort_unstable_by_key(|p| p.0);
-    for ((a, b), (count, sum)) in pairs {
-        if count < params.min_boundary_pairs
-            || rcount[a as usize] < min_points as f64
-            || rcount[b as usize] < min_points as f64
-        {
-            continue;
-        }
-        let c = sum / count as f64;
-        let merge = if c > sin_c {
-            false
-        } else if c < -sin_c {
-            true
-        } else {
-            labs.is_none() || delta_e(rc[a as usize], rc[b as usize]) < params.flat_merge_delta_e
-        };
-        if merge {
-            let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
-            if ra != rb {
-                parent[ra.max(rb) as usize] = ra.min(rb);
-            }
-        }
-    }
-
+    regions.merge_convex(&geo, &pts, labs.as_deref(), min_points, params);
     // Assembly: object segments and support parts, by size descending.
-    let mut groups: HashMap<u32, Vec<usize>> = HashMap::new();
-    for i in 0..m {
-        if region[i] != NONE {
-            groups
-                .entry(find(&mut parent, region[i]))
-                .or_default()
-                .push(finite[i]);
-        }
-    }
-    let mut clusters: Vec<(bool, Vec<usize>)> = groups
-        .into_values()
-        .filter(|g| g.len() >= min_points)
-        .map(|g| (false, g))
-        .collect();
+    let mut clusters = regions.clusters(&finite, min_points);
     if plane.is_some() {
-        let support_idx: Vec<usize> = (0..m).filter(|&i| on_plane[i]).collect();
-        let support_pts: Vec<[f32; 3]> = support_idx.iter().map(|&i| pts[i]).collect();
-        let parts = super::euclidean::euclidean_clusters(
-            &support_pts,
-            &super::EuclideanParams {
-                tolerance: params.connect_radius_m,
-                min_size: min_points,
-                max_size: usize::MAX,
-                ..Default::default()
-            },
-        )?;
-        for part in parts {
-            clusters.push((true, part.iter().map(|&k| finite[support_idx[k]]).collect()));
-        }
+        clusters.extend(support_parts(&pts, &finite, &on_plane, min_points, params)?);
     }
     for c in &mut clusters {
         c.1.sort_unstable();
@@ -528,27 +280,82 @@ pub fn segment_geometric(
     })
 }
 
-/// Neighbour-pair counts between the current root regions (each directed neighbour
-/// relation counted), keyed by `(smaller root, larger root)`.
-fn adjacency(region: &[u32], nbrs: &[Vec<u32>], parent: &mut [u32]) -> HashMap<(u32, u32), usize> {
-    let mut adj: HashMap<(u32, u32), usize> = HashMap::new();
-    for (i, list) in nbrs.iter().enumerate() {
-        if region[i] == u32::MAX {
-            continue;
-        }
-        let a = find(parent, region[i]);
-        for &j in list {
-            let j = j as usize;
-            if region[j] == u32::MAX {
-                continue;
-            }
-            let b = find(parent, region[j]);
-            if a != b {
-                *adj.entry((a.min(b), a.max(b))).or_default() += 1;
-            }
-        }
-    }
-    adj
+/// Per finite point: its normal (`None` when PCA gave none), curvature, and the
+/// neighbours within the connection radius (itself excluded).
+struct PointGeometry {
+    nrm: Vec<Option<[f64; 3]>>,
+    curv: Vec<f32>,
+    nbrs: Vec<Vec<u32>>,
+}
+
+/// Step 1: normals and curvature by PCA over a radius, connectivity neighbours, and the
+/// measured point spacing (m).
+fn point_geometry(
+    cloud: &PointCloud,
+    finite: &[usize],
+    pts: &[[f32; 3]],
+    params: &GeometricParams,
+) -> Result<(PointGeometry, f64), SegmentError> {
+    let mut sub_cloud = cloud.select(finite);
+    sub_cloud.normals = None;
+    sub_cloud.curvature = None;
+    let normals = estimate_normals(
+        &sub_cloud,
+        &NormalParams {
+            neighbourhood: Neighbourhood::Radius(params.normal_radius_m),
+            parallelism: params.parallelism,
+            ..NormalParams::default()
+        },
+    )?;
+    let nrm: Vec<Option<[f64; 3]>> = normals
+        .normals
+        .iter()
+        .map(|n| n.iter().all(|c| c.is_finite()).then(|| widen(*n)))
+        .collect();
+    let tree = KdTree::build(pts);
+    let query = RadiusQuery {
+        max_results: Some(params.max_neighbours + 1),
+        ..RadiusQuery::sorted()
+    };
+    let nbrs: Vec<Vec<u32>> = map_indices(pts.len(), params.parallelism, |i| {
+        tree.within_radius(&pts[i], params.connect_radius_m, query)
+            .into_iter()
+            .filter(|nb| nb.index != i)
+            .map(|nb| nb.index as u32)
+            .collect()
+    });
+    let spacing = median_spacing(pts, &tree);
+    let geo = PointGeometry {
+        nrm,
+        curv: normals.curvature,
+        nbrs,
+    };
+    Ok((geo, spacing))
+}
+
+/// The support plane's inliers split into connected parts, as `(true, cloud indices)`.
+fn support_parts(
+    pts: &[[f32; 3]],
+    finite: &[usize],
+    on_plane: &[bool],
+    min_points: usize,
+    params: &GeometricParams,
+) -> Result<Vec<(bool, Vec<usize>)>, SegmentError> {
+    let support_idx: Vec<usize> = (0..pts.len()).filter(|&i| on_plane[i]).collect();
+    let support_pts: Vec<[f32; 3]> = support_idx.iter().map(|&i| pts[i]).collect();
+    let parts = super::euclidean::euclidean_clusters(
+        &support_pts,
+        &super::EuclideanParams {
+            tolerance: params.connect_radius_m,
+            min_size: min_points,
+            max_size: usize::MAX,
+            ..Default::default()
+        },
+    )?;
+    Ok(parts
+        .into_iter()
+        .map(|part| (true, part.iter().map(|&k| finite[support_idx[k]]).collect()))
+        .collect())
 }
 
 /// Median distance to the nearest other point over a sample (metres).
@@ -569,94 +376,4 @@ fn median_spacing(pts: &[[f32; 3]], tree: &KdTree) -> f64 {
     }
     d.sort_by(f64::total_cmp);
     d[d.len() / 2]
-}
-
-/// RANSAC for the dominant plane among points whose normal agrees with it, refitted by
-/// least squares on its inliers; `None` when it holds less than `plane_min_fraction`.
-fn support_plane(
-    pts: &[[f32; 3]],
-    nrm: &[Option<[f64; 3]>],
-    params: &GeometricParams,
-) -> Option<[f64; 4]> {
-    let m = pts.len();
-    let step = (m / 20_000).max(1);
-    let sample: Vec<usize> = (0..m).step_by(step).collect();
-    let cos_plane = params.plane_normal_deg.to_radians().cos();
-    let count = |pl: [f64; 4], idx: &mut dyn Iterator<Item = usize>| -> usize {
-        idx.filter(|&i| is_inlier(pts[i], nrm[i], pl, params.plane_distance_m, cos_plane))
-            .count()
-    };
-    let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
-    let mut best: Option<([f64; 4], usize)> = None;
-    for _ in 0..params.ransac_iterations {
-        let (a, b, c) = (
-            sample[rng.below(sample.len())],
-            sample[rng.below(sample.len())],
-            sample[rng.below(sample.len())],
-        );
-        let (u, v) = (sub(pts[b], pts[a]), sub(pts[c], pts[a]));
-        let n = [
-            u[1] * v[2] - u[2] * v[1],
-            u[2] * v[0] - u[0] * v[2],
-            u[0] * v[1] - u[1] * v[0],
-        ];
-        let len = norm(n);
-        if len.is_nan() || len <= 1e-12 {
-            continue;
-        }
-        let n = n.map(|x| x / len);
-        let pl = [n[0], n[1], n[2], -dot(n, widen(pts[a]))];
-        let k = count(pl, &mut sample.iter().copied());
-        if best.is_none_or(|(_, bk)| k > bk) {
-            best = Some((pl, k));
-        }
-    }
-    let (pl, _) = best?;
-    let inliers: Vec<usize> = (0..m)
-        .filter(|&i| is_inlier(pts[i], nrm[i], pl, params.plane_distance_m, cos_plane))
-        .collect();
-    let pl = refit(pts, &inliers).unwrap_or(pl);
-    let k = count(pl, &mut (0..m));
-    (k as f64 >= params.plane_min_fraction * m as f64).then_some(pl)
-}
-
-fn is_inlier(p: [f32; 3], n: Option<[f64; 3]>, pl: [f64; 4], dist: f64, cos: f64) -> bool {
-    let nn = [pl[0], pl[1], pl[2]];
-    (dot(nn, widen(p)) + pl[3]).abs() < dist && n.is_some_and(|n| dot(n, nn).abs() >= cos)
-}
-
-/// Least-squares plane through `idx` (smallest eigenvector of the covariance), normal
-/// oriented towards the origin side of the plane (the viewpoint for camera clouds).
-fn refit(pts: &[[f32; 3]], idx: &[usize]) -> Option<[f64; 4]> {
-    if idx.len() < 3 {
-        return None;
-    }
-    let mut c = [0f64; 3];
-    for &i in idx {
-        for a in 0..3 {
-            c[a] += pts[i][a] as f64;
-        }
-    }
-    let c = c.map(|v| v / idx.len() as f64);
-    let mut cov = nalgebra::Matrix3::<f64>::zeros();
-    for &i in idx {
-        let d = nalgebra::Vector3::new(
-            pts[i][0] as f64 - c[0],
-            pts[i][1] as f64 - c[1],
-            pts[i][2] as f64 - c[2],
-        );
-        cov += d * d.transpose();
-    }
-    let eig = cov.symmetric_eigen();
-    let k = eig.eigenvalues.imin();
-    let n = eig.eigenvectors.column(k);
-    let mut n = [n[0], n[1], n[2]];
-    let mut d = -dot(n, c);
-    if d < 0.0 {
-        n = n.map(|x| -x);
-        d = -d;
-    }
-    n.iter()
-        .all(|v| v.is_finite())
-        .then_some([n[0], n[1], n[2], d])
 }
