@@ -245,12 +245,9 @@ impl Regions {
         min_points: usize,
     ) -> Vec<(bool, Vec<usize>)> {
         let mut groups: HashMap<u32, Vec<usize>> = HashMap::new();
-        for i in 0..self.region.len() {
-            if self.region[i] != NONE {
-                groups
-                    .entry(find(&mut self.parent, self.region[i]))
-                    .or_default()
-                    .push(finite[i]);
+        for (&r, &i) in self.region.iter().zip(finite) {
+            if r != NONE {
+                groups.entry(find(&mut self.parent, r)).or_default().push(i);
             }
         }
         groups
