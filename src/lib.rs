@@ -35,6 +35,7 @@ pub mod error;
 pub mod features;
 pub mod fem;
 pub mod filter;
+pub mod geometry;
 pub mod inverse;
 pub mod io;
 pub mod math;

@@ -115,88 +115,104 @@ pub fn estimate_normals(
         viewpoint: vp,
         invalid,
     };
+    let par = params.parallelism;
     let res: Vec<([f32; 3], f32)> = match params.neighbourhood {
         // PERF: all k-NN lists at once on a grid (exact, ties to the smaller index).
-        Neighbourhood::Knn(k) if !pcl || k > FLANN_SIMPLE_MAX_K => {
-            map_knn(&cloud.positions, k, params.parallelism, |i, nbrs| {
-                if nbrs.is_empty() {
-                    return invalid;
-                }
-                ctx.normal_of(i, nbrs.iter().map(|n| n.index))
-            })
-        }
-        Neighbourhood::Knn(k) => {
-            // PCL: where points tie at the k-th distance, FLANN's visiting order decides
-            // which of them are kept. The grid asks for k + 1 neighbours to see the tie;
-            // the untied points (almost all) are done in this pass, the tied ones by the
-            // FLANN-order tree, built only when there is one.
-            // PERF: sensor frames (organised clouds) nearly always tie somewhere (2-4% of
-            // the points of the Kinect frames at k = 10), so their FLANN tree is built
-            // while the grid is sorted on one thread, which leaves the other idle.
-            let speculate = cloud.is_organized() && params.parallelism == Parallelism::Rayon;
-            let (search, mut tree) = join(
-                params.parallelism,
-                || KnnSearch::new(&cloud.positions, k.saturating_add(1)),
-                || speculate.then(|| FlannTree::build_with(&cloud.positions, params.parallelism)),
-            );
-            let first = map_knn_with(&search, params.parallelism, |i, nbrs| {
-                if nbrs.is_empty() {
-                    return Some(invalid);
-                }
-                if nbrs.len() > k && nbrs[k].squared_distance == nbrs[k - 1].squared_distance {
-                    // A tie: FLANN's order decides, here when its tree is already built.
-                    let t = tree.as_ref()?;
-                    let nbrs = t.nearest_k(&cloud.positions[i], k);
-                    return Some(ctx.normal_of(i, nbrs.iter().map(|n| n.index)));
-                }
-                Some(ctx.normal_of(i, nbrs.iter().take(k).map(|n| n.index)))
-            });
-            let tied: Vec<usize> = (0..first.len()).filter(|&i| first[i].is_none()).collect();
-            let fixed = if tied.is_empty() {
-                Vec::new()
-            } else {
-                let tree = tree.get_or_insert_with(|| {
-                    FlannTree::build_with(&cloud.positions, params.parallelism)
-                });
-                map_indices(tied.len(), params.parallelism, |t| {
-                    let i = tied[t];
-                    let nbrs = tree.nearest_k(&cloud.positions[i], k);
-                    ctx.normal_of(i, nbrs.iter().map(|n| n.index))
-                })
-            };
-            let mut fixed = fixed.into_iter();
-            first
-                .into_iter()
-                .map(|r| r.unwrap_or_else(|| fixed.next().unwrap_or(invalid)))
-                .collect()
-        }
-        Neighbourhood::Radius(r) => {
-            let tree = KdTree::build(&cloud.positions);
-            map_indices(cloud.len(), params.parallelism, |i| {
-                let p = &cloud.positions[i];
-                if !PointCloud::is_finite_point(p) {
-                    return invalid;
-                }
-                let q = RadiusQuery::unsorted();
-                let nbrs: Vec<usize> = if pcl {
-                    tree.within_radius(p, r, q)
-                        .iter()
-                        .map(|n| n.index)
-                        .collect()
-                } else {
-                    tree.within_radius_f64(p, r, q)
-                        .iter()
-                        .map(|n| n.index)
-                        .collect()
-                };
-                ctx.normal_of(i, nbrs.into_iter())
-            })
-        }
+        Neighbourhood::Knn(k) if !pcl || k > FLANN_SIMPLE_MAX_K => ctx.by_knn(k, par),
+        Neighbourhood::Knn(k) => ctx.by_knn_flann_ties(k, cloud.is_organized(), par),
+        Neighbourhood::Radius(r) => ctx.by_radius(r, par),
     };
     Ok(Normals {
         normals: res.iter().map(|r| r.0).collect(),
         curvature: res.iter().map(|r| r.1).collect(),
     })
+}
+
+impl Ctx<'_> {
+    /// Normals over each point's k nearest (ties at the k-th place to the smaller index).
+    fn by_knn(&self, k: usize, par: Parallelism) -> Vec<([f32; 3], f32)> {
+        map_knn(self.positions, k, par, |i, nbrs| {
+            if nbrs.is_empty() {
+                return self.invalid;
+            }
+            self.normal_of(i, nbrs.iter().map(|n| n.index))
+        })
+    }
+
+    /// Normals over each point's k nearest as PCL's FLANN picks them (`organized`: the
+    /// cloud is a sensor frame).
+    fn by_knn_flann_ties(
+        &self,
+        k: usize,
+        organized: bool,
+        par: Parallelism,
+    ) -> Vec<([f32; 3], f32)> {
+        // PCL: where points tie at the k-th distance, FLANN's visiting order decides
+        // which of them are kept. The grid asks for k + 1 neighbours to see the tie;
+        // the untied points (almost all) are done in this pass, the tied ones by the
+        // FLANN-order tree, built only when there is one.
+        // PERF: sensor frames (organised clouds) nearly always tie somewhere (2-4% of
+        // the points of the Kinect frames at k = 10), so their FLANN tree is built
+        // while the grid is sorted on one thread, which leaves the other idle.
+        let speculate = organized && par == Parallelism::Rayon;
+        let (search, mut tree) = join(
+            par,
+            || KnnSearch::new(self.positions, k.saturating_add(1)),
+            || speculate.then(|| FlannTree::build_with(self.positions, par)),
+        );
+        let first = map_knn_with(&search, par, |i, nbrs| {
+            if nbrs.is_empty() {
+                return Some(self.invalid);
+            }
+            if nbrs.len() > k && nbrs[k].squared_distance == nbrs[k - 1].squared_distance {
+                // A tie: FLANN's order decides, here when its tree is already built.
+                let t = tree.as_ref()?;
+                let nbrs = t.nearest_k(&self.positions[i], k);
+                return Some(self.normal_of(i, nbrs.iter().map(|n| n.index)));
+            }
+            Some(self.normal_of(i, nbrs.iter().take(k).map(|n| n.index)))
+        });
+        let tied: Vec<usize> = (0..first.len()).filter(|&i| first[i].is_none()).collect();
+        let fixed = if tied.is_empty() {
+            Vec::new()
+        } else {
+            let tree = tree.get_or_insert_with(|| FlannTree::build_with(self.positions, par));
+            map_indices(tied.len(), par, |t| {
+                let i = tied[t];
+                let nbrs = tree.nearest_k(&self.positions[i], k);
+                self.normal_of(i, nbrs.iter().map(|n| n.index))
+            })
+        };
+        let mut fixed = fixed.into_iter();
+        first
+            .into_iter()
+            .map(|r| r.unwrap_or_else(|| fixed.next().unwrap_or(self.invalid)))
+            .collect()
+    }
+
+    /// Normals over the points within `r` (m) of each point.
+    fn by_radius(&self, r: f64, par: Parallelism) -> Vec<([f32; 3], f32)> {
+        let tree = KdTree::build(self.positions);
+        map_indices(self.positions.len(), par, |i| {
+            let p = &self.positions[i];
+            if !PointCloud::is_finite_point(p) {
+                return self.invalid;
+            }
+            let q = RadiusQuery::unsorted();
+            let nbrs: Vec<usize> = if self.pcl {
+                tree.within_radius(p, r, q)
+                    .iter()
+                    .map(|n| n.index)
+                    .collect()
+            } else {
+                tree.within_radius_f64(p, r, q)
+                    .iter()
+                    .map(|n| n.index)
+                    .collect()
+            };
+            self.normal_of(i, nbrs.into_iter())
+        })
+    }
 }
 
 /// What [`estimate_normals`] needs to turn a neighbourhood into a normal.

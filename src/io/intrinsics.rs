@@ -17,7 +17,7 @@
 //! # Ok::<(), softsense::io::rgbd::RgbdError>(())
 //! ```
 
-use super::rgbd::RgbdError;
+use super::rgbd_error::RgbdError;
 use super::IoError;
 use serde::{Deserialize, Serialize};
 use std::path::Path;

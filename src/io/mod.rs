@@ -12,6 +12,7 @@ pub mod intrinsics;
 pub mod pcd;
 pub mod ply;
 pub mod rgbd;
+mod rgbd_error;
 pub mod xyz;
 
 use crate::cloud::PointCloud;

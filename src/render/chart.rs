@@ -65,22 +65,54 @@ pub fn bar_chart(
     if hi == lo {
         hi = lo + 1.0;
     }
-    // Halves keep the span finite for values near ±f64::MAX.
-    let to_x = |v: f64| -> i64 {
-        let t = ((v * 0.5 - lo * 0.5) / (hi * 0.5 - lo * 0.5)).clamp(0.0, 1.0);
-        left + (t * (right - left) as f64).round() as i64
+    let bars = Bars {
+        left,
+        right,
+        top,
+        bottom,
+        lo,
+        hi,
+        label_w,
+        row_h: ((bottom - top) / n).max(1),
     };
-    let zero = to_x(0.0);
-    let row_h = ((bottom - top) / n).max(1);
-    let bar_h = (row_h * 7 / 10).max(1);
     for (i, (label, &v)) in labels.iter().zip(values).enumerate() {
-        let y = top + i as i64 * row_h;
-        let mid = y + row_h / 2;
-        let hl = highlight == Some(i);
+        bars.draw_bar(&mut c, i, label, v, highlight == Some(i));
+    }
+    bars.draw_axis(&mut c, w);
+    Ok(c)
+}
+
+/// The plot area of a [`bar_chart`] (pixels) and its value range.
+struct Bars {
+    left: i64,
+    right: i64,
+    top: i64,
+    bottom: i64,
+    lo: f64,
+    hi: f64,
+    label_w: i64,
+    row_h: i64,
+}
+
+impl Bars {
+    /// The x pixel of value `v`. Halves keep the span finite for values near ±f64::MAX.
+    fn to_x(&self, v: f64) -> i64 {
+        let (lo, hi) = (self.lo, self.hi);
+        let t = ((v * 0.5 - lo * 0.5) / (hi * 0.5 - lo * 0.5)).clamp(0.0, 1.0);
+        self.left + (t * (self.right - self.left) as f64).round() as i64
+    }
+
+    /// Row `i`: its label (`*` and highlighted when `hl`), its bar from zero, its value.
+    fn draw_bar(&self, c: &mut Canvas, i: usize, label: &str, v: f64, hl: bool) {
+        let (left, right) = (self.left, self.right);
+        let zero = self.to_x(0.0);
+        let bar_h = (self.row_h * 7 / 10).max(1);
+        let y = self.top + i as i64 * self.row_h;
+        let mid = y + self.row_h / 2;
         let colour = if hl { BAR_HIGHLIGHT } else { BAR };
         let text = fit_text(
             &format!("{}{label}", if hl { "*" } else { "" }),
-            label_w - 8,
+            self.label_w - 8,
         );
         let tw = i64::from(text_size(&text, 1).0);
         c.text(
@@ -97,7 +129,7 @@ pub fn bar_chart(
         } else if v == f64::NEG_INFINITY {
             left
         } else {
-            to_x(v)
+            self.to_x(v)
         };
         let (a, b) = (zero.min(end), zero.max(end));
         c.fill_rect(a, mid - bar_h / 2, (b - a).max(1), bar_h, colour);
@@ -115,26 +147,30 @@ pub fn bar_chart(
             1,
         );
     }
-    // Zero line and value axis.
-    c.fill_rect(zero, top - 2, 1, bottom - top + 4, BLACK);
-    c.fill_rect(left, bottom + 2, right - left + 1, 1, BLACK);
-    let mut ticks = vec![(left, lo), (right, hi)];
-    if zero - left > 30 && right - zero > 30 {
-        ticks.push((zero, 0.0));
+
+    /// The zero line and the value axis with its ticks (`w`: the canvas width).
+    fn draw_axis(&self, c: &mut Canvas, w: i64) {
+        let (left, right, top, bottom) = (self.left, self.right, self.top, self.bottom);
+        let zero = self.to_x(0.0);
+        c.fill_rect(zero, top - 2, 1, bottom - top + 4, BLACK);
+        c.fill_rect(left, bottom + 2, right - left + 1, 1, BLACK);
+        let mut ticks = vec![(left, self.lo), (right, self.hi)];
+        if zero - left > 30 && right - zero > 30 {
+            ticks.push((zero, 0.0));
+        }
+        for (x, v) in ticks {
+            c.fill_rect(x, bottom + 2, 1, 4, BLACK);
+            let t = format_value(v);
+            let tw = i64::from(text_size(&t, 1).0);
+            c.text(
+                (x - tw / 2).clamp(0, (w - tw).max(0)),
+                bottom + 9,
+                &t,
+                BLACK,
+                1,
+            );
+        }
     }
-    for (x, v) in ticks {
-        c.fill_rect(x, bottom + 2, 1, 4, BLACK);
-        let t = format_value(v);
-        let tw = i64::from(text_size(&t, 1).0);
-        c.text(
-            (x - tw / 2).clamp(0, (w - tw).max(0)),
-            bottom + 9,
-            &t,
-            BLACK,
-            1,
-        );
-    }
-    Ok(c)
 }
 
 /// `text` shortened with a trailing `..` so that it is at most `max_w` pixels wide at

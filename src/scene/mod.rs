@@ -14,7 +14,7 @@
 //! ```
 
 pub mod camera;
-pub mod raycast;
+pub use crate::geometry::raycast;
 pub mod sensor;
 
 use crate::fem::material::Material;
@@ -391,25 +391,18 @@ fn frame_problem(
     Ok((problem, nodes_of_loads))
 }
 
-/// Solves and renders frame `index` of the scene.
-pub fn render_frame(scene: &Scene, model: &Model, index: usize) -> SceneResult<Rendered> {
-    let spec = &scene.spec;
-    let frame = spec
-        .frames
-        .get(index)
-        .ok_or_else(|| SceneError::Spec(format!("no frame {index}")))?;
-    let surface = model.problem.mesh.surface();
-    let (problem, nodes_of_loads) = frame_problem(model, &surface, spec, index)?;
-    let rest = &problem.mesh.nodes_in_rest;
-    let sol = problem.solve_static(&model.newton)?;
-    if !sol.converged {
-        return Err(SceneError::NotConverged { frame: index });
-    }
-    let x = &sol.positions;
-    let loads: Vec<LoadTruth> = frame
+/// Each load's truth from its surface node and point of application (`x`: the solved
+/// node positions).
+fn load_truths(
+    frame: &FrameInput,
+    nodes_of_loads: &[(usize, MappedPoint)],
+    rest: &[[f64; 3]],
+    x: &[[f64; 3]],
+) -> Vec<LoadTruth> {
+    frame
         .loads
         .iter()
-        .zip(&nodes_of_loads)
+        .zip(nodes_of_loads)
         .map(|(l, &(node, at))| {
             let mag = l.force.iter().map(|f| f * f).sum::<f64>().sqrt();
             let probe_center = (l.kind == LoadKind::Probe && mag > 0.0)
@@ -425,27 +418,18 @@ pub fn render_frame(scene: &Scene, model: &Model, index: usize) -> SceneResult<R
                 radius: l.radius,
             }
         })
-        .collect();
-    let actuators = problem
-        .cables
-        .iter()
-        .enumerate()
-        .map(|(i, c)| ActuatorTruth {
-            name: c.name.clone(),
-            displacement_controlled: matches!(c.control, CableControl::Displacement(_)),
-            shortening: sol.cable_shortening.get(i).copied().unwrap_or(f64::NAN),
-            tension: sol.cable_tension.get(i).copied().unwrap_or(f64::NAN),
-        })
-        .collect();
-    let camera = Camera::new(spec.camera.clone())
-        .ok_or_else(|| SceneError::Spec("degenerate camera (intrinsics or pose)".into()))?;
-    let bvh = Bvh::new(x, &surface.triangles);
+        .collect()
+}
+
+/// Per pixel, row-major: the nearest hit's depth, cosine of incidence and object (0
+/// robot, 1 probe, 2 table; `(0, 1, 3)` for none).
+fn cast_pixels(
+    spec: &SceneSpec,
+    camera: &Camera,
+    bvh: &Bvh,
+    probes: &[([f64; 3], f64)],
+) -> Vec<(f64, f64, usize)> {
     let (w, h) = (spec.camera.width as usize, spec.camera.height as usize);
-    let probes: Vec<([f64; 3], f64)> = loads
-        .iter()
-        .filter_map(|l| l.probe_center.map(|c| (c, l.radius)))
-        .collect();
-    // Per pixel: (depth, cos incidence, object 0 robot / 1 probe / 2 table / 3 none)
     let cast = |i: usize| -> (f64, f64, usize) {
         let (u, v) = ((i % w) as f64, (i / w) as f64);
         let d = camera.ray(u, v);
@@ -460,7 +444,7 @@ pub fn render_frame(scene: &Scene, model: &Model, index: usize) -> SceneResult<R
             }
         };
         consider(bvh.cast(o, d), 0);
-        for &(c, r) in &probes {
+        for &(c, r) in probes {
             consider(raycast::ray_sphere(o, d, c, r), 1);
         }
         if spec.table_half > 0.0 {
@@ -479,12 +463,51 @@ pub fn render_frame(scene: &Scene, model: &Model, index: usize) -> SceneResult<R
         }
     };
     #[cfg(feature = "parallel")]
-    let hits: Vec<(f64, f64, usize)> = {
+    {
         use rayon::prelude::*;
         (0..w * h).into_par_iter().map(cast).collect()
-    };
+    }
     #[cfg(not(feature = "parallel"))]
-    let hits: Vec<(f64, f64, usize)> = (0..w * h).map(cast).collect();
+    {
+        (0..w * h).map(cast).collect()
+    }
+}
+
+/// Solves and renders frame `index` of the scene.
+pub fn render_frame(scene: &Scene, model: &Model, index: usize) -> SceneResult<Rendered> {
+    let spec = &scene.spec;
+    let frame = spec
+        .frames
+        .get(index)
+        .ok_or_else(|| SceneError::Spec(format!("no frame {index}")))?;
+    let surface = model.problem.mesh.surface();
+    let (problem, nodes_of_loads) = frame_problem(model, &surface, spec, index)?;
+    let rest = &problem.mesh.nodes_in_rest;
+    let sol = problem.solve_static(&model.newton)?;
+    if !sol.converged {
+        return Err(SceneError::NotConverged { frame: index });
+    }
+    let loads = load_truths(frame, &nodes_of_loads, rest, &sol.positions);
+    let actuators = problem
+        .cables
+        .iter()
+        .enumerate()
+        .map(|(i, c)| ActuatorTruth {
+            name: c.name.clone(),
+            displacement_controlled: matches!(c.control, CableControl::Displacement(_)),
+            shortening: sol.cable_shortening.get(i).copied().unwrap_or(f64::NAN),
+            tension: sol.cable_tension.get(i).copied().unwrap_or(f64::NAN),
+        })
+        .collect();
+    let camera = Camera::new(spec.camera.clone())
+        .ok_or_else(|| SceneError::Spec("degenerate camera (intrinsics or pose)".into()))?;
+    let bvh = Bvh::new(&sol.positions, &surface.triangles);
+    let w = spec.camera.width as usize;
+    let probes: Vec<([f64; 3], f64)> = loads
+        .iter()
+        .filter_map(|l| l.probe_center.map(|c| (c, l.radius)))
+        .collect();
+    let hits = cast_pixels(spec, &camera, &bvh, &probes);
     let z: Vec<f64> = hits.iter().map(|h| h.0).collect();
     let cosi: Vec<f64> = hits.iter().map(|h| h.1).collect();
     let depth = spec.sensor.depth(&z, &cosi, w, spec.seed, index as u64);

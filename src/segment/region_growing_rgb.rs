@@ -220,17 +220,7 @@ pub fn region_growing_rgb(
     params: &RegionGrowingParams,
 ) -> Result<Segmentation, SegmentError> {
     cloud.validate()?;
-    check_distance("distance_m", params.distance_m)?;
-    check_threshold("point_color", params.point_color)?;
-    check_threshold("region_color", params.region_color)?;
-    if params.region_neighbours == 0 || params.region_neighbours > MAX_REGION_NEIGHBOURS {
-        return Err(SegmentError::InvalidCount {
-            name: "region_neighbours",
-            value: params.region_neighbours,
-            min: 1,
-            max: MAX_REGION_NEIGHBOURS,
-        });
-    }
+    check_params(params)?;
     let colors = cloud.colors.as_ref().ok_or(SegmentError::NoColors)?;
     let finite = cloud.finite_indices();
     let pts: Vec<[f32; 3]> = finite.iter().map(|&i| cloud.positions[i]).collect();
@@ -246,109 +236,21 @@ pub fn region_growing_rgb(
             colour_regions: 0,
         });
     }
-    let p_thr = {
-        let t = params.point_color as f32;
+    let squared = |t: f64| {
+        let t = t as f32;
         t * t
     };
-    let r_thr = {
-        let t = params.region_color as f32;
-        t * t
-    };
-    let d_thr = {
-        let t = params.distance_m as f32;
-        t * t
-    };
-
-    // Step 1: the K nearest neighbours of every point, stored as indices (4 bytes per
-    // point and neighbour; PCL stores 8). The first `grow_n` of a K list are the
-    // `grow_n` nearest (the order is total); the growth only needs them as a set
-    // filtered by the point colour test (which points it reaches does not depend on
-    // their order), so those are moved to the front, and their number kept.
-    let par = params.parallelism;
-    let search = KnnSearch::new(&pts, params.region_neighbours);
-    let k = search.k();
-    let grow_n = params.neighbours.min(k);
-    let lists = search.knn(
-        par,
-        || KLists {
-            rows: Vec::new(),
-            ids: Vec::new(),
-            grow: Vec::new(),
-        },
-        |out: &mut KLists, i, words| {
-            let c = cols[i as usize].map(u32::from);
-            let passes =
-                |w: u64| color_dist2(c, cols[word_index(w) as usize].map(u32::from)) <= p_thr;
-            // The `grow_n` nearest first (words are distinct, so they are exact), then
-            // the colour-compatible among them first (their order does not matter).
-            let near = if grow_n < words.len() {
-                words.select_nth_unstable(grow_n - 1);
-                grow_n
-            } else {
-                words.len()
-            };
-            let mut n_grow = 0;
-            for j in 0..near {
-                if passes(words[j]) {
-                    words.swap(n_grow, j);
-                    n_grow += 1;
-                }
-            }
-            out.grow.push(n_grow as u16);
-            let start = out.rows.len();
-            out.rows.extend(words.iter().map(|&w| word_index(w)));
-            // Every finite point has k neighbours; pad defensively with itself.
-            out.rows.resize(start + k, i);
-            out.ids.push(i);
-        },
+    let (p_thr, r_thr, d_thr) = (
+        squared(params.point_color),
+        squared(params.region_color),
+        squared(params.distance_m),
     );
-    // Where each point's row is: (chunk, row within the chunk).
-    let mut loc = vec![(0u32, 0u32); m];
-    for (c, l) in lists.iter().enumerate() {
-        for (r, &i) in l.ids.iter().enumerate() {
-            loc[i as usize] = (c as u32, r as u32);
-        }
-    }
-    let row = |p: usize| -> &[u32] {
-        let (c, r) = loc[p];
-        let r = r as usize;
-        &lists[c as usize].rows[r * k..(r + 1) * k]
-    };
-    let grow_row = |p: usize| -> &[u32] {
-        let (c, r) = loc[p];
-        let l = &lists[c as usize];
-        let r = r as usize;
-        &l.rows[r * k..r * k + l.grow[r] as usize]
-    };
-
-    // Step 2: region growing, breadth first; `members` is the queue, and ends up
-    // holding every segment's points together.
-    let mut seg = vec![u32::MAX; m];
-    let mut members: Vec<u32> = Vec::with_capacity(m);
-    let mut seg_start: Vec<u32> = Vec::new();
-    for seed in 0..m {
-        if seg[seed] != u32::MAX {
-            continue;
-        }
-        let s = seg_start.len() as u32;
-        let mut head = members.len();
-        seg_start.push(head as u32);
-        seg[seed] = s;
-        members.push(seed as u32);
-        while head < members.len() {
-            let cur = members[head] as usize;
-            head += 1;
-            for &q in grow_row(cur) {
-                if seg[q as usize] == u32::MAX {
-                    seg[q as usize] = s;
-                    members.push(q);
-                }
-            }
-        }
-    }
-    seg_start.push(m as u32);
-    let n_seg = seg_start.len() - 1;
-    let seg_count: Vec<u32> = seg_start.windows(2).map(|w| w[1] - w[0]).collect();
+    let par = params.parallelism;
+    // Steps 1 and 2: the K lists, then region growing over their growth candidates.
+    let lists = NeighbourLists::new(&pts, &cols, params, p_thr);
+    let grown = Grown::new(m, |p| lists.grow_row(p));
+    let n_seg = grown.seg_start.len() - 1;
+    let seg_count: Vec<u32> = grown.seg_start.windows(2).map(|w| w[1] - w[0]).collect();
 
     // Step 3: segment adjacency, K nearest segments, stored as stacks (see
     // `segment_neighbours`).
@@ -357,11 +259,11 @@ pub fn region_growing_rgb(
         crate::search::map_range(n_seg.div_ceil(chunk), par, 1, |c| {
             segment_neighbours(
                 c * chunk..((c + 1) * chunk).min(n_seg),
-                &members,
-                &seg_start,
-                &seg,
+                &grown.members,
+                &grown.seg_start,
+                &grown.seg,
                 &pts,
-                row,
+                |p| lists.row(p),
                 params.region_neighbours,
             )
         })
@@ -370,42 +272,16 @@ pub fn region_growing_rgb(
         .collect();
     drop(lists);
 
-    // Step 4: truncated mean colours.
-    let mut sums = vec![[0u32; 3]; n_seg];
-    for (p, &s) in seg.iter().enumerate() {
-        for c in 0..3 {
-            sums[s as usize][c] = sums[s as usize][c].wrapping_add(u32::from(cols[p][c]));
-        }
-    }
-    let seg_color: Vec<[u32; 3]> = sums
-        .iter()
-        .zip(&seg_count)
-        .map(|(sum, &n)| sum.map(|v| (v as f32 / n as f32) as u32))
-        .collect();
-
-    // Step 5: greedy colour merge.
-    let mut seg_region = vec![u32::MAX; n_seg];
-    let mut region_count: Vec<u64> = Vec::new();
-    for i in 0..n_seg {
-        let cur = if seg_region[i] == u32::MAX {
-            let r = region_count.len() as u32;
-            seg_region[i] = r;
-            region_count.push(seg_count[i] as u64);
-            r
-        } else {
-            seg_region[i]
-        };
-        for &(d, j) in seg_nb[i].iter().take(params.region_neighbours) {
-            let j = j as usize;
-            if d > d_thr || seg_region[j] != u32::MAX {
-                continue;
-            }
-            if color_dist2(seg_color[i], seg_color[j]) < r_thr {
-                seg_region[j] = cur;
-                region_count[cur as usize] += seg_count[j] as u64;
-            }
-        }
-    }
+    // Steps 4 and 5: truncated mean colours, greedy colour merge.
+    let seg_color = mean_colors(&grown.seg, &cols, &seg_count);
+    let (seg_region, mut region_count) = colour_merge(
+        &seg_nb,
+        &seg_count,
+        &seg_color,
+        params.region_neighbours,
+        d_thr,
+        r_thr,
+    );
     let n_reg = region_count.len();
 
     // Step 6: small-region merge on a union-find over regions.
@@ -425,7 +301,7 @@ pub fn region_growing_rgb(
 
     // Step 7: assembly in region order, PCL's empty-slot swaps, size filter.
     let mut clusters: Vec<Vec<usize>> = vec![Vec::new(); n_reg];
-    for (p, &s) in seg.iter().enumerate() {
+    for (p, &s) in grown.seg.iter().enumerate() {
         clusters[final_region[s as usize] as usize].push(p);
     }
     remove_empty_like_pcl(&mut clusters);
@@ -448,6 +324,202 @@ pub fn region_growing_rgb(
         grown_segments: n_seg,
         colour_regions: n_reg,
     })
+}
+
+fn check_params(params: &RegionGrowingParams) -> Result<(), SegmentError> {
+    check_distance("distance_m", params.distance_m)?;
+    check_threshold("point_color", params.point_color)?;
+    check_threshold("region_color", params.region_color)?;
+    if params.region_neighbours == 0 || params.region_neighbours > MAX_REGION_NEIGHBOURS {
+        return Err(SegmentError::InvalidCount {
+            name: "region_neighbours",
+            value: params.region_neighbours,
+            min: 1,
+            max: MAX_REGION_NEIGHBOURS,
+        });
+    }
+    Ok(())
+}
+
+/// Step 1: the K nearest neighbours of every point, stored as indices (4 bytes per
+/// point and neighbour; PCL stores 8). The first `grow_n` of a K list are the `grow_n`
+/// nearest (the order is total); the growth only needs them as a set filtered by the
+/// point colour test (which points it reaches does not depend on their order), so those
+/// are moved to the front, and their number kept.
+struct NeighbourLists {
+    /// The search's chunks of rows.
+    lists: Vec<KLists>,
+    /// Where each point's row is: (chunk, row within the chunk).
+    loc: Vec<(u32, u32)>,
+    /// Neighbours per row.
+    k: usize,
+}
+
+impl NeighbourLists {
+    fn new(
+        pts: &[[f32; 3]],
+        cols: &[[u8; 3]],
+        params: &RegionGrowingParams,
+        p_thr: f32,
+    ) -> NeighbourLists {
+        let search = KnnSearch::new(pts, params.region_neighbours);
+        let k = search.k();
+        let grow_n = params.neighbours.min(k);
+        let lists = search.knn(
+            params.parallelism,
+            || KLists {
+                rows: Vec::new(),
+                ids: Vec::new(),
+                grow: Vec::new(),
+            },
+            |out: &mut KLists, i, words| {
+                let c = cols[i as usize].map(u32::from);
+                let passes =
+                    |w: u64| color_dist2(c, cols[word_index(w) as usize].map(u32::from)) <= p_thr;
+                // The `grow_n` nearest first (words are distinct, so they are exact), then
+                // the colour-compatible among them first (their order does not matter).
+                let near = if grow_n < words.len() {
+                    words.select_nth_unstable(grow_n - 1);
+                    grow_n
+                } else {
+                    words.len()
+                };
+                let mut n_grow = 0;
+                for j in 0..near {
+                    if passes(words[j]) {
+                        words.swap(n_grow, j);
+                        n_grow += 1;
+                    }
+                }
+                out.grow.push(n_grow as u16);
+                let start = out.rows.len();
+                out.rows.extend(words.iter().map(|&w| word_index(w)));
+                // Every finite point has k neighbours; pad defensively with itself.
+                out.rows.resize(start + k, i);
+                out.ids.push(i);
+            },
+        );
+        let mut loc = vec![(0u32, 0u32); pts.len()];
+        for (c, l) in lists.iter().enumerate() {
+            for (r, &i) in l.ids.iter().enumerate() {
+                loc[i as usize] = (c as u32, r as u32);
+            }
+        }
+        NeighbourLists { lists, loc, k }
+    }
+
+    /// Point `p`'s K list.
+    fn row(&self, p: usize) -> &[u32] {
+        let (c, r) = self.loc[p];
+        let (r, k) = (r as usize, self.k);
+        &self.lists[c as usize].rows[r * k..(r + 1) * k]
+    }
+
+    /// Point `p`'s growth candidates.
+    fn grow_row(&self, p: usize) -> &[u32] {
+        let (c, r) = self.loc[p];
+        let l = &self.lists[c as usize];
+        let (r, k) = (r as usize, self.k);
+        &l.rows[r * k..r * k + l.grow[r] as usize]
+    }
+}
+
+/// Step 2's segments: region growing, breadth first.
+struct Grown {
+    /// Per point: its segment.
+    seg: Vec<u32>,
+    /// The growth queue, which ends up holding every segment's points together.
+    members: Vec<u32>,
+    /// Segment `s`'s points are `members[seg_start[s]..seg_start[s + 1]]`.
+    seg_start: Vec<u32>,
+}
+
+impl Grown {
+    /// Grows segments over `m` points, from each point not yet reached, through the
+    /// growth candidates `grow_row(point)`.
+    fn new<'r>(m: usize, grow_row: impl Fn(usize) -> &'r [u32]) -> Grown {
+        let mut seg = vec![u32::MAX; m];
+        let mut members: Vec<u32> = Vec::with_capacity(m);
+        let mut seg_start: Vec<u32> = Vec::new();
+        for seed in 0..m {
+            if seg[seed] != u32::MAX {
+                continue;
+            }
+            let s = seg_start.len() as u32;
+            let mut head = members.len();
+            seg_start.push(head as u32);
+            seg[seed] = s;
+            members.push(seed as u32);
+            while head < members.len() {
+                let cur = members[head] as usize;
+                head += 1;
+                for &q in grow_row(cur) {
+                    if seg[q as usize] == u32::MAX {
+                        seg[q as usize] = s;
+                        members.push(q);
+                    }
+                }
+            }
+        }
+        seg_start.push(m as u32);
+        Grown {
+            seg,
+            members,
+            seg_start,
+        }
+    }
+}
+
+/// Step 4: each segment's mean colour, truncated to integers as PCL does.
+fn mean_colors(seg: &[u32], cols: &[[u8; 3]], seg_count: &[u32]) -> Vec<[u32; 3]> {
+    let mut sums = vec![[0u32; 3]; seg_count.len()];
+    for (p, &s) in seg.iter().enumerate() {
+        for c in 0..3 {
+            sums[s as usize][c] = sums[s as usize][c].wrapping_add(u32::from(cols[p][c]));
+        }
+    }
+    sums.iter()
+        .zip(seg_count)
+        .map(|(sum, &n)| sum.map(|v| (v as f32 / n as f32) as u32))
+        .collect()
+}
+
+/// Step 5: greedy colour merge. Each segment not yet in a region starts one; its `keep`
+/// nearest segments within `d_thr` (squared) that are in no region yet and whose colour
+/// is within `r_thr` (squared) join it. Returns each segment's region and each region's
+/// point count.
+fn colour_merge(
+    seg_nb: &[Vec<(f32, u32)>],
+    seg_count: &[u32],
+    seg_color: &[[u32; 3]],
+    keep: usize,
+    d_thr: f32,
+    r_thr: f32,
+) -> (Vec<u32>, Vec<u64>) {
+    let n_seg = seg_count.len();
+    let mut seg_region = vec![u32::MAX; n_seg];
+    let mut region_count: Vec<u64> = Vec::new();
+    for i in 0..n_seg {
+        let cur = if seg_region[i] == u32::MAX {
+            let r = region_count.len() as u32;
+            seg_region[i] = r;
+            region_count.push(seg_count[i] as u64);
+            r
+        } else {
+            seg_region[i]
+        };
+        for &(d, j) in seg_nb[i].iter().take(keep) {
+            let j = j as usize;
+            if d > d_thr || seg_region[j] != u32::MAX {
+                continue;
+            }
+            if color_dist2(seg_color[i], seg_color[j]) < r_thr {
+                seg_region[j] = cur;
+                region_count[cur as usize] += seg_count[j] as u64;
+            }
+        }
+    }
+    (seg_region, region_count)
 }
 
 /// Size, mean colour and bounding box of a set of input indices.

@@ -1,11 +1,11 @@
 //! Normal-line registration on clouds sampled from a displaced FE surface.
 use proptest::prelude::*;
 use softsense::fem::mesh::TetMesh;
+use softsense::geometry::raycast::Bvh;
 use softsense::register::{
     closest_point_on_triangle, farthest_point_sampling, surface_features, vertex_normals,
     FeatureParams, RegisterParams, Registrar,
 };
-use softsense::scene::raycast::Bvh;
 
 /// Dense samples (24 steps per edge) on every triangle.
 fn sample_triangles(x: &[[f64; 3]], triangles: &[[usize; 3]]) -> Vec<[f64; 3]> {

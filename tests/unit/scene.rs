@@ -1,8 +1,8 @@
 //! Scene rendering pieces: the BVH against a brute-force ray caster, the camera, the sensor.
 use proptest::prelude::*;
 use softsense::fem::mesh::TetMesh;
+use softsense::geometry::raycast::{ray_plane, ray_sphere, ray_triangle, Bvh};
 use softsense::scene::camera::{Camera, CameraSpec};
-use softsense::scene::raycast::{ray_plane, ray_sphere, ray_triangle, Bvh};
 use softsense::scene::sensor::SensorModel;
 
 fn box_surface() -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {

@@ -1,0 +1,67 @@
+//! The error of RGB-D frames and of their intrinsics, below both [`super::rgbd`] and
+//! [`super::intrinsics`] so that neither imports the other for it.
+
+use thiserror::Error;
+
+/// What is wrong with an RGB-D frame or its intrinsics.
+#[derive(Debug, Error, PartialEq)]
+pub enum RgbdError {
+    /// An intrinsics or depth-conversion field is missing or has a bad value.
+    #[error("bad intrinsics: `{field}` {problem}")]
+    BadIntrinsics {
+        /// The field (as named in the file, e.g. `focal_length_x`, `intrinsic_matrix[3]`).
+        field: String,
+        /// What is wrong with it.
+        problem: String,
+    },
+    /// The intrinsics file is not well-formed JSON or XML.
+    #[error("intrinsics file is malformed: {message}")]
+    IntrinsicsSyntax {
+        /// The parser's message.
+        message: String,
+    },
+    /// The intrinsics file extension is neither `.json` nor `.xml`.
+    #[error(
+        "unknown intrinsics format (expected .json, Open3D's PinholeCameraIntrinsic, or .xml, PCL's grabber XML)"
+    )]
+    UnknownIntrinsicsFormat,
+    /// The image could not be decoded (corrupt, truncated, unknown format).
+    #[error("cannot decode image: {message}")]
+    Image {
+        /// The decoder's message.
+        message: String,
+    },
+    /// The image declares more pixels than its file size can hold (hostile or corrupt
+    /// header); refused before allocating.
+    #[error("image declares {width}x{height} pixels, more than a {file_len}-byte file can hold")]
+    ImplausibleSize {
+        /// Declared width.
+        width: u32,
+        /// Declared height.
+        height: u32,
+        /// The file's size in bytes.
+        file_len: u64,
+    },
+    /// The depth image is not 16-bit single-channel.
+    #[error("depth image must be 16-bit single-channel (grey), found {found}")]
+    UnsupportedDepthType {
+        /// What the file holds, e.g. `8-bit grey` or `8-bit RGB`.
+        found: String,
+    },
+    /// The colour image is not 8-bit RGB or RGBA.
+    #[error("colour image must be 8-bit RGB or RGBA, found {found}")]
+    UnsupportedColorType {
+        /// What the file holds.
+        found: String,
+    },
+    /// Two sizes that must agree do not (depth vs colour, image vs intrinsics).
+    #[error("{what}: expected {expected:?} (width, height), found {found:?}")]
+    SizeMismatch {
+        /// Which two things disagree.
+        what: &'static str,
+        /// The size required.
+        expected: (u32, u32),
+        /// The size found.
+        found: (u32, u32),
+    },
+}
