@@ -16,6 +16,9 @@
 //! assert!(p.iter().all(|c| c.abs() < 1e-12));
 //! ```
 
+// `!(a < b)` is meant: a NaN must fail these checks, which `a >= b` would let through.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use crate::math::pose::{Pose, PoseError};
 
 pub use crate::io::intrinsics::PinholeIntrinsics;
