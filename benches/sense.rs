@@ -20,13 +20,17 @@ fn bench(c: &mut Criterion) {
     for scene in ["tip_weight", "probe_side", "two_probes", "probe_press"] {
         let rec = Recording::open(&root.join("clouds/scenes").join(scene)).expect("recording");
         let model = Model::load(&rec.model_path().expect("model path"), None).expect("model");
-        let sensor = Sensor::new(model, rec.robot_from_camera, SenseParams::default());
+        let sensor = Sensor::new(
+            model,
+            rec.robot_from_camera.unwrap(),
+            SenseParams::default(),
+        );
         let name = format!("{scene} ({} frames)", rec.frames.len());
         g.bench_function(name, |b| {
             b.iter(|| {
                 for &frame in &rec.frames {
                     let obs = sensor.observe(&rec, frame).expect("frame");
-                    std::hint::black_box(sensor.sense(frame, &obs, rec.actuators_of(frame)));
+                    std::hint::black_box(sensor.sense(frame, &obs, rec.inputs_of(frame).as_ref()));
                 }
             })
         });

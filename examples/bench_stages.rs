@@ -215,7 +215,11 @@ fn run_sense(dir: &Path, repeat: usize) -> Result<(Vec<f64>, Value, usize), Stri
         .model_path()
         .ok_or_else(|| format!("{}: no truth.json naming the model", dir.display()))?;
     let model = softsense::fem::model::Model::load(&model_path, None).map_err(|e| e.to_string())?;
-    let sensor = Sensor::new(model, rec.robot_from_camera, SenseParams::default());
+    let sensor = Sensor::new(
+        model,
+        rec.robot_from_camera.unwrap(),
+        SenseParams::default(),
+    );
     let mut timings = Vec::new();
     let mut stages = Vec::new();
     let mut sensed = 0;
@@ -223,7 +227,7 @@ fn run_sense(dir: &Path, repeat: usize) -> Result<(Vec<f64>, Value, usize), Stri
         for &frame in &rec.frames {
             let t0 = Instant::now();
             let obs = sensor.observe(&rec, frame).map_err(|e| e.to_string())?;
-            let report = sensor.sense(frame, &obs, rec.actuators_of(frame));
+            let report = sensor.sense(frame, &obs, rec.inputs_of(frame).as_ref());
             timings.push(t0.elapsed().as_secs_f64() * 1e3);
             stages.push(report.timings);
             sensed += usize::from(report.status == FrameStatus::Sensed);

@@ -111,7 +111,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         };
         let (frames, truth_path) = layout(&dir);
         let truth = generate_dataset(&spec, &frames, &truth_path)?;
-        let rec = load_frames(&frames)?;
+        let rec = load_frames(&frames, &Default::default())?;
         let t0 = std::time::Instant::now();
         let c0 = cpu_seconds();
         let x = match explain(&model, &rec, &DiscrepancyParams::default()) {

@@ -15,7 +15,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (frames, truth_path) = layout(&dir);
     let truth: DatasetTruth = serde_json::from_str(&std::fs::read_to_string(truth_path)?)?;
     let model = Model::load(&truth.spec.model, None)?;
-    let rec = load_frames(&frames)?;
+    let rec = load_frames(&frames, &Default::default())?;
     let params = DiscrepancyParams::default();
     let lib: Vec<Effect> = truth.library_effects();
     let mut sets: Vec<(String, Vec<Effect>)> =

@@ -15,7 +15,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .unwrap_or("meshes/models/robot.toml".into());
     let model = Model::load(std::path::Path::new(&model_path), None)?;
     let (frames, truth) = layout(&dir);
-    let rec = load_frames(&frames)?;
+    let rec = load_frames(&frames, &Default::default())?;
     let truth: DatasetTruth = serde_json::from_str(&std::fs::read_to_string(truth)?)?;
     let effects = truth.library_effects();
     let p = DiscrepancyParams::default();

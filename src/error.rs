@@ -38,6 +38,9 @@ pub enum Error {
     /// Drawing pictures: canvas sizes, meshes to render, PNG files.
     #[error(transparent)]
     Render(#[from] crate::render::RenderError),
+    /// Reading a recording folder.
+    #[error(transparent)]
+    Recording(#[from] crate::recording::RecordingError),
     /// Force sensing.
     #[error(transparent)]
     Sense(#[from] crate::sense::SenseError),

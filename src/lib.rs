@@ -40,6 +40,7 @@ pub mod inverse;
 pub mod io;
 pub mod math;
 pub mod pipeline;
+pub mod recording;
 pub mod register;
 pub mod render;
 pub mod scene;

@@ -67,6 +67,9 @@ pub enum PipelineError {
     /// Reading or writing a frame failed.
     #[error(transparent)]
     Io(#[from] IoError),
+    /// A recording folder is malformed.
+    #[error(transparent)]
+    Recording(crate::recording::RecordingError),
 }
 
 /// Parameters of the whole chain. Stages run in field order; `None` skips a stage.
@@ -402,78 +405,28 @@ pub fn list_frames(spec: &Path) -> Result<Vec<FrameSource>, PipelineError> {
     }
 }
 
-/// The RGB-D pairs of a directory, sorted by name, in either layout:
-/// - `depth_NNNN.png` + `color_NNNN.png` + one `intrinsics.json` (what
-///   `softsense scene generate` writes);
-/// - `STEM_depth.tiff` + `STEM_rgb.tiff` + `STEM.xml` per frame (PCL's image grabber
-///   sequences; PNG also accepted), or one shared `intrinsics.json`/`.xml`.
+/// The RGB-D frames of a directory in any recording layout ([`crate::recording::Layout`]:
+/// `depth_NNNN.png` + `color_NNNN.png` + `intrinsics.json`, PCL grabber
+/// `STEM_depth.tiff` + `STEM_rgb.tiff` + `STEM.xml`, or Open3D `depth/` + `color/`).
 ///
 /// A depth image without a colour image gives an uncoloured cloud; one without any
 /// camera file is an error ([`PipelineError::NoCamera`]).
 pub fn list_rgbd_frames(dir: &Path) -> Result<Vec<FrameSource>, PipelineError> {
-    let entries = std::fs::read_dir(dir).map_err(|source| IoError::Os {
-        path: dir.to_path_buf(),
-        source,
+    use crate::recording::RecordingError;
+    let (_, files) = crate::recording::list_frames(dir).map_err(|e| match e {
+        RecordingError::NoFrames { path } => PipelineError::NoFrames { path },
+        RecordingError::NoCamera { depth } => PipelineError::NoCamera { depth },
+        RecordingError::Io(e) => PipelineError::Io(e),
+        other => PipelineError::Recording(other),
     })?;
-    let mut names: Vec<String> = entries
-        .filter_map(|e| e.ok())
-        .filter(|e| e.path().is_file())
-        .filter_map(|e| e.file_name().to_str().map(str::to_string))
-        .collect();
-    names.sort();
-    let has = |n: &str| names.iter().any(|m| m == n);
-    let shared = ["intrinsics.json", "intrinsics.xml"]
+    Ok(files
         .into_iter()
-        .find(|n| has(n))
-        .map(|n| dir.join(n));
-    let image_ext = |n: &str| {
-        let l = n.to_ascii_lowercase();
-        [".png", ".tiff", ".tif"]
-            .into_iter()
-            .find(|e| l.ends_with(e))
-            .map(|e| n.len() - e.len())
-    };
-    let mut out = Vec::new();
-    for name in &names {
-        let Some(stem_len) = image_ext(name) else {
-            continue;
-        };
-        let (stem, ext) = name.split_at(stem_len);
-        // (colour file name candidates, per-frame camera file)
-        let (colors, own_camera): (Vec<String>, Option<String>) =
-            if let Some(id) = stem.strip_prefix("depth_") {
-                (
-                    vec![format!("color_{id}{ext}"), format!("color_{id}.png")],
-                    None,
-                )
-            } else if let Some(base) = stem.strip_suffix("_depth") {
-                (
-                    vec![format!("{base}_rgb{ext}"), format!("{base}_color{ext}")],
-                    Some(format!("{base}.xml")),
-                )
-            } else {
-                continue;
-            };
-        let color = colors.iter().find(|c| has(c)).map(|c| dir.join(c));
-        let intrinsics = own_camera
-            .filter(|c| has(c))
-            .map(|c| dir.join(c))
-            .or_else(|| shared.clone())
-            .ok_or_else(|| PipelineError::NoCamera {
-                depth: dir.join(name),
-            })?;
-        out.push(FrameSource::Rgbd {
-            depth: dir.join(name),
-            color,
-            intrinsics,
-        });
-    }
-    if out.is_empty() {
-        return Err(PipelineError::NoFrames {
-            path: dir.to_path_buf(),
-        });
-    }
-    Ok(out)
+        .map(|f| FrameSource::Rgbd {
+            depth: f.depth,
+            color: f.color,
+            intrinsics: f.camera,
+        })
+        .collect())
 }
 
 /// The cloud files of a sequence (see [`list_frames`]).

@@ -63,9 +63,9 @@ fn a_frame_showing_twenty_one_contacts_took_six_seconds_to_fail() {
     .unwrap();
     let params = SenseParams::default();
     assert_eq!(params.max_contacts, 6);
-    let sensor = Sensor::new(model, rec.robot_from_camera, params);
+    let sensor = Sensor::new(model, rec.robot_from_camera.unwrap(), params);
     let obs = sensor.observe(&rec, 0).unwrap();
-    let report = sensor.sense(0, &obs, rec.actuators_of(0));
+    let report = sensor.sense(0, &obs, rec.inputs_of(0).as_ref());
     match report.status {
         FrameStatus::TooManyContacts { seen, max } => {
             assert!(seen > 6, "{seen}");

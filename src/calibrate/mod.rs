@@ -86,6 +86,9 @@ pub enum CalibrateError {
     /// A pose file or matrix is malformed (not a rigid 4x4 transform).
     #[error("pose: {0}")]
     Pose(String),
+    /// A recording or pose file could not be read.
+    #[error(transparent)]
+    Recording(#[from] crate::recording::RecordingError),
     /// A file could not be read or written.
     #[error("{path}: {message}")]
     File {

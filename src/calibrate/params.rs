@@ -2,16 +2,14 @@
 
 use super::{CalibrateError, CalibrateResult};
 use crate::inverse::qp::QpParams;
+use crate::segment::robot_color::RobotColorModel;
 
 /// Calibration options.
 #[derive(Clone, Debug)]
 pub struct CalibrateParams {
-    /// Colour of the robot in the colour image (0-255 RGB); pixels of this hue are robot.
-    /// Default: the scene generator's robot colour.
-    pub robot_color: [u8; 3],
-    /// Smallest cosine between a pixel's RGB vector and `robot_color` to count as robot;
-    /// default 0.99.
-    pub min_color_cosine: f64,
+    /// Which pixel colours are the robot's; default [`RobotColorModel::default`] (the
+    /// bundled robots' green), as `sense` uses.
+    pub color: RobotColorModel,
     /// At most this many measured points are used (evenly strided subsample); default 6000.
     pub max_points: usize,
     /// Fewest robot points accepted; default 50.
@@ -58,8 +56,7 @@ pub struct CalibrateParams {
 impl Default for CalibrateParams {
     fn default() -> Self {
         Self {
-            robot_color: crate::scene::Colors::default().robot,
-            min_color_cosine: 0.99,
+            color: RobotColorModel::default(),
             max_points: 6000,
             min_points: 50,
             max_iterations: 30,

@@ -178,24 +178,11 @@ fn touch_check(
     cal: &Calibration,
 ) -> CliResult {
     use softsense::sense::{Recording, SenseParams, Sensor};
-    let camera =
-        softsense::io::intrinsics::read_camera_model(args.scene_dir.join("intrinsics.json"))
-            .map_err(softsense::Error::from)?;
     let robot_from_camera = softsense::math::pose::Pose::from_matrix(&cal.robot_from_camera)
         .map_err(|e| CliError::Result(e.to_string()))?;
-    let rec = Recording {
-        dir: args.scene_dir.clone(),
-        camera,
-        robot_from_camera,
-        pose_file: args.scene_dir.join("calibration.json"),
-        frames: vec![args.frame],
-        actuators: None,
-        calibrated: None,
-        calibration_model: None,
-        truth: None,
-    };
+    let rec = Recording::open(&args.scene_dir).map_err(softsense::Error::from)?;
     let sense_params = SenseParams {
-        color: softsense::segment::robot_color::RobotColorModel::with_reference(params.robot_color),
+        color: params.color,
         ..Default::default()
     };
     let sensor = Sensor::new(model.clone(), robot_from_camera, sense_params);

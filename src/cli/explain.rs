@@ -21,9 +21,13 @@ softsense explain meshes/models/robot.toml /tmp/ds/frames --out /tmp/ds/report"
 pub struct ExplainArgs {
     /// Nominal model file (TOML).
     model: PathBuf,
-    /// Frames folder (depth/colour PNGs, intrinsics.json, camera_pose.json, sensor.json,
-    /// inputs.json).
+    /// Recording folder (docs/recording-format.md) with each frame's recorded inputs
+    /// (inputs.json, or actuators.json) and optionally the sensor's noise model
+    /// (sensor.json).
     frames_dir: PathBuf,
+    /// Robot colour (sRGB) for the colour model.
+    #[arg(long, value_name = "R,G,B", value_parser = super::parse_rgb, default_value = "40,200,60")]
+    robot_color: [u8; 3],
     /// Fraction of frames held out for confirmation.
     #[arg(long, default_value_t = 0.25)]
     holdout: f64,
@@ -38,7 +42,8 @@ pub struct ExplainArgs {
 /// Runs `explain`.
 pub fn run(args: &ExplainArgs) -> CliResult {
     let model = Model::load(&args.model, None).map_err(softsense::Error::from)?;
-    let rec = load_frames(&args.frames_dir).map_err(softsense::Error::from)?;
+    let color = softsense::segment::robot_color::RobotColorModel::with_reference(args.robot_color);
+    let rec = load_frames(&args.frames_dir, &color).map_err(softsense::Error::from)?;
     let params = DiscrepancyParams {
         holdout: args.holdout,
         ..Default::default()

@@ -12,10 +12,12 @@ use std::path::PathBuf;
 
 /// Find where the robot is touched and how hard, frame by frame.
 ///
-/// Reads a recording folder (depth_NNNN.png + color_NNNN.png, intrinsics.json, a camera
-/// pose in calibration.json or camera_pose.json, optional actuators.json with the recorded
-/// cable inputs per frame; without it, the cable inputs `softsense calibrate` wrote into
-/// calibration.json, else the model file's), and for each frame: robot and touching
+/// Reads a recording folder (depth_NNNN.png + color_NNNN.png + intrinsics.json, a PCL
+/// grabber sequence STEM_depth.tiff + STEM_rgb.tiff + STEM.xml, or Open3D depth/ + color/
+/// folders; a camera pose in calibration.json or camera_pose.json, or --pose; optional
+/// inputs.json or actuators.json with the recorded cable inputs per frame; without them,
+/// the cable inputs `softsense calibrate` wrote into calibration.json, else the model
+/// file's; see docs/recording-format.md), and for each frame: robot and touching
 /// objects by colour, contacts by KD-tree search, each contact mapped onto the FE model,
 /// the surface features registered along their normal lines, and the intensity QP solved
 /// with FE updates. Prints per frame the forces (location in the robot frame, mapped
@@ -43,7 +45,8 @@ use std::path::PathBuf;
     after_help = "Examples:\n  \
 softsense sense clouds/scenes/tip_weight\n  \
 softsense sense clouds/scenes/probe_side --json > forces.jsonl\n  \
-softsense sense clouds/scenes/two_probes --render /tmp/pictures\n\n\
+softsense sense clouds/scenes/two_probes --render /tmp/pictures\n  \
+softsense sense my_grabber_folder --pose camera_pose.json --model meshes/models/robot.toml\n\n\
 Generate a scene first with `softsense scene generate SCENE.toml OUT_DIR`."
 )]
 pub struct SenseArgs {
@@ -54,6 +57,11 @@ pub struct SenseArgs {
     /// from its model needs this.
     #[arg(long, value_name = "MODEL.toml")]
     pub model: Option<PathBuf>,
+    /// Camera pose file ({"robot_from_camera": 4x4 row-major, metres}), instead of the
+    /// folder's calibration.json or camera_pose.json; needed for folders without one (PCL
+    /// grabber and Open3D recordings).
+    #[arg(long, value_name = "POSE.json")]
+    pub pose: Option<PathBuf>,
     /// Number of surface feature points (the thesis used 51).
     #[arg(long, value_name = "N", default_value_t = SenseParams::default().features.count,
           value_parser = super::parse_positive)]
@@ -96,7 +104,20 @@ pub struct SenseArgs {
 }
 
 pub fn run(args: &SenseArgs) -> CliResult {
-    let rec = Recording::open(&args.scene_dir).map_err(|e| CliError::Lib(e.into()))?;
+    let mut rec = Recording::open(&args.scene_dir).map_err(|e| CliError::Lib(e.into()))?;
+    if let Some(pose) = &args.pose {
+        rec = rec
+            .with_pose_file(pose)
+            .map_err(|e| CliError::Lib(e.into()))?;
+    }
+    let (Some(robot_from_camera), Some(pose_file)) = (rec.robot_from_camera, rec.pose_file.clone())
+    else {
+        return Err(CliError::Usage(format!(
+            "{} has no camera pose (calibration.json or camera_pose.json): give --pose POSE.json, \
+             or find it with `softsense calibrate`",
+            args.scene_dir.display()
+        )));
+    };
     let model_path = model_path(args, &rec)?;
     let model = Model::load(&model_path, None).map_err(|e| CliError::Lib(e.into()))?;
     let mut params = SenseParams {
@@ -105,17 +126,14 @@ pub fn run(args: &SenseArgs) -> CliResult {
         ..Default::default()
     };
     params.features.count = args.features;
-    let mut sensor = Sensor::new(model, rec.robot_from_camera, params);
+    let mut sensor = Sensor::new(model, robot_from_camera, params);
     let inputs = match (&rec.actuators, &rec.calibrated) {
         (Some(_), _) => "recorded (actuators.json)".to_string(),
         (None, Some(cal)) => {
             sensor
                 .use_calibrated_inputs(cal)
-                .map_err(|e| CliError::Result(format!("{}: {e}", rec.pose_file.display())))?;
-            format!(
-                "calibrated ({})",
-                super::shown_path(&rec.pose_file).display()
-            )
+                .map_err(|e| CliError::Result(format!("{}: {e}", pose_file.display())))?;
+            format!("calibrated ({})", super::shown_path(&pose_file).display())
         }
         (None, None) => "the model file's".to_string(),
     };
@@ -124,7 +142,7 @@ pub fn run(args: &SenseArgs) -> CliResult {
         args.scene_dir.display(),
         rec.frames.len(),
         super::shown_path(&model_path).display(),
-        super::shown_path(&rec.pose_file).display(),
+        super::shown_path(&pose_file).display(),
         sensor.features.len()
     );
     if let Some(dir) = &args.render {
@@ -421,7 +439,7 @@ fn picture(
     };
     let frame = Canvas::from_rgb(obs.width, obs.height, obs.color.clone())?;
     let mask = mask_from_indices(obs.width, obs.height, &obs.robot_pixels);
-    let cam = rec.robot_from_camera.inverse();
+    let cam = sensor.robot_from_camera.inverse();
     let k = rec.camera.intrinsics;
     let px = |p: [f64; 3]| project_with(&k, cam.apply(p));
     let x = if report.positions.is_empty() {

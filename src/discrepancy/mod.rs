@@ -81,6 +81,12 @@ pub enum DiscrepancyError {
     /// Scene generation failed.
     #[error(transparent)]
     Scene(#[from] crate::scene::SceneError),
+    /// The recording folder could not be read.
+    #[error(transparent)]
+    Recording(#[from] crate::recording::RecordingError),
+    /// An image could not be read.
+    #[error(transparent)]
+    Io(#[from] crate::io::IoError),
 }
 
 /// `Result` of the discrepancy workflow.

@@ -16,6 +16,11 @@
 pub mod camera;
 pub use crate::geometry::raycast;
 pub mod sensor;
+pub use crate::recording::schema::{
+    ActuatorTruth, CableInput, FrameInput, FrameTruth, LoadInput, LoadKind, LoadTruth,
+};
+/// `truth.json` as `scene generate` writes it.
+pub type Truth = crate::recording::schema::Truth<SceneSpec>;
 
 use crate::fem::material::Material;
 use crate::fem::mesh::Surface;
@@ -81,59 +86,6 @@ impl Default for Colors {
             table: [150, 150, 160],
         }
     }
-}
-
-/// What kind of load.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum LoadKind {
-    /// A spherical probe pressing on the surface (rendered).
-    Probe,
-    /// A weight hanging from a point by a string (not rendered: the string is thin).
-    Weight,
-}
-
-/// One load of a frame.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct LoadInput {
-    /// Probe or weight.
-    pub kind: LoadKind,
-    /// Point in the robot frame (m): a probe presses on the nearest surface node of the rest
-    /// mesh, a weight hangs from this point itself (located in the mesh; else the node).
-    /// More than [`MAX_LOAD_OFFSET`] from every surface node is refused.
-    pub at: [f64; 3],
-    /// Force vector (N).
-    pub force: [f64; 3],
-    /// Probe radius (m).
-    #[serde(default = "default_radius")]
-    pub radius: f64,
-}
-
-fn default_radius() -> f64 {
-    0.008
-}
-
-/// One cable's input for a frame (exactly one of the two).
-#[derive(Clone, Debug, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct CableInput {
-    /// Cable name in the model.
-    pub name: String,
-    /// Shortening (m).
-    pub shorten: Option<f64>,
-    /// Tension (N).
-    pub force: Option<f64>,
-}
-
-/// One frame: actuator inputs (unlisted cables keep the model's) and loads.
-#[derive(Clone, Debug, Default, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct FrameInput {
-    /// Cable inputs.
-    pub cables: Vec<CableInput>,
-    /// Loads.
-    pub loads: Vec<LoadInput>,
 }
 
 /// A scene file.
@@ -218,71 +170,6 @@ impl Scene {
         }
         Ok(model)
     }
-}
-
-/// The truth of one load, as applied.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct LoadTruth {
-    /// Probe or weight.
-    pub kind: LoadKind,
-    /// The nearest surface node (a probe acts on it; a weight acts at `at_rest` exactly).
-    pub node: usize,
-    /// The node's rest position (m).
-    pub at_rest: [f64; 3],
-    /// The node's deformed position (m).
-    pub at_deformed: [f64; 3],
-    /// Force vector (N).
-    pub force: [f64; 3],
-    /// Force magnitude (N).
-    pub magnitude: f64,
-    /// Probe centre (m) when rendered.
-    pub probe_center: Option<[f64; 3]>,
-    /// Probe radius (m).
-    pub radius: f64,
-}
-
-/// The truth of one actuator in a frame.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct ActuatorTruth {
-    /// Cable name.
-    pub name: String,
-    /// Whether the input was a shortening (true) or a tension (false).
-    pub displacement_controlled: bool,
-    /// Shortening at equilibrium (m).
-    pub shortening: f64,
-    /// Tension at equilibrium (N).
-    pub tension: f64,
-}
-
-/// The truth of one frame.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct FrameTruth {
-    /// Frame index.
-    pub frame: usize,
-    /// Loads.
-    pub loads: Vec<LoadTruth>,
-    /// Actuators.
-    pub actuators: Vec<ActuatorTruth>,
-    /// Newton iterations.
-    pub newton_iterations: usize,
-    /// Pixels that hit the robot / probe / table (before holes).
-    pub pixels: [usize; 3],
-}
-
-/// Everything a scene folder's `truth.json` holds.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct Truth {
-    /// The scene spec that was used (sensor, camera, colours, seed, frames).
-    pub scene: SceneSpec,
-    /// The model file. A relative path is relative to the recording's folder (where
-    /// `truth.json` is); recordings made before 2026-11-24 have it relative to the
-    /// directory `scene generate` ran in ([`crate::sense::Recording::model_path`] reads
-    /// both).
-    pub model_path: String,
-    /// Young's modulus (Pa) and Poisson ratio actually used.
-    pub material: [f64; 2],
-    /// Per frame.
-    pub frames: Vec<FrameTruth>,
 }
 
 /// One rendered frame.

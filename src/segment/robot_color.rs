@@ -51,11 +51,19 @@ impl RobotColorModel {
         }
     }
 
-    /// Whether `rgb` is a robot colour.
+    /// Whether `rgb` is a robot colour (for many pixels, [`RobotColorModel::classifier`]).
     pub fn is_robot(&self, rgb: [u8; 3]) -> bool {
+        self.is_robot_lab(
+            rgb,
+            self.reference_hue(),
+            self.hue_tolerance_deg.to_radians(),
+        )
+    }
+
+    /// The reference colour's CIELAB hue (rad).
+    fn reference_hue(&self) -> f64 {
         let reference = rgb_to_lab(self.reference);
-        let ref_hue = reference[2].atan2(reference[1]);
-        self.is_robot_lab(rgb, ref_hue, self.hue_tolerance_deg.to_radians())
+        reference[2].atan2(reference[1])
     }
 
     fn is_robot_lab(&self, rgb: [u8; 3], ref_hue: f64, tol: f64) -> bool {
@@ -69,10 +77,9 @@ impl RobotColorModel {
     /// of thousands of robot pixels share a few thousand colours, and a Lab conversion costs
     /// three cube roots.
     pub fn classifier(&self) -> RobotColorClassifier {
-        let reference = rgb_to_lab(self.reference);
         RobotColorClassifier {
             model: *self,
-            ref_hue: reference[2].atan2(reference[1]),
+            ref_hue: self.reference_hue(),
             tol: self.hue_tolerance_deg.to_radians(),
             seen: HashMap::new(),
         }

@@ -12,8 +12,8 @@ use crate::inverse::{
     estimate, par_map, Candidate, FrameEstimate, FrameInputs, FrameParams, InverseResult, Start,
 };
 use crate::math::{dot, sub};
+use crate::recording::FrameInput;
 use crate::register::{Registrar, SurfaceFeature};
-use crate::scene::ActuatorTruth;
 
 /// A frame failed: its status says how.
 pub(super) fn fail(e: &dyn std::fmt::Display) -> FrameStatus {
@@ -76,7 +76,7 @@ impl Sensor {
         &self,
         frame: usize,
         obs: &Observation,
-        actuators: Option<&[ActuatorTruth]>,
+        inputs: Option<&FrameInput>,
         prev: Option<&Track>,
         want_track: bool,
     ) -> (FrameReport, Option<Track>) {
@@ -85,7 +85,7 @@ impl Sensor {
         report.robot_points = obs.robot.len();
         report.object_points = obs.objects.len();
         report.features = self.features.len();
-        if actuators.is_none() {
+        if inputs.is_none() {
             report.warnings.push(match self.model_inputs {
                 ModelInputs::ModelFile => {
                     "no recorded actuator inputs: the model file's are used".into()
@@ -96,7 +96,7 @@ impl Sensor {
             });
         }
         report.timings = obs.timings;
-        let track = match self.estimate_frame(obs, actuators, prev, want_track, &mut report) {
+        let track = match self.estimate_frame(obs, inputs, prev, want_track, &mut report) {
             Ok(track) => track.filter(|_| report.reliable),
             Err(status) => {
                 report.status = status;
@@ -114,7 +114,7 @@ impl Sensor {
     fn estimate_frame(
         &self,
         obs: &Observation,
-        actuators: Option<&[ActuatorTruth]>,
+        inputs: Option<&FrameInput>,
         prev: Option<&Track>,
         want_track: bool,
         report: &mut FrameReport,
@@ -122,7 +122,7 @@ impl Sensor {
         if obs.robot.len() < 50 {
             return Err(FrameStatus::NoRobot);
         }
-        let model = self.actuated(actuators);
+        let model = self.actuated(inputs);
         let clock = std::time::Instant::now();
         let free = self.free.solve(&self.model, &model).map_err(|e| fail(&e))?;
         report.timings.free_solve = ms(clock.elapsed());

@@ -11,8 +11,8 @@
 //! Where no contact is seen (a weight hanging by a thin string), the model's declared force
 //! points are the candidates and the one that explains the frame best is reported.
 //!
-//! A recording is a folder as written by `softsense scene generate` ([`Recording`]). Without
-//! recorded inputs, the model's are used: the model file's, or the calibration's after
+//! A recording is a folder read by [`crate::recording`] ([`Recording`]). Without recorded
+//! inputs, the model's are used: the model file's, or the calibration's after
 //! [`Sensor::use_calibrated_inputs`] (`rec.calibrated`), as `softsense sense` does.
 //!
 //! The API: [`Sensor::observe`] reads a frame, [`Sensor::sense`] senses it alone and
@@ -23,10 +23,10 @@
 //! use softsense::sense::{Recording, SenseParams, Sensor};
 //! let rec = Recording::open("clouds/scenes/tip_weight".as_ref()).unwrap();
 //! let model = softsense::fem::model::Model::load(&rec.model_path().unwrap(), None).unwrap();
-//! let sensor = Sensor::new(model, rec.robot_from_camera, SenseParams::default());
+//! let sensor = Sensor::new(model, rec.robot_from_camera.unwrap(), SenseParams::default());
 //! for &frame in &rec.frames {
 //!     let obs = sensor.observe(&rec, frame).unwrap();
-//!     let report = sensor.sense(frame, &obs, rec.actuators_of(frame));
+//!     let report = sensor.sense(frame, &obs, rec.inputs_of(frame).as_ref());
 //!     println!("{:?}", report.forces);
 //! }
 //! ```
@@ -36,15 +36,14 @@ mod free;
 mod locate;
 mod observe;
 mod params;
-mod recording;
 mod report;
 mod stream;
 mod track;
 
+pub use crate::recording::Recording;
 pub use free::SAME_INPUT;
 pub use observe::Observation;
 pub use params::SenseParams;
-pub use recording::Recording;
 pub use report::{
     compare, largest_sigma, median_timings, ForceEstimate, FrameReport, FrameStatus, LoadError,
     StageTimings,
@@ -52,13 +51,12 @@ pub use report::{
 pub use stream::default_window;
 pub use track::Track;
 
-use crate::calibrate::ActuatorCalibration;
 use crate::fem::mesh::Surface;
 use crate::fem::model::Model;
 use crate::fem::solve::CableControl;
 use crate::math::pose::Pose;
+use crate::recording::{ActuatorCalibration, FrameInput};
 use crate::register::{surface_features, FeatureParams, SurfaceFeature};
-use crate::scene::ActuatorTruth;
 use free::FreeSolves;
 use serde::Serialize;
 use thiserror::Error;
@@ -74,9 +72,9 @@ pub enum SenseError {
         /// What is wrong.
         message: String,
     },
-    /// The recording folder has no frames.
-    #[error("{0}: no depth_NNNN.png frames")]
-    NoFrames(String),
+    /// The recording could not be read.
+    #[error(transparent)]
+    Recording(#[from] crate::recording::RecordingError),
     /// Image or intrinsics reading failed.
     #[error(transparent)]
     Io(#[from] crate::io::IoError),
@@ -99,6 +97,8 @@ pub struct Sensor {
     /// A dense pool of features (same rules), from which those near a seen contact join
     /// the frame's features.
     pub local_pool: Vec<SurfaceFeature>,
+    /// The camera's pose in the robot frame.
+    pub robot_from_camera: Pose,
     /// The camera centre in the robot frame (m).
     pub eye: [f64; 3],
     /// Crop box in the robot frame (m).
@@ -161,6 +161,7 @@ impl Sensor {
             features,
             params,
             local_pool,
+            robot_from_camera,
             eye,
             bounds,
             surface,
@@ -218,16 +219,17 @@ impl Sensor {
         Ok(())
     }
 
-    /// The model with `actuators` as its cable controls (by name; unknown names ignored).
-    fn actuated(&self, actuators: Option<&[ActuatorTruth]>) -> Model {
+    /// The model with the cable inputs of `inputs` as its cable controls (by name; unknown names
+    /// ignored; its loads are what sensing estimates, so they are not applied).
+    fn actuated(&self, inputs: Option<&FrameInput>) -> Model {
         let mut model = self.model.clone();
         model.problem.loads.clear();
-        for a in actuators.unwrap_or_default() {
+        for a in inputs.map_or(&[][..], |i| &i.cables) {
             if let Some(c) = model.problem.cables.iter_mut().find(|c| c.name == a.name) {
-                c.control = if a.displacement_controlled {
-                    CableControl::Displacement(a.shortening)
-                } else {
-                    CableControl::Force(a.tension)
+                c.control = match (a.shorten, a.force) {
+                    (Some(s), _) => CableControl::Displacement(s),
+                    (None, Some(f)) => CableControl::Force(f),
+                    (None, None) => c.control,
                 };
             }
         }
@@ -239,9 +241,9 @@ impl Sensor {
         &self,
         frame: usize,
         obs: &Observation,
-        actuators: Option<&[ActuatorTruth]>,
+        inputs: Option<&FrameInput>,
     ) -> FrameReport {
-        self.sense_frame(frame, obs, actuators, None, false).0
+        self.sense_frame(frame, obs, inputs, None, false).0
     }
 
     /// [`Sensor::sense`] as a frame of a stream, starting from `prev`, what the previous
@@ -257,9 +259,9 @@ impl Sensor {
         &self,
         frame: usize,
         obs: &Observation,
-        actuators: Option<&[ActuatorTruth]>,
+        inputs: Option<&FrameInput>,
         prev: Option<&Track>,
     ) -> (FrameReport, Option<Track>) {
-        self.sense_frame(frame, obs, actuators, prev, true)
+        self.sense_frame(frame, obs, inputs, prev, true)
     }
 }

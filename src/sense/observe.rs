@@ -5,7 +5,6 @@
 use super::report::ms;
 use super::{Recording, SenseParams, SenseResult, Sensor};
 use crate::contact::{detect_contacts, Contact};
-use crate::io::rgbd::read_frame;
 use crate::math::pose::Pose;
 
 /// Points of one frame in the robot frame, split by the colour model.
@@ -32,7 +31,13 @@ pub struct Observation {
 impl Sensor {
     /// Reads `frame` of `rec`, cropped to the robot's box, split by the colour model.
     pub fn observe(&self, rec: &Recording, frame: usize) -> SenseResult<Observation> {
-        observe(rec, frame, &self.params, Some(self.bounds))
+        observe(
+            rec,
+            frame,
+            &self.robot_from_camera,
+            &self.params,
+            Some(self.bounds),
+        )
     }
 
     /// Where objects touch the robot in `obs` (robot frame): the contacts a frame is sensed
@@ -54,15 +59,15 @@ impl Sensor {
 fn observe(
     rec: &Recording,
     frame: usize,
+    robot_from_camera: &Pose,
     params: &SenseParams,
     bounds: Option<[[f64; 3]; 2]>,
 ) -> SenseResult<Observation> {
     let t0 = std::time::Instant::now();
-    let (dp, cp) = rec.frame_paths(frame);
-    let mut cloud = read_frame(&dp, cp.exists().then_some(cp.as_path()), &rec.camera)?;
+    let mut cloud = rec.read_frame(frame)?;
     let colors = cloud.colors.take().unwrap_or_default();
     let t1 = std::time::Instant::now();
-    let kept = crop(&cloud.positions, &rec.robot_from_camera, bounds);
+    let kept = crop(&cloud.positions, robot_from_camera, bounds);
     let t2 = std::time::Instant::now();
     // Segment: robot points by the colour model, the rest are objects.
     let mut is_robot = params.color.classifier();

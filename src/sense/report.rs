@@ -7,7 +7,7 @@ use crate::fem::model::Model;
 use crate::inverse::intensity::{Identifiability, IntensityEstimate};
 use crate::inverse::{Candidate, FrameEstimate, LoopTimings};
 use crate::math::{dot, norm, sub, unit};
-use crate::scene::FrameTruth;
+use crate::recording::FrameTruth;
 use serde::Serialize;
 
 /// Milliseconds of a duration.

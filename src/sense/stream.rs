@@ -46,7 +46,7 @@ impl Sensor {
     /// # use softsense::fem::model::Model;
     /// let rec = Recording::open("clouds/scenes/tip_weight".as_ref())?;
     /// let model = Model::load("meshes/models/robot.toml".as_ref(), None)?;
-    /// let sensor = Sensor::new(model, rec.robot_from_camera, SenseParams::default());
+    /// let sensor = Sensor::new(model, rec.robot_from_camera.unwrap(), SenseParams::default());
     /// sensor.sense_frames(&rec, &rec.frames, 2, |_obs, report| {
     ///     println!("frame {}: {}", report.frame, report.status);
     ///     Ok::<(), std::io::Error>(())
@@ -63,7 +63,7 @@ impl Sensor {
         let one = |frame: usize| {
             let obs = self.observe(rec, frame);
             let report = match &obs {
-                Ok(o) => self.sense(frame, o, rec.actuators_of(frame)),
+                Ok(o) => self.sense(frame, o, rec.inputs_of(frame).as_ref()),
                 Err(e) => FrameReport::empty(frame, FrameStatus::Unreadable(e.to_string())),
             };
             (obs, report)

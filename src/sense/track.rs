@@ -58,7 +58,7 @@ impl Sensor {
     /// # use softsense::fem::model::Model;
     /// let rec = Recording::open("clouds/scenes/probe_press".as_ref())?;
     /// let model = Model::load("meshes/models/robot.toml".as_ref(), None)?;
-    /// let sensor = Sensor::new(model, rec.robot_from_camera, SenseParams::default());
+    /// let sensor = Sensor::new(model, rec.robot_from_camera.unwrap(), SenseParams::default());
     /// sensor.track_frames(&rec, &rec.frames, |_obs, report| {
     ///     let tracked = if report.tracked { "tracked" } else { "cold" };
     ///     println!("frame {} ({tracked}): {}", report.frame, report.status);
@@ -80,7 +80,7 @@ impl Sensor {
             let ((report, track), read) = crate::search::join(
                 crate::search::Parallelism::Rayon,
                 || match &obs {
-                    Ok(o) => self.track(frame, o, rec.actuators_of(frame), prev.as_ref()),
+                    Ok(o) => self.track(frame, o, rec.inputs_of(frame).as_ref(), prev.as_ref()),
                     Err(e) => (
                         FrameReport::empty(frame, FrameStatus::Unreadable(e.to_string())),
                         None,

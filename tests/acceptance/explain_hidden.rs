@@ -22,7 +22,7 @@ fn run(effects: &[&str], seed: u64) -> (Explanation, Vec<Hidden>) {
     };
     let truth = generate_dataset(&spec, &frames, &truth_path).unwrap();
     let model = Model::load(&model_path, None).unwrap();
-    let rec = load_frames(&frames).unwrap();
+    let rec = load_frames(&frames, &Default::default()).unwrap();
     (
         explain(&model, &rec, &DiscrepancyParams::default()).unwrap(),
         truth.hidden,
@@ -95,7 +95,7 @@ fn explain_names_two_hidden_effects_and_drops_a_mimicking_load() {
     };
     let truth = generate_dataset(&spec, &frames, &truth_path).unwrap();
     let model = Model::load(&model_path, None).unwrap();
-    let rec = load_frames(&frames).unwrap();
+    let rec = load_frames(&frames, &Default::default()).unwrap();
     let x = explain(&model, &rec, &DiscrepancyParams::default()).unwrap();
     let Outcome::Explained { effects } = &x.outcome else {
         panic!("expected an explanation, got {:?}", x.outcome)

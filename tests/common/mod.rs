@@ -91,7 +91,7 @@ pub fn bundled(
     let rec = softsense::sense::Recording::open(&project_root().join("clouds/scenes").join(scene))
         .unwrap();
     let model = softsense::fem::model::Model::load(&rec.model_path().unwrap(), None).unwrap();
-    let sensor = softsense::sense::Sensor::new(model, rec.robot_from_camera, params);
+    let sensor = softsense::sense::Sensor::new(model, rec.robot_from_camera.unwrap(), params);
     (rec, sensor)
 }
 

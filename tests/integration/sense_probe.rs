@@ -17,7 +17,7 @@ fn run(scene: &str) -> Vec<(usize, LoadError)> {
     let mut out = Vec::new();
     for &frame in &rec.frames {
         let obs = sensor.observe(&rec, frame).unwrap();
-        let report = sensor.sense(frame, &obs, rec.actuators_of(frame));
+        let report = sensor.sense(frame, &obs, rec.inputs_of(frame).as_ref());
         for e in compare(&report, rec.truth_of(frame).unwrap()) {
             eprintln!(
                 "{scene} frame {frame}: {:?}, location error {:.1} mm, 3-D force error {:.1}%",
@@ -101,11 +101,15 @@ fn two_simultaneous_probes_seen_at_1280x720_are_both_found_within_five_percent()
     let (_dir, rec) = crate::common::generated_recording(&body);
     assert_eq!(rec.camera.intrinsics.width, 1280);
     let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
-    let sensor = Sensor::new(model, rec.robot_from_camera, SenseParams::default());
+    let sensor = Sensor::new(
+        model,
+        rec.robot_from_camera.unwrap(),
+        SenseParams::default(),
+    );
     let mut errors = Vec::new();
     for &frame in &rec.frames {
         let obs = sensor.observe(&rec, frame).unwrap();
-        let report = sensor.sense(frame, &obs, rec.actuators_of(frame));
+        let report = sensor.sense(frame, &obs, rec.inputs_of(frame).as_ref());
         assert!(report.reliable, "frame {frame}: {:?}", report.warnings);
         for e in compare(&report, rec.truth_of(frame).unwrap()) {
             eprintln!(
@@ -133,9 +137,9 @@ fn sense_generated(
          [[frames]]\n[[frames.loads]]\nkind = \"probe\"\nat = {at:?}\nforce = {force:?}\n"
     ));
     let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
-    let sensor = Sensor::new(model, rec.robot_from_camera, params);
+    let sensor = Sensor::new(model, rec.robot_from_camera.unwrap(), params);
     let obs = sensor.observe(&rec, 0).unwrap();
-    let report = sensor.sense(0, &obs, rec.actuators_of(0));
+    let report = sensor.sense(0, &obs, rec.inputs_of(0).as_ref());
     let errors = compare(&report, rec.truth_of(0).unwrap());
     (report, errors)
 }
@@ -146,7 +150,7 @@ fn every_frame_of_the_bundled_probe_scenes_passes_the_fit_checks() {
         let (rec, sensor) = bundled(scene, SenseParams::default());
         for &frame in &rec.frames {
             let obs = sensor.observe(&rec, frame).unwrap();
-            let r = sensor.sense(frame, &obs, rec.actuators_of(frame));
+            let r = sensor.sense(frame, &obs, rec.inputs_of(frame).as_ref());
             assert!(
                 r.reliable,
                 "{scene} frame {frame}: {:?}, warnings {:?}",
@@ -314,7 +318,7 @@ fn a_frame_the_model_cannot_explain_is_sensed_but_flagged_unreliable() {
     params.contact.radius_m = 1e-4;
     let (rec, sensor) = bundled("probe_side", params);
     let obs = sensor.observe(&rec, 1).unwrap();
-    let report = sensor.sense(1, &obs, rec.actuators_of(1));
+    let report = sensor.sense(1, &obs, rec.inputs_of(1).as_ref());
     eprintln!(
         "{:?}, robust residual {:.3} mm, {:?}",
         report.status,
@@ -377,7 +381,7 @@ fn feature_rows_that_average_shared_points_get_correlated_offsets() {
 fn two_probes_frame_0() -> (Recording, FrameReport) {
     let (rec, sensor) = bundled("two_probes", SenseParams::default());
     let obs = sensor.observe(&rec, 0).unwrap();
-    let report = sensor.sense(0, &obs, rec.actuators_of(0));
+    let report = sensor.sense(0, &obs, rec.inputs_of(0).as_ref());
     (rec, report)
 }
 
@@ -412,7 +416,7 @@ fn a_force_is_warned_about_exactly_when_its_largest_sigma_is_over_the_fraction()
     let (mut warned, mut quiet) = (0, 0);
     for &frame in &rec.frames {
         let obs = sensor.observe(&rec, frame).unwrap();
-        let report = sensor.sense(frame, &obs, rec.actuators_of(frame));
+        let report = sensor.sense(frame, &obs, rec.inputs_of(frame).as_ref());
         for (i, f) in report.forces.iter().enumerate() {
             let expect = f.magnitude > 2.0 * f.sigma_max && f.sigma_max > fraction * f.magnitude;
             let prefix = format!("force {i}: ");
@@ -449,8 +453,8 @@ fn a_preview_whose_locations_stand_goes_on_to_the_forces_of_a_full_first_estimat
     let mut went_on = 0;
     for &frame in &rec.frames {
         let obs = with.observe(&rec, frame).unwrap();
-        let a = with.sense(frame, &obs, rec.actuators_of(frame));
-        let b = without.sense(frame, &obs, rec.actuators_of(frame));
+        let a = with.sense(frame, &obs, rec.inputs_of(frame).as_ref());
+        let b = without.sense(frame, &obs, rec.inputs_of(frame).as_ref());
         assert_eq!(a.forces.len(), 1, "frame {frame}");
         assert_eq!(a.forces.len(), b.forces.len(), "frame {frame}");
         let (fa, fb) = (&a.forces[0], &b.forces[0]);
@@ -492,8 +496,8 @@ fn every_preview_length_and_number_of_checks_senses_a_probe_frame() {
             location_checks,
             ..SenseParams::default()
         };
-        let sensor = Sensor::new(sensor.model.clone(), rec.robot_from_camera, params);
-        let report = sensor.sense(1, &obs, rec.actuators_of(1));
+        let sensor = Sensor::new(sensor.model.clone(), rec.robot_from_camera.unwrap(), params);
+        let report = sensor.sense(1, &obs, rec.inputs_of(1).as_ref());
         let e = &compare(&report, truth)[0];
         eprintln!(
             "preview {preview_updates}, checks {location_checks}: {:?}, node {:?}, {} FE updates, {:.1} mm, {:.1}%",

@@ -14,7 +14,7 @@ fn run(hide_fraction: f64) -> Vec<(f64, f64)> {
     let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
     let params = SenseParams::default();
     let count = params.features.count;
-    let mut sensor = Sensor::new(model, rec.robot_from_camera, params);
+    let mut sensor = Sensor::new(model, rec.robot_from_camera.unwrap(), params);
     assert_eq!(
         sensor.features.len(),
         count,
@@ -29,7 +29,7 @@ fn run(hide_fraction: f64) -> Vec<(f64, f64)> {
     let mut out = Vec::new();
     for &frame in &rec.frames {
         let obs = sensor.observe(&rec, frame).unwrap();
-        let report = sensor.sense(frame, &obs, rec.actuators_of(frame));
+        let report = sensor.sense(frame, &obs, rec.inputs_of(frame).as_ref());
         assert_eq!(report.status, FrameStatus::Sensed, "frame {frame}");
         let truth = rec.truth_of(frame).unwrap();
         for e in compare(&report, truth) {
@@ -77,11 +77,15 @@ fn errors_with_young_scaled(scale: f64) -> Vec<(f64, f64, f64, f64)> {
     let m = model.problem.material;
     model.problem.material =
         softsense::fem::material::Material::new(m.young * scale, m.poisson).unwrap();
-    let sensor = Sensor::new(model, rec.robot_from_camera, SenseParams::default());
+    let sensor = Sensor::new(
+        model,
+        rec.robot_from_camera.unwrap(),
+        SenseParams::default(),
+    );
     let mut out = Vec::new();
     for &frame in &rec.frames[1..] {
         let obs = sensor.observe(&rec, frame).unwrap();
-        let report = sensor.sense(frame, &obs, rec.actuators_of(frame));
+        let report = sensor.sense(frame, &obs, rec.inputs_of(frame).as_ref());
         assert_eq!(report.status, FrameStatus::Sensed, "frame {frame}");
         for e in compare(&report, rec.truth_of(frame).unwrap()) {
             let truth = softsense::math::Vec3::from(e.truth_force).norm();
@@ -162,11 +166,11 @@ fn stopping_on_the_predicted_error_saves_updates_and_stays_within_the_force_tole
     off.frame.settle_contraction = 0.0;
     let tol = on.frame.force_tol;
     let (mut updates_on, mut updates_off) = (0, 0);
-    let sensors = [on, off].map(|p| Sensor::new(model.clone(), rec.robot_from_camera, p));
+    let sensors = [on, off].map(|p| Sensor::new(model.clone(), rec.robot_from_camera.unwrap(), p));
     for &frame in &rec.frames {
         let obs = sensors[0].observe(&rec, frame).unwrap();
         let [a, b] =
-            [&sensors[0], &sensors[1]].map(|s| s.sense(frame, &obs, rec.actuators_of(frame)));
+            [&sensors[0], &sensors[1]].map(|s| s.sense(frame, &obs, rec.inputs_of(frame).as_ref()));
         assert_eq!(a.forces.len(), b.forces.len(), "frame {frame}");
         for (fa, fb) in a.forces.iter().zip(&b.forces) {
             let d = (0..3)
@@ -199,9 +203,13 @@ fn a_recording_in_tenth_millimetre_depth_units_is_sensed_like_one_in_millimetres
     );
     assert_eq!(rec.camera.params.depth_scale, 10000.0);
     let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
-    let sensor = Sensor::new(model, rec.robot_from_camera, SenseParams::default());
+    let sensor = Sensor::new(
+        model,
+        rec.robot_from_camera.unwrap(),
+        SenseParams::default(),
+    );
     let obs = sensor.observe(&rec, 0).unwrap();
-    let report = sensor.sense(0, &obs, rec.actuators_of(0));
+    let report = sensor.sense(0, &obs, rec.inputs_of(0).as_ref());
     assert_eq!(report.status, FrameStatus::Sensed, "{:?}", report.warnings);
     let errors = compare(&report, rec.truth_of(0).unwrap());
     assert_eq!(errors.len(), 1);
@@ -216,9 +224,9 @@ fn a_frame_with_fewer_feature_rows_than_unknowns_is_flagged_unreliable() {
     let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
     let mut params = SenseParams::default();
     params.features.count = 1;
-    let sensor = Sensor::new(model, rec.robot_from_camera, params);
+    let sensor = Sensor::new(model, rec.robot_from_camera.unwrap(), params);
     let obs = sensor.observe(&rec, 1).unwrap();
-    let report = sensor.sense(1, &obs, rec.actuators_of(1));
+    let report = sensor.sense(1, &obs, rec.inputs_of(1).as_ref());
     assert_eq!(report.status, FrameStatus::Sensed);
     assert!(!report.reliable);
     assert!(

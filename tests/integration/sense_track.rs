@@ -12,7 +12,11 @@ fn open(scene: &str) -> (Recording, Sensor) {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let rec = Recording::open(&root.join("clouds/scenes").join(scene)).unwrap();
     let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
-    let sensor = Sensor::new(model, rec.robot_from_camera, SenseParams::default());
+    let sensor = Sensor::new(
+        model,
+        rec.robot_from_camera.unwrap(),
+        SenseParams::default(),
+    );
     (rec, sensor)
 }
 
@@ -29,7 +33,7 @@ fn tracked(rec: &Recording, sensor: &Sensor) -> Vec<FrameReport> {
 
 fn alone(rec: &Recording, sensor: &Sensor, frame: usize) -> FrameReport {
     let obs = sensor.observe(rec, frame).unwrap();
-    sensor.sense(frame, &obs, rec.actuators_of(frame))
+    sensor.sense(frame, &obs, rec.inputs_of(frame).as_ref())
 }
 
 #[test]
@@ -101,7 +105,8 @@ fn a_frame_resumed_from_its_own_end_keeps_its_forces() {
     let (rec, sensor) = open("probe_press");
     let frame = rec.frames[4];
     let obs = sensor.observe(&rec, frame).unwrap();
-    let actuators = rec.actuators_of(frame);
+    let inputs = rec.inputs_of(frame);
+    let actuators = inputs.as_ref();
     let (first, track) = sensor.track(frame, &obs, actuators, None);
     let track = track.expect("a reliable frame with a contact leaves a track");
     assert_eq!(track.nodes(), &[first.forces[0].node.unwrap()]);
@@ -158,7 +163,11 @@ fn two_probes_are_tracked_whichever_order_their_contacts_are_listed_in() {
     );
     let rec = Recording::open(dir.path()).unwrap();
     let model = Model::load(&root.join("meshes/models/robot.toml"), None).unwrap();
-    let sensor = Sensor::new(model, rec.robot_from_camera, SenseParams::default());
+    let sensor = Sensor::new(
+        model,
+        rec.robot_from_camera.unwrap(),
+        SenseParams::default(),
+    );
     let reports = tracked(&rec, &sensor);
     assert_eq!(reports.len(), 4);
     let params = &sensor.params.frame;

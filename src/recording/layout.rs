@@ -1,0 +1,184 @@
+//! Where a folder keeps its frames: the three layouts a recording is read from.
+
+use super::RecordingError;
+use std::path::{Path, PathBuf};
+
+/// How a folder lays out its frames.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Layout {
+    /// `depth_NNNN.png` + `color_NNNN.png` + one `intrinsics.json` (what `scene generate`
+    /// writes); frame numbers are the `NNNN`.
+    Softsense,
+    /// `STEM_depth.tiff` + `STEM_rgb.tiff` + `STEM.xml` per frame (PCL's image grabber;
+    /// PNG also accepted, or one shared `intrinsics.json`/`.xml`); frames numbered in name
+    /// order from 0.
+    PclGrabber,
+    /// `depth/` and `color/` (or `image/`) sub-folders of images paired in name order, with
+    /// `intrinsics.json` or `camera_intrinsic.json` (Open3D's RGB-D datasets); frames
+    /// numbered in name order from 0.
+    Open3d,
+}
+
+/// The files of one frame.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct FrameFiles {
+    /// The frame number (see [`Layout`]).
+    pub number: usize,
+    /// Depth image (16-bit PNG or TIFF).
+    pub depth: PathBuf,
+    /// Colour image, if there is one.
+    pub color: Option<PathBuf>,
+    /// Camera file (Open3D JSON or PCL XML).
+    pub camera: PathBuf,
+}
+
+/// The frames of `dir` in whichever layout it has, in frame order.
+pub fn list_frames(dir: &Path) -> Result<(Layout, Vec<FrameFiles>), RecordingError> {
+    let names = file_names(dir)?;
+    let has = |n: &str| names.iter().any(|m| m == n);
+    let shared = ["intrinsics.json", "intrinsics.xml", "camera_intrinsic.json"]
+        .into_iter()
+        .find(|n| has(n))
+        .map(|n| dir.join(n));
+    let flat = list_flat(dir, &names, shared.as_deref())?;
+    if let Some(first) = flat.first() {
+        return Ok((first.0, flat.into_iter().map(|(_, f)| f).collect()));
+    }
+    let depth_dir = dir.join("depth");
+    if depth_dir.is_dir() {
+        let color_dir = ["color", "image", "rgb"]
+            .into_iter()
+            .map(|d| dir.join(d))
+            .find(|d| d.is_dir());
+        return Ok((Layout::Open3d, list_open3d(&depth_dir, color_dir, shared)?));
+    }
+    Err(RecordingError::NoFrames {
+        path: dir.to_path_buf(),
+    })
+}
+
+/// Sorted names of the files (not folders) in `dir`.
+fn file_names(dir: &Path) -> Result<Vec<String>, RecordingError> {
+    let entries = std::fs::read_dir(dir).map_err(|source| crate::io::IoError::Os {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    let mut names: Vec<String> = entries
+        .filter_map(|e| e.ok())
+        .filter(|e| e.path().is_file())
+        .filter_map(|e| e.file_name().to_str().map(str::to_string))
+        .collect();
+    names.sort();
+    Ok(names)
+}
+
+/// The length of `name` without its image extension, if it is an image.
+fn image_stem_len(name: &str) -> Option<usize> {
+    let l = name.to_ascii_lowercase();
+    [".png", ".tiff", ".tif", ".jpg", ".jpeg"]
+        .into_iter()
+        .find(|e| l.ends_with(e))
+        .map(|e| name.len() - e.len())
+}
+
+/// The softsense and PCL grabber layouts: every frame's files side by side in `dir`.
+fn list_flat(
+    dir: &Path,
+    names: &[String],
+    shared: Option<&Path>,
+) -> Result<Vec<(Layout, FrameFiles)>, RecordingError> {
+    let has = |n: &str| names.iter().any(|m| m == n);
+    let mut out = Vec::new();
+    for name in names {
+        let Some(stem_len) = image_stem_len(name) else {
+            continue;
+        };
+        let (stem, ext) = name.split_at(stem_len);
+        // (layout, frame number, colour file name candidates, per-frame camera file)
+        let (layout, number, colors, own_camera) = if let Some(id) = stem.strip_prefix("depth_") {
+            let Ok(number) = id.parse::<usize>() else {
+                continue;
+            };
+            let colors = vec![format!("color_{id}{ext}"), format!("color_{id}.png")];
+            (Layout::Softsense, number, colors, None)
+        } else if let Some(base) = stem.strip_suffix("_depth") {
+            let colors = vec![format!("{base}_rgb{ext}"), format!("{base}_color{ext}")];
+            (
+                Layout::PclGrabber,
+                out.len(),
+                colors,
+                Some(format!("{base}.xml")),
+            )
+        } else {
+            continue;
+        };
+        let color = colors.iter().find(|c| has(c)).map(|c| dir.join(c));
+        let camera = own_camera
+            .filter(|c| has(c))
+            .map(|c| dir.join(c))
+            .or_else(|| shared.map(Path::to_path_buf))
+            .ok_or_else(|| RecordingError::NoCamera {
+                depth: dir.join(name),
+            })?;
+        out.push((
+            layout,
+            FrameFiles {
+                number,
+                depth: dir.join(name),
+                color,
+                camera,
+            },
+        ));
+    }
+    if out.iter().any(|(l, _)| *l != out[0].0) {
+        return Err(RecordingError::MixedLayouts {
+            path: dir.to_path_buf(),
+        });
+    }
+    Ok(out)
+}
+
+/// Open3D's layout: `depth/` and a colour folder, paired in name order.
+fn list_open3d(
+    depth_dir: &Path,
+    color_dir: Option<PathBuf>,
+    shared: Option<PathBuf>,
+) -> Result<Vec<FrameFiles>, RecordingError> {
+    let images = |d: &Path| -> Result<Vec<PathBuf>, RecordingError> {
+        Ok(file_names(d)?
+            .into_iter()
+            .filter(|n| image_stem_len(n).is_some())
+            .map(|n| d.join(n))
+            .collect())
+    };
+    let depths = images(depth_dir)?;
+    let colors = match &color_dir {
+        Some(d) => images(d)?,
+        None => Vec::new(),
+    };
+    if let Some(d) = color_dir.filter(|_| colors.len() != depths.len()) {
+        return Err(RecordingError::Unpaired {
+            depth: depths.len(),
+            color: colors.len(),
+            path: d,
+        });
+    }
+    let Some(first) = depths.first() else {
+        return Err(RecordingError::NoFrames {
+            path: depth_dir.to_path_buf(),
+        });
+    };
+    let camera = shared.ok_or_else(|| RecordingError::NoCamera {
+        depth: first.clone(),
+    })?;
+    Ok(depths
+        .into_iter()
+        .enumerate()
+        .map(|(number, depth)| FrameFiles {
+            number,
+            depth,
+            color: colors.get(number).cloned(),
+            camera: camera.clone(),
+        })
+        .collect())
+}
