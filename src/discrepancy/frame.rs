@@ -28,23 +28,9 @@ pub(super) struct FrameCtx {
 /// The problem of one frame: the model with the recorded cable inputs and known loads.
 pub fn frame_problem(model: &Model, input: &FrameInput) -> DiscrepancyResult<Problem> {
     let mut p = model.problem.clone();
-    for c in &input.cables {
-        let cable = p
-            .cables
-            .iter_mut()
-            .find(|k| k.name == c.name)
-            .ok_or_else(|| DiscrepancyError::Data(format!("no cable named {:?}", c.name)))?;
-        cable.control = match (c.shorten, c.force) {
-            (Some(s), None) => CableControl::Displacement(s),
-            (None, Some(f)) => CableControl::Force(f),
-            _ => {
-                return Err(DiscrepancyError::Data(format!(
-                    "cable {:?}: give exactly one of shorten, force",
-                    c.name
-                )))
-            }
-        };
-    }
+    input
+        .apply_cables(&mut p.cables)
+        .map_err(DiscrepancyError::Data)?;
     if !input.loads.is_empty() {
         let surface = p.mesh.surface();
         for l in &input.loads {

@@ -21,7 +21,7 @@ use crate::camera::Camera;
 use crate::fem::material::Material;
 use crate::fem::mesh::Surface;
 use crate::fem::model::Model;
-use crate::fem::solve::{CableControl, MappedPoint, PointLoad, Problem};
+use crate::fem::solve::{Cable, CableControl, MappedPoint, PointLoad, Problem};
 use camera::CameraSpec;
 use raycast::Bvh;
 use sensor::SensorModel;
@@ -135,6 +135,30 @@ pub struct FrameInput {
     pub cables: Vec<CableInput>,
     /// Loads.
     pub loads: Vec<LoadInput>,
+}
+
+impl FrameInput {
+    /// Sets the control of each listed cable in `cables` (unlisted ones keep theirs); the
+    /// error names a cable that is not there or not given exactly one of shorten, force.
+    pub fn apply_cables(&self, cables: &mut [Cable]) -> Result<(), String> {
+        for c in &self.cables {
+            let cable = cables
+                .iter_mut()
+                .find(|k| k.name == c.name)
+                .ok_or_else(|| format!("no cable named {:?}", c.name))?;
+            cable.control = match (c.shorten, c.force) {
+                (Some(s), None) => CableControl::Displacement(s),
+                (None, Some(f)) => CableControl::Force(f),
+                _ => {
+                    return Err(format!(
+                        "cable {:?}: give exactly one of shorten, force",
+                        c.name
+                    ))
+                }
+            };
+        }
+        Ok(())
+    }
 }
 
 /// A scene file.
@@ -336,25 +360,9 @@ fn frame_problem(
         .get(index)
         .ok_or_else(|| SceneError::Spec(format!("no frame {index}")))?;
     let mut problem = model.problem.clone();
-    for c in &frame.cables {
-        let cable = problem
-            .cables
-            .iter_mut()
-            .find(|k| k.name == c.name)
-            .ok_or_else(|| {
-                SceneError::Spec(format!("frame {index}: no cable named {:?}", c.name))
-            })?;
-        cable.control = match (c.shorten, c.force) {
-            (Some(s), None) => CableControl::Displacement(s),
-            (None, Some(f)) => CableControl::Force(f),
-            _ => {
-                return Err(SceneError::Spec(format!(
-                    "frame {index}: cable {:?}: give exactly one of shorten, force",
-                    c.name
-                )))
-            }
-        };
-    }
+    frame
+        .apply_cables(&mut problem.cables)
+        .map_err(|e| SceneError::Spec(format!("frame {index}: {e}")))?;
     let rest = problem.mesh.nodes_in_rest.clone();
     let mut nodes_of_loads = Vec::new();
     for (k, l) in frame.loads.iter().enumerate() {
