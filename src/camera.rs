@@ -296,8 +296,8 @@ pub(crate) fn normalize(a: [f64; 3]) -> Option<[f64; 3]> {
     (l > 1e-300 && l.is_finite()).then(|| a.map(|c| c / l))
 }
 
-// The scene camera's stricter cut-off: an eye within a micrometre of its target, or an up
-// vector nearly along the view, is a mistake in the scene file.
+// `look_at`'s stricter cut-off than `normalize`: an eye on its target, or an up vector
+// nearly along the view, is a mistake in the scene file.
 fn unit(a: [f64; 3]) -> Option<[f64; 3]> {
     let l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
     (l > 1e-12 && l.is_finite()).then(|| a.map(|c| c / l))
