@@ -8,9 +8,10 @@
 use parry3d_f64::math::{Point, Vector};
 use parry3d_f64::query::{Ray, RayCast};
 use parry3d_f64::shape::TriMesh;
+use softsense::camera::Camera;
 use softsense::fem::model::Model;
 use softsense::geometry::raycast::Bvh;
-use softsense::scene::camera::{Camera, CameraSpec};
+use softsense::scene::camera::CameraSpec;
 use softsense::scene::{render_frame, Scene};
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -19,7 +20,10 @@ use std::time::{Duration, Instant};
 type Depths = Vec<Option<f64>>;
 
 fn rays(camera: &Camera) -> Vec<[f64; 3]> {
-    let (w, h) = (camera.spec.width as usize, camera.spec.height as usize);
+    let (w, h) = (
+        camera.intrinsics.width as usize,
+        camera.intrinsics.height as usize,
+    );
     (0..w * h)
         .map(|i| camera.ray((i % w) as f64, (i / w) as f64))
         .collect()
@@ -91,8 +95,8 @@ fn ms(d: &[Duration]) -> String {
 }
 
 fn compare(name: &str, nodes: &[[f64; 3]], tris: &[[usize; 3]], rounds: usize) {
-    let camera = Camera::new(CameraSpec::default()).expect("default camera");
-    let (eye, dirs) = (camera.spec.eye, rays(&camera));
+    let camera = CameraSpec::default().camera().expect("default camera");
+    let (eye, dirs) = (camera.eye(), rays(&camera));
     let mut times = [[Vec::new(), Vec::new()], [Vec::new(), Vec::new()]];
     let mut answers = (Vec::new(), Vec::new());
     for round in 0..rounds {

@@ -20,8 +20,46 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use crate::math::pose::{Pose, PoseError};
+use serde::{Deserialize, Serialize};
 
-pub use crate::io::intrinsics::PinholeIntrinsics;
+/// A pinhole camera: `u = fx·x/z + cx`, `v = fy·y/z + cy`, pixels 0-based, no skew.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PinholeIntrinsics {
+    /// Image width in pixels; 0 when the source does not say (PCL's XML), in which case
+    /// the RGB-D reader takes the depth image's width.
+    pub width: u32,
+    /// Image height in pixels; 0 when the source does not say (see `width`).
+    pub height: u32,
+    /// Focal length along x, pixels.
+    pub fx: f64,
+    /// Focal length along y, pixels.
+    pub fy: f64,
+    /// Principal point x (column), pixels.
+    pub cx: f64,
+    /// Principal point y (row), pixels.
+    pub cy: f64,
+}
+
+impl PinholeIntrinsics {
+    /// Open3D's `PrimeSenseDefault`: 640x480, f = 525, c = (319.5, 239.5).
+    pub fn prime_sense_default() -> Self {
+        PinholeIntrinsics {
+            width: 640,
+            height: 480,
+            fx: 525.0,
+            fy: 525.0,
+            cx: 319.5,
+            cy: 239.5,
+        }
+    }
+}
+
+impl Default for PinholeIntrinsics {
+    /// [`PinholeIntrinsics::prime_sense_default`], as Open3D's default camera.
+    fn default() -> Self {
+        Self::prime_sense_default()
+    }
+}
 
 /// Points closer to the camera plane than this (m) do not project.
 pub const NEAR_Z: f64 = 1e-6;
@@ -258,8 +296,8 @@ pub(crate) fn normalize(a: [f64; 3]) -> Option<[f64; 3]> {
     (l > 1e-300 && l.is_finite()).then(|| a.map(|c| c / l))
 }
 
-// The scene camera's stricter cut-off: an eye within a micrometre of its target, or an up
-// vector nearly along the view, is a mistake in the scene file.
+// `look_at`'s stricter cut-off than `normalize`: an eye on its target, or an up vector
+// nearly along the view, is a mistake in the scene file.
 fn unit(a: [f64; 3]) -> Option<[f64; 3]> {
     let l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
     (l > 1e-12 && l.is_finite()).then(|| a.map(|c| c / l))

@@ -6,6 +6,7 @@ use super::workflow::Workflow;
 use super::{DiscrepancyError, DiscrepancyResult};
 use crate::fem::constraint::{ConstraintRow, RowKind};
 use crate::fem::model::Model;
+use crate::fem::solve::apply_cable_inputs;
 use crate::fem::solve::{CableControl, MappedPoint, PointLoad, Problem, Solution};
 use crate::scene::FrameInput;
 use nalgebra::DMatrix;
@@ -28,23 +29,7 @@ pub(super) struct FrameCtx {
 /// The problem of one frame: the model with the recorded cable inputs and known loads.
 pub fn frame_problem(model: &Model, input: &FrameInput) -> DiscrepancyResult<Problem> {
     let mut p = model.problem.clone();
-    for c in &input.cables {
-        let cable = p
-            .cables
-            .iter_mut()
-            .find(|k| k.name == c.name)
-            .ok_or_else(|| DiscrepancyError::Data(format!("no cable named {:?}", c.name)))?;
-        cable.control = match (c.shorten, c.force) {
-            (Some(s), None) => CableControl::Displacement(s),
-            (None, Some(f)) => CableControl::Force(f),
-            _ => {
-                return Err(DiscrepancyError::Data(format!(
-                    "cable {:?}: give exactly one of shorten, force",
-                    c.name
-                )))
-            }
-        };
-    }
+    apply_cable_inputs(&mut p.cables, &input.cables).map_err(DiscrepancyError::Data)?;
     if !input.loads.is_empty() {
         let surface = p.mesh.surface();
         for l in &input.loads {

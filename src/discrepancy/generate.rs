@@ -5,7 +5,7 @@
 use super::effects::{apply_model, rotation, rotation_vector, tet_legs, Effect, EffectKind};
 use super::{load_candidates, DiscrepancyError, DiscrepancyResult};
 use crate::fem::model::Model;
-use crate::scene::camera::{Camera, CameraSpec};
+use crate::scene::camera::CameraSpec;
 use crate::scene::sensor::{normal, uniform, SensorModel};
 use crate::scene::{render_frame, CableInput, FrameInput, LoadInput, LoadKind, Scene, SceneSpec};
 use serde::{Deserialize, Serialize};
@@ -240,7 +240,7 @@ fn true_camera(nominal: &CameraSpec, w: [f64; 3], t: [f64; 3]) -> DiscrepancyRes
     s.eye = inv(nominal.eye);
     s.target = inv(nominal.target);
     s.up = rot_t(nominal.up);
-    Camera::new(s.clone())
+    s.camera()
         .ok_or_else(|| DiscrepancyError::Data("degenerate true camera".into()))?;
     Ok(s)
 }
@@ -296,7 +296,9 @@ pub fn generate_dataset(
     let recorded = recorded_inputs(spec, &nominal, &mut rng);
     let world = true_world(spec, &nominal, &hidden, &recorded)?;
     render_frames(spec, &world, frames_dir)?;
-    let recorded_cam = Camera::new(spec.camera.clone())
+    let recorded_cam = spec
+        .camera
+        .camera()
         .ok_or_else(|| DiscrepancyError::Data("degenerate camera".into()))?;
     write_json(
         &frames_dir.join("intrinsics.json"),
@@ -486,10 +488,8 @@ fn write_pngs(
 /// The rotation vector of a camera-pose truth (for checks): the measured-from-true rotation
 /// between two camera specs.
 pub fn pose_error(nominal: &CameraSpec, truth: &CameraSpec) -> Option<[f64; 6]> {
-    let n = Camera::new(nominal.clone())?;
-    let t = Camera::new(truth.clone())?;
-    let rn = n.robot_from_camera();
-    let rt = t.robot_from_camera();
+    let rn = nominal.camera()?.robot_from_camera().to_matrix();
+    let rt = truth.camera()?.robot_from_camera().to_matrix();
     let mut r = [[0.0; 3]; 3];
     for (i, ri) in r.iter_mut().enumerate() {
         for (j, rij) in ri.iter_mut().enumerate() {

@@ -15,6 +15,31 @@ pub enum CableControl {
     Displacement(f64),
 }
 
+/// Sets the control of each cable named in `inputs` (unlisted cables keep theirs); the
+/// error names a cable that is not there or is not given exactly one of shorten, force.
+pub fn apply_cable_inputs(
+    cables: &mut [Cable],
+    inputs: &[crate::recording::CableInput],
+) -> Result<(), String> {
+    for c in inputs {
+        let cable = cables
+            .iter_mut()
+            .find(|k| k.name == c.name)
+            .ok_or_else(|| format!("no cable named {:?}", c.name))?;
+        cable.control = match (c.shorten, c.force) {
+            (Some(s), None) => CableControl::Displacement(s),
+            (None, Some(f)) => CableControl::Force(f),
+            _ => {
+                return Err(format!(
+                    "cable {:?}: give exactly one of shorten, force",
+                    c.name
+                ))
+            }
+        };
+    }
+    Ok(())
+}
+
 /// A cable actuator: from a fixed pull point through attach points on the mesh.
 /// Its length is |p1 - pull| + sum |p(i+1) - p(i)|; the actuator value is the shortening
 /// L0 - L(x) and the tension lambda >= 0 pulls the attach points along the cable.

@@ -6,7 +6,7 @@
 //! Symbolic analysis is done once per mesh and held nodes ([`SolverSetup`]); the numeric
 //! factorization is redone at every Newton iteration, with faer's sparse Cholesky.
 
-pub use super::cable::{Cable, CableControl};
+pub use super::cable::{apply_cable_inputs, Cable, CableControl};
 pub use super::factor::SEQUENTIAL_FACTOR_LEN;
 pub use super::newton::{norm_vec, NewtonParams, Solution};
 pub use super::problem::{Formulation, MappedPoint, PointLoad, Problem};

@@ -19,43 +19,15 @@
 
 use super::rgbd_error::RgbdError;
 use super::IoError;
+pub use crate::camera::PinholeIntrinsics;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 /// The largest image side we accept from an intrinsics file (guards later allocations).
 pub const MAX_IMAGE_SIDE: u32 = 1 << 15;
 
-/// A pinhole camera: `u = fx·x/z + cx`, `v = fy·y/z + cy`, pixels 0-based, no skew.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct PinholeIntrinsics {
-    /// Image width in pixels; 0 when the source does not say (PCL's XML), in which case
-    /// [`crate::io::rgbd::read_frame`] takes the depth image's width.
-    pub width: u32,
-    /// Image height in pixels; 0 when the source does not say (see `width`).
-    pub height: u32,
-    /// Focal length along x, pixels.
-    pub fx: f64,
-    /// Focal length along y, pixels.
-    pub fy: f64,
-    /// Principal point x (column), pixels.
-    pub cx: f64,
-    /// Principal point y (row), pixels.
-    pub cy: f64,
-}
-
+// The check speaks the readers' error type, so it lives here rather than in `camera`.
 impl PinholeIntrinsics {
-    /// Open3D's `PrimeSenseDefault`: 640x480, f = 525, c = (319.5, 239.5).
-    pub fn prime_sense_default() -> Self {
-        PinholeIntrinsics {
-            width: 640,
-            height: 480,
-            fx: 525.0,
-            fy: 525.0,
-            cx: 319.5,
-            cy: 239.5,
-        }
-    }
-
     /// Checks focal lengths (finite, > 0), principal point (finite) and size (at most
     /// [`MAX_IMAGE_SIDE`]); the error names the first bad field.
     pub fn validate(&self) -> Result<(), RgbdError> {
@@ -147,13 +119,6 @@ pub struct CameraModel {
     pub intrinsics: PinholeIntrinsics,
     /// Depth units and truncation.
     pub params: DepthParams,
-}
-
-impl Default for PinholeIntrinsics {
-    /// [`PinholeIntrinsics::prime_sense_default`], as Open3D's default camera.
-    fn default() -> Self {
-        Self::prime_sense_default()
-    }
 }
 
 fn bad(field: &str, problem: String) -> RgbdError {

@@ -178,7 +178,7 @@ impl Recording {
         for (i, f) in files.iter().enumerate() {
             let shared = i > 0 && files[i - 1].camera == f.camera;
             let camera = match shared {
-                true => cameras[i - 1].clone(),
+                true => cameras[i - 1],
                 false => read_camera_model(&f.camera)?,
             };
             cameras.push(camera);
@@ -196,7 +196,7 @@ impl Recording {
         Ok(Self {
             dir: dir.to_path_buf(),
             layout,
-            camera: cameras[0].clone(),
+            camera: cameras[0],
             robot_from_camera,
             pose_file,
             frames: files.iter().map(|f| f.number).collect(),

@@ -5,9 +5,8 @@ use super::{
     bar_chart, side_by_side, surface_map, Canvas, ColorMap, RenderError, SurfaceMapParams,
     SurfaceMesh, SurfaceValues, View, WHITE,
 };
-use crate::camera::Camera;
+use crate::camera::{Camera, PinholeIntrinsics};
 use crate::discrepancy::Explanation;
-use crate::io::intrinsics::PinholeIntrinsics;
 use std::path::Path;
 
 /// The recorded image size.

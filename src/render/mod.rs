@@ -6,8 +6,8 @@
 //!   [`text_size`]); PNG in and out.
 //! - [`ColorMap`]: a sequential (viridis-like) and a diverging (blue-white-red) map, with
 //!   [`colorbar`] and [`format_value`] for labels.
-//! - [`project`], [`Pose`], [`View`]: the pinhole model and rigid camera poses, matching
-//!   [`crate::scene::camera`] and [`crate::io::intrinsics::PinholeIntrinsics`].
+//! - [`project`], [`Pose`], [`View`]: the pinhole model and rigid camera poses, those of
+//!   [`crate::camera::Camera`] and [`crate::camera::PinholeIntrinsics`].
 //! - [`surface_map`]: a z-buffered, flat-shaded rendering of a triangle surface with a
 //!   scalar per vertex or per triangle (e.g. residuals), with a colour bar and title.
 //! - [`bar_chart`] and [`legend`]: labelled horizontal bars (e.g. a criterion per

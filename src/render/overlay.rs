@@ -6,7 +6,7 @@ use super::chart::{legend, Swatch};
 use super::font::text_size;
 use super::project::{project_with, Pose};
 use super::RenderError;
-use crate::io::intrinsics::PinholeIntrinsics;
+use crate::camera::PinholeIntrinsics;
 
 /// Tint of robot-segment pixels.
 pub const ROBOT_TINT: Rgb = [0, 190, 255];

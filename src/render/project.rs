@@ -2,7 +2,7 @@
 //! [`crate::camera::Camera`] and [`crate::math::pose::Pose`].
 
 use super::RenderError;
-use crate::io::intrinsics::PinholeIntrinsics;
+use crate::camera::PinholeIntrinsics;
 
 pub use crate::camera::NEAR_Z;
 pub use crate::math::pose::{Pose, RIGID_TOLERANCE};

@@ -1,5 +1,7 @@
-//! The virtual pinhole camera (OpenCV convention: x right, y down, z forward) and its pose.
+//! A scene file's camera: intrinsics and a look-at pose, made into the crate's
+//! [`Camera`] by [`CameraSpec::camera`].
 
+use crate::camera::{Camera, PinholeIntrinsics};
 use serde::{Deserialize, Serialize};
 
 /// Camera intrinsics and pose, as written in a scene file (metres, robot frame).
@@ -61,11 +63,11 @@ impl CameraSpec {
     /// ```
     ///
     /// ```
-    /// use softsense::scene::camera::{Camera, CameraSpec};
+    /// use softsense::scene::camera::CameraSpec;
     /// let (sd, hd) = (CameraSpec::default(), CameraSpec::d415_1280x720());
     /// assert_eq!((hd.width, hd.height), (1280, 720));
     /// // A pixel row of the 640x480 stream is 1.5 rows of the 1280x720 one.
-    /// let (a, b) = (Camera::new(sd).unwrap(), Camera::new(hd).unwrap());
+    /// let (a, b) = (sd.camera().unwrap(), hd.camera().unwrap());
     /// let (ra, rb) = (a.ray(319.5, 0.0), b.ray(639.5, 359.5 - 1.5 * 239.5));
     /// assert!((0..3).all(|k| (ra[k] - rb[k]).abs() < 1e-12));
     /// ```
@@ -82,76 +84,22 @@ impl CameraSpec {
             ..sd
         }
     }
-}
 
-/// A camera ready for ray casting: rotation columns are the camera axes in the robot frame.
-#[derive(Clone, Debug, Serialize)]
-pub struct Camera {
-    /// The spec it was made from.
-    pub spec: CameraSpec,
-    /// Camera x, y, z axes in the robot frame.
-    pub axes: [[f64; 3]; 3],
-}
-
-fn unit(a: [f64; 3]) -> Option<[f64; 3]> {
-    let l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
-    (l > 1e-12 && l.is_finite()).then(|| a.map(|c| c / l))
-}
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-impl Camera {
-    /// Builds the pose; None when eye = target or up is parallel to the view direction,
-    /// or the intrinsics are not positive.
-    pub fn new(spec: CameraSpec) -> Option<Self> {
-        let ok = spec.fx > 0.0 && spec.fy > 0.0 && spec.width > 0 && spec.height > 0;
-        let z = unit([0, 1, 2].map(|k| spec.target[k] - spec.eye[k]))?;
-        let x = unit(cross(z, spec.up))?;
-        let y = cross(z, x);
-        ok.then_some(Self {
-            spec,
-            axes: [x, y, z],
-        })
+    /// The pinhole part of the spec.
+    pub fn intrinsics(&self) -> PinholeIntrinsics {
+        PinholeIntrinsics {
+            width: self.width,
+            height: self.height,
+            fx: self.fx,
+            fy: self.fy,
+            cx: self.cx,
+            cy: self.cy,
+        }
     }
 
-    /// Ray direction in the robot frame for pixel (u, v), scaled so that its camera-z
-    /// component is 1 (the ray parameter is then the depth z).
-    pub fn ray(&self, u: f64, v: f64) -> [f64; 3] {
-        let s = &self.spec;
-        let c = [(u - s.cx) / s.fx, (v - s.cy) / s.fy, 1.0];
-        [0, 1, 2].map(|k| c[0] * self.axes[0][k] + c[1] * self.axes[1][k] + c[2] * self.axes[2][k])
-    }
-
-    /// Back-projects pixel (u, v) at depth z (m) into the robot frame.
-    pub fn backproject(&self, u: f64, v: f64, z: f64) -> [f64; 3] {
-        let d = self.ray(u, v);
-        [0, 1, 2].map(|k| self.spec.eye[k] + z * d[k])
-    }
-
-    /// The 4x4 robot_from_camera transform, row-major.
-    pub fn robot_from_camera(&self) -> [[f64; 4]; 4] {
-        let a = &self.axes;
-        let e = self.spec.eye;
-        [
-            [a[0][0], a[1][0], a[2][0], e[0]],
-            [a[0][1], a[1][1], a[2][1], e[1]],
-            [a[0][2], a[1][2], a[2][2], e[2]],
-            [0.0, 0.0, 0.0, 1.0],
-        ]
-    }
-
-    /// Open3D `PinholeCameraIntrinsic` JSON (column-major intrinsic matrix).
-    pub fn open3d_intrinsics(&self) -> serde_json::Value {
-        let s = &self.spec;
-        serde_json::json!({
-            "width": s.width,
-            "height": s.height,
-            "intrinsic_matrix": [s.fx, 0.0, 0.0, 0.0, s.fy, 0.0, s.cx, s.cy, 1.0],
-        })
+    /// The camera this spec describes ([`Camera::look_at`]); `None` when eye = target, up
+    /// is parallel to the view direction, or the intrinsics are not positive.
+    pub fn camera(&self) -> Option<Camera> {
+        Camera::look_at(self.intrinsics(), self.eye, self.target, self.up)
     }
 }

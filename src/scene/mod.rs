@@ -4,10 +4,10 @@
 //! probe and the table into RGB-D frames, with a `truth.json` of everything used.
 //!
 //! ```
-//! use softsense::scene::camera::{Camera, CameraSpec};
-//! let cam = Camera::new(CameraSpec::default()).unwrap();
+//! use softsense::scene::camera::CameraSpec;
+//! let s = CameraSpec::default();
+//! let cam = s.camera().unwrap();
 //! // The optical axis passes through the principal point and hits the target.
-//! let s = &cam.spec;
 //! let dist = (0..3).map(|k| (s.target[k] - s.eye[k]).powi(2)).sum::<f64>().sqrt();
 //! let p = cam.backproject(s.cx, s.cy, dist);
 //! assert!((0..3).all(|k| (p[k] - s.target[k]).abs() < 1e-12));
@@ -22,11 +22,13 @@ pub use crate::recording::schema::{
 /// `truth.json` as `scene generate` writes it.
 pub type Truth = crate::recording::schema::Truth<SceneSpec>;
 
+use crate::camera::Camera;
 use crate::fem::material::Material;
 use crate::fem::mesh::Surface;
 use crate::fem::model::Model;
+use crate::fem::solve::apply_cable_inputs;
 use crate::fem::solve::{CableControl, MappedPoint, PointLoad, Problem};
-use camera::{Camera, CameraSpec};
+use camera::CameraSpec;
 use raycast::Bvh;
 use sensor::SensorModel;
 use serde::{Deserialize, Serialize};
@@ -222,25 +224,8 @@ fn frame_problem(
         .get(index)
         .ok_or_else(|| SceneError::Spec(format!("no frame {index}")))?;
     let mut problem = model.problem.clone();
-    for c in &frame.cables {
-        let cable = problem
-            .cables
-            .iter_mut()
-            .find(|k| k.name == c.name)
-            .ok_or_else(|| {
-                SceneError::Spec(format!("frame {index}: no cable named {:?}", c.name))
-            })?;
-        cable.control = match (c.shorten, c.force) {
-            (Some(s), None) => CableControl::Displacement(s),
-            (None, Some(f)) => CableControl::Force(f),
-            _ => {
-                return Err(SceneError::Spec(format!(
-                    "frame {index}: cable {:?}: give exactly one of shorten, force",
-                    c.name
-                )))
-            }
-        };
-    }
+    apply_cable_inputs(&mut problem.cables, &frame.cables)
+        .map_err(|e| SceneError::Spec(format!("frame {index}: {e}")))?;
     let rest = problem.mesh.nodes_in_rest.clone();
     let mut nodes_of_loads = Vec::new();
     for (k, l) in frame.loads.iter().enumerate() {
@@ -316,12 +301,15 @@ fn cast_pixels(
     bvh: &Bvh,
     probes: &[([f64; 3], f64)],
 ) -> Vec<(f64, f64, usize)> {
-    let (w, h) = (spec.camera.width as usize, spec.camera.height as usize);
+    let (w, h) = (
+        camera.intrinsics.width as usize,
+        camera.intrinsics.height as usize,
+    );
+    let o = camera.eye();
     let cast = |i: usize| -> (f64, f64, usize) {
         let (u, v) = ((i % w) as f64, (i / w) as f64);
         let d = camera.ray(u, v);
         let dn = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-        let o = spec.camera.eye;
         let mut best: Option<(raycast::Hit, usize)> = None;
         let mut consider = |hit: Option<raycast::Hit>, obj: usize| {
             if let Some(hh) = hit {
@@ -386,7 +374,9 @@ pub fn render_frame(scene: &Scene, model: &Model, index: usize) -> SceneResult<R
             tension: sol.cable_tension.get(i).copied().unwrap_or(f64::NAN),
         })
         .collect();
-    let camera = Camera::new(spec.camera.clone())
+    let camera = spec
+        .camera
+        .camera()
         .ok_or_else(|| SceneError::Spec("degenerate camera (intrinsics or pose)".into()))?;
     let bvh = Bvh::new(&sol.positions, &surface.triangles);
     let w = spec.camera.width as usize;
@@ -481,7 +471,9 @@ pub fn generate(
     std::fs::create_dir_all(out).map_err(|e| write_err(out, e))?;
     let model = scene.model()?;
     let spec = &scene.spec;
-    let camera = Camera::new(spec.camera.clone())
+    let camera = spec
+        .camera
+        .camera()
         .ok_or_else(|| SceneError::Spec("degenerate camera (intrinsics or pose)".into()))?;
     // The depth PNGs' unit goes with the intrinsics, as in Open3D's RGB-D video metadata:
     // a reader assuming millimetres would put the robot elsewhere.

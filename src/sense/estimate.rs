@@ -122,7 +122,7 @@ impl Sensor {
         if obs.robot.len() < 50 {
             return Err(FrameStatus::NoRobot);
         }
-        let model = self.actuated(inputs);
+        let model = self.actuated(inputs).map_err(|e| fail(&e))?;
         let clock = std::time::Instant::now();
         let free = self.free.solve(&self.model, &model).map_err(|e| fail(&e))?;
         report.timings.free_solve = ms(clock.elapsed());

@@ -53,6 +53,7 @@ pub use track::Track;
 
 use crate::fem::mesh::Surface;
 use crate::fem::model::Model;
+use crate::fem::solve::apply_cable_inputs;
 use crate::fem::solve::CableControl;
 use crate::math::pose::Pose;
 use crate::recording::{ActuatorCalibration, FrameInput};
@@ -219,21 +220,17 @@ impl Sensor {
         Ok(())
     }
 
-    /// The model with the cable inputs of `inputs` as its cable controls (by name; unknown names
-    /// ignored; its loads are what sensing estimates, so they are not applied).
-    fn actuated(&self, inputs: Option<&FrameInput>) -> Model {
+    /// The model with the cable inputs of `inputs` as its cable controls (its loads are what
+    /// sensing estimates, so they are not applied); the error names a cable input that does
+    /// not fit the model.
+    fn actuated(&self, inputs: Option<&FrameInput>) -> Result<Model, String> {
         let mut model = self.model.clone();
         model.problem.loads.clear();
-        for a in inputs.map_or(&[][..], |i| &i.cables) {
-            if let Some(c) = model.problem.cables.iter_mut().find(|c| c.name == a.name) {
-                c.control = match (a.shorten, a.force) {
-                    (Some(s), _) => CableControl::Displacement(s),
-                    (None, Some(f)) => CableControl::Force(f),
-                    (None, None) => c.control,
-                };
-            }
+        if let Some(inputs) = inputs {
+            apply_cable_inputs(&mut model.problem.cables, &inputs.cables)
+                .map_err(|e| format!("recorded inputs: {e}"))?;
         }
-        model
+        Ok(model)
     }
 
     /// Senses one frame. Never fails: problems are in the report's status.

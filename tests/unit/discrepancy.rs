@@ -6,18 +6,10 @@ use softsense::discrepancy::effects::{correct_points, rotation, Effect, EffectKi
 use softsense::discrepancy::report::updated_model;
 use softsense::discrepancy::{split_frames, FittedEffect};
 use softsense::fem::model::{ModelSpec, Units};
+use softsense::scene::camera::CameraSpec;
 
 fn camera() -> Camera {
-    let cam = softsense::scene::camera::Camera::new(Default::default()).unwrap();
-    let k = softsense::camera::PinholeIntrinsics {
-        width: 640,
-        height: 480,
-        fx: 615.0,
-        fy: 615.0,
-        cx: 319.5,
-        cy: 239.5,
-    };
-    Camera::from_matrix(k, &cam.robot_from_camera()).unwrap()
+    CameraSpec::default().camera().unwrap()
 }
 
 #[test]

@@ -5,7 +5,7 @@ use proptest::prelude::*;
 use softsense::io::intrinsics::PinholeIntrinsics;
 use softsense::math::pose::PoseError;
 use softsense::render::*;
-use softsense::scene::camera::{Camera, CameraSpec};
+use softsense::scene::camera::CameraSpec;
 
 const RED: Rgb = [255, 0, 0];
 
@@ -255,17 +255,10 @@ fn values_are_labelled_with_three_significant_digits() {
 
 #[test]
 fn projection_inverts_the_scene_cameras_back_projection() {
-    let cam = Camera::new(CameraSpec::default()).unwrap();
-    let pose = camera_from_robot(&cam.robot_from_camera()).unwrap();
-    let s = &cam.spec;
-    let k = PinholeIntrinsics {
-        width: s.width,
-        height: s.height,
-        fx: s.fx,
-        fy: s.fy,
-        cx: s.cx,
-        cy: s.cy,
-    };
+    let s = CameraSpec::default();
+    let cam = s.camera().unwrap();
+    let pose = camera_from_robot(&cam.robot_from_camera().to_matrix()).unwrap();
+    let k = s.intrinsics();
     for (u, v, z) in [
         (0.0, 0.0, 0.3),
         (319.5, 239.5, 0.5),
@@ -285,7 +278,7 @@ fn projection_inverts_the_scene_cameras_back_projection() {
         assert!((uv2[0] - u).abs() < 1e-9 && (uv2[1] - v).abs() < 1e-9 && (z2 - z).abs() < 1e-12);
     }
     // The same through the conveniences a `sense` caller uses.
-    let view = View::from_matrix(k, &cam.robot_from_camera()).unwrap();
+    let view = View::from_matrix(k, &cam.robot_from_camera().to_matrix()).unwrap();
     let tip = cam.backproject(300.0, 200.0, 0.45);
     let (uv, _) = view.project_robot(tip).unwrap();
     assert!((uv[0] - 300.0).abs() < 1e-9 && (uv[1] - 200.0).abs() < 1e-9);
@@ -301,8 +294,11 @@ fn projection_inverts_the_scene_cameras_back_projection() {
 
 #[test]
 fn poses_invert_rigidly_and_reject_non_rigid_matrices() {
-    let cam = Camera::new(CameraSpec::default()).unwrap();
-    let m = cam.robot_from_camera();
+    let m = CameraSpec::default()
+        .camera()
+        .unwrap()
+        .robot_from_camera()
+        .to_matrix();
     let pose = Pose::from_matrix(&m).unwrap();
     assert_eq!(pose.to_matrix(), m);
     let p = [0.1, -0.2, 0.3];

@@ -2,7 +2,7 @@
 use proptest::prelude::*;
 use softsense::fem::mesh::TetMesh;
 use softsense::geometry::raycast::{ray_plane, ray_sphere, ray_triangle, Bvh};
-use softsense::scene::camera::{Camera, CameraSpec};
+use softsense::scene::camera::CameraSpec;
 use softsense::scene::sensor::SensorModel;
 
 fn box_surface() -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
@@ -53,23 +53,25 @@ fn sphere_and_plane_hits_are_exact() {
 
 #[test]
 fn camera_ray_and_backprojection_agree() {
-    let cam = Camera::new(CameraSpec::default()).unwrap();
+    let cam = CameraSpec::default().camera().unwrap();
     let d = cam.ray(100.0, 50.0);
     let p = cam.backproject(100.0, 50.0, 0.4);
+    let (eye, axis_z) = (cam.eye(), cam.axis_z());
+    assert_eq!(eye, CameraSpec::default().eye);
     for k in 0..3 {
-        assert!((p[k] - (cam.spec.eye[k] + 0.4 * d[k])).abs() < 1e-15);
+        assert!((p[k] - (eye[k] + 0.4 * d[k])).abs() < 1e-15);
     }
     // The camera z component of the ray is 1: depth is the distance along the optical axis.
-    let z: f64 = (0..3).map(|k| d[k] * cam.axes[2][k]).sum();
+    let z: f64 = (0..3).map(|k| d[k] * axis_z[k]).sum();
     assert!((z - 1.0).abs() < 1e-12);
     // robot_from_camera maps camera (0,0,1) to eye + axis z.
-    let t = cam.robot_from_camera();
+    let t = cam.robot_from_camera().to_matrix();
     for (k, row) in t.iter().take(3).enumerate() {
-        assert!((row[2] + row[3] - (cam.spec.eye[k] + cam.axes[2][k])).abs() < 1e-15);
+        assert!((row[2] + row[3] - (eye[k] + axis_z[k])).abs() < 1e-15);
     }
     let mut bad = CameraSpec::default();
     bad.target = bad.eye;
-    assert!(Camera::new(bad).is_none());
+    assert!(bad.camera().is_none());
 }
 
 #[test]
