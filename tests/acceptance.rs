@@ -7,3 +7,5 @@ mod common;
 mod calibrate;
 #[path = "acceptance/explain_hidden.rs"]
 mod explain_hidden;
+#[path = "acceptance/recording_folder.rs"]
+mod recording_folder;

@@ -62,3 +62,6 @@ mod render;
 
 #[path = "unit/flann_order.rs"]
 mod flann_order;
+
+#[path = "unit/recording.rs"]
+mod recording;

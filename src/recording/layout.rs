@@ -102,7 +102,10 @@ fn list_flat(
             let colors = vec![format!("color_{id}{ext}"), format!("color_{id}.png")];
             (Layout::Softsense, number, colors, None)
         } else if let Some(base) = stem.strip_suffix("_depth") {
-            let colors = vec![format!("{base}_rgb{ext}"), format!("{base}_color{ext}")];
+            let colors = [ext, ".png", ".tiff", ".jpg"]
+                .iter()
+                .flat_map(|e| [format!("{base}_rgb{e}"), format!("{base}_color{e}")])
+                .collect();
             (
                 Layout::PclGrabber,
                 out.len(),

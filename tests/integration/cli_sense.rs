@@ -479,3 +479,38 @@ fn sense_track_and_a_window_are_refused_together() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("--window") && err.contains("--track"), "{err}");
 }
+
+#[test]
+fn sense_reads_a_pcl_grabber_folder_with_a_given_pose_and_reports_each_frames_status() {
+    let Some(dir) = crate::common::data_file(
+        "sense_reads_a_pcl_grabber_folder_with_a_given_pose_and_reports_each_frames_status",
+        "pcl/grabber_sequence",
+    ) else {
+        return;
+    };
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let pose = root.join("clouds/scenes/tip_weight/camera_pose.json");
+    let model = root.join("meshes/models/robot.toml");
+    let run = |extra: &[&str]| {
+        let mut args = vec![dir.to_str().unwrap(), "--model", model.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        sense(&args)
+    };
+    // Without a pose: refused up front, saying how to give one.
+    let out = run(&["--json"]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--pose"), "{err}");
+    // With one: every frame is read and says there is no robot in it (PCL's office scene).
+    let out = run(&["--json", "--pose", pose.to_str().unwrap()]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let statuses: Vec<String> = stdout
+        .lines()
+        .map(|l| {
+            let v: serde_json::Value = serde_json::from_str(l).unwrap();
+            v["status"].to_string()
+        })
+        .collect();
+    assert_eq!(statuses.len(), 3, "{stdout}");
+    assert!(statuses.iter().all(|s| s == "\"no_robot\""), "{statuses:?}");
+}
