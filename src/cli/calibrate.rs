@@ -19,9 +19,9 @@ use std::path::{Path, PathBuf};
 FE model from one RGB-D frame of the robot (thesis 3.3.2, Algorithm 3.1), without markers: \
 ICP on the exact closest FE surface points, then the actuator QP (3.18) with the pose, \
 re-solving the FE model until both settle.\n\n\
-SCENE_DIR holds depth_NNNN.png (millimetres unless intrinsics.json gives a depth_scale), \
-color_NNNN.png and intrinsics.json (Open3D \
-format), as `softsense scene generate` writes them. The rough start pose is \
+SCENE_DIR is a recording folder in any layout `sense` reads (depth_NNNN.png + \
+color_NNNN.png + intrinsics.json as `softsense scene generate` writes them, a PCL grabber \
+sequence, or Open3D depth/ + color/ folders; docs/recording-format.md). The rough start pose is \
 {\"robot_from_camera\": 4x4} (--start, default SCENE_DIR/rough_pose.json); it should be \
 within about 10 degrees and 30 mm. Writes calibration.json (robot_from_camera, the \
 cable tensions and shortenings, and the model file's path) into SCENE_DIR or --out. \
@@ -32,16 +32,20 @@ touches the robot.",
 --start clouds/scenes/calib/rough_pose.json"
 )]
 pub struct CalibrateArgs {
-    /// Folder with the frame's depth/colour PNGs and intrinsics.json.
+    /// Recording folder (any layout `sense` reads).
     scene_dir: PathBuf,
     /// FE model file (TOML).
     model: PathBuf,
     /// Rough robot_from_camera pose (JSON); default SCENE_DIR/rough_pose.json.
     #[arg(long)]
     start: Option<PathBuf>,
-    /// Frame index to use.
+    /// Frame number to use (depth_NNNN's number; in PCL grabber and Open3D folders the
+    /// position in name order from 0).
     #[arg(long, default_value_t = 0)]
     frame: usize,
+    /// Robot colour (sRGB) for the colour model, as in `sense`.
+    #[arg(long, value_name = "R,G,B", value_parser = super::parse_rgb, default_value = "40,200,60")]
+    robot_color: [u8; 3],
     /// Where to write calibration.json (default SCENE_DIR/calibration.json).
     #[arg(long)]
     out: Option<PathBuf>,
@@ -52,7 +56,10 @@ pub struct CalibrateArgs {
 
 /// Runs `softsense calibrate`.
 pub fn run(args: &CalibrateArgs) -> CliResult {
-    let params = CalibrateParams::default();
+    let params = CalibrateParams {
+        color: softsense::segment::robot_color::RobotColorModel::with_reference(args.robot_color),
+        ..Default::default()
+    };
     let start = start_pose(args)?;
     let model = Model::load(&args.model, None).map_err(softsense::Error::from)?;
     let points = read_scene_robot_points(&args.scene_dir, args.frame, &params)

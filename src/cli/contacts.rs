@@ -6,6 +6,7 @@ use clap::Args;
 use softsense::contact::{detect_contacts, ContactParams};
 use softsense::io::read_cloud;
 use softsense::segment::robot::{select_robot, RobotRule};
+use softsense::segment::robot_color::RobotColorModel;
 use softsense::segment::{segment, GeometricParams, RegionGrowingParams, SegmentMode};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -35,7 +36,8 @@ pub struct ContactsArgs {
     /// Segmentation mode.
     #[arg(long, value_enum, default_value_t = Mode::Pcl)]
     pub mode: Mode,
-    /// The robot is the largest segment within TOL (CIE76 ΔE, default 20) of this sRGB
+    /// The robot is the largest segment whose mean colour is within TOL degrees of CIELAB
+    /// hue (default 25, with chroma at least 12: the colour model `sense` uses) of this sRGB
     /// colour; without it, the largest segment.
     #[arg(long, value_name = "R,G,B[:TOL]", value_parser = parse_robot_color)]
     pub robot_color: Option<([u8; 3], f64)>,
@@ -53,10 +55,10 @@ pub struct ContactsArgs {
 fn parse_robot_color(s: &str) -> Result<([u8; 3], f64), String> {
     let (rgb, tol) = match s.split_once(':') {
         Some((c, t)) => (c, t.parse::<f64>().map_err(|e| format!("tolerance: {e}"))?),
-        None => (s, 20.0),
+        None => (s, RobotColorModel::default().hue_tolerance_deg),
     };
-    if !(tol.is_finite() && tol >= 0.0) {
-        return Err("tolerance must be finite and >= 0".into());
+    if !(tol.is_finite() && (0.0..=180.0).contains(&tol)) {
+        return Err("tolerance must be a hue angle in degrees, 0 to 180".into());
     }
     Ok((super::parse_rgb(rgb)?, tol))
 }
@@ -72,7 +74,10 @@ pub fn run(args: &ContactsArgs) -> CliResult {
     };
     let (seg, support) = segment(&cloud, &mode).map_err(lib)?;
     let rule = match args.robot_color {
-        Some((rgb, tolerance)) => RobotRule::Color { rgb, tolerance },
+        Some((rgb, hue_tolerance_deg)) => RobotRule::Color(RobotColorModel {
+            hue_tolerance_deg,
+            ..RobotColorModel::with_reference(rgb)
+        }),
         None => RobotRule::Largest,
     };
     // Support parts (geometric mode) are not robot candidates.

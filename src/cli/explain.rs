@@ -44,6 +44,13 @@ pub fn run(args: &ExplainArgs) -> CliResult {
     let model = Model::load(&args.model, None).map_err(softsense::Error::from)?;
     let color = softsense::segment::robot_color::RobotColorModel::with_reference(args.robot_color);
     let rec = load_frames(&args.frames_dir, &color).map_err(softsense::Error::from)?;
+    if !args.frames_dir.join("sensor.json").exists() {
+        eprintln!(
+            "note: {} has no sensor.json: the default noise model (a D415-like camera) sets \
+             the noise floor",
+            args.frames_dir.display()
+        );
+    }
     let params = DiscrepancyParams {
         holdout: args.holdout,
         ..Default::default()

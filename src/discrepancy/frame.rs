@@ -8,7 +8,7 @@ use crate::fem::constraint::{ConstraintRow, RowKind};
 use crate::fem::model::Model;
 use crate::fem::solve::apply_cable_inputs;
 use crate::fem::solve::{CableControl, MappedPoint, PointLoad, Problem, Solution};
-use crate::scene::FrameInput;
+use crate::recording::FrameInput;
 use nalgebra::DMatrix;
 
 /// Sensitivity rows ([feature][param]) replacing a candidate's nominal ones, per kept effect.

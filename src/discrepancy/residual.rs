@@ -7,8 +7,8 @@ use super::features::{measure_offset, REGION_NAMES};
 use super::frame::solve_frame;
 use super::workflow::Workflow;
 use super::DiscrepancyResult;
+use crate::geometry::raycast::Bvh;
 use crate::register::Registrar;
-use crate::scene::raycast::Bvh;
 
 impl Workflow<'_> {
     /// Exact residuals of frame `i` with the effects applied.

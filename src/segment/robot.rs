@@ -1,43 +1,40 @@
-//! Which segment is the robot: the one matching a reference colour in CIELAB, or the
-//! largest segment (the thesis code's rule).
+//! Which segment is the robot: the largest whose mean colour the robot colour model
+//! ([`RobotColorModel`]) calls the robot's, or the largest segment (the thesis code's rule).
 //!
 //! ```
 //! use softsense::segment::robot::{select_robot, RobotRule, ChosenBy};
+//! use softsense::segment::robot_color::RobotColorModel;
 //! use softsense::segment::Segment;
 //! let seg = |n: usize, c: [f32; 3]| Segment { indices: (0..n).collect(), mean_color: c, min: [0.0; 3], max: [0.0; 3] };
 //! let segs = vec![seg(50, [200.0, 30.0, 30.0]), seg(10, [20.0, 40.0, 220.0])];
 //! let largest = select_robot(&segs, &RobotRule::Largest).unwrap();
 //! assert_eq!((largest.segment, largest.chosen_by.clone()), (0, ChosenBy::Largest));
-//! let blue = select_robot(&segs, &RobotRule::Color { rgb: [0, 0, 255], tolerance: 40.0 }).unwrap();
+//! let blue = RobotRule::Color(RobotColorModel::with_reference([0, 0, 255]));
+//! let blue = select_robot(&segs, &blue).unwrap();
 //! assert_eq!(blue.segment, 1);
 //! ```
 
-use super::color::{delta_e, rgb_f64_to_lab, rgb_to_lab};
+use super::robot_color::RobotColorModel;
 use super::{Segment, SegmentError};
 
 /// How to choose the robot segment.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum RobotRule {
-    /// The largest segment whose mean colour is within `tolerance` (CIE76 ΔE) of `rgb`.
-    Color {
-        /// Reference colour, 8-bit sRGB.
-        rgb: [u8; 3],
-        /// Largest ΔE (CIELAB units) accepted.
-        tolerance: f64,
-    },
+    /// The largest segment whose mean colour the model calls the robot's.
+    Color(RobotColorModel),
     /// The segment with the most points (first one on ties).
     Largest,
 }
 
-/// Which rule chose the robot. JSON: `{"rule": "color", "delta_e": ...}` or
+/// Which rule chose the robot. JSON: `{"rule": "color", "hue_difference_deg": ...}` or
 /// `{"rule": "largest"}`.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 #[serde(tag = "rule", rename_all = "lowercase")]
 pub enum ChosenBy {
-    /// The colour rule, with the chosen segment's ΔE to the reference.
+    /// The colour rule, with the chosen segment's hue difference to the reference.
     Color {
-        /// ΔE of the segment's mean colour to the reference.
-        delta_e: f64,
+        /// CIELAB hue difference of the segment's mean colour to the reference (degrees).
+        hue_difference_deg: f64,
     },
     /// The largest-segment rule.
     Largest,
@@ -69,25 +66,28 @@ pub fn select_robot(segments: &[Segment], rule: &RobotRule) -> Result<RobotChoic
             })
             .ok_or_else(|| SegmentError::NoRobot("no segments".into()))
         }
-        RobotRule::Color { rgb, tolerance } => {
-            let reference = rgb_to_lab(*rgb);
+        RobotRule::Color(model) => {
+            let tolerance = model.hue_tolerance_deg;
             let mut best: Option<(usize, f64)> = None;
             let mut nearest = f64::INFINITY;
             for (i, s) in segments.iter().enumerate() {
-                let lab = rgb_f64_to_lab(s.mean_color.map(|c| c as f64 / 255.0));
-                let de = delta_e(lab, reference);
-                nearest = nearest.min(de);
-                if de <= *tolerance && best.is_none_or(|(b, _)| s.len() > segments[b].len()) {
-                    best = Some((i, de));
+                let mean = s.mean_color.map(|c| c.round().clamp(0.0, 255.0) as u8);
+                let Some(dh) = model.hue_difference_deg(mean) else {
+                    continue;
+                };
+                nearest = nearest.min(dh);
+                if dh <= tolerance && best.is_none_or(|(b, _)| s.len() > segments[b].len()) {
+                    best = Some((i, dh));
                 }
             }
-            best.map(|(segment, delta_e)| RobotChoice {
+            best.map(|(segment, hue_difference_deg)| RobotChoice {
                 segment,
-                chosen_by: ChosenBy::Color { delta_e },
+                chosen_by: ChosenBy::Color { hue_difference_deg },
             })
             .ok_or_else(|| {
                 SegmentError::NoRobot(format!(
-                    "no segment within ΔE {tolerance} of {rgb:?} (nearest ΔE {nearest:.1})"
+                    "no segment within {tolerance}° of the hue of {:?} (nearest {nearest:.1}°)",
+                    model.reference
                 ))
             })
         }

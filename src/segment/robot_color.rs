@@ -60,6 +60,20 @@ impl RobotColorModel {
         )
     }
 
+    /// How far `rgb`'s CIELAB hue is from the reference's (degrees, 0-180); `None` when its
+    /// chroma is below `min_chroma` (grey: no hue).
+    pub fn hue_difference_deg(&self, rgb: [u8; 3]) -> Option<f64> {
+        self.hue_gap(rgb, self.reference_hue()).map(f64::to_degrees)
+    }
+
+    /// `rgb`'s hue difference to `ref_hue` (rad), `None` below the chroma floor.
+    fn hue_gap(&self, rgb: [u8; 3], ref_hue: f64) -> Option<f64> {
+        let lab = rgb_to_lab(rgb);
+        let chroma = (lab[1] * lab[1] + lab[2] * lab[2]).sqrt();
+        let dh = (lab[2].atan2(lab[1]) - ref_hue + PI).rem_euclid(2.0 * PI) - PI;
+        (chroma >= self.min_chroma).then_some(dh.abs())
+    }
+
     /// The reference colour's CIELAB hue (rad).
     fn reference_hue(&self) -> f64 {
         let reference = rgb_to_lab(self.reference);
@@ -67,10 +81,7 @@ impl RobotColorModel {
     }
 
     fn is_robot_lab(&self, rgb: [u8; 3], ref_hue: f64, tol: f64) -> bool {
-        let lab = rgb_to_lab(rgb);
-        let chroma = (lab[1] * lab[1] + lab[2] * lab[2]).sqrt();
-        let dh = (lab[2].atan2(lab[1]) - ref_hue + PI).rem_euclid(2.0 * PI) - PI;
-        chroma >= self.min_chroma && dh.abs() <= tol
+        self.hue_gap(rgb, ref_hue).is_some_and(|dh| dh <= tol)
     }
 
     /// A classifier for one frame that decides each distinct colour once: a frame's tens

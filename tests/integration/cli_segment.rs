@@ -273,7 +273,12 @@ fn contacts_finds_the_overlap_of_two_touching_sheets() {
         "--json",
     ]));
     assert_eq!(json["robot"]["chosen_by"]["rule"], "color");
-    assert!(json["robot"]["chosen_by"]["delta_e"].as_f64().unwrap() < 10.0);
+    assert!(
+        json["robot"]["chosen_by"]["hue_difference_deg"]
+            .as_f64()
+            .unwrap()
+            < 10.0
+    );
     assert_eq!(json["robot"]["points"], 1600);
     let contacts = json["contacts"].as_array().expect("contacts array");
     assert_eq!(contacts.len(), 1, "{json}");

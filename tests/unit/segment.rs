@@ -9,6 +9,7 @@ use softsense::segment::euclidean::{
 };
 use softsense::segment::metrics::{adjusted_rand_index, object_scores, singletons_for};
 use softsense::segment::robot::{select_robot, ChosenBy, RobotRule};
+use softsense::segment::robot_color::RobotColorModel;
 use softsense::segment::{region_growing_rgb, RegionGrowingParams, SegmentError, UNSEGMENTED};
 use softsense::PointCloud;
 
@@ -307,19 +308,18 @@ fn lab_of_a_byte_colour_equals_lab_of_its_float_to_the_last_bit() {
 #[test]
 fn robot_rule_reports_how_the_robot_was_chosen() {
     let s = region_growing_rgb(&two_colour_scene(), &RegionGrowingParams::default()).unwrap();
-    let rule = RobotRule::Color {
-        rgb: [0, 0, 255],
-        tolerance: 30.0,
-    };
+    let rule = RobotRule::Color(RobotColorModel::with_reference([0, 0, 255]));
     let c = select_robot(&s.segments, &rule).unwrap();
     assert_eq!(c.segment, 1);
-    assert!(matches!(c.chosen_by, ChosenBy::Color { delta_e } if delta_e < 30.0));
+    assert!(
+        matches!(c.chosen_by, ChosenBy::Color { hue_difference_deg } if hue_difference_deg < 25.0)
+    );
     let c = select_robot(&s.segments, &RobotRule::Largest).unwrap();
     assert_eq!((c.segment, c.chosen_by), (0, ChosenBy::Largest));
-    let green = RobotRule::Color {
-        rgb: [0, 255, 0],
-        tolerance: 10.0,
-    };
+    let green = RobotRule::Color(RobotColorModel {
+        hue_tolerance_deg: 10.0,
+        ..RobotColorModel::with_reference([0, 255, 0])
+    });
     assert!(matches!(
         select_robot(&s.segments, &green),
         Err(SegmentError::NoRobot(_))
