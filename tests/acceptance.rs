@@ -9,3 +9,5 @@ mod calibrate;
 mod explain_hidden;
 #[path = "acceptance/recording_folder.rs"]
 mod recording_folder;
+#[path = "acceptance/sense_places.rs"]
+mod sense_places;

@@ -122,3 +122,26 @@ pub fn run_cli(args: &[&str]) -> std::process::Output {
         .output()
         .expect("the softsense binary runs")
 }
+
+/// Generates a one-frame probe scene (sensor noise on, scene `seed`) with the probe at `at`
+/// pushing with `force`, and senses it with `params`.
+pub fn sense_generated(
+    seed: u64,
+    at: [f64; 3],
+    force: [f64; 3],
+    params: softsense::sense::SenseParams,
+) -> (
+    softsense::sense::FrameReport,
+    Vec<softsense::sense::LoadError>,
+) {
+    let (_dir, rec) = generated_recording(&format!(
+        "seed = {seed}\n\n[sensor]\nenabled = true\ndepth_k = 0.002\ncolor_sigma = 3.0\n\n\
+         [[frames]]\n[[frames.loads]]\nkind = \"probe\"\nat = {at:?}\nforce = {force:?}\n"
+    ));
+    let model = softsense::fem::model::Model::load(&rec.model_path().unwrap(), None).unwrap();
+    let sensor = softsense::sense::Sensor::new(model, rec.robot_from_camera.unwrap(), params);
+    let obs = sensor.observe(&rec, 0).unwrap();
+    let report = sensor.sense(0, &obs, rec.inputs_of(0).as_ref());
+    let errors = softsense::sense::compare(&report, rec.truth_of(0).unwrap());
+    (report, errors)
+}

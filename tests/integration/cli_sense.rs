@@ -115,7 +115,7 @@ fn sense_on_a_missing_or_empty_folder_fails_with_a_message() {
     let empty = tempfile::tempdir().unwrap();
     let out = sense(&[empty.path().to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(1));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("no depth_NNNN.png frames"));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no frames (depth_NNNN.png"));
 }
 
 #[test]
