@@ -34,7 +34,7 @@ fn contacts(c: &mut Criterion) {
         .positions
         .iter()
         .zip(&labels)
-        .filter(|(p, &l)| l != 0 && p.iter().all(|v| v.is_finite()))
+        .filter(|&(p, &l)| l != 0 && p.iter().all(|v| v.is_finite()))
         .map(|(p, &l)| (*p, l))
         .collect();
     let robot_label = pts

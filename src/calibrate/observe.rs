@@ -15,7 +15,7 @@ pub fn robot_points(cloud: &crate::cloud::PointCloud, color: &RobotColorModel) -
         .positions
         .iter()
         .zip(colors)
-        .filter(|(p, &c)| p.iter().all(|v| v.is_finite()) && is_robot.is_robot(c))
+        .filter(|&(p, &c)| p.iter().all(|v| v.is_finite()) && is_robot.is_robot(c))
         .map(|(p, _)| p.map(f64::from))
         .collect()
 }

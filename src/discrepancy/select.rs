@@ -331,7 +331,7 @@ impl Search<'_, '_> {
             })
             .collect();
         let mut best: Best = None;
-        for ((c, score, theta), _) in cands.iter_mut().zip(&chosen).filter(|(_, &ch)| ch) {
+        for ((c, score, theta), _) in cands.iter_mut().zip(&chosen).filter(|&(_, &ch)| ch) {
             let mut trial = base.clone();
             trial.push((
                 *c,

@@ -147,7 +147,7 @@ pub fn sense_overlay(
     }
     c.blend_rect(0, 0, w, h, WHITE, params.fade);
     if let Some(mask) = overlay.robot_mask {
-        for (i, _) in mask.iter().enumerate().filter(|(_, &m)| m) {
+        for (i, _) in mask.iter().enumerate().filter(|&(_, &m)| m) {
             let (x, y) = (i as i64 % w.max(1), i as i64 / w.max(1));
             c.blend(x, y, ROBOT_TINT, params.mask_alpha);
         }

@@ -144,7 +144,7 @@ fn contacts_on_mosd_stacked_boxes_agree_with_label_contacts() {
             .positions
             .iter()
             .zip(&labels)
-            .filter(|(p, &l)| l != 0 && p.iter().all(|c| c.is_finite()))
+            .filter(|&(p, &l)| l != 0 && p.iter().all(|c| c.is_finite()))
             .map(|(p, &l)| (*p, l))
             .collect();
         let mut objects: Vec<u32> = pts.iter().map(|x| x.1).filter(|&l| l >= 20).collect();

@@ -125,12 +125,12 @@ fn best_iou(truth: &[u32], pred: &[u32], label: u32) -> f64 {
         let inter = truth
             .iter()
             .zip(pred)
-            .filter(|(&t, &q)| t == label && q == p)
+            .filter(|&(&t, &q)| t == label && q == p)
             .count();
         let union = truth
             .iter()
             .zip(pred)
-            .filter(|(&t, &q)| t == label || q == p)
+            .filter(|&(&t, &q)| t == label || q == p)
             .count();
         best = best.max(inter as f64 / union as f64);
     }

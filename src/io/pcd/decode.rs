@@ -93,7 +93,7 @@ impl<'a> Body<'a> {
 
     /// The bytes of field `k`'s first value, point by point. The caller has checked
     /// that `data` holds `n` records.
-    fn values(&self, header: &PcdHeader, k: usize) -> impl Iterator<Item = &'a [u8]> {
+    fn values(&self, header: &PcdHeader, k: usize) -> impl Iterator<Item = &'a [u8]> + use<'a> {
         let f = &header.fields[k];
         let size = f.ty.size();
         let (slice, stride, off) = if self.columnar {

@@ -194,31 +194,33 @@ fn compact_words<const AVX: bool>(d2: &[f32], id: &[u32], t: f32, words: &mut [u
 #[target_feature(enable = "avx2")]
 #[inline]
 unsafe fn compact_words_avx2(d2: &[f32], id: &[u32], t: f32, words: &mut [u64]) -> usize {
-    use std::arch::x86_64::*;
-    debug_assert_eq!(d2.len(), id.len());
-    debug_assert_eq!(d2.len() % 8, 0);
-    let tv = _mm256_set1_ps(t);
-    let mut c = 0;
-    for g in 0..d2.len() / 8 {
-        // SAFETY: `8 g + 7 < len` for both slices; `loadu` needs no alignment. `words`
-        // has room for eight words at `c` (c counts words kept so far, at most `found`).
-        let (dv, iv) = (
-            _mm256_loadu_ps(d2.as_ptr().add(8 * g)),
-            _mm256_loadu_si256(id.as_ptr().add(8 * g) as *const __m256i),
-        );
-        let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(dv, tv)) as usize;
-        let perm = _mm256_loadu_si256(LEFT_PACK[mask].as_ptr() as *const __m256i);
-        let dp = _mm256_castps_si256(_mm256_permutevar8x32_ps(dv, perm));
-        let ip = _mm256_permutevar8x32_epi32(iv, perm);
-        // Words 0, 1, 4, 5 and 2, 3, 6, 7 (index low, distance high), then in order.
-        let (lo, hi) = (_mm256_unpacklo_epi32(ip, dp), _mm256_unpackhi_epi32(ip, dp));
-        assert!(c + 8 <= words.len());
-        let out = words.as_mut_ptr().add(c) as *mut __m256i;
-        _mm256_storeu_si256(out, _mm256_permute2x128_si256::<0x20>(lo, hi));
-        _mm256_storeu_si256(out.add(1), _mm256_permute2x128_si256::<0x31>(lo, hi));
-        c += mask.count_ones() as usize;
+    unsafe {
+        use std::arch::x86_64::*;
+        debug_assert_eq!(d2.len(), id.len());
+        debug_assert_eq!(d2.len() % 8, 0);
+        let tv = _mm256_set1_ps(t);
+        let mut c = 0;
+        for g in 0..d2.len() / 8 {
+            // SAFETY: `8 g + 7 < len` for both slices; `loadu` needs no alignment. `words`
+            // has room for eight words at `c` (c counts words kept so far, at most `found`).
+            let (dv, iv) = (
+                _mm256_loadu_ps(d2.as_ptr().add(8 * g)),
+                _mm256_loadu_si256(id.as_ptr().add(8 * g) as *const __m256i),
+            );
+            let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(dv, tv)) as usize;
+            let perm = _mm256_loadu_si256(LEFT_PACK[mask].as_ptr() as *const __m256i);
+            let dp = _mm256_castps_si256(_mm256_permutevar8x32_ps(dv, perm));
+            let ip = _mm256_permutevar8x32_epi32(iv, perm);
+            // Words 0, 1, 4, 5 and 2, 3, 6, 7 (index low, distance high), then in order.
+            let (lo, hi) = (_mm256_unpacklo_epi32(ip, dp), _mm256_unpackhi_epi32(ip, dp));
+            assert!(c + 8 <= words.len());
+            let out = words.as_mut_ptr().add(c) as *mut __m256i;
+            _mm256_storeu_si256(out, _mm256_permute2x128_si256::<0x20>(lo, hi));
+            _mm256_storeu_si256(out.add(1), _mm256_permute2x128_si256::<0x31>(lo, hi));
+            c += mask.count_ones() as usize;
+        }
+        c
     }
-    c
 }
 
 /// For each 8-bit mask, the lanes of its set bits in ascending order, then zeros.
