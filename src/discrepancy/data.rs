@@ -60,6 +60,20 @@ pub fn load_frames(dir: &Path, color: &RobotColorModel) -> DiscrepancyResult<Rec
     })?;
     let camera = Camera::new(rec.camera.intrinsics, robot_from_camera);
     let sensor = sensor_model(dir)?;
+    // One depth unit: the camera file's. A sensor.json that says otherwise would have the
+    // noise floor and the points disagree.
+    let depth_unit = 1.0 / rec.camera.params.depth_scale;
+    if dir.join("sensor.json").exists()
+        && (sensor.depth_unit - depth_unit).abs() > 1e-9 * depth_unit.abs()
+    {
+        return Err(DiscrepancyError::Data(format!(
+            "{}: sensor.json's depth_unit {} m and intrinsics.json's depth_scale {} (a unit of \
+             {depth_unit} m) disagree",
+            dir.display(),
+            sensor.depth_unit,
+            rec.camera.params.depth_scale
+        )));
+    }
     if rec.frames.len() > MAX_FRAMES {
         return Err(DiscrepancyError::Data(format!(
             "{}: needs 1..={MAX_FRAMES} frames, has {}",

@@ -300,10 +300,9 @@ pub fn generate_dataset(
         .camera
         .camera()
         .ok_or_else(|| DiscrepancyError::Data("degenerate camera".into()))?;
-    write_json(
-        &frames_dir.join("intrinsics.json"),
-        &recorded_cam.open3d_intrinsics(),
-    )?;
+    let mut intrinsics = recorded_cam.open3d_intrinsics();
+    intrinsics["depth_scale"] = serde_json::json!(1.0 / spec.sensor.depth_unit);
+    write_json(&frames_dir.join("intrinsics.json"), &intrinsics)?;
     write_json(
         &frames_dir.join("camera_pose.json"),
         &serde_json::json!({ "robot_from_camera": recorded_cam.robot_from_camera() }),
