@@ -5,6 +5,7 @@
 use super::effects::{apply_model, rotation, rotation_vector, tet_legs, Effect, EffectKind};
 use super::{load_candidates, DiscrepancyError, DiscrepancyResult};
 use crate::fem::model::Model;
+use crate::recording::RecordingWriter;
 use crate::scene::camera::CameraSpec;
 use crate::scene::sensor::{normal, uniform, SensorModel};
 use crate::scene::{render_frame, CableInput, FrameInput, LoadInput, LoadKind, Scene, SceneSpec};
@@ -245,15 +246,6 @@ fn true_camera(nominal: &CameraSpec, w: [f64; 3], t: [f64; 3]) -> DiscrepancyRes
     Ok(s)
 }
 
-fn write_json(path: &Path, v: &impl Serialize) -> DiscrepancyResult<()> {
-    let text =
-        serde_json::to_string_pretty(v).map_err(|e| DiscrepancyError::Data(e.to_string()))?;
-    std::fs::write(path, text).map_err(|e| DiscrepancyError::File {
-        path: path.display().to_string(),
-        message: e.to_string(),
-    })
-}
-
 /// The world a dataset is rendered from: the truth model and what differs from the
 /// recorded inputs and camera.
 struct TrueWorld {
@@ -279,10 +271,7 @@ pub fn generate_dataset(
     if spec.frames == 0 || spec.frames > super::data::MAX_FRAMES {
         return Err(DiscrepancyError::Data("frames must be 1..=1000".into()));
     }
-    std::fs::create_dir_all(frames_dir).map_err(|e| DiscrepancyError::File {
-        path: frames_dir.display().to_string(),
-        message: e.to_string(),
-    })?;
+    let writer = RecordingWriter::create(frames_dir)?;
     let nominal = Model::load(&spec.model, None)?;
     let mut rng = Rng {
         seed: spec.seed,
@@ -295,26 +284,20 @@ pub fn generate_dataset(
         .collect::<DiscrepancyResult<Vec<_>>>()?;
     let recorded = recorded_inputs(spec, &nominal, &mut rng);
     let world = true_world(spec, &nominal, &hidden, &recorded)?;
-    render_frames(spec, &world, frames_dir)?;
+    render_frames(spec, &world, &writer)?;
     let recorded_cam = spec
         .camera
         .camera()
         .ok_or_else(|| DiscrepancyError::Data("degenerate camera".into()))?;
-    let mut intrinsics = recorded_cam.open3d_intrinsics();
-    intrinsics["depth_scale"] = serde_json::json!(1.0 / spec.sensor.depth_unit);
-    write_json(&frames_dir.join("intrinsics.json"), &intrinsics)?;
-    write_json(
-        &frames_dir.join("camera_pose.json"),
-        &serde_json::json!({ "robot_from_camera": recorded_cam.robot_from_camera() }),
-    )?;
-    write_json(&frames_dir.join("sensor.json"), &spec.sensor)?;
-    write_json(&frames_dir.join("inputs.json"), &recorded)?;
+    writer.write_camera(&recorded_cam, spec.sensor.depth_unit)?;
+    writer.write_json("sensor.json", &spec.sensor)?;
+    writer.write_json("inputs.json", &recorded)?;
     let truth = DatasetTruth {
         spec: spec.clone(),
         hidden,
         applied: world.applied,
     };
-    write_json(truth_path, &truth)?;
+    crate::recording::write_json(truth_path, &truth)?;
     Ok(truth)
 }
 
@@ -412,8 +395,12 @@ fn true_world(
     Ok(w)
 }
 
-/// Renders every frame of the true world into `frames_dir` (depth and colour PNGs).
-fn render_frames(spec: &DatasetSpec, w: &TrueWorld, frames_dir: &Path) -> DiscrepancyResult<()> {
+/// Renders every frame of the true world into the recording (depth and colour PNGs).
+fn render_frames(
+    spec: &DatasetSpec,
+    w: &TrueWorld,
+    writer: &RecordingWriter,
+) -> DiscrepancyResult<()> {
     // Render at a 16x finer depth unit, apply any depth error, then quantise once to the
     // recorded unit: quantising twice would add noise the sensor model does not have.
     let mut fine_sensor = spec.sensor.clone();
@@ -453,34 +440,8 @@ fn render_frames(spec: &DatasetSpec, w: &TrueWorld, frames_dir: &Path) -> Discre
                 (z / unit).round().clamp(0.0, 65535.0) as u16
             })
             .collect();
-        let flat: Vec<u8> = r.color.iter().flatten().copied().collect();
-        write_pngs(frames_dir, i, [w.camera.width, w.camera.height], d, flat)?;
+        writer.write_frame(i, [w.camera.width, w.camera.height], d, &r.color)?;
     }
-    Ok(())
-}
-
-/// Writes `depth_NNNN.png` (16-bit) and `color_NNNN.png` of frame `i`.
-fn write_pngs(
-    frames_dir: &Path,
-    i: usize,
-    [w, h]: [u32; 2],
-    depth: Vec<u16>,
-    color: Vec<u8>,
-) -> DiscrepancyResult<()> {
-    let file_err = |p: &Path, e: String| DiscrepancyError::File {
-        path: p.display().to_string(),
-        message: e,
-    };
-    let dp = frames_dir.join(format!("depth_{i:04}.png"));
-    image::ImageBuffer::<image::Luma<u16>, _>::from_raw(w, h, depth)
-        .ok_or_else(|| file_err(&dp, "depth buffer size".into()))?
-        .save(&dp)
-        .map_err(|e| file_err(&dp, e.to_string()))?;
-    let cp = frames_dir.join(format!("color_{i:04}.png"));
-    image::RgbImage::from_raw(w, h, color)
-        .ok_or_else(|| file_err(&cp, "colour buffer size".into()))?
-        .save(&cp)
-        .map_err(|e| file_err(&cp, e.to_string()))?;
     Ok(())
 }
 

@@ -1,5 +1,6 @@
 //! One recording folder format, read by every command that takes frames (`sense`,
-//! `calibrate`, `explain`, `filter`) and written by `scene generate`.
+//! `calibrate`, `explain`, `filter`) and written by `scene generate` and `hidden`
+//! ([`RecordingWriter`]).
 //!
 //! A folder holds frames in one of three [`Layout`]s (softsense's own, a PCL image grabber
 //! sequence, an Open3D RGB-D dataset), and optionally:
@@ -22,11 +23,13 @@
 
 mod layout;
 pub mod schema;
+mod write;
 
 pub use layout::{list_frames, FrameFiles, Layout};
 pub use schema::{
     ActuatorCalibration, ActuatorTruth, CableInput, Calibration, FrameInput, FrameTruth, Truth,
 };
+pub use write::{write_json, RecordingWriter};
 
 use crate::io::intrinsics::{read_camera_model, CameraModel};
 use crate::io::IoError;

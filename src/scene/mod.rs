@@ -28,6 +28,7 @@ use crate::fem::mesh::Surface;
 use crate::fem::model::Model;
 use crate::fem::solve::apply_cable_inputs;
 use crate::fem::solve::{CableControl, MappedPoint, PointLoad, Problem};
+use crate::recording::RecordingWriter;
 use camera::CameraSpec;
 use raycast::Bvh;
 use sensor::SensorModel;
@@ -52,6 +53,9 @@ pub enum SceneError {
     /// The FE model failed to load or solve.
     #[error(transparent)]
     Fem(#[from] crate::fem::FemError),
+    /// A recording file could not be written.
+    #[error(transparent)]
+    Recording(#[from] crate::recording::RecordingError),
     /// Newton did not converge for a frame.
     #[error("frame {frame}: the FE solve did not converge")]
     NotConverged {
@@ -448,18 +452,6 @@ pub fn relative_to(target: &Path, base: &Path) -> Option<PathBuf> {
     Some(rel)
 }
 
-fn write_err(path: &Path, e: impl std::fmt::Display) -> SceneError {
-    SceneError::File {
-        path: path.display().to_string(),
-        message: e.to_string(),
-    }
-}
-
-fn write_json(path: &Path, v: &impl Serialize) -> SceneResult<()> {
-    let text = serde_json::to_string_pretty(v).map_err(|e| write_err(path, e))?;
-    std::fs::write(path, text).map_err(|e| write_err(path, e))
-}
-
 /// Generates every frame into `out`: `depth_NNNN.png` (16-bit), `color_NNNN.png`,
 /// `intrinsics.json`, `camera_pose.json`, `actuators.json` and `truth.json`.
 /// `progress` is called after each frame with (done, total).
@@ -468,22 +460,14 @@ pub fn generate(
     out: &Path,
     mut progress: impl FnMut(usize, usize),
 ) -> SceneResult<Truth> {
-    std::fs::create_dir_all(out).map_err(|e| write_err(out, e))?;
+    let writer = RecordingWriter::create(out)?;
     let model = scene.model()?;
     let spec = &scene.spec;
     let camera = spec
         .camera
         .camera()
         .ok_or_else(|| SceneError::Spec("degenerate camera (intrinsics or pose)".into()))?;
-    // The depth PNGs' unit goes with the intrinsics, as in Open3D's RGB-D video metadata:
-    // a reader assuming millimetres would put the robot elsewhere.
-    let mut intrinsics = camera.open3d_intrinsics();
-    intrinsics["depth_scale"] = serde_json::json!(1.0 / spec.sensor.depth_unit);
-    write_json(&out.join("intrinsics.json"), &intrinsics)?;
-    write_json(
-        &out.join("camera_pose.json"),
-        &serde_json::json!({ "robot_from_camera": camera.robot_from_camera() }),
-    )?;
+    writer.write_camera(&camera, spec.sensor.depth_unit)?;
     let (w, h) = (spec.camera.width, spec.camera.height);
     let total = spec.frames.len();
     // Every frame's inputs are checked before any is solved: a slip in the last frame
@@ -495,22 +479,12 @@ pub fn generate(
     let mut frames = Vec::new();
     for i in 0..total {
         let r = render_frame(scene, &model, i)?;
-        let dp = out.join(format!("depth_{i:04}.png"));
-        image::ImageBuffer::<image::Luma<u16>, _>::from_raw(w, h, r.depth)
-            .ok_or_else(|| write_err(&dp, "depth buffer size"))?
-            .save(&dp)
-            .map_err(|e| write_err(&dp, e))?;
-        let cp = out.join(format!("color_{i:04}.png"));
-        let flat: Vec<u8> = r.color.iter().flatten().copied().collect();
-        image::RgbImage::from_raw(w, h, flat)
-            .ok_or_else(|| write_err(&cp, "colour buffer size"))?
-            .save(&cp)
-            .map_err(|e| write_err(&cp, e))?;
+        writer.write_frame(i, [w, h], r.depth, &r.color)?;
         frames.push(r.truth);
         progress(i + 1, total);
     }
     let actuators: Vec<&Vec<ActuatorTruth>> = frames.iter().map(|f| &f.actuators).collect();
-    write_json(&out.join("actuators.json"), &actuators)?;
+    writer.write_json("actuators.json", &actuators)?;
     let truth = Truth {
         scene: spec.clone(),
         model_path: relative_to(&scene.model_path, out)
@@ -520,6 +494,6 @@ pub fn generate(
         material: [model.problem.material.young, model.problem.material.poisson],
         frames,
     };
-    write_json(&out.join("truth.json"), &truth)?;
+    writer.write_json("truth.json", &truth)?;
     Ok(truth)
 }

@@ -180,7 +180,7 @@ impl Sensor {
     /// initial actuator inputs) as the model's own, for frames without recorded inputs:
     /// each cable keeps the model file's control and takes the calibrated value of it (a
     /// displacement-controlled cable its shortening, a force-controlled one its tension).
-    /// Recorded inputs ([`Recording::actuators_of`]) still take precedence. A calibrated
+    /// Recorded inputs ([`Recording::inputs_of`]) still take precedence. A calibrated
     /// cable the model does not have, or a value that is not finite, is refused: the
     /// calibration is of another model.
     pub fn use_calibrated_inputs(&mut self, calibrated: &[ActuatorCalibration]) -> SenseResult<()> {

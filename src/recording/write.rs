@@ -1,0 +1,81 @@
+//! The one writer of a recording folder (softsense layout): what `scene generate` and
+//! `hidden` write.
+
+use super::{RecordingError, RecordingResult};
+use crate::camera::Camera;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+fn write_err(path: &Path, e: impl std::fmt::Display) -> RecordingError {
+    RecordingError::File {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    }
+}
+
+/// Writes `v` as pretty JSON to `path`.
+pub fn write_json(path: &Path, v: &impl Serialize) -> RecordingResult<()> {
+    let text = serde_json::to_string_pretty(v).map_err(|e| write_err(path, e))?;
+    std::fs::write(path, text).map_err(|e| write_err(path, e))
+}
+
+/// A recording folder being written.
+#[derive(Clone, Debug)]
+pub struct RecordingWriter {
+    dir: PathBuf,
+}
+
+impl RecordingWriter {
+    /// Creates `dir` (and its parents) for a recording.
+    pub fn create(dir: &Path) -> RecordingResult<Self> {
+        std::fs::create_dir_all(dir).map_err(|e| write_err(dir, e))?;
+        Ok(Self {
+            dir: dir.to_path_buf(),
+        })
+    }
+
+    /// The folder.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// Writes `intrinsics.json` (Open3D format, with the depth images' unit as
+    /// `depth_scale`: a reader assuming millimetres would put the robot elsewhere) and
+    /// `camera_pose.json`.
+    pub fn write_camera(&self, camera: &Camera, depth_unit: f64) -> RecordingResult<()> {
+        let mut intrinsics = camera.open3d_intrinsics();
+        intrinsics["depth_scale"] = serde_json::json!(1.0 / depth_unit);
+        self.write_json("intrinsics.json", &intrinsics)?;
+        self.write_json(
+            "camera_pose.json",
+            &serde_json::json!({ "robot_from_camera": camera.robot_from_camera() }),
+        )
+    }
+
+    /// Writes frame `i`: `depth_NNNN.png` (16-bit, row-major `width x height`) and
+    /// `color_NNNN.png` (8-bit RGB).
+    pub fn write_frame(
+        &self,
+        i: usize,
+        [width, height]: [u32; 2],
+        depth: Vec<u16>,
+        color: &[[u8; 3]],
+    ) -> RecordingResult<()> {
+        let dp = self.dir.join(format!("depth_{i:04}.png"));
+        image::ImageBuffer::<image::Luma<u16>, _>::from_raw(width, height, depth)
+            .ok_or_else(|| write_err(&dp, "depth buffer size"))?
+            .save(&dp)
+            .map_err(|e| write_err(&dp, e))?;
+        let cp = self.dir.join(format!("color_{i:04}.png"));
+        let flat: Vec<u8> = color.iter().flatten().copied().collect();
+        image::RgbImage::from_raw(width, height, flat)
+            .ok_or_else(|| write_err(&cp, "colour buffer size"))?
+            .save(&cp)
+            .map_err(|e| write_err(&cp, e))
+    }
+
+    /// Writes `name` in the folder as pretty JSON.
+    pub fn write_json(&self, name: &str, v: &impl Serialize) -> RecordingResult<()> {
+        write_json(&self.dir.join(name), v)
+    }
+}
