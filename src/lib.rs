@@ -5,15 +5,22 @@
 //! program on the robot's finite-element (FE) model that says where the robot is touched
 //! and how hard.
 //!
-//! The chain, one frame at a time (thesis section 4.5):
+//! What `softsense sense` runs on each frame of a recording ([`recording`], thesis 4.5):
 //!
-//! 1. **read** a frame: PCD, PLY, or RGB-D images ([`io`]);
-//! 2. **crop** with pass-through filters, 3. **voxel** down-sample, 4. remove **outliers**;
-//! 5. **segment** the robot from touching objects by colour region growing;
-//! 6. **transform** camera frame to robot frame; 7. detect **contacts** with a KD-tree;
-//! 8. **cluster** contact points; 9. **map** them onto the FE surface;
-//! 10. **register** FE feature points along their normal lines;
-//! 11. **solve** the normal-space QP on the compliance matrices for force intensities.
+//! 1. **read** depth and colour into a cloud in the camera frame ([`io::rgbd`]);
+//! 2. **transform** it to the robot frame (`robot_from_camera`, [`math::pose`]) and **crop**
+//!    it to a box around the robot above the table;
+//! 3. tell **robot** points from **objects** by colour ([`segment::robot_color`]);
+//! 4. detect **contacts** with a KD-tree and group them ([`contact`], Algorithm 4.1);
+//! 5. **map** each contact onto the FE surface and choose the touched node ([`inverse`]);
+//! 6. **register** FE feature points along their normal lines ([`register`], Algorithm 4.2);
+//! 7. **solve** the normal-space QP on the compliance matrices W = H K⁻¹ Hᵀ for the force
+//!    intensities, with FE updates, and their uncertainty ([`inverse`], [`fem`]).
+//!
+//! The PCL- and Open3D-equivalent stages for clouds in general (pass-through, voxel grid,
+//! outlier removal, region growing, Euclidean clustering, normals) are in [`filter`],
+//! [`segment`], [`features`] and [`pipeline`] (`softsense filter`, `segment`, `cluster`).
+//! Layers and modules: `docs/architecture.md`.
 //!
 //! The crate stores point clouds in `f32` (like PCL) and computes the FE model and QPs in
 //! `f64`, in SI units.
