@@ -114,3 +114,113 @@ fn a_copied_recording_used_the_truths_missing_model_over_the_calibrations() {
         Some(dir.path().join("calibration.json"))
     );
 }
+
+/// A recording missing frame 1's depth image listed frames 0 and 2 only: frame 1 vanished
+/// from the output instead of being reported unreadable.
+#[test]
+fn a_deleted_depth_image_made_its_frame_vanish_from_the_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let same = |name| (name, name);
+    common::copy_scene_files(
+        "tip_weight",
+        &[
+            same("intrinsics.json"),
+            same("camera_pose.json"),
+            same("depth_0000.png"),
+            same("color_0000.png"),
+            same("color_0001.png"),
+        ],
+        dir.path(),
+    );
+    let rec = Recording::open(dir.path()).unwrap();
+    assert_eq!(rec.frames, vec![0, 1]);
+    let model = common::project_root().join("meshes/models/robot.toml");
+    let out = common::run_cli(&[
+        "sense",
+        dir.path().to_str().unwrap(),
+        "--model",
+        model.to_str().unwrap(),
+        "--json",
+    ]);
+    let lines: Vec<serde_json::Value> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines.len(), 2);
+    assert_eq!(lines[1]["status"], "unreadable");
+    let detail = lines[1]["detail"].as_str().unwrap();
+    assert!(detail.contains("depth_0001.png"), "{detail}");
+}
+
+/// `depth_00004.png` next to `depth_0004.png` was sensed as frame 4 twice.
+#[test]
+fn an_extra_five_digit_depth_image_sensed_its_frame_twice() {
+    let dir = tempfile::tempdir().unwrap();
+    common::copy_scene_files(
+        "tip_weight",
+        &[
+            ("intrinsics.json", "intrinsics.json"),
+            ("depth_0000.png", "depth_0004.png"),
+            ("depth_0000.png", "depth_00004.png"),
+        ],
+        dir.path(),
+    );
+    let err = Recording::open(dir.path()).unwrap_err().to_string();
+    assert!(
+        err.contains("depth_0004.png") && err.contains("depth_00004.png"),
+        "{err}"
+    );
+}
+
+/// A truncated `truth.json`, read only to score the estimates, refused the whole run.
+#[test]
+fn a_truncated_truth_file_refused_the_whole_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let same = |name| (name, name);
+    common::copy_scene_files(
+        "tip_weight",
+        &[
+            same("intrinsics.json"),
+            same("camera_pose.json"),
+            same("depth_0000.png"),
+        ],
+        dir.path(),
+    );
+    std::fs::write(dir.path().join("truth.json"), "{\"scene\": {").unwrap();
+    let rec = Recording::open(dir.path()).unwrap();
+    assert!(rec.truth.is_none());
+    assert!(
+        rec.warnings.iter().any(|w| w.contains("truth.json")),
+        "{:?}",
+        rec.warnings
+    );
+}
+
+/// With a model that declares no force points, a frame without contacts has no force to
+/// estimate: the identifiability check took the SVD of an empty matrix and panicked.
+#[test]
+fn an_unloaded_frame_with_a_model_without_force_points_panicked_in_the_svd() {
+    let (rec, mut sensor) = common::bundled("tip_weight", SenseParams::default());
+    sensor.model.force_points.clear();
+    let obs = sensor.observe(&rec, 0).unwrap();
+    let report = sensor.sense(0, &obs, rec.inputs_of(0).as_ref());
+    assert_eq!(report.status, FrameStatus::Sensed);
+    assert!(report.forces.is_empty());
+}
+
+/// A true load of zero force was scored with a relative error of about 8.6e303 %.
+#[test]
+fn a_zero_force_truth_load_was_scored_with_an_error_of_8e303_percent() {
+    let (rec, sensor) = common::bundled("tip_weight", SenseParams::default());
+    let obs = sensor.observe(&rec, 1).unwrap();
+    let report = sensor.sense(1, &obs, rec.inputs_of(1).as_ref());
+    let mut truth = rec.truth_of(1).unwrap().clone();
+    for l in &mut truth.loads {
+        l.force = [0.0; 3];
+        l.magnitude = 0.0;
+    }
+    for e in softsense::sense::compare(&report, &truth) {
+        // Against 1 mN: the estimate (about 0.1-1 N) is hundreds of times that, not 1e301.
+        assert!(e.force_error.is_finite() && e.force_error < 1e4, "{e:?}");
+    }
+}

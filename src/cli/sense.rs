@@ -118,6 +118,9 @@ pub fn run(args: &SenseArgs) -> CliResult {
             args.scene_dir.display()
         )));
     };
+    for w in &rec.warnings {
+        eprintln!("warning: {w}");
+    }
     let model_path = model_path(args, &rec)?;
     let model = Model::load(&model_path, None).map_err(|e| CliError::Lib(e.into()))?;
     let mut params = SenseParams {

@@ -168,17 +168,23 @@ impl IntensityProblem {
             .iter()
             .filter(|a| matches!(a, ActuatorInput::Displacement(_)))
             .count();
-        let sv = self.w_ef.clone().singular_values();
-        let smin = if k == 0 || m < k {
+        // No force to identify (only the actuators are estimated): ‖W_ef⁺‖ of an empty
+        // matrix is 0, and nalgebra's SVD refuses one.
+        let i_w = if k == 0 || m == 0 {
             0.0
         } else {
-            sv.iter().copied().fold(f64::INFINITY, f64::min)
-        };
-        let smax = sv.iter().copied().fold(0.0, f64::max);
-        let i_w = if smin > 1e-12 * smax.max(f64::MIN_POSITIVE) {
-            1.0 / smin
-        } else {
-            f64::INFINITY
+            let sv = self.w_ef.clone().singular_values();
+            let smin = if m < k {
+                0.0
+            } else {
+                sv.iter().copied().fold(f64::INFINITY, f64::min)
+            };
+            let smax = sv.iter().copied().fold(0.0, f64::max);
+            if smin > 1e-12 * smax.max(f64::MIN_POSITIVE) {
+                1.0 / smin
+            } else {
+                f64::INFINITY
+            }
         };
         let warning = if m < unknowns {
             Some(format!(

@@ -87,6 +87,89 @@ fn list_flat(
     names: &[String],
     shared: Option<&Path>,
 ) -> Result<Vec<(Layout, FrameFiles)>, RecordingError> {
+    let softsense = list_softsense(dir, names, shared)?;
+    let grabber = list_grabber(dir, names, shared)?;
+    match (softsense.is_empty(), grabber.is_empty()) {
+        (false, false) => Err(RecordingError::MixedLayouts {
+            path: dir.to_path_buf(),
+        }),
+        (false, true) => Ok(softsense
+            .into_iter()
+            .map(|f| (Layout::Softsense, f))
+            .collect()),
+        _ => Ok(grabber
+            .into_iter()
+            .map(|f| (Layout::PclGrabber, f))
+            .collect()),
+    }
+}
+
+/// The softsense layout: `depth_NNNN` and `color_NNNN` images by frame number. A frame with
+/// only one of the two keeps the missing one's expected path (reading it then fails, naming
+/// it), except that a folder without any colour image is read without colour. Two files
+/// of the same kind and number (`depth_0004.png`, `depth_00004.png`) are refused.
+fn list_softsense(
+    dir: &Path,
+    names: &[String],
+    shared: Option<&Path>,
+) -> Result<Vec<FrameFiles>, RecordingError> {
+    // number -> (depth name, colour name)
+    let mut frames: std::collections::BTreeMap<usize, [Option<&str>; 2]> = Default::default();
+    for name in names {
+        let Some(stem_len) = image_stem_len(name) else {
+            continue;
+        };
+        let stem = &name[..stem_len];
+        let (kind, id) = match (stem.strip_prefix("depth_"), stem.strip_prefix("color_")) {
+            (Some(id), _) => (0, id),
+            (None, Some(id)) => (1, id),
+            (None, None) => continue,
+        };
+        let Ok(number) = id.parse::<usize>() else {
+            continue;
+        };
+        let slot = &mut frames.entry(number).or_default()[kind];
+        if let Some(first) = slot {
+            return Err(RecordingError::DuplicateFrame {
+                number,
+                first: dir.join(first),
+                second: dir.join(name),
+            });
+        }
+        *slot = Some(name);
+    }
+    let any_color = frames.values().any(|[_, c]| c.is_some());
+    frames
+        .into_iter()
+        .map(|(number, [depth, color])| {
+            let depth =
+                dir.join(depth.map_or_else(|| format!("depth_{number:04}.png"), String::from));
+            let camera = shared
+                .map(Path::to_path_buf)
+                .ok_or_else(|| RecordingError::NoCamera {
+                    depth: depth.clone(),
+                })?;
+            let color = match color {
+                Some(c) => Some(dir.join(c)),
+                None => any_color.then(|| dir.join(format!("color_{number:04}.png"))),
+            };
+            Ok(FrameFiles {
+                number,
+                depth,
+                color,
+                camera,
+            })
+        })
+        .collect()
+}
+
+/// The PCL grabber layout: `STEM_depth.*` with `STEM_rgb.*` (or `STEM_color.*`) and
+/// `STEM.xml`, numbered in name order.
+fn list_grabber(
+    dir: &Path,
+    names: &[String],
+    shared: Option<&Path>,
+) -> Result<Vec<FrameFiles>, RecordingError> {
     let has = |n: &str| names.iter().any(|m| m == n);
     let mut out = Vec::new();
     for name in names {
@@ -94,48 +177,27 @@ fn list_flat(
             continue;
         };
         let (stem, ext) = name.split_at(stem_len);
-        // (layout, frame number, colour file name candidates, per-frame camera file)
-        let (layout, number, colors, own_camera) = if let Some(id) = stem.strip_prefix("depth_") {
-            let Ok(number) = id.parse::<usize>() else {
-                continue;
-            };
-            let colors = vec![format!("color_{id}{ext}"), format!("color_{id}.png")];
-            (Layout::Softsense, number, colors, None)
-        } else if let Some(base) = stem.strip_suffix("_depth") {
-            let colors = [ext, ".png", ".tiff", ".jpg"]
-                .iter()
-                .flat_map(|e| [format!("{base}_rgb{e}"), format!("{base}_color{e}")])
-                .collect();
-            (
-                Layout::PclGrabber,
-                out.len(),
-                colors,
-                Some(format!("{base}.xml")),
-            )
-        } else {
+        let Some(base) = stem.strip_suffix("_depth") else {
             continue;
         };
-        let color = colors.iter().find(|c| has(c)).map(|c| dir.join(c));
-        let camera = own_camera
+        let color = [ext, ".png", ".tiff", ".jpg"]
+            .iter()
+            .flat_map(|e| [format!("{base}_rgb{e}"), format!("{base}_color{e}")])
+            .find(|c| has(c))
+            .map(|c| dir.join(c));
+        let own_camera = format!("{base}.xml");
+        let camera = Some(own_camera)
             .filter(|c| has(c))
             .map(|c| dir.join(c))
             .or_else(|| shared.map(Path::to_path_buf))
             .ok_or_else(|| RecordingError::NoCamera {
                 depth: dir.join(name),
             })?;
-        out.push((
-            layout,
-            FrameFiles {
-                number,
-                depth: dir.join(name),
-                color,
-                camera,
-            },
-        ));
-    }
-    if out.iter().any(|(l, _)| *l != out[0].0) {
-        return Err(RecordingError::MixedLayouts {
-            path: dir.to_path_buf(),
+        out.push(FrameFiles {
+            number: out.len(),
+            depth: dir.join(name),
+            color,
+            camera,
         });
     }
     Ok(out)

@@ -83,6 +83,16 @@ pub enum RecordingError {
         /// The colour folder.
         path: PathBuf,
     },
+    /// Two images of the same kind for one frame number.
+    #[error("{first} and {second} are both frame {number}: keep one")]
+    DuplicateFrame {
+        /// The frame number.
+        number: usize,
+        /// One image.
+        first: PathBuf,
+        /// The other.
+        second: PathBuf,
+    },
     /// A frame number the recording does not have.
     #[error("no frame {frame} in the recording (frames {first}..={last})")]
     NoSuchFrame {
@@ -127,6 +137,9 @@ pub struct Recording {
     pub calibration_model: Option<String>,
     /// The generator's truth, if any (used for error reports only).
     pub truth: Option<Truth>,
+    /// What was wrong with optional files that were then left out (an unreadable
+    /// `truth.json`: the frames are sensed unscored).
+    pub warnings: Vec<String>,
 }
 
 fn file_err(path: &Path, e: impl std::fmt::Display) -> RecordingError {
@@ -196,6 +209,15 @@ impl Recording {
             None => (None, None),
         };
         let (calibrated, calibration_model) = pose.map_or((None, None), |p| (p.actuators, p.model));
+        let mut warnings = Vec::new();
+        // The truth only scores the estimates: a broken one costs the scores, not the run.
+        let truth = match opt("truth.json").map(|p| read_json(&p)).transpose() {
+            Ok(t) => t,
+            Err(e) => {
+                warnings.push(format!("{e}: left out, the frames are not scored"));
+                None
+            }
+        };
         Ok(Self {
             dir: dir.to_path_buf(),
             layout,
@@ -209,7 +231,8 @@ impl Recording {
             actuators: opt("actuators.json").map(|p| read_json(&p)).transpose()?,
             calibrated,
             calibration_model,
-            truth: opt("truth.json").map(|p| read_json(&p)).transpose()?,
+            truth,
+            warnings,
         })
     }
 

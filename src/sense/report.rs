@@ -156,6 +156,10 @@ pub struct ForceEstimate {
     pub covariance: [[f64; 3]; 3],
 }
 
+/// The smallest true force a relative error is taken against (N): a weaker or zero true
+/// load is scored against this, so its error reads as a fraction of 1 mN, not of nothing.
+pub const MIN_SCORED_FORCE: f64 = 1e-3;
+
 /// Errors of one estimated load against the truth.
 #[derive(Clone, Debug, Serialize)]
 pub struct LoadError {
@@ -167,9 +171,9 @@ pub struct LoadError {
     pub estimate: Option<usize>,
     /// Distance between the estimated and true locations (m).
     pub location_error: f64,
-    /// |f_est − f_true| / |f_true|.
+    /// |f_est − f_true| / max(|f_true|, [`MIN_SCORED_FORCE`]).
     pub force_error: f64,
-    /// | |f_est| − |f_true| | / |f_true|.
+    /// | |f_est| − |f_true| | / max(|f_true|, [`MIN_SCORED_FORCE`]).
     pub magnitude_error: f64,
 }
 
@@ -442,7 +446,7 @@ pub fn compare(report: &FrameReport, truth: &FrameTruth) -> Vec<LoadError> {
                 .enumerate()
                 .map(|(i, f)| (i, norm(sub(f.location, l.at_deformed))))
                 .min_by(|a, b| a.1.total_cmp(&b.1));
-            let mag = l.magnitude.max(f64::MIN_POSITIVE);
+            let mag = l.magnitude.max(MIN_SCORED_FORCE);
             match best {
                 Some((i, d)) => {
                     let f = &report.forces[i];
