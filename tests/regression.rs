@@ -224,3 +224,53 @@ fn a_zero_force_truth_load_was_scored_with_an_error_of_8e303_percent() {
         assert!(e.force_error.is_finite() && e.force_error < 1e4, "{e:?}");
     }
 }
+
+/// A legacy VTK mesh whose `CELLS` section gave a cell size of 2^64 - 1 panicked with
+/// "capacity overflow" (exit 101) instead of refusing the file.
+#[test]
+fn a_vtk_cell_size_of_two_to_the_sixty_four_panicked_with_capacity_overflow() {
+    let text = "# vtk DataFile Version 3.0\nmesh\nASCII\nDATASET UNSTRUCTURED_GRID\n\
+                POINTS 4 double\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n\
+                CELLS 1 5\n18446744073709551615 0 1 2 3\nCELL_TYPES 1\n10\n";
+    let err = softsense::fem::meshio::parse_vtk_legacy(text).unwrap_err();
+    assert!(err.to_string().contains("CELLS"), "{err}");
+}
+
+/// `filter IN IN`, `segment IN IN`, `cluster IN IN` and `convert IN IN` wrote their output
+/// over their input (3000 points became 2137).
+#[test]
+fn a_command_given_its_input_as_its_output_wrote_over_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let cloud = dir.path().join("cloud.pcd");
+    std::fs::copy(common::project_root().join("clouds/demo_scene.pcd"), &cloud).unwrap();
+    let before = std::fs::read(&cloud).unwrap();
+    let c = cloud.to_str().unwrap();
+    let same_by_another_name = format!("{}/./cloud.pcd", dir.path().display());
+    for args in [
+        vec!["filter", c, c],
+        vec!["segment", c, &same_by_another_name],
+        vec!["cluster", c, c, "--tolerance", "0.01"],
+        vec!["convert", c, c],
+    ] {
+        let out = common::run_cli(&args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains("is the input"), "{args:?}: {err}");
+    }
+    assert!(
+        std::fs::read(&cloud).unwrap() == before,
+        "the input is untouched"
+    );
+}
+
+/// `contacts` said how it chose the robot in Rust debug text
+/// ("chosen by Color { delta_e: 19.19330736688148 }").
+#[test]
+fn contacts_said_how_it_chose_the_robot_in_rust_debug_text() {
+    let demo = common::project_root().join("clouds/demo_scene.pcd");
+    let out = common::run_cli(&["contacts", demo.to_str().unwrap()]);
+    assert!(out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("chosen by its size, the largest"), "{err}");
+    assert!(!err.contains('{'), "{err}");
+}

@@ -44,6 +44,7 @@ pub struct ClusterArgs {
 
 /// Runs the subcommand.
 pub fn run(args: &ClusterArgs) -> CliResult {
+    super::refuse_output_over_input(&args.input, &args.output)?;
     let cloud = read_cloud(&args.input)?;
     let params = EuclideanParams {
         tolerance: args.tolerance,

@@ -5,7 +5,7 @@ use super::{print_json, CliError, CliResult};
 use clap::Args;
 use softsense::contact::{detect_contacts, ContactParams};
 use softsense::io::read_cloud;
-use softsense::segment::robot::{select_robot, RobotRule};
+use softsense::segment::robot::{select_robot, ChosenBy, RobotRule};
 use softsense::segment::robot_color::RobotColorModel;
 use softsense::segment::{segment, GeometricParams, RegionGrowingParams, SegmentMode};
 use std::path::PathBuf;
@@ -125,12 +125,17 @@ pub fn run(args: &ContactsArgs) -> CliResult {
             "contacts": list, "ms": ms}),
         )?;
     } else {
+        let chosen_by = match robot.chosen_by {
+            ChosenBy::Color { hue_difference_deg } => {
+                format!("its colour, hue {hue_difference_deg:.1}° from the robot's")
+            }
+            ChosenBy::Largest => "its size, the largest".to_string(),
+        };
         eprintln!(
-            "{} segments; robot = segment {} ({} points, chosen by {:?}); {} contacts; {ms:.1} ms",
+            "{} segments; robot = segment {} ({} points, chosen by {chosen_by}); {} contacts; {ms:.1} ms",
             seg.segments.len(),
             robot.segment,
             robot_pts.len(),
-            robot.chosen_by,
             contacts.len()
         );
         for c in &contacts {

@@ -95,7 +95,10 @@ pub struct ConvertArgs {
 /// Runs `softsense convert`.
 pub fn run(args: &ConvertArgs) -> CliResult {
     let (cloud, output) = match (&args.depth, args.files.as_slice()) {
-        (Some(depth), [out]) => (rgbd_cloud(args, depth)?, out),
+        (Some(depth), [out]) => {
+            super::refuse_output_over_input(depth, out)?;
+            (rgbd_cloud(args, depth)?, out)
+        }
         (Some(_), _) => {
             return Err(CliError::Usage(
                 "with --depth give only the output file (convert --depth D --color C --intrinsics I OUT)".into(),
@@ -103,6 +106,7 @@ pub fn run(args: &ConvertArgs) -> CliResult {
         }
         (None, [input, out]) => {
             check_output(out)?;
+            super::refuse_output_over_input(input, out)?;
             (io::read_cloud(input)?, out)
         }
         (None, _) => {

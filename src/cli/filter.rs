@@ -188,6 +188,7 @@ fn chain(args: &FilterArgs) -> Result<ChainParams, CliError> {
 
 /// Runs `softsense filter`.
 pub fn run(args: &FilterArgs) -> CliResult {
+    super::refuse_output_over_input(&args.input, &args.output)?;
     let params = chain(args)?;
     let mut pipeline = Pipeline::new(params);
     let input_str = args.input.to_string_lossy();

@@ -153,3 +153,24 @@ pub fn parse_rgb(s: &str) -> Result<[u8; 3], String> {
     };
     Ok([c(r)?, c(g)?, c(b)?])
 }
+
+/// Refuses an output path that is the input file (or, for a sequence, the input folder):
+/// the command would write over what it reads.
+pub fn refuse_output_over_input(input: &std::path::Path, output: &std::path::Path) -> CliResult {
+    // The output may not exist yet: compare its folder's real path plus its name.
+    let real = |p: &std::path::Path| {
+        std::fs::canonicalize(p).ok().or_else(|| {
+            let parent = p.parent().filter(|d| !d.as_os_str().is_empty());
+            let dir = std::fs::canonicalize(parent.unwrap_or(std::path::Path::new("."))).ok()?;
+            Some(dir.join(p.file_name()?))
+        })
+    };
+    match (real(input), real(output)) {
+        (Some(i), Some(o)) if i == o => Err(CliError::Usage(format!(
+            "the output {} is the input: give another output path (softsense never writes over \
+             what it reads)",
+            output.display()
+        ))),
+        _ => Ok(()),
+    }
+}

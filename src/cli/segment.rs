@@ -100,6 +100,7 @@ pub fn write_labelled(
 
 /// Runs the subcommand.
 pub fn run(args: &SegmentArgs) -> CliResult {
+    super::refuse_output_over_input(&args.input, &args.output)?;
     let mut params = RegionGrowingParams::default();
     if let Some(d) = args.distance {
         params.distance_m = d;

@@ -417,7 +417,8 @@ fn legacy_cells(it: &mut Tokens<'_>) -> FemResult<Vec<Vec<i64>>> {
     let mut used = 0usize;
     for _ in 0..n {
         let k: usize = parse_num(it.next().unwrap_or(""), "cell size")?;
-        used += k + 1;
+        // Checked before anything is allocated for it: a huge size is a broken file.
+        used = used.saturating_add(k).saturating_add(1);
         if used > size {
             return Err(perr("CELLS data longer than declared"));
         }
