@@ -274,3 +274,27 @@ fn contacts_said_how_it_chose_the_robot_in_rust_debug_text() {
     assert!(err.contains("chosen by its size, the largest"), "{err}");
     assert!(!err.contains('{'), "{err}");
 }
+
+/// `explain` took a frame with no robot point (an all-zero depth image) without a word.
+#[test]
+fn an_all_zero_depth_frame_was_absorbed_by_explain_without_a_message() {
+    let dir = tempfile::tempdir().unwrap();
+    let same = |name| (name, name);
+    common::copy_scene_files(
+        "tip_weight",
+        &[
+            same("intrinsics.json"),
+            same("camera_pose.json"),
+            same("actuators.json"),
+            same("color_0000.png"),
+        ],
+        dir.path(),
+    );
+    image::ImageBuffer::<image::Luma<u16>, _>::new(640, 480)
+        .save(dir.path().join("depth_0000.png"))
+        .unwrap();
+    let err = softsense::discrepancy::data::load_frames(dir.path(), &Default::default())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("frame 0 has no robot point"), "{err}");
+}

@@ -56,7 +56,9 @@ pub fn run(args: &ExplainArgs) -> CliResult {
         ..Default::default()
     };
     let x = explain(&model, &rec, &params).map_err(softsense::Error::from)?;
-    print_outcome(&x);
+    let held_out =
+        !softsense::discrepancy::split_frames(rec.frames.len(), args.holdout)[1].is_empty();
+    print_outcome(&x, held_out);
     if let Some(out) = &args.out {
         let text = report_model_text(&args.model)?;
         let surface = model.problem.mesh.surface();
@@ -81,8 +83,9 @@ pub fn run(args: &ExplainArgs) -> CliResult {
     Ok(())
 }
 
-/// The answer and the held-out RMS before and after, on stderr.
-fn print_outcome(x: &Explanation) {
+/// The answer and the held-out RMS before and after (over all frames when none is held
+/// out), on stderr.
+fn print_outcome(x: &Explanation, held_out: bool) {
     match &x.outcome {
         Outcome::NoMissingEffect => eprintln!("no missing effect: residual at the noise floor"),
         Outcome::Explained { effects } => {
@@ -96,7 +99,12 @@ fn print_outcome(x: &Explanation) {
     }
     if let (Some(b), Some(a)) = (x.before.last(), x.after.last()) {
         eprintln!(
-            "held-out RMS {:.3} mm -> {:.3} mm (noise floor {:.3} mm)",
+            "{} RMS {:.3} mm -> {:.3} mm (noise floor {:.3} mm)",
+            if held_out {
+                "held-out"
+            } else {
+                "no frame held out: training"
+            },
             b.rms * 1e3,
             a.rms * 1e3,
             b.noise_rms * 1e3

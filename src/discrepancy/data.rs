@@ -117,6 +117,13 @@ pub fn load_frames(dir: &Path, color: &RobotColorModel) -> DiscrepancyResult<Rec
                 points.push(robot_from_camera.apply(p));
             }
         }
+        if points.is_empty() {
+            return Err(DiscrepancyError::Data(format!(
+                "{}: frame {f} has no robot point (no valid depth, or no pixel of the robot's \
+                 colour: check --robot-color)",
+                dir.display()
+            )));
+        }
         frames.push(RecordedFrame { points, input });
     }
     Ok(Recording {

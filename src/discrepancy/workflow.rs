@@ -193,7 +193,10 @@ pub fn explain(
     let split = split_frames(rec.frames.len(), params.holdout);
     let [train, hold] = &split;
     let res0 = wf.all_residuals(&[])?;
-    let before = wf.stats(&res0, hold);
+    // Without held-out frames (`holdout` 0, or one frame) the before/after statistics are
+    // over the training frames: statistics over no frame would read as a perfect fit.
+    let scored = if hold.is_empty() { train } else { hold };
+    let before = wf.stats(&res0, scored);
     let search = Search {
         wf: &wf,
         train,
@@ -206,7 +209,7 @@ pub fn explain(
         cov: cov_kept,
         res,
     } = search.select(&res0, &mut steps)?;
-    let after = wf.stats(&res, hold);
+    let after = wf.stats(&res, scored);
     let fitted = wf.fitted_effects(&kept, &cov_kept);
     let eval = if hold.is_empty() {
         wf.stats(&res, train)

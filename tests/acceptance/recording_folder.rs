@@ -78,11 +78,25 @@ fn calibrate_sense_and_explain_read_the_same_folder_from_another_working_directo
         .collect();
     assert_eq!(statuses.len(), 4, "{out}");
     assert!(statuses.iter().all(|s| s == "sensed"), "{statuses:?}");
+    // With no frame held out, the before/after figures are the training frames' (they read
+    // "0.000 -> 0.000 mm", statistics over no frame, before).
     let (ok, out, err) = softsense(
         &run_in,
-        &["explain", "../meshes/models/robot.toml", frames, "--json"],
+        &[
+            "explain",
+            "../meshes/models/robot.toml",
+            frames,
+            "--json",
+            "--holdout",
+            "0",
+        ],
     );
     assert!(ok, "explain: {err}");
+    assert!(err.contains("no frame held out"), "{err}");
     let x: serde_json::Value = serde_json::from_str(&out).unwrap();
     assert!(x.get("outcome").is_some(), "{out}");
+    let before = x["before"].as_array().unwrap().last().unwrap()["rms"]
+        .as_f64()
+        .unwrap();
+    assert!(before > 0.0, "{out}");
 }
