@@ -8,17 +8,14 @@ use softsense::sense::{FrameStatus, Recording, SenseParams, Sensor};
 /// probe_side frame 0 a residual 33 times the noise, 20 FE updates, flagged unreliable).
 #[test]
 fn a_camera_pose_with_a_scaled_rotation_was_sensed_as_if_it_were_rigid() {
-    let dir = tempfile::tempdir().unwrap();
-    let same = |name| (name, name);
-    common::copy_scene_files(
+    let dir = common::scene_copy(
         "probe_side",
         &[
-            same("intrinsics.json"),
-            same("camera_pose.json"),
-            same("depth_0000.png"),
-            same("color_0000.png"),
+            "intrinsics.json",
+            "camera_pose.json",
+            "depth_0000.png",
+            "color_0000.png",
         ],
-        dir.path(),
     );
     assert!(Recording::open(dir.path()).is_ok(), "the copy as it is");
     let pose_path = dir.path().join("camera_pose.json");
@@ -82,17 +79,14 @@ fn a_frame_showing_twenty_one_contacts_took_six_seconds_to_fail() {
 /// `calibration.json` named a model that is there, and failed with "not there".
 #[test]
 fn a_copied_recording_used_the_truths_missing_model_over_the_calibrations() {
-    let dir = tempfile::tempdir().unwrap();
-    let same = |name| (name, name);
-    common::copy_scene_files(
+    let dir = common::scene_copy(
         "tip_weight",
         &[
-            same("intrinsics.json"),
-            same("truth.json"),
-            same("depth_0000.png"),
-            same("color_0000.png"),
+            "intrinsics.json",
+            "truth.json",
+            "depth_0000.png",
+            "color_0000.png",
         ],
-        dir.path(),
     );
     let pose: serde_json::Value = serde_json::from_str(
         &std::fs::read_to_string(
@@ -119,18 +113,15 @@ fn a_copied_recording_used_the_truths_missing_model_over_the_calibrations() {
 /// from the output instead of being reported unreadable.
 #[test]
 fn a_deleted_depth_image_made_its_frame_vanish_from_the_output() {
-    let dir = tempfile::tempdir().unwrap();
-    let same = |name| (name, name);
-    common::copy_scene_files(
+    let dir = common::scene_copy(
         "tip_weight",
         &[
-            same("intrinsics.json"),
-            same("camera_pose.json"),
-            same("depth_0000.png"),
-            same("color_0000.png"),
-            same("color_0001.png"),
+            "intrinsics.json",
+            "camera_pose.json",
+            "depth_0000.png",
+            "color_0000.png",
+            "color_0001.png",
         ],
-        dir.path(),
     );
     let rec = Recording::open(dir.path()).unwrap();
     assert_eq!(rec.frames, vec![0, 1]);
@@ -175,16 +166,9 @@ fn an_extra_five_digit_depth_image_sensed_its_frame_twice() {
 /// A truncated `truth.json`, read only to score the estimates, refused the whole run.
 #[test]
 fn a_truncated_truth_file_refused_the_whole_run() {
-    let dir = tempfile::tempdir().unwrap();
-    let same = |name| (name, name);
-    common::copy_scene_files(
+    let dir = common::scene_copy(
         "tip_weight",
-        &[
-            same("intrinsics.json"),
-            same("camera_pose.json"),
-            same("depth_0000.png"),
-        ],
-        dir.path(),
+        &["intrinsics.json", "camera_pose.json", "depth_0000.png"],
     );
     std::fs::write(dir.path().join("truth.json"), "{\"scene\": {").unwrap();
     let rec = Recording::open(dir.path()).unwrap();
@@ -278,17 +262,14 @@ fn contacts_said_how_it_chose_the_robot_in_rust_debug_text() {
 /// `explain` took a frame with no robot point (an all-zero depth image) without a word.
 #[test]
 fn an_all_zero_depth_frame_was_absorbed_by_explain_without_a_message() {
-    let dir = tempfile::tempdir().unwrap();
-    let same = |name| (name, name);
-    common::copy_scene_files(
+    let dir = common::scene_copy(
         "tip_weight",
         &[
-            same("intrinsics.json"),
-            same("camera_pose.json"),
-            same("actuators.json"),
-            same("color_0000.png"),
+            "intrinsics.json",
+            "camera_pose.json",
+            "actuators.json",
+            "color_0000.png",
         ],
-        dir.path(),
     );
     image::ImageBuffer::<image::Luma<u16>, _>::new(640, 480)
         .save(dir.path().join("depth_0000.png"))

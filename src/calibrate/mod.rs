@@ -47,7 +47,7 @@ pub mod schema;
 pub mod solve;
 pub mod surface;
 
-pub use observe::{read_scene_robot_points, robot_points};
+pub use observe::{read_scene_robot_points, recording_robot_points, robot_points};
 pub use params::CalibrateParams;
 pub use pose::{pose_difference, pose_from_matrix, pose_to_matrix, read_pose};
 pub use rigid::{kabsch, point_to_plane_step};

@@ -1,6 +1,7 @@
 //! The measured robot points: robot-coloured pixels of a colour-and-depth frame.
 
 use super::{CalibrateParams, CalibrateResult};
+use crate::recording::Recording;
 use crate::segment::robot_color::RobotColorModel;
 use std::path::Path;
 
@@ -27,6 +28,14 @@ pub fn read_scene_robot_points(
     frame: usize,
     params: &CalibrateParams,
 ) -> CalibrateResult<Vec<[f64; 3]>> {
-    let cloud = crate::recording::Recording::open(dir)?.read_frame(frame)?;
-    Ok(robot_points(&cloud, &params.color))
+    recording_robot_points(&Recording::open(dir)?, frame, params)
+}
+
+/// The robot points (camera frame) of `frame` of an opened recording.
+pub fn recording_robot_points(
+    rec: &Recording,
+    frame: usize,
+    params: &CalibrateParams,
+) -> CalibrateResult<Vec<[f64; 3]>> {
+    Ok(robot_points(&rec.read_frame(frame)?, &params.color))
 }

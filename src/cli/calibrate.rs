@@ -4,11 +4,12 @@
 use super::{print_json, CliError, CliResult};
 use clap::Args;
 use softsense::calibrate::{
-    calibrate, read_pose, read_scene_robot_points, CalibrateParams, Calibration, CalibrationStatus,
+    calibrate, read_pose, recording_robot_points, CalibrateParams, Calibration, CalibrationStatus,
     IterationReport,
 };
 use softsense::fem::model::Model;
 use softsense::math::Iso3;
+use softsense::recording::Recording;
 use std::path::{Path, PathBuf};
 
 /// Calibrate the camera-to-robot transform and the cable inputs from a frame.
@@ -62,8 +63,9 @@ pub fn run(args: &CalibrateArgs) -> CliResult {
     };
     let start = start_pose(args)?;
     let model = Model::load(&args.model, None).map_err(softsense::Error::from)?;
-    let points = read_scene_robot_points(&args.scene_dir, args.frame, &params)
-        .map_err(softsense::Error::from)?;
+    let rec = Recording::open(&args.scene_dir).map_err(softsense::Error::from)?;
+    let points =
+        recording_robot_points(&rec, args.frame, &params).map_err(softsense::Error::from)?;
     eprintln!("{} robot points in frame {}", points.len(), args.frame);
     let cal = calibrate(&model, &points, &start, &params, print_progress)
         .map_err(softsense::Error::from)?;
@@ -74,7 +76,7 @@ pub fn run(args: &CalibrateArgs) -> CliResult {
     let result = write_result(args, &cal, &out)?;
     eprintln!("wrote {}", out.display());
     if cal.status != CalibrationStatus::PoorFit {
-        touch_check(args, &model, &params, &cal)?;
+        touch_check(&rec, args.frame, &model, &params, &cal)?;
     }
     if args.json {
         print_json(&result)?;
@@ -179,22 +181,22 @@ fn print_summary(cal: &Calibration) -> CliResult {
 /// is seen as `sense` would see it at the calibrated pose: cropped above the table, robot
 /// and objects by colour, the same contact detection.
 fn touch_check(
-    args: &CalibrateArgs,
+    rec: &Recording,
+    frame: usize,
     model: &Model,
     params: &CalibrateParams,
     cal: &Calibration,
 ) -> CliResult {
-    use softsense::sense::{Recording, SenseParams, Sensor};
+    use softsense::sense::{SenseParams, Sensor};
     let robot_from_camera = softsense::math::pose::Pose::from_matrix(&cal.robot_from_camera)
         .map_err(|e| CliError::Result(e.to_string()))?;
-    let rec = Recording::open(&args.scene_dir).map_err(softsense::Error::from)?;
     let sense_params = SenseParams {
         color: params.color,
         ..Default::default()
     };
     let sensor = Sensor::new(model.clone(), robot_from_camera, sense_params);
     let obs = sensor
-        .observe(&rec, args.frame)
+        .observe(rec, frame)
         .map_err(|e| CliError::Lib(e.into()))?;
     let contacts = sensor
         .contacts(&obs)
@@ -205,7 +207,7 @@ fn touch_check(
             "warning: frame {}: an object touches the robot at ({x:.1}, {y:.1}, {z:.1}) mm \
              (robot frame, {} contact points): the calibration took its dent for the \
              robot's shape; calibrate on a frame where nothing touches the robot (--frame)",
-            args.frame, c.points
+            frame, c.points
         );
     }
     Ok(())

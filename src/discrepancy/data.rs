@@ -39,13 +39,13 @@ pub struct Recording {
     pub frames: Vec<RecordedFrame>,
 }
 
-/// The sensor model of a folder: its `sensor.json`, else the default D415-like one.
-fn sensor_model(dir: &Path) -> DiscrepancyResult<SensorModel> {
+/// The sensor model of a folder's `sensor.json`, if it has one.
+fn sensor_file(dir: &Path) -> DiscrepancyResult<Option<SensorModel>> {
     let path = dir.join("sensor.json");
-    if !path.exists() {
-        return Ok(SensorModel::default());
-    }
-    Ok(crate::recording::read_json(&path)?)
+    Ok(path
+        .exists()
+        .then(|| crate::recording::read_json(&path))
+        .transpose()?)
 }
 
 /// Reads a recording folder (see the module docs) and picks each frame's robot points
@@ -59,12 +59,13 @@ pub fn load_frames(dir: &Path, color: &RobotColorModel) -> DiscrepancyResult<Rec
         ))
     })?;
     let camera = Camera::new(rec.camera.intrinsics, robot_from_camera);
-    let sensor = sensor_model(dir)?;
+    let sensor_file = sensor_file(dir)?;
     // One depth unit: the camera file's. A sensor.json that says otherwise would have the
     // noise floor and the points disagree.
     let depth_unit = 1.0 / rec.camera.params.depth_scale;
-    if dir.join("sensor.json").exists()
-        && (sensor.depth_unit - depth_unit).abs() > 1e-9 * depth_unit.abs()
+    if let Some(sensor) = sensor_file
+        .as_ref()
+        .filter(|s| (s.depth_unit - depth_unit).abs() > 1e-9 * depth_unit.abs())
     {
         return Err(DiscrepancyError::Data(format!(
             "{}: sensor.json's depth_unit {} m and intrinsics.json's depth_scale {} (a unit of \
@@ -128,7 +129,8 @@ pub fn load_frames(dir: &Path, color: &RobotColorModel) -> DiscrepancyResult<Rec
     }
     Ok(Recording {
         camera,
-        sensor,
+        // Without a sensor.json: the default D415-like model.
+        sensor: sensor_file.unwrap_or_default(),
         frames,
     })
 }

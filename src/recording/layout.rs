@@ -35,7 +35,8 @@ pub struct FrameFiles {
 /// The frames of `dir` in whichever layout it has, in frame order.
 pub fn list_frames(dir: &Path) -> Result<(Layout, Vec<FrameFiles>), RecordingError> {
     let names = file_names(dir)?;
-    let has = |n: &str| names.iter().any(|m| m == n);
+    // `names` is sorted: a frame's partner files are found by binary search.
+    let has = |n: &str| names.binary_search_by(|m| m.as_str().cmp(n)).is_ok();
     let shared = ["intrinsics.json", "intrinsics.xml", "camera_intrinsic.json"]
         .into_iter()
         .find(|n| has(n))
@@ -170,7 +171,8 @@ fn list_grabber(
     names: &[String],
     shared: Option<&Path>,
 ) -> Result<Vec<FrameFiles>, RecordingError> {
-    let has = |n: &str| names.iter().any(|m| m == n);
+    // `names` is sorted: a frame's partner files are found by binary search.
+    let has = |n: &str| names.binary_search_by(|m| m.as_str().cmp(n)).is_ok();
     let mut out = Vec::new();
     for name in names {
         let Some(stem_len) = image_stem_len(name) else {

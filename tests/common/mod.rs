@@ -83,6 +83,14 @@ pub fn copy_scene_files(scene: &str, files: &[(&str, &str)], dir: &std::path::Pa
     }
 }
 
+/// A temporary folder holding copies of `names` from the bundled scene `scene`.
+pub fn scene_copy(scene: &str, names: &[&str]) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    let pairs: Vec<(&str, &str)> = names.iter().map(|n| (*n, *n)).collect();
+    copy_scene_files(scene, &pairs, dir.path());
+    dir
+}
+
 /// A bundled scene (`clouds/scenes/<scene>`) and a sensor for it with `params`.
 pub fn bundled(
     scene: &str,
