@@ -9,6 +9,7 @@
 //! [`read_cloud`] and [`write_cloud`] choose the format by the file extension.
 
 pub mod intrinsics;
+pub mod limits;
 pub mod pcd;
 pub mod ply;
 pub mod rgbd;
@@ -66,6 +67,15 @@ pub enum IoError {
         /// What is wrong with it.
         #[source]
         source: rgbd::RgbdError,
+    },
+    /// The file declares more data than the memory budget allows ([`limits`]).
+    #[error("{path}: {source}")]
+    TooLarge {
+        /// The file.
+        path: PathBuf,
+        /// What it declares and the limit.
+        #[source]
+        source: limits::TooLarge,
     },
     /// The file extension names no format we read or write.
     #[error("{path}: unknown cloud format (expected .pcd, .ply or .xyz)")]
