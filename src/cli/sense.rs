@@ -130,14 +130,21 @@ pub fn run(args: &SenseArgs) -> CliResult {
     };
     params.features.count = args.features;
     let mut sensor = Sensor::new(model, robot_from_camera, params);
-    let inputs = match (&rec.actuators, &rec.calibrated) {
-        (Some(_), _) => "recorded (actuators.json)".to_string(),
-        (None, Some(cal)) => {
+    use softsense::recording::InputsFile;
+    let recorded = rec.recorded.as_ref().map(|r| r.kind);
+    let inputs = match (recorded, &rec.calibrated) {
+        (Some(InputsFile::Actuators), _) => "recorded (actuators.json)".to_string(),
+        (recorded, Some(cal)) => {
             sensor
                 .use_calibrated_inputs(cal)
                 .map_err(|e| CliError::Result(format!("{}: {e}", pose_file.display())))?;
-            format!("calibrated ({})", super::shown_path(&pose_file).display())
+            let calibrated = format!("calibrated ({})", super::shown_path(&pose_file).display());
+            match recorded {
+                Some(_) => format!("recorded (inputs.json), else {calibrated}"),
+                None => calibrated,
+            }
         }
+        (Some(InputsFile::Inputs), None) => "recorded (inputs.json)".to_string(),
         (None, None) => "the model file's".to_string(),
     };
     eprintln!(

@@ -85,6 +85,10 @@ pub fn load_frames(dir: &Path, color: &RobotColorModel) -> DiscrepancyResult<Rec
     let mut frames = Vec::with_capacity(rec.frames.len());
     let mut is_robot = color.classifier();
     for &f in &rec.frames {
+        // explain fits the model to every frame: one without its inputs would mislead it.
+        if let Some(problem) = rec.input_problem(f) {
+            return Err(DiscrepancyError::Data(problem));
+        }
         let input = rec.inputs_of(f).ok_or_else(|| {
             DiscrepancyError::Data(format!(
                 "{}: no recorded inputs for frame {f} (inputs.json or actuators.json)",

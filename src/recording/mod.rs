@@ -21,10 +21,12 @@
 //! assert_eq!(rec.inputs_of(rec.frames[0]).unwrap().cables.len(), 4);
 //! ```
 
+mod inputs;
 mod layout;
 pub mod schema;
 mod write;
 
+pub use inputs::{InputsFile, RecordedInputs};
 pub use layout::{list_frames, FrameFiles, Layout};
 pub use schema::{
     ActuatorCalibration, ActuatorTruth, CableInput, Calibration, FrameInput, FrameTruth, Truth,
@@ -126,10 +128,8 @@ pub struct Recording {
     pub frames: Vec<usize>,
     files: Vec<FrameFiles>,
     cameras: Vec<CameraModel>,
-    /// Recorded inputs per frame (`inputs.json`), if any.
-    pub inputs: Option<Vec<FrameInput>>,
-    /// Recorded actuator states per frame (`actuators.json`), if any.
-    pub actuators: Option<Vec<Vec<ActuatorTruth>>>,
+    /// Recorded inputs per frame (`inputs.json`, else `actuators.json`), if any.
+    pub recorded: Option<RecordedInputs>,
     /// The cable inputs of the calibration (`calibration.json`'s `actuators`), if the pose
     /// came from one.
     pub calibrated: Option<Vec<ActuatorCalibration>>,
@@ -142,7 +142,7 @@ pub struct Recording {
     pub warnings: Vec<String>,
 }
 
-fn file_err(path: &Path, e: impl std::fmt::Display) -> RecordingError {
+pub(crate) fn file_err(path: &Path, e: impl std::fmt::Display) -> RecordingError {
     RecordingError::File {
         path: path.to_path_buf(),
         message: e.to_string(),
@@ -218,17 +218,23 @@ impl Recording {
                 None
             }
         };
+        let recorded = match (opt("inputs.json"), opt("actuators.json")) {
+            (Some(p), _) => Some(RecordedInputs::read(&p, InputsFile::Inputs)?),
+            (None, Some(p)) => Some(RecordedInputs::read(&p, InputsFile::Actuators)?),
+            (None, None) => None,
+        };
+        let frames: Vec<usize> = files.iter().map(|f| f.number).collect();
+        warnings.extend(recorded.as_ref().and_then(|r| r.coverage_warning(&frames)));
         Ok(Self {
             dir: dir.to_path_buf(),
             layout,
             camera: cameras[0],
             robot_from_camera,
             pose_file,
-            frames: files.iter().map(|f| f.number).collect(),
+            frames,
             files,
             cameras,
-            inputs: opt("inputs.json").map(|p| read_json(&p)).transpose()?,
-            actuators: opt("actuators.json").map(|p| read_json(&p)).transpose()?,
+            recorded,
             calibrated,
             calibration_model,
             truth,
@@ -331,16 +337,15 @@ impl Recording {
     }
 
     /// The recorded inputs of `frame`: its entry of `inputs.json`, else its cables'
-    /// commanded inputs from `actuators.json` (no known loads), else `None`.
+    /// commanded inputs from `actuators.json` (no known loads), else `None` (also for an
+    /// entry that cannot be used: [`Recording::input_problem`]).
     pub fn inputs_of(&self, frame: usize) -> Option<FrameInput> {
-        if let Some(inputs) = &self.inputs {
-            return inputs.get(frame).cloned();
-        }
-        let actuators = self.actuators.as_ref()?.get(frame)?;
-        Some(FrameInput {
-            cables: actuators.iter().map(ActuatorTruth::commanded).collect(),
-            loads: Vec::new(),
-        })
+        self.recorded.as_ref()?.get(frame).cloned()
+    }
+
+    /// Why `frame`'s recorded inputs cannot be used (a NaN, a missing field), if so.
+    pub fn input_problem(&self, frame: usize) -> Option<String> {
+        self.recorded.as_ref()?.problem(frame)
     }
 
     /// The truth of `frame`, if any.

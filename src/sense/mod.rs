@@ -79,6 +79,10 @@ pub enum SenseError {
     /// Image or intrinsics reading failed.
     #[error(transparent)]
     Io(#[from] crate::io::IoError),
+    /// The frame's entry of the recorded inputs cannot be used (the message names the
+    /// file and the frame).
+    #[error("recorded inputs: {0}")]
+    Inputs(String),
     /// Calibrated cable inputs that do not fit the model.
     #[error("calibrated cable inputs: {0}")]
     Calibration(String),

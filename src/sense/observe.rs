@@ -3,6 +3,7 @@
 //! touch the robot ([`Sensor::contacts`]).
 
 use super::report::ms;
+use super::SenseError;
 use super::{Recording, SenseParams, SenseResult, Sensor};
 use crate::contact::{detect_contacts, Contact};
 use crate::math::pose::Pose;
@@ -63,6 +64,10 @@ fn observe(
     params: &SenseParams,
     bounds: Option<[[f64; 3]; 2]>,
 ) -> SenseResult<Observation> {
+    // Without its inputs the frame would be sensed against the wrong cable state.
+    if let Some(problem) = rec.input_problem(frame) {
+        return Err(SenseError::Inputs(problem));
+    }
     let t0 = std::time::Instant::now();
     let mut cloud = rec.read_frame(frame)?;
     let colors = cloud.colors.take().unwrap_or_default();
