@@ -510,12 +510,17 @@ pub struct FrameSummary {
     pub points_out: usize,
     /// Per-stage wall time, milliseconds, in chain order.
     pub stage_ms: Vec<(&'static str, f64)>,
+    /// Why the frame could not be read or filtered (then nothing was written for it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
 }
 
 /// Streams `frames` through `pipeline`: a reader thread loads frames into a queue of at
 /// most `queue` frames while this thread filters and writes `out_dir/<input file name>`
-/// atomically ([`FrameSource::output_name`]: binary PCD, or PLY for a PLY input). A progress bar goes to stderr
-/// when `progress`. Stops at the first error.
+/// atomically ([`FrameSource::output_name`]: binary PCD, or PLY for a PLY input). A
+/// progress bar goes to stderr when `progress`. A frame that cannot be read or filtered
+/// gets its [`FrameSummary::error`] and the run goes on; a write error stops it (the
+/// output folder is at fault, not the frame).
 pub fn run_sequence(
     pipeline: &mut Pipeline,
     frames: &[FrameSource],
@@ -553,34 +558,47 @@ pub fn run_sequence(
     let mut summary = Vec::with_capacity(frames.len());
     let mut result = Ok(());
     for (frame, cloud) in rx.iter() {
-        let step = (|| -> Result<FrameSummary, PipelineError> {
-            let cloud = cloud?;
-            let out = pipeline.step(&cloud)?;
-            let output = out_dir.join(frame.output_name());
-            write_cloud(&output, &out.cloud, Encoding::Binary)?;
-            Ok(FrameSummary {
+        let output = out_dir.join(frame.output_name());
+        let filtered = cloud
+            .map_err(PipelineError::from)
+            .and_then(|c| pipeline.step(&c).map(|out| (c.len(), out)));
+        let record = match filtered {
+            Ok((points_in, out)) => {
+                if let Err(e) = write_cloud(&output, &out.cloud, Encoding::Binary) {
+                    result = Err(e.into());
+                    break;
+                }
+                FrameSummary {
+                    input: frame.path().to_path_buf(),
+                    output,
+                    points_in,
+                    points_out: out.cloud.len(),
+                    stage_ms: out
+                        .timings
+                        .iter()
+                        .map(|t| (t.stage, t.elapsed.as_secs_f64() * 1e3))
+                        .collect(),
+                    error: None,
+                }
+            }
+            Err(e) => FrameSummary {
                 input: frame.path().to_path_buf(),
                 output,
-                points_in: cloud.len(),
-                points_out: out.cloud.len(),
-                stage_ms: out
-                    .timings
-                    .iter()
-                    .map(|t| (t.stage, t.elapsed.as_secs_f64() * 1e3))
-                    .collect(),
-            })
-        })();
-        match step {
-            Ok(s) => {
-                bar.set_message(format!("{} -> {} points", s.points_in, s.points_out));
-                bar.inc(1);
-                summary.push(s);
-            }
-            Err(e) => {
-                result = Err(e);
-                break;
-            }
+                points_in: 0,
+                points_out: 0,
+                stage_ms: Vec::new(),
+                error: Some(e.to_string()),
+            },
+        };
+        match &record.error {
+            None => bar.set_message(format!(
+                "{} -> {} points",
+                record.points_in, record.points_out
+            )),
+            Some(e) => bar.println(format!("skipped {}: {e}", record.input.display())),
         }
+        bar.inc(1);
+        summary.push(record);
     }
     drop(rx);
     let _ = reader.join();

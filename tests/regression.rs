@@ -279,3 +279,97 @@ fn an_all_zero_depth_frame_was_absorbed_by_explain_without_a_message() {
         .to_string();
     assert!(err.contains("frame 0 has no robot point"), "{err}");
 }
+
+/// One `NaN` in `actuators.json` (as Python's json module writes it) made the whole file
+/// unparsable and refused the run; now that frame alone cannot be sensed, naming why.
+#[test]
+fn a_nan_in_the_recorded_actuators_refused_the_whole_run() {
+    let dir = common::scene_copy(
+        "tip_weight",
+        &[
+            "intrinsics.json",
+            "camera_pose.json",
+            "depth_0000.png",
+            "color_0000.png",
+            "depth_0001.png",
+            "color_0001.png",
+        ],
+    );
+    let bundled = common::project_root().join("clouds/scenes/tip_weight/actuators.json");
+    let mut frames: Vec<serde_json::Value> =
+        serde_json::from_str(&std::fs::read_to_string(bundled).unwrap()).unwrap();
+    frames[1][0]["shortening"] = serde_json::json!("__nan__");
+    let text = serde_json::to_string(&frames)
+        .unwrap()
+        .replace("\"__nan__\"", "NaN");
+    std::fs::write(dir.path().join("actuators.json"), text).unwrap();
+
+    let rec = Recording::open(dir.path()).unwrap();
+    assert!(rec.input_problem(0).is_none());
+    assert!(rec.inputs_of(0).is_some());
+    let problem = rec.input_problem(1).expect("frame 1's entry is bad");
+    assert!(
+        problem.contains("actuators.json") && problem.contains("frame 1"),
+        "{problem}"
+    );
+    let model_path = common::project_root().join("meshes/models/robot.toml");
+    let model = softsense::fem::model::Model::load(&model_path, None).unwrap();
+    let sensor = Sensor::new(
+        model,
+        rec.robot_from_camera.unwrap(),
+        SenseParams::default(),
+    );
+    assert!(sensor.observe(&rec, 0).is_ok());
+    let err = sensor.observe(&rec, 1).unwrap_err().to_string();
+    assert!(err.contains("NaN"), "{err}");
+}
+
+/// An empty frame list in `actuators.json` was sensed with the model's cable inputs and
+/// without a word.
+#[test]
+fn an_empty_actuator_list_was_sensed_without_a_warning() {
+    let dir = common::scene_copy(
+        "tip_weight",
+        &["intrinsics.json", "camera_pose.json", "depth_0000.png"],
+    );
+    std::fs::write(dir.path().join("actuators.json"), "[]").unwrap();
+    let rec = Recording::open(dir.path()).unwrap();
+    assert!(rec.inputs_of(0).is_none());
+    assert!(
+        rec.warnings
+            .iter()
+            .any(|w| w.contains("actuators.json") && w.contains("no recorded inputs")),
+        "{:?}",
+        rec.warnings
+    );
+}
+
+/// `filter DIR OUT` stopped at the first unreadable frame: later frames were never
+/// filtered and no summary was printed.
+#[test]
+fn filtering_a_folder_stopped_at_its_first_bad_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let cloud = softsense::PointCloud::from_positions(
+        (0..200)
+            .map(|i| [(i % 20) as f32 * 0.01, (i / 20) as f32 * 0.01, 0.5])
+            .collect(),
+    );
+    for name in ["a.pcd", "c.pcd"] {
+        softsense::io::write_cloud(dir.path().join(name), &cloud, Default::default()).unwrap();
+    }
+    std::fs::write(dir.path().join("b.pcd"), "VERSION .7\nFIELDS x y z\n").unwrap();
+    let out = tempfile::tempdir().unwrap();
+    let run = common::run_cli(&[
+        "filter",
+        dir.path().to_str().unwrap(),
+        out.path().to_str().unwrap(),
+        "--voxel",
+        "0.02",
+    ]);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(1), "{stderr}");
+    assert!(out.path().join("a.pcd").exists() && out.path().join("c.pcd").exists());
+    assert!(!out.path().join("b.pcd").exists());
+    assert!(stderr.contains("filtered 2 of 3 frames"), "{stderr}");
+    assert!(stderr.contains("b.pcd"), "{stderr}");
+}

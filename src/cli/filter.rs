@@ -201,19 +201,32 @@ pub fn run(args: &FilterArgs) -> CliResult {
         };
         let progress = std::io::stderr().is_terminal();
         let summary = run_sequence(&mut pipeline, &frames, &args.output, 4, progress)?;
+        let failed: Vec<_> = summary.iter().filter(|f| f.error.is_some()).collect();
         if args.json {
             print_json(&serde_json::to_value(&summary).unwrap_or_default())?;
         } else {
+            let done = summary.len() - failed.len();
             let total_ms: f64 = summary
                 .iter()
                 .flat_map(|f| f.stage_ms.iter().map(|s| s.1))
                 .sum();
             eprintln!(
-                "filtered {} frames into {} ({:.2} ms per frame in the chain)",
+                "filtered {done} of {} frames into {} ({:.2} ms per frame in the chain)",
                 summary.len(),
                 args.output.display(),
-                total_ms / summary.len().max(1) as f64
+                total_ms / done.max(1) as f64
             );
+            for f in &failed {
+                eprintln!("  not filtered: {}", f.error.as_deref().unwrap_or_default());
+            }
+        }
+        if !failed.is_empty() {
+            return Err(CliError::Result(format!(
+                "{} of {} frames could not be filtered (each is named above); the others \
+                 were written",
+                failed.len(),
+                summary.len()
+            )));
         }
         return Ok(());
     }
