@@ -277,6 +277,7 @@ impl Pipeline {
                         },
                     });
                 }
+                // Only reached with a non-empty crop list: acc was set by the loop.
                 Ok(acc.expect("at least one crop"))
             })?;
         }

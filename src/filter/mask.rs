@@ -69,6 +69,7 @@ impl Mask {
             for (w, block) in words.iter_mut().zip(flat.chunks_exact(192)) {
                 let mut m = 0u64;
                 for (s, sixteen) in block.chunks_exact(48).enumerate() {
+                    // chunks_exact(48) yields 48-element slices only.
                     let sixteen: &[f32; 48] = sixteen.try_into().expect("chunks of 48");
                     m |= fold_triples(within_48(sixteen, &lo48, &hi48)) << (16 * s);
                 }

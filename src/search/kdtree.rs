@@ -260,6 +260,7 @@ impl KdTree {
         }
         if stop_at <= 64 {
             let widened = (squared_radius * (1.0 + 1e-4) + 1e-30).min(f32::MAX as f64) as f32;
+            // stop_at == 0 returned above.
             let cap = NonZero::new(stop_at).expect("stop_at > 0");
             let best = self
                 .tree
@@ -322,7 +323,8 @@ impl KdTree {
     }
 
     fn points_source(&self, original_index: usize) -> [f32; 3] {
-        // original is ascending, so a binary search finds the tree item.
+        // original is ascending, so a binary search finds the tree item; the tree only
+        // returns indices it was built from.
         let t = self
             .original
             .binary_search(&(original_index as u32))
