@@ -279,3 +279,125 @@ fn an_all_zero_depth_frame_was_absorbed_by_explain_without_a_message() {
         .to_string();
     assert!(err.contains("frame 0 has no robot point"), "{err}");
 }
+
+/// Names of `.NAME.tmpPID` files in `dir`: what an interrupted or failed write leaves.
+fn temporaries_in(dir: &std::path::Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with('.') && n.contains(".tmp"))
+        .collect()
+}
+
+/// A binary PCD of `n` points on a line, written directly (quick to make in a test).
+fn write_line_cloud(path: &std::path::Path, n: usize) {
+    let mut bytes = format!(
+        "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH {n}\nHEIGHT 1\n\
+         VIEWPOINT 0 0 0 1 0 0 0\nPOINTS {n}\nDATA binary\n"
+    )
+    .into_bytes();
+    for i in 0..n {
+        for v in [i as f32 * 1e-4, 0.5, 1.0] {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    std::fs::write(path, bytes).unwrap();
+}
+
+/// A write that failed (the output's folder missing, or a folder in the output's place)
+/// could leave its `.NAME.tmpPID` behind; the old output must survive too.
+#[test]
+fn a_failed_write_left_its_temporary_file_behind() {
+    let dir = tempfile::tempdir().unwrap();
+    let demo = common::project_root().join("clouds/demo_scene.pcd");
+    let missing = dir.path().join("missing/out.ply");
+    let out = common::run_cli(&["convert", demo.to_str().unwrap(), missing.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("out.ply"));
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+
+    // A non-empty folder where the output goes: the rename fails after the write.
+    let taken = dir.path().join("taken.ply");
+    std::fs::create_dir(&taken).unwrap();
+    std::fs::write(taken.join("keep"), b"old").unwrap();
+    let out = common::run_cli(&["convert", demo.to_str().unwrap(), taken.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("taken.ply"), "{err}");
+    assert_eq!(temporaries_in(dir.path()), Vec::<String>::new());
+    assert_eq!(std::fs::read(taken.join("keep")).unwrap(), b"old");
+}
+
+/// A run killed outright (SIGKILL) leaves its `.NAME.tmpPID`; nothing ever removed it.
+#[test]
+fn a_temporary_left_by_a_killed_run_stayed_forever() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut child = std::process::Command::new("true").spawn().unwrap();
+    let dead_pid = child.id();
+    child.wait().unwrap();
+    let stale = dir.path().join(format!(".out.ply.tmp{dead_pid}"));
+    let live = dir
+        .path()
+        .join(format!(".out.ply.tmp{}", std::process::id()));
+    let other = dir.path().join(format!(".other.ply.tmp{dead_pid}"));
+    for p in [&stale, &live, &other] {
+        std::fs::write(p, b"half").unwrap();
+    }
+    let demo = common::project_root().join("clouds/demo_scene.pcd");
+    let out = dir.path().join("out.ply");
+    let run = common::run_cli(&["convert", demo.to_str().unwrap(), out.to_str().unwrap()]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert!(out.exists());
+    if std::path::Path::new("/proc/self").exists() {
+        assert!(!stale.exists(), "the dead run's temporary is removed");
+    }
+    assert!(live.exists(), "a running process's temporary is kept");
+    assert!(
+        other.exists(),
+        "another output's temporary is not this write's business"
+    );
+}
+
+/// SIGTERM (or Ctrl-C) during a write left the half-written `.NAME.tmpPID` behind.
+#[cfg(unix)]
+#[test]
+fn a_terminated_convert_left_its_temporary_file_behind() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("big.pcd");
+    write_line_cloud(&input, 1_500_000);
+    let output = dir.path().join("big.xyz");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_softsense"))
+        .args(["convert", input.to_str().unwrap(), output.to_str().unwrap()])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // Signal as soon as the temporary appears; if the run ends first, what is checked
+    // below still holds, only without a signal.
+    let started = std::time::Instant::now();
+    let mut signalled = false;
+    while started.elapsed() < std::time::Duration::from_secs(60) {
+        if child.try_wait().unwrap().is_some() {
+            break;
+        }
+        if !temporaries_in(dir.path()).is_empty() {
+            let kill = std::process::Command::new("kill")
+                .args(["-TERM", &child.id().to_string()])
+                .status()
+                .unwrap();
+            signalled = kill.success();
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    let status = child.wait().unwrap();
+    if signalled {
+        assert!(matches!(status.code(), Some(143) | Some(0)), "{status:?}");
+    }
+    assert_eq!(temporaries_in(dir.path()), Vec::<String>::new());
+}

@@ -50,6 +50,12 @@ pub fn run(args: FemArgs) -> Result<(), Box<dyn std::error::Error>> {
             mesh,
             json,
         } => {
+            if let Some(out) = &out {
+                super::refuse_output_over_input(&model, out)?;
+                if let Some(mesh) = &mesh {
+                    super::refuse_output_over_input(mesh, out)?;
+                }
+            }
             let m = Model::load(&model, mesh.as_deref())?;
             let sol = m.problem.solve_static(&m.newton)?;
             if let Some(out) = out {
