@@ -401,3 +401,45 @@ fn a_terminated_convert_left_its_temporary_file_behind() {
     }
     assert_eq!(temporaries_in(dir.path()), Vec::<String>::new());
 }
+
+/// A zero 16-bit depth PNG of `side x side` pixels (small on disk) and intrinsics for it.
+fn write_depth_bomb(dir: &std::path::Path, side: u32) -> (std::path::PathBuf, std::path::PathBuf) {
+    let depth = dir.join("depth.png");
+    image::ImageBuffer::<image::Luma<u16>, _>::new(side, side)
+        .save(&depth)
+        .unwrap();
+    let intrinsics = dir.join("intrinsics.json");
+    let c = f64::from(side) / 2.0;
+    let k = serde_json::json!({
+        "width": side, "height": side,
+        "intrinsic_matrix": [500.0, 0.0, 0.0, 0.0, 500.0, 0.0, c, c, 1.0],
+    });
+    std::fs::write(&intrinsics, k.to_string()).unwrap();
+    (depth, intrinsics)
+}
+
+/// A 1.7 MB depth PNG declaring 30000x30000 pixels made `convert --depth` allocate
+/// 10.8 GB and abort; the same, scaled down, against a 50 MB budget.
+#[test]
+fn a_small_png_declaring_a_huge_image_made_convert_abort_allocating_gigabytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let (depth, intrinsics) = write_depth_bomb(dir.path(), 4000);
+    let out = dir.path().join("out.pcd");
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_softsense"))
+        .env("SOFTSENSE_MAX_MEMORY", "50M")
+        .args([
+            "convert",
+            "--depth",
+            depth.to_str().unwrap(),
+            "--intrinsics",
+        ])
+        .args([intrinsics.to_str().unwrap(), out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(err.contains("depth.png"), "{err}");
+    assert!(err.contains("16000000 pixels"), "{err}");
+    assert!(err.contains("memory limit of 52428800 bytes"), "{err}");
+    assert!(!out.exists());
+}
