@@ -443,3 +443,73 @@ fn a_small_png_declaring_a_huge_image_made_convert_abort_allocating_gigabytes() 
     assert!(err.contains("memory limit of 52428800 bytes"), "{err}");
     assert!(!out.exists());
 }
+
+/// `robot.toml` with `[newton]` settings appended, written beside the bundled mesh's
+/// path (absolute), and `fem solve` run on it.
+fn fem_solve_with_newton(newton: &str) -> (std::process::Output, String) {
+    let dir = tempfile::tempdir().unwrap();
+    let root = common::project_root();
+    let text = std::fs::read_to_string(root.join("meshes/models/robot.toml"))
+        .unwrap()
+        .replace(
+            "path = \"../robot.vtu\"",
+            &format!(
+                "path = {:?}",
+                root.join("meshes/robot.vtu").display().to_string()
+            ),
+        );
+    let model = dir.path().join("model.toml");
+    std::fs::write(&model, format!("{text}\n[newton]\n{newton}\n")).unwrap();
+    let out = common::run_cli(&["fem", "solve", model.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    (out, err)
+}
+
+/// `load_steps = 100000000` made `fem solve` run for ever without a word.
+#[test]
+fn a_hundred_million_load_steps_ran_fem_solve_for_ever() {
+    let (out, err) = fem_solve_with_newton("load_steps = 100000000");
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("model.toml"), "{err}");
+    assert!(err.contains("[newton] load_steps = 100000000"), "{err}");
+    assert!(err.contains("1 to 10000"), "{err}");
+}
+
+/// `load_steps = 0` was taken as 1, and `max_iterations = 0` as a solve that never
+/// converges.
+#[test]
+fn zero_load_steps_or_iterations_were_accepted() {
+    for (setting, field) in [
+        ("load_steps = 0", "load_steps = 0"),
+        ("max_iterations = 0", "max_iterations = 0"),
+        ("max_iterations = 1000000000", "max_iterations = 1000000000"),
+    ] {
+        let (out, err) = fem_solve_with_newton(setting);
+        assert_eq!(out.status.code(), Some(1), "{setting}: {err}");
+        assert!(
+            err.contains(&format!("[newton] {field}")),
+            "{setting}: {err}"
+        );
+    }
+}
+
+/// `rel_tol` NaN (never converged), -1 or 0 (converged only at round-off) was accepted.
+#[test]
+fn a_nan_negative_or_zero_relative_tolerance_was_accepted() {
+    for (setting, shown) in [
+        ("rel_tol = nan", "rel_tol = NaN"),
+        ("rel_tol = -1.0", "rel_tol = -1"),
+        ("rel_tol = 0.0", "rel_tol = 0"),
+        ("rel_tol = 1.5", "rel_tol = 1.5"),
+    ] {
+        let (out, err) = fem_solve_with_newton(setting);
+        assert_eq!(out.status.code(), Some(1), "{setting}: {err}");
+        assert!(
+            err.contains(&format!("[newton] {shown}")),
+            "{setting}: {err}"
+        );
+        assert!(err.contains("between 0 and 1"), "{setting}: {err}");
+    }
+    let (out, err) = fem_solve_with_newton("rel_tol = 1e-8\nload_steps = 2");
+    assert!(out.status.success(), "{err}");
+}
