@@ -160,9 +160,9 @@ pub struct PointSpec {
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct NewtonSpec {
-    /// Maximum iterations per load step (1 to [`super::newton::MAX_ITERATIONS`]).
+    /// Maximum iterations per load step (1 to [`crate::fem::solve::MAX_ITERATIONS`]).
     pub max_iterations: Option<usize>,
-    /// Load steps (1 to [`super::newton::MAX_LOAD_STEPS`]).
+    /// Load steps (1 to [`crate::fem::solve::MAX_LOAD_STEPS`]).
     pub load_steps: Option<usize>,
     /// Relative residual tolerance, strictly between 0 and 1.
     pub rel_tol: Option<f64>,

@@ -1,6 +1,6 @@
 //! The one way softsense writes an output file: all of it or none of it.
 //!
-//! [`write`] puts the bytes in `.NAME.tmpPID` beside the target, fsyncs it, renames it
+//! [`write()`] puts the bytes in `.NAME.tmpPID` beside the target, fsyncs it, renames it
 //! over the target and fsyncs the directory, so a reader (or the next run after a crash
 //! or a full disk) sees the old file or the new one, never half of one. The temporary
 //! file is removed on every error path. While it exists it is listed in a process-wide
@@ -89,7 +89,7 @@ pub fn write(path: &Path, bytes: &[u8]) -> Result<(), AtomicError> {
     Ok(())
 }
 
-/// Encodes `image` as PNG in memory and writes it with [`write`].
+/// Encodes `image` as PNG in memory and writes it with [`write()`].
 pub fn write_png(path: &Path, image: &image::DynamicImage) -> Result<(), AtomicError> {
     let bytes = png_bytes(image).map_err(|e| AtomicError::Encode {
         path: path.to_path_buf(),
