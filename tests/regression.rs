@@ -513,3 +513,30 @@ fn a_nan_negative_or_zero_relative_tolerance_was_accepted() {
     let (out, err) = fem_solve_with_newton("rel_tol = 1e-8\nload_steps = 2");
     assert!(out.status.success(), "{err}");
 }
+
+/// `cluster` with a fine tolerance on millions of points printed every cluster's size
+/// on one line (1.17 million sizes, 3.5 MB).
+#[test]
+fn a_million_clusters_made_a_three_megabyte_summary_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("sparse.pcd");
+    // 5000 points 0.1 mm apart: at a 0.01 mm tolerance each is a cluster of its own.
+    write_line_cloud(&input, 5000);
+    let output = dir.path().join("labels.pcd");
+    let out = common::run_cli(&[
+        "cluster",
+        input.to_str().unwrap(),
+        output.to_str().unwrap(),
+        "--tolerance",
+        "0.00001",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("5000 clusters"), "{err}");
+    assert!(err.contains("and 4980 more"), "{err}");
+    assert!(err.len() < 300, "{err}");
+}
