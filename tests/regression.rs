@@ -540,3 +540,23 @@ fn a_million_clusters_made_a_three_megabyte_summary_line() {
     assert!(err.contains("and 4980 more"), "{err}");
     assert!(err.len() < 300, "{err}");
 }
+
+/// Colour region growing keeps 100 neighbours per point (1.2 GB for 3M points) and
+/// aborted when they did not fit; it is refused with the limit instead.
+#[test]
+fn segmenting_a_cloud_too_big_for_its_neighbour_lists_aborted() {
+    let dir = tempfile::tempdir().unwrap();
+    let demo = common::project_root().join("clouds/demo_scene.pcd");
+    let out = dir.path().join("labels.pcd");
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_softsense"))
+        .env("SOFTSENSE_MAX_MEMORY", "8M")
+        .args(["segment", demo.to_str().unwrap(), out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(err.contains("demo_scene.pcd: "), "{err}");
+    assert!(err.contains("neighbour lists"), "{err}");
+    assert!(err.contains("36026 points"), "{err}");
+    assert!(!out.exists());
+}
