@@ -327,6 +327,25 @@ fn a_failed_write_left_its_temporary_file_behind() {
     assert!(err.contains("taken.ply"), "{err}");
     assert_eq!(temporaries_in(dir.path()), Vec::<String>::new());
     assert_eq!(std::fs::read(taken.join("keep")).unwrap(), b"old");
+
+    // A read-only folder holding an old output (not read-only to root: then skipped).
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let ro = dir.path().join("ro");
+        std::fs::create_dir(&ro).unwrap();
+        let old = ro.join("out.ply");
+        std::fs::write(&old, b"old").unwrap();
+        std::fs::set_permissions(&ro, std::fs::Permissions::from_mode(0o555)).unwrap();
+        if std::fs::write(ro.join("probe"), b"").is_err() {
+            let out = common::run_cli(&["convert", demo.to_str().unwrap(), old.to_str().unwrap()]);
+            assert_eq!(out.status.code(), Some(1));
+            assert!(String::from_utf8_lossy(&out.stderr).contains("out.ply"));
+            assert_eq!(std::fs::read(&old).unwrap(), b"old");
+            assert_eq!(temporaries_in(&ro), Vec::<String>::new());
+        }
+        std::fs::set_permissions(&ro, std::fs::Permissions::from_mode(0o755)).unwrap();
+    }
 }
 
 /// A run killed outright (SIGKILL) leaves its `.NAME.tmpPID`; nothing ever removed it.

@@ -215,7 +215,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         // A directory in the way: the rename fails after the temporary is written.
         let p = dir.path().join("taken");
-        std::fs::create_dir(p.join("x").parent().unwrap()).unwrap();
+        std::fs::create_dir(&p).unwrap();
         std::fs::write(p.join("x"), b"keep").unwrap();
         let e = write(&p, b"data").unwrap_err();
         assert!(e.to_string().contains("taken"), "{e}");
