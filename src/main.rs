@@ -55,6 +55,10 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    // Without it, Ctrl-C or a kill during a write leaves `.NAME.tmpPID` behind.
+    if let Err(e) = softsense::io::atomic::install_signal_cleanup() {
+        eprintln!("softsense: warning: cannot catch SIGINT/SIGTERM: {e}");
+    }
     let result = match cli.command {
         Command::Info(args) => cli::info::run(&args),
         Command::Convert(args) => cli::convert::run(&args),

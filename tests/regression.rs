@@ -373,3 +373,303 @@ fn filtering_a_folder_stopped_at_its_first_bad_frame() {
     assert!(stderr.contains("filtered 2 of 3 frames"), "{stderr}");
     assert!(stderr.contains("b.pcd"), "{stderr}");
 }
+
+/// Names of `.NAME.tmpPID` files in `dir`: what an interrupted or failed write leaves.
+fn temporaries_in(dir: &std::path::Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with('.') && n.contains(".tmp"))
+        .collect()
+}
+
+/// A binary PCD of `n` points on a line, written directly (quick to make in a test).
+fn write_line_cloud(path: &std::path::Path, n: usize) {
+    let mut bytes = format!(
+        "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH {n}\nHEIGHT 1\n\
+         VIEWPOINT 0 0 0 1 0 0 0\nPOINTS {n}\nDATA binary\n"
+    )
+    .into_bytes();
+    for i in 0..n {
+        for v in [i as f32 * 1e-4, 0.5, 1.0] {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    std::fs::write(path, bytes).unwrap();
+}
+
+/// A write that failed (the output's folder missing, or a folder in the output's place)
+/// could leave its `.NAME.tmpPID` behind; the old output must survive too.
+#[test]
+fn a_failed_write_left_its_temporary_file_behind() {
+    let dir = tempfile::tempdir().unwrap();
+    let demo = common::project_root().join("clouds/demo_scene.pcd");
+    let missing = dir.path().join("missing/out.ply");
+    let out = common::run_cli(&["convert", demo.to_str().unwrap(), missing.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("out.ply"));
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+
+    // A non-empty folder where the output goes: the rename fails after the write.
+    let taken = dir.path().join("taken.ply");
+    std::fs::create_dir(&taken).unwrap();
+    std::fs::write(taken.join("keep"), b"old").unwrap();
+    let out = common::run_cli(&["convert", demo.to_str().unwrap(), taken.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("taken.ply"), "{err}");
+    assert_eq!(temporaries_in(dir.path()), Vec::<String>::new());
+    assert_eq!(std::fs::read(taken.join("keep")).unwrap(), b"old");
+
+    // A read-only folder holding an old output (not read-only to root: then skipped).
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let ro = dir.path().join("ro");
+        std::fs::create_dir(&ro).unwrap();
+        let old = ro.join("out.ply");
+        std::fs::write(&old, b"old").unwrap();
+        std::fs::set_permissions(&ro, std::fs::Permissions::from_mode(0o555)).unwrap();
+        if std::fs::write(ro.join("probe"), b"").is_err() {
+            let out = common::run_cli(&["convert", demo.to_str().unwrap(), old.to_str().unwrap()]);
+            assert_eq!(out.status.code(), Some(1));
+            assert!(String::from_utf8_lossy(&out.stderr).contains("out.ply"));
+            assert_eq!(std::fs::read(&old).unwrap(), b"old");
+            assert_eq!(temporaries_in(&ro), Vec::<String>::new());
+        }
+        std::fs::set_permissions(&ro, std::fs::Permissions::from_mode(0o755)).unwrap();
+    }
+}
+
+/// A run killed outright (SIGKILL) leaves its `.NAME.tmpPID`; nothing ever removed it.
+#[test]
+fn a_temporary_left_by_a_killed_run_stayed_forever() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut child = std::process::Command::new("true").spawn().unwrap();
+    let dead_pid = child.id();
+    child.wait().unwrap();
+    let stale = dir.path().join(format!(".out.ply.tmp{dead_pid}"));
+    let live = dir
+        .path()
+        .join(format!(".out.ply.tmp{}", std::process::id()));
+    let other = dir.path().join(format!(".other.ply.tmp{dead_pid}"));
+    for p in [&stale, &live, &other] {
+        std::fs::write(p, b"half").unwrap();
+    }
+    let demo = common::project_root().join("clouds/demo_scene.pcd");
+    let out = dir.path().join("out.ply");
+    let run = common::run_cli(&["convert", demo.to_str().unwrap(), out.to_str().unwrap()]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert!(out.exists());
+    if std::path::Path::new("/proc/self").exists() {
+        assert!(!stale.exists(), "the dead run's temporary is removed");
+    }
+    assert!(live.exists(), "a running process's temporary is kept");
+    assert!(
+        other.exists(),
+        "another output's temporary is not this write's business"
+    );
+}
+
+/// SIGTERM (or Ctrl-C) during a write left the half-written `.NAME.tmpPID` behind.
+#[cfg(unix)]
+#[test]
+fn a_terminated_convert_left_its_temporary_file_behind() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("big.pcd");
+    write_line_cloud(&input, 1_500_000);
+    let output = dir.path().join("big.xyz");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_softsense"))
+        .args(["convert", input.to_str().unwrap(), output.to_str().unwrap()])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // Signal as soon as the temporary appears; if the run ends first, what is checked
+    // below still holds, only without a signal.
+    let started = std::time::Instant::now();
+    let mut signalled = false;
+    while started.elapsed() < std::time::Duration::from_secs(60) {
+        if child.try_wait().unwrap().is_some() {
+            break;
+        }
+        if !temporaries_in(dir.path()).is_empty() {
+            let kill = std::process::Command::new("kill")
+                .args(["-TERM", &child.id().to_string()])
+                .status()
+                .unwrap();
+            signalled = kill.success();
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    let status = child.wait().unwrap();
+    if signalled {
+        assert!(matches!(status.code(), Some(143) | Some(0)), "{status:?}");
+    }
+    assert_eq!(temporaries_in(dir.path()), Vec::<String>::new());
+}
+
+/// A zero 16-bit depth PNG of `side x side` pixels (small on disk) and intrinsics for it.
+fn write_depth_bomb(dir: &std::path::Path, side: u32) -> (std::path::PathBuf, std::path::PathBuf) {
+    let depth = dir.join("depth.png");
+    image::ImageBuffer::<image::Luma<u16>, _>::new(side, side)
+        .save(&depth)
+        .unwrap();
+    let intrinsics = dir.join("intrinsics.json");
+    let c = f64::from(side) / 2.0;
+    let k = serde_json::json!({
+        "width": side, "height": side,
+        "intrinsic_matrix": [500.0, 0.0, 0.0, 0.0, 500.0, 0.0, c, c, 1.0],
+    });
+    std::fs::write(&intrinsics, k.to_string()).unwrap();
+    (depth, intrinsics)
+}
+
+/// A 1.7 MB depth PNG declaring 30000x30000 pixels made `convert --depth` allocate
+/// 10.8 GB and abort; the same, scaled down, against a 50 MB budget.
+#[test]
+fn a_small_png_declaring_a_huge_image_made_convert_abort_allocating_gigabytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let (depth, intrinsics) = write_depth_bomb(dir.path(), 4000);
+    let out = dir.path().join("out.pcd");
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_softsense"))
+        .env("SOFTSENSE_MAX_MEMORY", "50M")
+        .args([
+            "convert",
+            "--depth",
+            depth.to_str().unwrap(),
+            "--intrinsics",
+        ])
+        .args([intrinsics.to_str().unwrap(), out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(err.contains("depth.png"), "{err}");
+    assert!(err.contains("16000000 pixels"), "{err}");
+    assert!(err.contains("memory limit of 52428800 bytes"), "{err}");
+    assert!(!out.exists());
+}
+
+/// `robot.toml` with `[newton]` settings appended, written beside the bundled mesh's
+/// path (absolute), and `fem solve` run on it.
+fn fem_solve_with_newton(newton: &str) -> (std::process::Output, String) {
+    let dir = tempfile::tempdir().unwrap();
+    let root = common::project_root();
+    let text = std::fs::read_to_string(root.join("meshes/models/robot.toml"))
+        .unwrap()
+        .replace(
+            "path = \"../robot.vtu\"",
+            &format!(
+                "path = {:?}",
+                root.join("meshes/robot.vtu").display().to_string()
+            ),
+        );
+    let model = dir.path().join("model.toml");
+    std::fs::write(&model, format!("{text}\n[newton]\n{newton}\n")).unwrap();
+    let out = common::run_cli(&["fem", "solve", model.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    (out, err)
+}
+
+/// `load_steps = 100000000` made `fem solve` run for ever without a word.
+#[test]
+fn a_hundred_million_load_steps_ran_fem_solve_for_ever() {
+    let (out, err) = fem_solve_with_newton("load_steps = 100000000");
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("model.toml"), "{err}");
+    assert!(err.contains("[newton] load_steps = 100000000"), "{err}");
+    assert!(err.contains("1 to 10000"), "{err}");
+}
+
+/// `load_steps = 0` was taken as 1, and `max_iterations = 0` as a solve that never
+/// converges.
+#[test]
+fn zero_load_steps_or_iterations_were_accepted() {
+    for (setting, field) in [
+        ("load_steps = 0", "load_steps = 0"),
+        ("max_iterations = 0", "max_iterations = 0"),
+        ("max_iterations = 1000000000", "max_iterations = 1000000000"),
+    ] {
+        let (out, err) = fem_solve_with_newton(setting);
+        assert_eq!(out.status.code(), Some(1), "{setting}: {err}");
+        assert!(
+            err.contains(&format!("[newton] {field}")),
+            "{setting}: {err}"
+        );
+    }
+}
+
+/// `rel_tol` NaN (never converged), -1 or 0 (converged only at round-off) was accepted.
+#[test]
+fn a_nan_negative_or_zero_relative_tolerance_was_accepted() {
+    for (setting, shown) in [
+        ("rel_tol = nan", "rel_tol = NaN"),
+        ("rel_tol = -1.0", "rel_tol = -1"),
+        ("rel_tol = 0.0", "rel_tol = 0"),
+        ("rel_tol = 1.5", "rel_tol = 1.5"),
+    ] {
+        let (out, err) = fem_solve_with_newton(setting);
+        assert_eq!(out.status.code(), Some(1), "{setting}: {err}");
+        assert!(
+            err.contains(&format!("[newton] {shown}")),
+            "{setting}: {err}"
+        );
+        assert!(err.contains("between 0 and 1"), "{setting}: {err}");
+    }
+    let (out, err) = fem_solve_with_newton("rel_tol = 1e-8\nload_steps = 2");
+    assert!(out.status.success(), "{err}");
+}
+
+/// `cluster` with a fine tolerance on millions of points printed every cluster's size
+/// on one line (1.17 million sizes, 3.5 MB).
+#[test]
+fn a_million_clusters_made_a_three_megabyte_summary_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("sparse.pcd");
+    // 5000 points 0.1 mm apart: at a 0.01 mm tolerance each is a cluster of its own.
+    write_line_cloud(&input, 5000);
+    let output = dir.path().join("labels.pcd");
+    let out = common::run_cli(&[
+        "cluster",
+        input.to_str().unwrap(),
+        output.to_str().unwrap(),
+        "--tolerance",
+        "0.00001",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("5000 clusters"), "{err}");
+    assert!(err.contains("and 4980 more"), "{err}");
+    assert!(err.len() < 300, "{err}");
+}
+
+/// Colour region growing keeps 100 neighbours per point (1.2 GB for 3M points) and
+/// aborted when they did not fit; it is refused with the limit instead.
+#[test]
+fn segmenting_a_cloud_too_big_for_its_neighbour_lists_aborted() {
+    let dir = tempfile::tempdir().unwrap();
+    let demo = common::project_root().join("clouds/demo_scene.pcd");
+    let out = dir.path().join("labels.pcd");
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_softsense"))
+        .env("SOFTSENSE_MAX_MEMORY", "8M")
+        .args(["segment", demo.to_str().unwrap(), out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(err.contains("demo_scene.pcd: "), "{err}");
+    assert!(err.contains("neighbour lists"), "{err}");
+    assert!(err.contains("36026 points"), "{err}");
+    assert!(!out.exists());
+}

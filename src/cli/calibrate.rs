@@ -141,8 +141,8 @@ fn write_result(
     result["model"] = serde_json::Value::String(model_named.display().to_string());
     let text = serde_json::to_string_pretty(&result)
         .map_err(|e| CliError::Result(format!("cannot encode the result: {e}")))?;
-    std::fs::write(out, text)
-        .map_err(|e| CliError::Result(format!("{}: cannot write: {e}", out.display())))?;
+    softsense::io::atomic::write(out, text.as_bytes())
+        .map_err(|e| CliError::Result(e.to_string()))?;
     Ok(result)
 }
 

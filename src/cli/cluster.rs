@@ -66,12 +66,25 @@ pub fn run(args: &ClusterArgs) -> CliResult {
         )?;
     } else {
         eprintln!(
-            "{} points: {} clusters {:?}, {ms:.1} ms -> {}",
+            "{} points: {} clusters {}, {ms:.1} ms -> {}",
             cloud.len(),
             clusters.len(),
-            sizes,
+            largest_sizes(&sizes),
             args.output.display()
         );
     }
     Ok(())
+}
+
+/// How many cluster sizes the human summary lists.
+const SIZES_SHOWN: usize = 20;
+
+/// The largest sizes (`sizes` is largest first) as `[a, b, ...]`, the rest counted: a
+/// fine tolerance on millions of points gives a million clusters, a 3.5 MB line.
+fn largest_sizes(sizes: &[usize]) -> String {
+    let shown = &sizes[..sizes.len().min(SIZES_SHOWN)];
+    match sizes.len() - shown.len() {
+        0 => format!("{shown:?}"),
+        more => format!("{shown:?} and {more} more"),
+    }
 }

@@ -72,7 +72,8 @@ pub fn run(args: &ContactsArgs) -> CliResult {
         Mode::Pcl => SegmentMode::Pcl(RegionGrowingParams::thesis()),
         Mode::Geometric => SegmentMode::Geometric(GeometricParams::default()),
     };
-    let (seg, support) = segment(&cloud, &mode).map_err(lib)?;
+    let (seg, support) =
+        segment(&cloud, &mode).map_err(|e| super::segment_error(&args.input, e))?;
     let rule = match args.robot_color {
         Some((rgb, hue_tolerance_deg)) => RobotRule::Color(RobotColorModel {
             hue_tolerance_deg,

@@ -1,9 +1,12 @@
 //! `softsense fem`: static solves and constraint-space compliance of a model file.
 
 use clap::{Args, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
 use softsense::fem::meshio::{write_vtu, Field};
 use softsense::fem::model::Model;
+use std::io::IsTerminal;
 use std::path::PathBuf;
+use std::time::{Duration, Instant};
 
 /// Finite-element model: static solve or compliance.
 #[derive(Args, Debug)]
@@ -50,8 +53,18 @@ pub fn run(args: FemArgs) -> Result<(), Box<dyn std::error::Error>> {
             mesh,
             json,
         } => {
+            if let Some(out) = &out {
+                super::refuse_output_over_input(&model, out)?;
+                if let Some(mesh) = &mesh {
+                    super::refuse_output_over_input(mesh, out)?;
+                }
+            }
             let m = Model::load(&model, mesh.as_deref())?;
-            let sol = m.problem.solve_static(&m.newton)?;
+            let mut progress = StepProgress::new();
+            let sol = m
+                .problem
+                .solve_static_observed(&m.newton, &mut |k, n| progress.step(k, n))?;
+            progress.finish();
             if let Some(out) = out {
                 let disp: Vec<f64> = sol.displacement.iter().flatten().copied().collect();
                 let force: Vec<f64> = sol.external_force.iter().flatten().copied().collect();
@@ -137,4 +150,61 @@ pub fn run(args: FemArgs) -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     Ok(())
+}
+
+/// Load-step progress on stderr for solves that take a while: a bar on a terminal, a
+/// line now and then otherwise (logs), nothing for the first seconds or a single step.
+struct StepProgress {
+    started: Instant,
+    last_line: Option<Instant>,
+    bar: Option<ProgressBar>,
+    terminal: bool,
+}
+
+impl StepProgress {
+    /// Quiet before this: most solves end sooner and need no progress.
+    const AFTER: Duration = Duration::from_secs(2);
+    /// Between two progress lines when stderr is not a terminal.
+    const LINE_EVERY: Duration = Duration::from_secs(10);
+
+    fn new() -> Self {
+        Self {
+            started: Instant::now(),
+            last_line: None,
+            bar: None,
+            terminal: std::io::stderr().is_terminal(),
+        }
+    }
+
+    fn step(&mut self, step: usize, steps: usize) {
+        if steps < 2 || self.started.elapsed() < Self::AFTER {
+            return;
+        }
+        if self.terminal {
+            let bar = self.bar.get_or_insert_with(|| {
+                let b = ProgressBar::new(steps as u64);
+                b.set_style(
+                    ProgressStyle::with_template("{bar:40} {pos}/{len} load steps {elapsed}")
+                        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+                );
+                b
+            });
+            bar.set_position(step as u64);
+        } else if self
+            .last_line
+            .is_none_or(|t| t.elapsed() >= Self::LINE_EVERY)
+        {
+            self.last_line = Some(Instant::now());
+            eprintln!(
+                "softsense: load step {step} of {steps} ({:.0} s)",
+                self.started.elapsed().as_secs_f64()
+            );
+        }
+    }
+
+    fn finish(&self) {
+        if let Some(bar) = &self.bar {
+            bar.finish_and_clear();
+        }
+    }
 }

@@ -154,6 +154,17 @@ pub fn parse_rgb(s: &str) -> Result<[u8; 3], String> {
     Ok([c(r)?, c(g)?, c(b)?])
 }
 
+/// A segmentation error, naming the input cloud when the cloud itself is at fault
+/// (too big for the memory budget).
+pub fn segment_error(input: &std::path::Path, e: softsense::segment::SegmentError) -> CliError {
+    match e {
+        softsense::segment::SegmentError::TooLarge(_) => {
+            CliError::Result(format!("{}: {e}", input.display()))
+        }
+        other => CliError::Lib(other.into()),
+    }
+}
+
 /// Refuses an output path that is the input file (or, for a sequence, the input folder):
 /// the command would write over what it reads.
 pub fn refuse_output_over_input(input: &std::path::Path, output: &std::path::Path) -> CliResult {

@@ -770,10 +770,12 @@ pub fn write_vtu(
     point_data: &[Field],
     cell_data: &[Field],
 ) -> FemResult<()> {
-    std::fs::write(path, vtu_string(nodes, tets, point_data, cell_data)).map_err(|source| {
-        FemError::File {
-            path: path.display().to_string(),
-            source,
-        }
+    let text = vtu_string(nodes, tets, point_data, cell_data);
+    crate::io::atomic::write(path, text.as_bytes()).map_err(|e| FemError::File {
+        path: path.display().to_string(),
+        source: match e {
+            crate::io::atomic::AtomicError::Os { source, .. } => source,
+            other => std::io::Error::other(other.reason()),
+        },
     })
 }

@@ -160,11 +160,11 @@ pub struct PointSpec {
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct NewtonSpec {
-    /// Maximum iterations per load step.
+    /// Maximum iterations per load step (1 to [`crate::fem::solve::MAX_ITERATIONS`]).
     pub max_iterations: Option<usize>,
-    /// Load steps.
+    /// Load steps (1 to [`crate::fem::solve::MAX_LOAD_STEPS`]).
     pub load_steps: Option<usize>,
-    /// Relative residual tolerance.
+    /// Relative residual tolerance, strictly between 0 and 1.
     pub rel_tol: Option<f64>,
 }
 
@@ -263,6 +263,11 @@ impl Model {
         })?;
         let spec: ModelSpec = toml::from_str(&text)
             .map_err(|e| FemError::Model(format!("{}: {e}", path.display())))?;
+        // Checked before the mesh is read, where the file can be named.
+        newton_params(spec.newton.as_ref()).map_err(|e| match e {
+            FemError::Model(m) => FemError::Model(format!("{}: {m}", path.display())),
+            other => other,
+        })?;
         let mesh_path = match mesh_override {
             Some(p) => p.to_path_buf(),
             None => {
@@ -323,7 +328,7 @@ impl Model {
             effectors,
             force_rows,
             force_points,
-            newton: newton_params(spec.newton.as_ref()),
+            newton: newton_params(spec.newton.as_ref())?,
             units: u,
         })
     }
@@ -444,15 +449,16 @@ fn load(ld: &LoadSpec, mesh: &TetMesh, u: &Units, tol: f64) -> FemResult<PointLo
     })
 }
 
-/// Newton options: the defaults with the file's overrides.
-fn newton_params(spec: Option<&NewtonSpec>) -> NewtonParams {
+/// Newton options: the defaults with the file's overrides, checked.
+fn newton_params(spec: Option<&NewtonSpec>) -> FemResult<NewtonParams> {
     let mut newton = NewtonParams::default();
     if let Some(n) = spec {
         newton.max_iterations = n.max_iterations.unwrap_or(newton.max_iterations);
         newton.load_steps = n.load_steps.unwrap_or(newton.load_steps);
         newton.rel_tol = n.rel_tol.unwrap_or(newton.rel_tol);
     }
-    newton
+    newton.validate()?;
+    Ok(newton)
 }
 
 /// Locates effectors and force points and builds their rows.

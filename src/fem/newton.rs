@@ -33,6 +33,40 @@ pub struct NewtonParams {
     pub tangent: Tangent,
 }
 
+/// The most load steps a model may ask for. Each step is a Newton solve of its own
+/// (about a second on the bundled robot), so this is already hours; `100000000` ran
+/// for ever without a word.
+pub const MAX_LOAD_STEPS: usize = 10_000;
+
+/// The most Newton iterations per load step. Newton converges in a handful when it
+/// converges at all; more only delays the "did not converge" message.
+pub const MAX_ITERATIONS: usize = 1_000;
+
+impl NewtonParams {
+    /// Checks the settings a model file can give; the error names the `[newton]` field.
+    pub fn validate(&self) -> FemResult<()> {
+        let bad = |field: &str, value: String, want: &str| {
+            Err(FemError::Model(format!(
+                "[newton] {field} = {value}: must be {want}"
+            )))
+        };
+        if !(1..=MAX_LOAD_STEPS).contains(&self.load_steps) {
+            let want = format!("an integer from 1 to {MAX_LOAD_STEPS}");
+            return bad("load_steps", self.load_steps.to_string(), &want);
+        }
+        if !(1..=MAX_ITERATIONS).contains(&self.max_iterations) {
+            let want = format!("an integer from 1 to {MAX_ITERATIONS}");
+            return bad("max_iterations", self.max_iterations.to_string(), &want);
+        }
+        // NaN compares false, so it fails this test too.
+        if !(self.rel_tol > 0.0 && self.rel_tol < 1.0) {
+            let want = "a number between 0 and 1 (exclusive), e.g. 1e-10";
+            return bad("rel_tol", self.rel_tol.to_string(), want);
+        }
+        Ok(())
+    }
+}
+
 impl Default for NewtonParams {
     fn default() -> Self {
         Self {
@@ -149,6 +183,18 @@ impl Solver<'_> {
         params: &NewtonParams,
         start: Option<&Solution>,
     ) -> FemResult<Solution> {
+        self.solve_static_observed(params, start, &mut |_, _| {})
+    }
+
+    /// As [`Solver::solve_static_from`], calling `step_done(step, steps)` after each
+    /// load step (for progress reports).
+    pub fn solve_static_observed(
+        &mut self,
+        params: &NewtonParams,
+        start: Option<&Solution>,
+        step_done: &mut dyn FnMut(usize, usize),
+    ) -> FemResult<Solution> {
+        params.validate()?;
         let mut run = self.newton_start(start);
         let steps = if run.warm {
             1
@@ -165,6 +211,7 @@ impl Solver<'_> {
                     residual: run.residuals.last().copied().unwrap_or(f64::NAN),
                 });
             }
+            step_done(step, steps);
         }
         Ok(self.solution(run, converged))
     }

@@ -295,6 +295,16 @@ impl Problem {
     ) -> FemResult<Solution> {
         self.solver()?.solve_static_from(params, Some(start))
     }
+
+    /// As [`Problem::solve_static`], calling `step_done(step, steps)` after each load step.
+    pub fn solve_static_observed(
+        &self,
+        params: &NewtonParams,
+        step_done: &mut dyn FnMut(usize, usize),
+    ) -> FemResult<Solution> {
+        self.solver()?
+            .solve_static_observed(params, None, step_done)
+    }
 }
 
 fn spans_plane(pts: &[[f64; 3]], scale: f64) -> bool {

@@ -8,7 +8,7 @@
 
 pub use super::cable::{apply_cable_inputs, Cable, CableControl};
 pub use super::factor::SEQUENTIAL_FACTOR_LEN;
-pub use super::newton::{norm_vec, NewtonParams, Solution};
+pub use super::newton::{norm_vec, NewtonParams, Solution, MAX_ITERATIONS, MAX_LOAD_STEPS};
 pub use super::problem::{Formulation, MappedPoint, PointLoad, Problem};
 pub use super::setup::SolverSetup;
 pub use super::workspace::SolverState;

@@ -58,12 +58,13 @@ pub fn check_against(
     bytes_each: u64,
     limit: u64,
 ) -> Result<(), TooLarge> {
-    let needed = count.saturating_mul(bytes_each);
-    if needed > limit {
+    // An overflowing product is over any limit, u64::MAX included.
+    let needed = count.checked_mul(bytes_each);
+    if needed.is_none_or(|n| n > limit) {
         return Err(TooLarge {
             what,
             count,
-            needed,
+            needed: needed.unwrap_or(u64::MAX),
             limit,
         });
     }

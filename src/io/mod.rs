@@ -8,6 +8,7 @@
 //!
 //! [`read_cloud`] and [`write_cloud`] choose the format by the file extension.
 
+pub mod atomic;
 pub mod intrinsics;
 pub mod limits;
 pub mod pcd;
@@ -155,21 +156,14 @@ pub fn write_cloud(
     write_atomically(path, &bytes)
 }
 
-/// Writes `bytes` to `path` through a temporary file in the same directory and a rename.
+/// Writes `bytes` to `path` all or nothing ([`atomic::write`]).
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
-    let os = |source| IoError::Os {
-        path: path.to_path_buf(),
-        source,
-    };
-    let file_name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "out".into());
-    let tmp = path.with_file_name(format!(".{file_name}.tmp{}", std::process::id()));
-    std::fs::write(&tmp, bytes).map_err(os)?;
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        os(e)
+    atomic::write(path, bytes).map_err(|e| match e {
+        atomic::AtomicError::Os { path, source } => IoError::Os { path, source },
+        other => IoError::Os {
+            path: other.path().to_path_buf(),
+            source: std::io::Error::other(other.to_string()),
+        },
     })
 }
 

@@ -39,6 +39,14 @@ pub use super::rgbd_error::RgbdError;
 /// The most decoded bytes per file byte we believe a PNG or TIFF can hold.
 const MAX_EXPANSION: u64 = 4096;
 
+/// Memory a depth pixel costs from file to written cloud: the decoded 16-bit value, the
+/// cloud's `f32` position and that position again as encoded for writing.
+const DEPTH_BYTES_PER_PIXEL: u64 = 2 + 12 + 12;
+
+/// Memory a colour pixel costs: decoded RGBA (the widest we accept), the RGB copy and
+/// the cloud's colour.
+const COLOR_BYTES_PER_PIXEL: u64 = 4 + 3 + 3;
+
 /// A decoded 16-bit depth image, row-major.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DepthImage {
@@ -82,6 +90,7 @@ fn describe(c: ColorType) -> String {
 /// so that a wrong type is reported (as `wrong(description)`) without allocating the image.
 fn decode_checked(
     path: &Path,
+    bytes_per_pixel: u64,
     accept: impl Fn(ColorType) -> bool,
     wrong: impl Fn(String) -> RgbdError,
 ) -> Result<DynamicImage, IoError> {
@@ -118,11 +127,23 @@ fn decode_checked(
     let mut limits = image::Limits::default();
     limits.max_image_width = Some(MAX_IMAGE_SIDE);
     limits.max_image_height = Some(MAX_IMAGE_SIDE);
+    // The decoder's own guard, in case a format allocates more than its pixels.
+    limits.max_alloc = Some(super::limits::max_bytes());
     reader.limits(limits);
     let decoder = reader.into_decoder().map_err(image_err)?;
+    // Refused before decoding: a small file can declare gigabytes of pixels.
+    let (width, height) = decoder.dimensions();
+    super::limits::check(
+        "pixels",
+        u64::from(width) * u64::from(height),
+        bytes_per_pixel,
+    )
+    .map_err(|source| IoError::TooLarge {
+        path: path.to_path_buf(),
+        source,
+    })?;
     // No allocation beyond what the file can justify: no PNG/TIFF codec expands data by
     // more than MAX_EXPANSION (LZW's worst case is about 2730:1, deflate's 1032:1).
-    let (width, height) = decoder.dimensions();
     let needed = decoder.total_bytes();
     if needed > file_len.saturating_mul(MAX_EXPANSION) + (1 << 20) {
         return Err(rgbd(RgbdError::ImplausibleSize {
@@ -142,7 +163,7 @@ fn decode_checked(
 pub fn read_depth_image(path: impl AsRef<Path>) -> Result<DepthImage, IoError> {
     let path = path.as_ref();
     let wrong = |found| RgbdError::UnsupportedDepthType { found };
-    let img = decode_checked(path, |c| c == ColorType::L16, wrong)?;
+    let img = decode_checked(path, DEPTH_BYTES_PER_PIXEL, |c| c == ColorType::L16, wrong)?;
     let (width, height) = (img.width(), img.height());
     match img {
         DynamicImage::ImageLuma16(buf) => Ok(DepthImage {
@@ -162,7 +183,7 @@ pub fn read_color_image(path: impl AsRef<Path>) -> Result<ColorImage, IoError> {
     let path = path.as_ref();
     let wrong = |found| RgbdError::UnsupportedColorType { found };
     let accept = |c| matches!(c, ColorType::Rgb8 | ColorType::Rgba8);
-    let img = decode_checked(path, accept, wrong)?;
+    let img = decode_checked(path, COLOR_BYTES_PER_PIXEL, accept, wrong)?;
     let (width, height) = (img.width(), img.height());
     let data = match img {
         DynamicImage::ImageRgb8(buf) => buf.pixels().map(|p| p.0).collect(),

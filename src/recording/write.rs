@@ -16,7 +16,7 @@ fn write_err(path: &Path, e: impl std::fmt::Display) -> RecordingError {
 /// Writes `v` as pretty JSON to `path`.
 pub fn write_json(path: &Path, v: &impl Serialize) -> RecordingResult<()> {
     let text = serde_json::to_string_pretty(v).map_err(|e| write_err(path, e))?;
-    std::fs::write(path, text).map_err(|e| write_err(path, e))
+    crate::io::atomic::write(path, text.as_bytes()).map_err(|e| write_err(path, e.reason()))
 }
 
 /// A recording folder being written.
@@ -61,17 +61,18 @@ impl RecordingWriter {
         depth: Vec<u16>,
         color: &[[u8; 3]],
     ) -> RecordingResult<()> {
+        use crate::io::atomic::write_png;
+        use image::DynamicImage;
         let dp = self.dir.join(format!("depth_{i:04}.png"));
-        image::ImageBuffer::<image::Luma<u16>, _>::from_raw(width, height, depth)
-            .ok_or_else(|| write_err(&dp, "depth buffer size"))?
-            .save(&dp)
-            .map_err(|e| write_err(&dp, e))?;
+        let depth = image::ImageBuffer::<image::Luma<u16>, _>::from_raw(width, height, depth)
+            .ok_or_else(|| write_err(&dp, "depth buffer size"))?;
+        write_png(&dp, &DynamicImage::ImageLuma16(depth))
+            .map_err(|e| write_err(&dp, e.reason()))?;
         let cp = self.dir.join(format!("color_{i:04}.png"));
         let flat: Vec<u8> = color.iter().flatten().copied().collect();
-        image::RgbImage::from_raw(width, height, flat)
-            .ok_or_else(|| write_err(&cp, "colour buffer size"))?
-            .save(&cp)
-            .map_err(|e| write_err(&cp, e))
+        let color = image::RgbImage::from_raw(width, height, flat)
+            .ok_or_else(|| write_err(&cp, "colour buffer size"))?;
+        write_png(&cp, &DynamicImage::ImageRgb8(color)).map_err(|e| write_err(&cp, e.reason()))
     }
 
     /// Writes `name` in the folder as pretty JSON.

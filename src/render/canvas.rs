@@ -105,15 +105,10 @@ impl Canvas {
             return Err(err("an empty (0-pixel) canvas cannot be written".into()));
         }
         let bytes: Vec<u8> = self.pixels.iter().flatten().copied().collect();
-        image::save_buffer_with_format(
-            path,
-            &bytes,
-            self.width,
-            self.height,
-            image::ExtendedColorType::Rgb8,
-            image::ImageFormat::Png,
-        )
-        .map_err(|e| err(e.to_string()))
+        let img = image::RgbImage::from_raw(self.width, self.height, bytes)
+            .ok_or_else(|| err("the canvas's pixels do not fill its size".into()))?;
+        crate::io::atomic::write_png(path, &image::DynamicImage::ImageRgb8(img))
+            .map_err(|e| err(e.reason()))
     }
 
     /// Width in pixels.

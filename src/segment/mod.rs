@@ -112,6 +112,9 @@ pub enum SegmentError {
     /// Normal estimation failed (geometric mode).
     #[error(transparent)]
     Features(#[from] crate::features::FeatureError),
+    /// The neighbour lists of colour region growing would exceed the memory budget.
+    #[error("colour region growing's neighbour lists: {0}")]
+    TooLarge(#[from] crate::io::limits::TooLarge),
     /// No segment could be chosen as the robot.
     #[error("no robot segment: {0}")]
     NoRobot(String),
