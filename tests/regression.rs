@@ -279,3 +279,99 @@ fn an_all_zero_depth_frame_was_absorbed_by_explain_without_a_message() {
         .to_string();
     assert!(err.contains("frame 0 has no robot point"), "{err}");
 }
+
+/// An ASCII PLY vertex line with more values than properties spilled the extras into
+/// the next vertex, shifting every point after it.
+#[test]
+fn an_ascii_ply_line_with_extra_values_spilled_into_the_next_vertex() {
+    use softsense::io::ply::{parse_ply, PlyError};
+    let head = "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
+    let long = format!("{head}1 2 3 4\n5 6 7\n");
+    let err = parse_ply(long.as_bytes()).unwrap_err();
+    assert!(
+        matches!(err, PlyError::ExtraValues { line: 8, .. }),
+        "{err:?}"
+    );
+    let short = format!("{head}1 2\n3 4 5 6\n");
+    let err = parse_ply(short.as_bytes()).unwrap_err();
+    assert!(
+        matches!(err, PlyError::MissingValues { line: 8, .. }),
+        "{err:?}"
+    );
+    let fine = format!("{head}1 2 3 \r\n\n4 5 6");
+    assert_eq!(parse_ply(fine.as_bytes()).unwrap().len(), 2);
+}
+
+/// An XYZ file with CR-only line ends (classic Mac) was read as one point.
+#[test]
+fn an_xyz_file_with_cr_only_line_ends_read_one_point_instead_of_two() {
+    use softsense::io::xyz::parse_xyz;
+    for text in ["1 2 3\r4 5 6\r", "1 2 3\r\n4 5 6\r\n", "1 2 3\n4 5 6"] {
+        let cloud = parse_xyz(text.as_bytes()).unwrap();
+        assert_eq!(
+            cloud.positions,
+            vec![[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]],
+            "{text:?}"
+        );
+    }
+    let err = parse_xyz(b"1 2 3\r\n4 5\r\n").unwrap_err().to_string();
+    assert!(err.contains("line 2"), "{err}");
+}
+
+/// Bytes after a PCD's binary data were ignored, so a header whose POINTS was too small
+/// read part of the cloud without a word; HEIGHT 0 dropped every row.
+#[test]
+fn trailing_bytes_after_pcd_binary_data_and_height_zero_were_silently_accepted() {
+    use softsense::cloud::PointCloud;
+    use softsense::io::{pcd, Encoding};
+    let cloud = PointCloud::from_positions(vec![[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]]);
+    for enc in [Encoding::Binary, Encoding::BinaryCompressed] {
+        let mut bytes = pcd::to_pcd_bytes(&cloud, enc);
+        assert!(pcd::parse_pcd(&bytes).is_ok());
+        bytes.extend_from_slice(&[0; 12]);
+        let err = pcd::parse_pcd(&bytes).unwrap_err();
+        assert!(
+            matches!(err, pcd::PcdError::TrailingBytes { extra: 12, .. }),
+            "{enc:?}: {err:?}"
+        );
+    }
+    let ascii = String::from_utf8(pcd::to_pcd_bytes(&cloud, Encoding::Ascii)).unwrap();
+    let extra_row = format!("{ascii}7 8 9\n");
+    let err = pcd::parse_pcd(extra_row.as_bytes()).unwrap_err();
+    assert!(
+        matches!(err, pcd::PcdError::AsciiExtraRow { .. }),
+        "{err:?}"
+    );
+    let zero_height = ascii
+        .replace("HEIGHT 1", "HEIGHT 0")
+        .replace("POINTS 2", "POINTS 0");
+    let err = pcd::parse_pcd(zero_height.as_bytes()).unwrap_err();
+    assert!(matches!(err, pcd::PcdError::ZeroHeight { .. }), "{err:?}");
+}
+
+/// A header's point count was allocated for without asking the memory budget.
+#[test]
+fn a_cloud_header_declaring_more_points_than_memory_was_not_checked_against_the_budget() {
+    use softsense::cloud::PointCloud;
+    use softsense::io::{pcd, ply, Encoding};
+    // Under the budget but over any real machine's memory: ASCII bodies cannot be checked
+    // against the file size exactly, the budget catches them.
+    let n = 3u64 << 40;
+    let cloud = PointCloud::from_positions(vec![[1.0, 2.0, 3.0]]);
+    let text = String::from_utf8(ply::to_ply_bytes(&cloud, Encoding::Ascii)).unwrap();
+    let big = text.replace("element vertex 1", &format!("element vertex {n}"));
+    let err = ply::parse_ply(big.as_bytes()).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            ply::PlyError::TooLarge(_) | ply::PlyError::TooManyElements { .. }
+        ),
+        "{err:?}"
+    );
+    let text = String::from_utf8(pcd::to_pcd_bytes(&cloud, Encoding::Ascii)).unwrap();
+    let big = text
+        .replace("WIDTH 1", &format!("WIDTH {}", 1u64 << 31))
+        .replace("HEIGHT 1", "HEIGHT 4")
+        .replace("POINTS 1", &format!("POINTS {}", 1u64 << 33));
+    assert!(pcd::parse_pcd(big.as_bytes()).is_err());
+}

@@ -58,8 +58,9 @@ pub fn check_against(
     bytes_each: u64,
     limit: u64,
 ) -> Result<(), TooLarge> {
+    // An overflowing product is over any budget (saturating would equal u64::MAX).
     let needed = count.saturating_mul(bytes_each);
-    if needed > limit {
+    if count.checked_mul(bytes_each).is_none_or(|n| n > limit) {
         return Err(TooLarge {
             what,
             count,
