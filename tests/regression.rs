@@ -375,3 +375,152 @@ fn a_cloud_header_declaring_more_points_than_memory_was_not_checked_against_the_
         .replace("POINTS 1", &format!("POINTS {}", 1u64 << 33));
     assert!(pcd::parse_pcd(big.as_bytes()).is_err());
 }
+
+/// Intrinsics with fx = 1e308 (every x became -0.0) or cx = 1e9 were read silently.
+#[test]
+fn intrinsics_with_a_focal_length_of_1e308_or_a_principal_point_of_1e9_passed_silently() {
+    use softsense::io::intrinsics::parse_open3d_json;
+    let json = |fx: f64, cx: f64| {
+        format!(
+            r#"{{"width": 640, "height": 480, "intrinsic_matrix": [{fx}, 0, 0, 0, {fx}, 0, {cx}, 239.5, 1]}}"#
+        )
+    };
+    assert!(parse_open3d_json(&json(525.0, 319.5)).is_ok());
+    for (fx, cx, field) in [(1e308, 319.5, "fx"), (525.0, 1e9, "cx"), (1.0, 319.5, "fx")] {
+        let err = parse_open3d_json(&json(fx, cx)).unwrap_err().to_string();
+        assert!(err.contains(field), "{fx} {cx}: {err}");
+    }
+    let xml = "<depth><focal_length_x>1e308</focal_length_x><focal_length_y>525</focal_length_y>\
+               <principal_point_x>319.5</principal_point_x><principal_point_y>239.5</principal_point_y></depth>";
+    let err = softsense::io::intrinsics::parse_pcl_xml(xml)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("focal_length_x"), "{err}");
+}
+
+/// An all-65535 depth image gave 76,800 points at 65.5 m without a word.
+#[test]
+fn an_all_65535_depth_image_gave_76800_points_at_65_metres() {
+    use softsense::io::intrinsics::{DepthParams, PinholeIntrinsics};
+    use softsense::io::rgbd::{depth_to_cloud, RgbdError};
+    let k = PinholeIntrinsics {
+        width: 320,
+        height: 240,
+        fx: 300.0,
+        fy: 300.0,
+        cx: 159.5,
+        cy: 119.5,
+    };
+    let params = DepthParams::default();
+    let err = depth_to_cloud(&vec![65535; 320 * 240], None, &k, &params).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            RgbdError::NoUsableDepth {
+                saturated: 76800,
+                ..
+            }
+        ),
+        "{err:?}"
+    );
+    // Some saturated and far pixels among good ones: those become NaN, the rest stay.
+    let mut depth = vec![800u16; 320 * 240];
+    depth[0] = 65535;
+    depth[1] = 30000; // 30 m, past the 20 m default range
+    let cloud = depth_to_cloud(&depth, None, &k, &params).unwrap();
+    assert!(cloud.positions[0][2].is_nan() && cloud.positions[1][2].is_nan());
+    assert!((cloud.positions[2][2] - 0.8).abs() < 1e-6);
+}
+
+/// `scene generate` with depth_unit = 1e-6 or 10 wrote all-zero depth images.
+#[test]
+fn a_scene_depth_unit_of_1e_minus_6_or_10_wrote_all_zero_depth_images() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = common::project_root().join("meshes/models/robot.toml");
+    for unit in ["1e-6", "10.0"] {
+        let scene = dir.path().join("scene.toml");
+        std::fs::write(
+            &scene,
+            format!(
+                "model = {:?}\n[sensor]\ndepth_unit = {unit}\n[[frames]]\n",
+                model.display().to_string()
+            ),
+        )
+        .unwrap();
+        let out = common::run_cli(&[
+            "scene",
+            "generate",
+            scene.to_str().unwrap(),
+            dir.path().join("out").to_str().unwrap(),
+        ]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{unit}: {err}");
+        assert!(err.contains("sensor.depth_unit"), "{unit}: {err}");
+    }
+}
+
+/// `fem compliance` with a NaN gravity, load or cable attach point exited 0 with
+/// `delta_free` all null; an effector at NaN "converged".
+#[test]
+fn a_nan_in_a_model_gave_a_compliance_of_nulls_and_exit_status_0() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = common::project_root().join("meshes");
+    let text = std::fs::read_to_string(root.join("models/robot.toml"))
+        .unwrap()
+        .replace(
+            "../robot.vtu",
+            &root.join("robot.vtu").display().to_string(),
+        );
+    for (from, to, field) in [
+        (
+            "gravity = [0.0, 0.0, -9810.0]",
+            "gravity = [0.0, 0.0, nan]",
+            "gravity[2]",
+        ),
+        (
+            "[[0.0, 97.0, 45.0]]",
+            "[[0.0, nan, 45.0]]",
+            "cables[0].attach[0][1]",
+        ),
+        (
+            "at = [0.0, 0.0, 125.0]",
+            "at = [0.0, 0.0, inf]",
+            "effectors[0].at[2]",
+        ),
+    ] {
+        let path = dir.path().join("model.toml");
+        assert!(text.contains(from), "{from}");
+        std::fs::write(&path, text.replace(from, to)).unwrap();
+        for cmd in ["compliance", "solve"] {
+            let out = common::run_cli(&["fem", cmd, path.to_str().unwrap()]);
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert!(!out.status.success(), "{cmd} {field}: {err}");
+            assert!(
+                err.contains(field) && err.contains("model.toml"),
+                "{cmd}: {err}"
+            );
+        }
+    }
+}
+
+/// A small-strain solve of a 125 mm robot converged to a tip displacement of hundreds
+/// of metres without a word.
+#[test]
+fn a_small_strain_solve_converged_to_a_displacement_of_hundreds_of_metres_silently() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = common::project_root().join("meshes");
+    let text = std::fs::read_to_string(root.join("models/robot.toml"))
+        .unwrap()
+        .replace(
+            "../robot.vtu",
+            &root.join("robot.vtu").display().to_string(),
+        )
+        .replace("\"corotational\"", "\"small-strain\"")
+        + "\n[[loads]]\nat = [0.0, 0.0, 125.0]\nforce = [10000.0, 0.0, 0.0]\n";
+    let path = dir.path().join("model.toml");
+    std::fs::write(&path, text).unwrap();
+    let out = common::run_cli(&["fem", "solve", path.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("outside small strain's validity"), "{err}");
+}

@@ -52,6 +52,10 @@ pub fn run(args: FemArgs) -> Result<(), Box<dyn std::error::Error>> {
         } => {
             let m = Model::load(&model, mesh.as_deref())?;
             let sol = m.problem.solve_static(&m.newton)?;
+            let warning = m.validity_warning(&sol.displacement);
+            if let Some(w) = &warning {
+                eprintln!("warning: {}: {w}", model.display());
+            }
             if let Some(out) = out {
                 let disp: Vec<f64> = sol.displacement.iter().flatten().copied().collect();
                 let force: Vec<f64> = sol.external_force.iter().flatten().copied().collect();
@@ -99,7 +103,7 @@ pub fn run(args: FemArgs) -> Result<(), Box<dyn std::error::Error>> {
                 let v = serde_json::json!({
                     "units": "SI", "converged": sol.converged, "iterations": sol.iterations,
                     "residuals": sol.residuals, "effectors": effectors, "cables": cables,
-                    "node_displacements": sol.displacement,
+                    "node_displacements": sol.displacement, "warning": warning,
                 });
                 outln!("{}", serde_json::to_string(&v)?)?;
             } else {

@@ -28,12 +28,10 @@ pub fn read_mesh(path: &Path) -> FemResult<TetMesh> {
     };
     let len = std::fs::metadata(path).map_err(file_err)?.len();
     if len > MAX_FILE_BYTES {
-        return Err(perr(format!(
-            "file of {len} bytes is larger than the limit"
-        )));
+        return Err(perr(format!("file of {len} bytes is larger than the limit")).in_file(path));
     }
     let text = std::fs::read_to_string(path).map_err(file_err)?;
-    parse_mesh(&text)
+    parse_mesh(&text).map_err(|e| e.in_file(path))
 }
 
 /// Parses a mesh from text, detecting the format.
