@@ -524,3 +524,145 @@ fn a_small_strain_solve_converged_to_a_displacement_of_hundreds_of_metres_silent
     assert!(out.status.success(), "{err}");
     assert!(err.contains("outside small strain's validity"), "{err}");
 }
+
+/// Writes a two-tetrahedron VTK mesh (plus `extra_nodes` nodes in no element) and a model
+/// fixing `fixed`; returns the folder and the model's path.
+fn two_tet_model(extra_nodes: usize, fixed: &str) -> (tempfile::TempDir, std::path::PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let mut nodes = vec!["0 0 0", "1 0 0", "0 1 0", "0 0 1", "1 1 1"];
+    nodes.extend(std::iter::repeat_n("2 2 2", extra_nodes));
+    let vtk = format!(
+        "# vtk DataFile Version 3.0\nt\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS {} double\n{}\n\
+         CELLS 2 10\n4 0 1 2 3\n4 1 2 3 4\nCELL_TYPES 2\n10\n10\n",
+        nodes.len(),
+        nodes.join("\n")
+    );
+    std::fs::write(dir.path().join("tets.vtk"), vtk).unwrap();
+    let model = dir.path().join("model.toml");
+    std::fs::write(
+        &model,
+        format!(
+            "[mesh]\npath = \"tets.vtk\"\n[material]\nyoung = 1000.0\npoisson = 0.3\n\
+             [[fixed]]\nnodes = {fixed}\n[[loads]]\nnode = 4\nforce = [0.0, 0.0, -0.01]\n"
+        ),
+    )
+    .unwrap();
+    (dir, model)
+}
+
+/// A node in no element gave "tangent stiffness is not positive definite (pivot ...)",
+/// and a model fixing every node "the Cholesky factor is not supernodal".
+#[test]
+fn an_orphan_node_or_every_node_fixed_failed_with_factorization_jargon() {
+    let (_dir, model) = two_tet_model(1, "[0, 1, 2]");
+    let out = common::run_cli(&["fem", "solve", model.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("node 5 belongs to no element"), "{err}");
+    let (_dir, model) = two_tet_model(0, "[0, 1, 2, 3, 4]");
+    let out = common::run_cli(&["fem", "solve", model.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("all 5 nodes are fixed"), "{err}");
+    assert!(err.contains("model.toml"), "{err}");
+}
+
+/// A VTU whose offsets were wrong said "unsupported cell type 10 (only linear
+/// tetrahedra)", though 10 is the tetrahedron; mesh errors did not name the file.
+#[test]
+fn a_vtu_with_bad_offsets_blamed_the_tetrahedron_cell_type() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bad.vtu");
+    let vtu = std::fs::read_to_string(
+        common::project_root().join("tests/fixtures/malformed/vtu/seed.vtu"),
+    )
+    .unwrap()
+    .replace(">4 8<", ">5 8<");
+    std::fs::write(&path, vtu).unwrap();
+    let err = softsense::fem::meshio::read_mesh(&path)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("offsets"), "{err}");
+    assert!(!err.contains("unsupported cell type"), "{err}");
+    assert!(err.contains("bad.vtu"), "{err}");
+}
+
+/// One message, "degenerate camera (intrinsics or pose)", covered eight faults of a
+/// scene's camera.
+#[test]
+fn a_scene_camera_fault_was_reported_as_degenerate_camera_whatever_it_was() {
+    use softsense::scene::camera::CameraSpec;
+    let ok = CameraSpec::default();
+    assert!(ok.check().is_ok());
+    let cases: [(CameraSpec, &str); 6] = [
+        (
+            CameraSpec {
+                width: 0,
+                ..ok.clone()
+            },
+            "camera.width",
+        ),
+        (
+            CameraSpec {
+                fx: -1.0,
+                ..ok.clone()
+            },
+            "camera.fx",
+        ),
+        (
+            CameraSpec {
+                cy: f64::NAN,
+                ..ok.clone()
+            },
+            "camera.cy",
+        ),
+        (
+            CameraSpec {
+                target: ok.eye,
+                ..ok.clone()
+            },
+            "same point",
+        ),
+        (
+            CameraSpec {
+                up: [0.0; 3],
+                ..ok.clone()
+            },
+            "zero vector",
+        ),
+        (
+            CameraSpec {
+                up: [0.0, 0.433, -0.25],
+                ..ok.clone()
+            },
+            "parallel",
+        ),
+    ];
+    for (spec, words) in cases {
+        let err = spec.check().unwrap_err();
+        assert!(err.contains(words), "{words}: {err}");
+    }
+}
+
+/// `segment` and `contacts` failing on their input's content did not name the file.
+#[test]
+fn segment_and_contacts_errors_did_not_name_the_input_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("no_colour.pcd");
+    let cloud = softsense::cloud::PointCloud::from_positions(vec![
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, 0.0, 1.0],
+    ]);
+    softsense::io::write_cloud(&input, &cloud, softsense::io::Encoding::Ascii).unwrap();
+    let out = dir.path().join("out.pcd");
+    let input = input.to_str().unwrap();
+    for args in [
+        vec!["segment", input, out.to_str().unwrap()],
+        vec!["contacts", input],
+    ] {
+        let run = common::run_cli(&args);
+        let err = String::from_utf8_lossy(&run.stderr);
+        assert!(!run.status.success(), "{args:?}");
+        assert!(err.contains("no_colour.pcd"), "{args:?}: {err}");
+    }
+}

@@ -51,7 +51,8 @@ pub fn run(args: FemArgs) -> Result<(), Box<dyn std::error::Error>> {
             json,
         } => {
             let m = Model::load(&model, mesh.as_deref())?;
-            let sol = m.problem.solve_static(&m.newton)?;
+            // Solve failures come from the model's content: name its file.
+            let sol = (m.problem.solve_static(&m.newton)).map_err(|e| e.in_file(&model))?;
             let warning = m.validity_warning(&sol.displacement);
             if let Some(w) = &warning {
                 eprintln!("warning: {}: {w}", model.display());
@@ -125,8 +126,8 @@ pub fn run(args: FemArgs) -> Result<(), Box<dyn std::error::Error>> {
             let m = Model::load(&model, mesh.as_deref())?;
             let x = m.problem.mesh.nodes_in_rest.clone();
             let rows = m.rows(&x);
-            let mut solver = m.problem.solver()?;
-            let c = solver.compliance_at(&x, &rows)?;
+            let mut solver = m.problem.solver().map_err(|e| e.in_file(&model))?;
+            let c = (solver.compliance_at(&x, &rows)).map_err(|e| e.in_file(&model))?;
             let w: Vec<Vec<f64>> = (0..c.w.nrows())
                 .map(|i| c.w.row(i).iter().copied().collect())
                 .collect();

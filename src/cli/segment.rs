@@ -135,7 +135,8 @@ pub fn run(args: &SegmentArgs) -> CliResult {
     };
     let cloud = read_cloud(&args.input)?;
     let t0 = Instant::now();
-    let (seg, support) = segment(&cloud, &mode).map_err(|e| CliError::Lib(e.into()))?;
+    let (seg, support) = segment(&cloud, &mode)
+        .map_err(|e| CliError::Result(format!("{}: {e}", args.input.display())))?;
     let ms = t0.elapsed().as_secs_f64() * 1e3;
     write_labelled(&args.output, &cloud, &seg.labels, UNSEGMENTED)?;
     let unsegmented = seg.labels.iter().filter(|&&l| l == UNSEGMENTED).count();

@@ -289,7 +289,16 @@ fn vtu_tets(cells: &[DataArray<'_>], nc: usize) -> FemResult<Vec<[usize; 4]>> {
                 "cell {c}: offset {end} out of order or range"
             )));
         }
-        if types[c] != VTK_TETRA || end - start != 4 {
+        // A tetrahedron whose offsets do not span four nodes is a fault of the offsets,
+        // not of the cell type.
+        if types[c] == VTK_TETRA && end - start != 4 {
+            return Err(perr(format!(
+                "cell {c}: a tetrahedron (type 10) but its offsets {start}..{end} give {} \
+                 nodes, not 4: the offsets array is wrong",
+                end - start
+            )));
+        }
+        if types[c] != VTK_TETRA {
             return Err(FemError::UnsupportedCell {
                 cell: c,
                 cell_type: types[c],

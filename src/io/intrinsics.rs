@@ -57,9 +57,10 @@ impl PinholeIntrinsics {
 
     /// [`validate`](Self::validate), then refuses values no real camera has, which
     /// would otherwise pass silently (fx = 1e308 makes every x -0.0): focal lengths
-    /// outside [`FOCAL_RANGE`] times the larger image side, and a principal point more
-    /// than one image size outside the image. With no size (PCL's XML) the bounds use
-    /// [`MAX_IMAGE_SIDE`]. Used on intrinsics read from files.
+    /// outside [`FOCAL_RANGE`] times the larger image side (at least 64 for the upper
+    /// bound), and a principal point more than one image size outside the image. With
+    /// no size (PCL's XML) the bounds use [`MAX_IMAGE_SIDE`]. Used on intrinsics read
+    /// from files.
     pub fn check_plausible(&self) -> Result<(), RgbdError> {
         self.validate()?;
         let (w, h) = if self.width == 0 {
@@ -68,7 +69,9 @@ impl PinholeIntrinsics {
             (self.width, self.height)
         };
         let side = f64::from(w.max(h));
-        let (lo, hi) = (FOCAL_RANGE.0 * side, FOCAL_RANGE.1 * side);
+        // Small crops (a 4x3 test image) keep a full camera's focal length, so the upper
+        // bound is taken from at least a 64-pixel side.
+        let (lo, hi) = (FOCAL_RANGE.0 * side, FOCAL_RANGE.1 * side.max(64.0));
         for (field, f) in [("fx", self.fx), ("fy", self.fy)] {
             // A known size bounds from below too; an unknown one only from above.
             if f > hi || (self.width > 0 && f < lo) {

@@ -67,8 +67,8 @@ pub enum RgbdError {
     /// Every pixel of a depth image is saturated (the encoding's maximum, 65535) or
     /// beyond the sensor range, so the frame has no point at all.
     #[error(
-        "no usable depth: {saturated} pixels saturated (65535) and {beyond_range} beyond \
-         {range_m} m, of {pixels}"
+        "no pixel gives a valid point: of {pixels}, {saturated} are saturated (65535), \
+         {beyond_range} at or beyond {range_m} m and the rest 0 (no measurement)"
     )]
     NoUsableDepth {
         /// Pixels at 65535.

@@ -147,7 +147,8 @@ impl Scene {
         let c = &spec.camera;
         if c.width > MAX_SIDE || c.height > MAX_SIDE {
             return Err(SceneError::Spec(format!(
-                "image larger than {MAX_SIDE} pixels"
+                "{}: image larger than {MAX_SIDE} pixels",
+                path.display()
             )));
         }
         spec.sensor
@@ -158,7 +159,8 @@ impl Scene {
             .map_err(|e| SceneError::Spec(format!("{}: {e}", path.display())))?;
         if spec.frames.is_empty() || spec.frames.len() > MAX_FRAMES {
             return Err(SceneError::Spec(format!(
-                "needs 1..={MAX_FRAMES} frames, has {}",
+                "{}: needs 1..={MAX_FRAMES} frames, has {}",
+                path.display(),
                 spec.frames.len()
             )));
         }
