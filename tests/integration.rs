@@ -15,6 +15,8 @@ mod fem_cantilever;
 mod fem_diamond;
 #[path = "integration/fem_skfem.rs"]
 mod fem_skfem;
+#[path = "integration/malformed_corpus.rs"]
+mod malformed_corpus;
 #[path = "integration/rgbd_sequence.rs"]
 mod rgbd_sequence;
 #[path = "integration/sense_probe.rs"]

@@ -673,3 +673,390 @@ fn segmenting_a_cloud_too_big_for_its_neighbour_lists_aborted() {
     assert!(err.contains("36026 points"), "{err}");
     assert!(!out.exists());
 }
+
+/// An ASCII PLY vertex line with more values than properties spilled the extras into
+/// the next vertex, shifting every point after it.
+#[test]
+fn an_ascii_ply_line_with_extra_values_spilled_into_the_next_vertex() {
+    use softsense::io::ply::{parse_ply, PlyError};
+    let head = "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
+    let long = format!("{head}1 2 3 4\n5 6 7\n");
+    let err = parse_ply(long.as_bytes()).unwrap_err();
+    assert!(
+        matches!(err, PlyError::ExtraValues { line: 8, .. }),
+        "{err:?}"
+    );
+    let short = format!("{head}1 2\n3 4 5 6\n");
+    let err = parse_ply(short.as_bytes()).unwrap_err();
+    assert!(
+        matches!(err, PlyError::MissingValues { line: 8, .. }),
+        "{err:?}"
+    );
+    let fine = format!("{head}1 2 3 \r\n\n4 5 6");
+    assert_eq!(parse_ply(fine.as_bytes()).unwrap().len(), 2);
+}
+
+/// An XYZ file with CR-only line ends (classic Mac) was read as one point.
+#[test]
+fn an_xyz_file_with_cr_only_line_ends_read_one_point_instead_of_two() {
+    use softsense::io::xyz::parse_xyz;
+    for text in ["1 2 3\r4 5 6\r", "1 2 3\r\n4 5 6\r\n", "1 2 3\n4 5 6"] {
+        let cloud = parse_xyz(text.as_bytes()).unwrap();
+        assert_eq!(
+            cloud.positions,
+            vec![[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]],
+            "{text:?}"
+        );
+    }
+    let err = parse_xyz(b"1 2 3\r\n4 5\r\n").unwrap_err().to_string();
+    assert!(err.contains("line 2"), "{err}");
+}
+
+/// Bytes after a PCD's binary data were ignored, so a header whose POINTS was too small
+/// read part of the cloud without a word; HEIGHT 0 dropped every row.
+#[test]
+fn trailing_bytes_after_pcd_binary_data_and_height_zero_were_silently_accepted() {
+    use softsense::cloud::PointCloud;
+    use softsense::io::{pcd, Encoding};
+    let cloud = PointCloud::from_positions(vec![[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]]);
+    for enc in [Encoding::Binary, Encoding::BinaryCompressed] {
+        let mut bytes = pcd::to_pcd_bytes(&cloud, enc);
+        assert!(pcd::parse_pcd(&bytes).is_ok());
+        bytes.extend_from_slice(&[0; 12]);
+        let err = pcd::parse_pcd(&bytes).unwrap_err();
+        assert!(
+            matches!(err, pcd::PcdError::TrailingBytes { extra: 12, .. }),
+            "{enc:?}: {err:?}"
+        );
+    }
+    let ascii = String::from_utf8(pcd::to_pcd_bytes(&cloud, Encoding::Ascii)).unwrap();
+    let extra_row = format!("{ascii}7 8 9\n");
+    let err = pcd::parse_pcd(extra_row.as_bytes()).unwrap_err();
+    assert!(
+        matches!(err, pcd::PcdError::AsciiExtraRow { .. }),
+        "{err:?}"
+    );
+    let zero_height = ascii
+        .replace("HEIGHT 1", "HEIGHT 0")
+        .replace("POINTS 2", "POINTS 0");
+    let err = pcd::parse_pcd(zero_height.as_bytes()).unwrap_err();
+    assert!(matches!(err, pcd::PcdError::ZeroHeight { .. }), "{err:?}");
+}
+
+/// A header's point count was allocated for without asking the memory budget.
+#[test]
+fn a_cloud_header_declaring_more_points_than_memory_was_not_checked_against_the_budget() {
+    use softsense::cloud::PointCloud;
+    use softsense::io::{pcd, ply, Encoding};
+    // Under the budget but over any real machine's memory: ASCII bodies cannot be checked
+    // against the file size exactly, the budget catches them.
+    let n = 3u64 << 40;
+    let cloud = PointCloud::from_positions(vec![[1.0, 2.0, 3.0]]);
+    let text = String::from_utf8(ply::to_ply_bytes(&cloud, Encoding::Ascii)).unwrap();
+    let big = text.replace("element vertex 1", &format!("element vertex {n}"));
+    let err = ply::parse_ply(big.as_bytes()).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            ply::PlyError::TooLarge(_) | ply::PlyError::TooManyElements { .. }
+        ),
+        "{err:?}"
+    );
+    let text = String::from_utf8(pcd::to_pcd_bytes(&cloud, Encoding::Ascii)).unwrap();
+    let big = text
+        .replace("WIDTH 1", &format!("WIDTH {}", 1u64 << 31))
+        .replace("HEIGHT 1", "HEIGHT 4")
+        .replace("POINTS 1", &format!("POINTS {}", 1u64 << 33));
+    assert!(pcd::parse_pcd(big.as_bytes()).is_err());
+}
+
+/// Intrinsics with fx = 1e308 (every x became -0.0) or cx = 1e9 were read silently.
+#[test]
+fn intrinsics_with_a_focal_length_of_1e308_or_a_principal_point_of_1e9_passed_silently() {
+    use softsense::io::intrinsics::parse_open3d_json;
+    let json = |fx: f64, cx: f64| {
+        format!(
+            r#"{{"width": 640, "height": 480, "intrinsic_matrix": [{fx}, 0, 0, 0, {fx}, 0, {cx}, 239.5, 1]}}"#
+        )
+    };
+    assert!(parse_open3d_json(&json(525.0, 319.5)).is_ok());
+    for (fx, cx, field) in [(1e308, 319.5, "fx"), (525.0, 1e9, "cx"), (1.0, 319.5, "fx")] {
+        let err = parse_open3d_json(&json(fx, cx)).unwrap_err().to_string();
+        assert!(err.contains(field), "{fx} {cx}: {err}");
+    }
+    let xml = "<depth><focal_length_x>1e308</focal_length_x><focal_length_y>525</focal_length_y>\
+               <principal_point_x>319.5</principal_point_x><principal_point_y>239.5</principal_point_y></depth>";
+    let err = softsense::io::intrinsics::parse_pcl_xml(xml)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("focal_length_x"), "{err}");
+}
+
+/// An all-65535 depth image gave 76,800 points at 65.5 m without a word.
+#[test]
+fn an_all_65535_depth_image_gave_76800_points_at_65_metres() {
+    use softsense::io::intrinsics::{DepthParams, PinholeIntrinsics};
+    use softsense::io::rgbd::{depth_to_cloud, RgbdError};
+    let k = PinholeIntrinsics {
+        width: 320,
+        height: 240,
+        fx: 300.0,
+        fy: 300.0,
+        cx: 159.5,
+        cy: 119.5,
+    };
+    let params = DepthParams::default();
+    let err = depth_to_cloud(&vec![65535; 320 * 240], None, &k, &params).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            RgbdError::NoUsableDepth {
+                saturated: 76800,
+                ..
+            }
+        ),
+        "{err:?}"
+    );
+    // Some saturated and far pixels among good ones: those become NaN, the rest stay.
+    let mut depth = vec![800u16; 320 * 240];
+    depth[0] = 65535;
+    depth[1] = 30000; // 30 m, past the 20 m default range
+    let cloud = depth_to_cloud(&depth, None, &k, &params).unwrap();
+    assert!(cloud.positions[0][2].is_nan() && cloud.positions[1][2].is_nan());
+    assert!((cloud.positions[2][2] - 0.8).abs() < 1e-6);
+}
+
+/// `scene generate` with depth_unit = 1e-6 or 10 wrote all-zero depth images.
+#[test]
+fn a_scene_depth_unit_of_1e_minus_6_or_10_wrote_all_zero_depth_images() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = common::project_root().join("meshes/models/robot.toml");
+    for unit in ["1e-6", "10.0"] {
+        let scene = dir.path().join("scene.toml");
+        std::fs::write(
+            &scene,
+            format!(
+                "model = {:?}\n[sensor]\ndepth_unit = {unit}\n[[frames]]\n",
+                model.display().to_string()
+            ),
+        )
+        .unwrap();
+        let out = common::run_cli(&[
+            "scene",
+            "generate",
+            scene.to_str().unwrap(),
+            dir.path().join("out").to_str().unwrap(),
+        ]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{unit}: {err}");
+        assert!(err.contains("sensor.depth_unit"), "{unit}: {err}");
+    }
+}
+
+/// `fem compliance` with a NaN gravity, load or cable attach point exited 0 with
+/// `delta_free` all null; an effector at NaN "converged".
+#[test]
+fn a_nan_in_a_model_gave_a_compliance_of_nulls_and_exit_status_0() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = common::project_root().join("meshes");
+    let text = std::fs::read_to_string(root.join("models/robot.toml"))
+        .unwrap()
+        .replace(
+            "../robot.vtu",
+            &root.join("robot.vtu").display().to_string(),
+        );
+    for (from, to, field) in [
+        (
+            "gravity = [0.0, 0.0, -9810.0]",
+            "gravity = [0.0, 0.0, nan]",
+            "gravity[2]",
+        ),
+        (
+            "[[0.0, 97.0, 45.0]]",
+            "[[0.0, nan, 45.0]]",
+            "cables[0].attach[0][1]",
+        ),
+        (
+            "at = [0.0, 0.0, 125.0]",
+            "at = [0.0, 0.0, inf]",
+            "effectors[0].at[2]",
+        ),
+    ] {
+        let path = dir.path().join("model.toml");
+        assert!(text.contains(from), "{from}");
+        std::fs::write(&path, text.replace(from, to)).unwrap();
+        for cmd in ["compliance", "solve"] {
+            let out = common::run_cli(&["fem", cmd, path.to_str().unwrap()]);
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert!(!out.status.success(), "{cmd} {field}: {err}");
+            assert!(
+                err.contains(field) && err.contains("model.toml"),
+                "{cmd}: {err}"
+            );
+        }
+    }
+}
+
+/// A small-strain solve of a 125 mm robot converged to a tip displacement of hundreds
+/// of metres without a word.
+#[test]
+fn a_small_strain_solve_converged_to_a_displacement_of_hundreds_of_metres_silently() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = common::project_root().join("meshes");
+    let text = std::fs::read_to_string(root.join("models/robot.toml"))
+        .unwrap()
+        .replace(
+            "../robot.vtu",
+            &root.join("robot.vtu").display().to_string(),
+        )
+        .replace("\"corotational\"", "\"small-strain\"")
+        + "\n[[loads]]\nat = [0.0, 0.0, 125.0]\nforce = [10000.0, 0.0, 0.0]\n";
+    let path = dir.path().join("model.toml");
+    std::fs::write(&path, text).unwrap();
+    let out = common::run_cli(&["fem", "solve", path.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("outside small strain's validity"), "{err}");
+}
+
+/// Writes a two-tetrahedron VTK mesh (plus `extra_nodes` nodes in no element) and a model
+/// fixing `fixed`; returns the folder and the model's path.
+fn two_tet_model(extra_nodes: usize, fixed: &str) -> (tempfile::TempDir, std::path::PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let mut nodes = vec!["0 0 0", "1 0 0", "0 1 0", "0 0 1", "1 1 1"];
+    nodes.extend(std::iter::repeat_n("2 2 2", extra_nodes));
+    let vtk = format!(
+        "# vtk DataFile Version 3.0\nt\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS {} double\n{}\n\
+         CELLS 2 10\n4 0 1 2 3\n4 1 2 3 4\nCELL_TYPES 2\n10\n10\n",
+        nodes.len(),
+        nodes.join("\n")
+    );
+    std::fs::write(dir.path().join("tets.vtk"), vtk).unwrap();
+    let model = dir.path().join("model.toml");
+    std::fs::write(
+        &model,
+        format!(
+            "[mesh]\npath = \"tets.vtk\"\n[material]\nyoung = 1000.0\npoisson = 0.3\n\
+             [[fixed]]\nnodes = {fixed}\n[[loads]]\nnode = 4\nforce = [0.0, 0.0, -0.01]\n"
+        ),
+    )
+    .unwrap();
+    (dir, model)
+}
+
+/// A node in no element gave "tangent stiffness is not positive definite (pivot ...)",
+/// and a model fixing every node "the Cholesky factor is not supernodal".
+#[test]
+fn an_orphan_node_or_every_node_fixed_failed_with_factorization_jargon() {
+    let (_dir, model) = two_tet_model(1, "[0, 1, 2]");
+    let out = common::run_cli(&["fem", "solve", model.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("node 5 belongs to no element"), "{err}");
+    let (_dir, model) = two_tet_model(0, "[0, 1, 2, 3, 4]");
+    let out = common::run_cli(&["fem", "solve", model.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("all 5 nodes are fixed"), "{err}");
+    assert!(err.contains("model.toml"), "{err}");
+}
+
+/// A VTU whose offsets were wrong said "unsupported cell type 10 (only linear
+/// tetrahedra)", though 10 is the tetrahedron; mesh errors did not name the file.
+#[test]
+fn a_vtu_with_bad_offsets_blamed_the_tetrahedron_cell_type() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bad.vtu");
+    let vtu = std::fs::read_to_string(
+        common::project_root().join("tests/fixtures/malformed/vtu/seed.vtu"),
+    )
+    .unwrap()
+    .replace(">4 8<", ">5 8<");
+    std::fs::write(&path, vtu).unwrap();
+    let err = softsense::fem::meshio::read_mesh(&path)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("offsets"), "{err}");
+    assert!(!err.contains("unsupported cell type"), "{err}");
+    assert!(err.contains("bad.vtu"), "{err}");
+}
+
+/// One message, "degenerate camera (intrinsics or pose)", covered eight faults of a
+/// scene's camera.
+#[test]
+fn a_scene_camera_fault_was_reported_as_degenerate_camera_whatever_it_was() {
+    use softsense::scene::camera::CameraSpec;
+    let ok = CameraSpec::default();
+    assert!(ok.check().is_ok());
+    let cases: [(CameraSpec, &str); 6] = [
+        (
+            CameraSpec {
+                width: 0,
+                ..ok.clone()
+            },
+            "camera.width",
+        ),
+        (
+            CameraSpec {
+                fx: -1.0,
+                ..ok.clone()
+            },
+            "camera.fx",
+        ),
+        (
+            CameraSpec {
+                cy: f64::NAN,
+                ..ok.clone()
+            },
+            "camera.cy",
+        ),
+        (
+            CameraSpec {
+                target: ok.eye,
+                ..ok.clone()
+            },
+            "same point",
+        ),
+        (
+            CameraSpec {
+                up: [0.0; 3],
+                ..ok.clone()
+            },
+            "zero vector",
+        ),
+        (
+            CameraSpec {
+                up: [0.0, 0.433, -0.25],
+                ..ok.clone()
+            },
+            "parallel",
+        ),
+    ];
+    for (spec, words) in cases {
+        let err = spec.check().unwrap_err();
+        assert!(err.contains(words), "{words}: {err}");
+    }
+}
+
+/// `segment` and `contacts` failing on their input's content did not name the file.
+#[test]
+fn segment_and_contacts_errors_did_not_name_the_input_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("no_colour.pcd");
+    let cloud = softsense::cloud::PointCloud::from_positions(vec![
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, 0.0, 1.0],
+    ]);
+    softsense::io::write_cloud(&input, &cloud, softsense::io::Encoding::Ascii).unwrap();
+    let out = dir.path().join("out.pcd");
+    let input = input.to_str().unwrap();
+    for args in [
+        vec!["segment", input, out.to_str().unwrap()],
+        vec!["contacts", input],
+    ] {
+        let run = common::run_cli(&args);
+        let err = String::from_utf8_lossy(&run.stderr);
+        assert!(!run.status.success(), "{args:?}");
+        assert!(err.contains("no_colour.pcd"), "{args:?}: {err}");
+    }
+}

@@ -65,7 +65,10 @@ fn parse_robot_color(s: &str) -> Result<([u8; 3], f64), String> {
 
 /// Runs the subcommand.
 pub fn run(args: &ContactsArgs) -> CliResult {
-    let lib = |e: softsense::segment::SegmentError| CliError::Lib(e.into());
+    // Name the input: a failure here is about that cloud.
+    let lib = |e: softsense::segment::SegmentError| {
+        CliError::Result(format!("{}: {e}", args.input.display()))
+    };
     let cloud = read_cloud(&args.input)?;
     let t0 = Instant::now();
     let mode = match args.mode {

@@ -61,10 +61,16 @@ pub fn run(args: FemArgs) -> Result<(), Box<dyn std::error::Error>> {
             }
             let m = Model::load(&model, mesh.as_deref())?;
             let mut progress = StepProgress::new();
+            // Solve failures come from the model's content: name its file.
             let sol = m
                 .problem
-                .solve_static_observed(&m.newton, &mut |k, n| progress.step(k, n))?;
+                .solve_static_observed(&m.newton, &mut |k, n| progress.step(k, n))
+                .map_err(|e| e.in_file(&model))?;
             progress.finish();
+            let warning = m.validity_warning(&sol.displacement);
+            if let Some(w) = &warning {
+                eprintln!("warning: {}: {w}", model.display());
+            }
             if let Some(out) = out {
                 let disp: Vec<f64> = sol.displacement.iter().flatten().copied().collect();
                 let force: Vec<f64> = sol.external_force.iter().flatten().copied().collect();
@@ -112,7 +118,7 @@ pub fn run(args: FemArgs) -> Result<(), Box<dyn std::error::Error>> {
                 let v = serde_json::json!({
                     "units": "SI", "converged": sol.converged, "iterations": sol.iterations,
                     "residuals": sol.residuals, "effectors": effectors, "cables": cables,
-                    "node_displacements": sol.displacement,
+                    "node_displacements": sol.displacement, "warning": warning,
                 });
                 outln!("{}", serde_json::to_string(&v)?)?;
             } else {
@@ -134,8 +140,8 @@ pub fn run(args: FemArgs) -> Result<(), Box<dyn std::error::Error>> {
             let m = Model::load(&model, mesh.as_deref())?;
             let x = m.problem.mesh.nodes_in_rest.clone();
             let rows = m.rows(&x);
-            let mut solver = m.problem.solver()?;
-            let c = solver.compliance_at(&x, &rows)?;
+            let mut solver = m.problem.solver().map_err(|e| e.in_file(&model))?;
+            let c = (solver.compliance_at(&x, &rows)).map_err(|e| e.in_file(&model))?;
             let w: Vec<Vec<f64>> = (0..c.w.nrows())
                 .map(|i| c.w.row(i).iter().copied().collect())
                 .collect();

@@ -231,7 +231,9 @@ pub fn run(args: &FilterArgs) -> CliResult {
         return Ok(());
     }
     let cloud = read_cloud(&args.input)?;
-    let out = pipeline.step(&cloud)?;
+    let out = pipeline
+        .step(&cloud)
+        .map_err(|e| CliError::Result(format!("{}: {e}", args.input.display())))?;
     write_cloud(&args.output, &out.cloud, Encoding::Binary)?;
     let stages: Vec<_> = out
         .timings

@@ -154,15 +154,9 @@ pub fn parse_rgb(s: &str) -> Result<[u8; 3], String> {
     Ok([c(r)?, c(g)?, c(b)?])
 }
 
-/// A segmentation error, naming the input cloud when the cloud itself is at fault
-/// (too big for the memory budget).
+/// A segmentation error, naming the input cloud.
 pub fn segment_error(input: &std::path::Path, e: softsense::segment::SegmentError) -> CliError {
-    match e {
-        softsense::segment::SegmentError::TooLarge(_) => {
-            CliError::Result(format!("{}: {e}", input.display()))
-        }
-        other => CliError::Lib(other.into()),
-    }
+    CliError::Result(format!("{}: {e}", input.display()))
 }
 
 /// Refuses an output path that is the input file (or, for a sequence, the input folder):

@@ -88,13 +88,16 @@ Examples:
 pub fn run(args: SceneArgs) -> Result<(), Box<dyn std::error::Error>> {
     match args.command {
         SceneCommand::Generate { scene, out_dir } => {
-            let scene = Scene::load(&scene)?;
+            let scene_path = scene;
+            let scene = Scene::load(&scene_path)?;
             let bar = ProgressBar::new(scene.spec.frames.len() as u64);
             bar.set_style(
                 ProgressStyle::with_template("{bar:40} {pos}/{len} frames {elapsed}")
                     .unwrap_or_else(|_| ProgressStyle::default_bar()),
             );
-            let truth = generate(&scene, &out_dir, |done, _| bar.set_position(done as u64))?;
+            // The scene's frames and sensor come from its file: name it.
+            let truth = generate(&scene, &out_dir, |done, _| bar.set_position(done as u64))
+                .map_err(|e| format!("{}: {e}", scene_path.display()))?;
             bar.finish_and_clear();
             for f in &truth.frames {
                 eprintln!(

@@ -285,10 +285,14 @@ pub fn generate_dataset(
     let recorded = recorded_inputs(spec, &nominal, &mut rng);
     let world = true_world(spec, &nominal, &hidden, &recorded)?;
     render_frames(spec, &world, &writer)?;
-    let recorded_cam = spec
-        .camera
-        .camera()
-        .ok_or_else(|| DiscrepancyError::Data("degenerate camera".into()))?;
+    let recorded_cam = spec.camera.camera().ok_or_else(|| {
+        DiscrepancyError::Data(
+            spec.camera
+                .check()
+                .err()
+                .unwrap_or_else(|| "camera: no camera can be made from the spec".into()),
+        )
+    })?;
     writer.write_camera(&recorded_cam, spec.sensor.depth_unit)?;
     writer.write_json("sensor.json", &spec.sensor)?;
     writer.write_json("inputs.json", &recorded)?;

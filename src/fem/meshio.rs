@@ -28,12 +28,10 @@ pub fn read_mesh(path: &Path) -> FemResult<TetMesh> {
     };
     let len = std::fs::metadata(path).map_err(file_err)?.len();
     if len > MAX_FILE_BYTES {
-        return Err(perr(format!(
-            "file of {len} bytes is larger than the limit"
-        )));
+        return Err(perr(format!("file of {len} bytes is larger than the limit")).in_file(path));
     }
     let text = std::fs::read_to_string(path).map_err(file_err)?;
-    parse_mesh(&text)
+    parse_mesh(&text).map_err(|e| e.in_file(path))
 }
 
 /// Parses a mesh from text, detecting the format.
@@ -291,7 +289,16 @@ fn vtu_tets(cells: &[DataArray<'_>], nc: usize) -> FemResult<Vec<[usize; 4]>> {
                 "cell {c}: offset {end} out of order or range"
             )));
         }
-        if types[c] != VTK_TETRA || end - start != 4 {
+        // A tetrahedron whose offsets do not span four nodes is a fault of the offsets,
+        // not of the cell type.
+        if types[c] == VTK_TETRA && end - start != 4 {
+            return Err(perr(format!(
+                "cell {c}: a tetrahedron (type 10) but its offsets {start}..{end} give {} \
+                 nodes, not 4: the offsets array is wrong",
+                end - start
+            )));
+        }
+        if types[c] != VTK_TETRA {
             return Err(FemError::UnsupportedCell {
                 cell: c,
                 cell_type: types[c],

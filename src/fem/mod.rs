@@ -51,6 +51,14 @@ pub enum FemError {
         /// The underlying I/O error.
         source: std::io::Error,
     },
+    /// An error in reading a mesh or model file, with the file's name.
+    #[error("{path}: {source}")]
+    InFile {
+        /// The file.
+        path: String,
+        /// What is wrong with it.
+        source: Box<FemError>,
+    },
     /// A mesh file is malformed (truncated, inconsistent counts, bad numbers).
     #[error("mesh parse error: {0}")]
     Parse(String),
@@ -151,6 +159,19 @@ impl From<faer::linalg::solvers::LltError> for FemError {
             faer::linalg::solvers::LltError::NonPositivePivot { index } => {
                 Self::NotPositiveDefinite { pivot: index }
             }
+        }
+    }
+}
+
+impl FemError {
+    /// `self` naming `path`, unless it names a file already.
+    pub fn in_file(self, path: &std::path::Path) -> FemError {
+        match self {
+            e @ (FemError::File { .. } | FemError::InFile { .. }) => e,
+            e => FemError::InFile {
+                path: path.display().to_string(),
+                source: Box::new(e),
+            },
         }
     }
 }

@@ -271,7 +271,7 @@ impl Model {
         let mesh_path = match mesh_override {
             Some(p) => p.to_path_buf(),
             None => {
-                let p = PathBuf::from(expand_env(&spec.mesh.path)?);
+                let p = PathBuf::from(expand_env(&spec.mesh.path).map_err(|e| e.in_file(path))?);
                 if p.is_relative() {
                     path.parent().unwrap_or(Path::new(".")).join(p)
                 } else {
@@ -280,11 +280,12 @@ impl Model {
             }
         };
         let mesh = read_mesh(&mesh_path)?;
-        Self::from_spec(&spec, mesh)
+        Self::from_spec(&spec, mesh).map_err(|e| e.in_file(path))
     }
 
     /// Builds a model from a spec and its (unplaced, file-unit) mesh.
     pub fn from_spec(spec: &ModelSpec, mut mesh: TetMesh) -> FemResult<Self> {
+        check_finite(spec)?;
         let u = Units::parse(&spec.units)?;
         mesh.place(&spec.placement);
         mesh.orient_positive();
@@ -333,6 +334,37 @@ impl Model {
         })
     }
 
+    /// A warning when a small-strain solution's largest nodal displacement exceeds
+    /// [`SMALL_STRAIN_LIMIT`] of the mesh's bounding-box diagonal: linear elasticity
+    /// about the rest shape is then outside its validity (a 10 kN load on a 125 mm robot
+    /// "converged" to a 225 m tip displacement). `None` for corotational models.
+    pub fn validity_warning(&self, displacement: &[[f64; 3]]) -> Option<String> {
+        if self.problem.formulation != Formulation::SmallStrain {
+            return None;
+        }
+        let nodes = &self.problem.mesh.nodes_in_rest;
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for p in nodes {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        let size = super::mesh::norm(super::mesh::sub(hi, lo));
+        let max = displacement
+            .iter()
+            .map(|d| super::mesh::norm(*d))
+            .fold(0.0, f64::max);
+        (max > SMALL_STRAIN_LIMIT * size).then(|| {
+            format!(
+                "small-strain displacement of {max:.3e} m is over {:.0}% of the mesh's \
+                 {size:.3e} m size: the result is outside small strain's validity; try \
+                 formulation = \"corotational\"",
+                100.0 * SMALL_STRAIN_LIMIT
+            )
+        })
+    }
+
     /// All constraint rows at positions `x`: effectors, then actuators (cables), then forces.
     pub fn rows(&self, x: &[[f64; 3]]) -> Vec<ConstraintRow> {
         let mut rows: Vec<ConstraintRow> = self
@@ -359,6 +391,77 @@ impl Units {
 }
 
 /// The formulation a model file names (default corotational).
+/// The largest small-strain displacement, as a fraction of the mesh's bounding-box
+/// diagonal, before [`Model::validity_warning`] speaks.
+pub const SMALL_STRAIN_LIMIT: f64 = 0.1;
+
+/// Refuses a NaN or infinite number anywhere in the spec, naming the field: such a
+/// value passed through to a compliance of all nulls or an effector that "converged".
+fn check_finite(spec: &ModelSpec) -> FemResult<()> {
+    let mut fields: Vec<(String, f64)> = Vec::new();
+    let mut add = |name: String, values: &[f64]| {
+        for (k, &v) in values.iter().enumerate() {
+            let at = if values.len() > 1 {
+                format!("{name}[{k}]")
+            } else {
+                name.clone()
+            };
+            fields.push((at, v));
+        }
+    };
+    let pl = &spec.placement;
+    add("placement.scale".into(), pl.scale.as_slice());
+    add(
+        "placement.rotate_deg".into(),
+        pl.rotate_deg.as_ref().map_or(&[], |v| v),
+    );
+    add(
+        "placement.translate".into(),
+        pl.translate.as_ref().map_or(&[], |v| v),
+    );
+    add("material.young".into(), &[spec.material.young]);
+    add("material.poisson".into(), &[spec.material.poisson]);
+    if let Some(m) = &spec.mass {
+        add("mass.total".into(), m.total.as_slice());
+        add("mass.density".into(), m.density.as_slice());
+    }
+    add("gravity".into(), spec.gravity.as_ref().map_or(&[], |v| v));
+    for (i, f) in spec.fixed.iter().enumerate() {
+        if let Some([lo, hi]) = &f.r#box {
+            add(format!("fixed[{i}].box[0]"), lo);
+            add(format!("fixed[{i}].box[1]"), hi);
+        }
+    }
+    for (i, c) in spec.cables.iter().enumerate() {
+        add(format!("cables[{i}].pull"), &c.pull);
+        for (j, a) in c.attach.iter().enumerate() {
+            add(format!("cables[{i}].attach[{j}]"), a);
+        }
+        add(format!("cables[{i}].shorten"), c.shorten.as_slice());
+        add(format!("cables[{i}].force"), c.force.as_slice());
+    }
+    for (i, l) in spec.loads.iter().enumerate() {
+        add(format!("loads[{i}].at"), l.at.as_ref().map_or(&[], |v| v));
+        add(format!("loads[{i}].force"), &l.force);
+    }
+    for (list, points) in [
+        ("effectors", &spec.effectors),
+        ("force_points", &spec.force_points),
+    ] {
+        for (i, e) in points.iter().enumerate() {
+            add(format!("{list}[{i}].at"), &e.at);
+            add(
+                format!("{list}[{i}].direction"),
+                e.direction.as_ref().map_or(&[], |v| v),
+            );
+        }
+    }
+    match fields.into_iter().find(|(_, v)| !v.is_finite()) {
+        Some((name, v)) => Err(FemError::Model(format!("{name} must be finite, got {v}"))),
+        None => Ok(()),
+    }
+}
+
 fn parse_formulation(name: Option<&str>) -> FemResult<Formulation> {
     match name {
         None | Some("corotational") | Some("large") => Ok(Formulation::Corotational),

@@ -154,6 +154,25 @@ impl Problem {
                 "fixed node {v} does not exist ({n} nodes)"
             )));
         }
+        if held.len() == n {
+            return Err(FemError::Model(format!(
+                "all {n} nodes are fixed: no degree of freedom is left to solve for \
+                 (fix fewer nodes)"
+            )));
+        }
+        // A free node in no element has zero stiffness: the factorization would fail with
+        // a pivot number that says nothing about why.
+        let mut in_element = vec![false; n];
+        for t in &self.mesh.tets {
+            for &v in t {
+                in_element[v] = true;
+            }
+        }
+        if let Some(v) = (0..n).find(|&v| !in_element[v] && held.binary_search(&v).is_err()) {
+            return Err(FemError::InvalidMesh(format!(
+                "node {v} belongs to no element: remove it from the mesh (or fix it in place)"
+            )));
+        }
         let mut parent: Vec<usize> = (0..n).collect();
         fn find(p: &mut [usize], mut v: usize) -> usize {
             while p[v] != v {

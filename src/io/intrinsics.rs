@@ -54,7 +54,55 @@ impl PinholeIntrinsics {
         }
         Ok(())
     }
+
+    /// [`validate`](Self::validate), then refuses values no real camera has, which
+    /// would otherwise pass silently (fx = 1e308 makes every x -0.0): focal lengths
+    /// outside [`FOCAL_RANGE`] times the larger image side (at least 64 for the upper
+    /// bound), and a principal point more than one image size outside the image. With
+    /// no size (PCL's XML) the bounds use [`MAX_IMAGE_SIDE`]. Used on intrinsics read
+    /// from files.
+    pub fn check_plausible(&self) -> Result<(), RgbdError> {
+        self.validate()?;
+        let (w, h) = if self.width == 0 {
+            (MAX_IMAGE_SIDE, MAX_IMAGE_SIDE)
+        } else {
+            (self.width, self.height)
+        };
+        let side = f64::from(w.max(h));
+        // Small crops (a 4x3 test image) keep a full camera's focal length, so the upper
+        // bound is taken from at least a 64-pixel side.
+        let (lo, hi) = (FOCAL_RANGE.0 * side, FOCAL_RANGE.1 * side.max(64.0));
+        for (field, f) in [("fx", self.fx), ("fy", self.fy)] {
+            // A known size bounds from below too; an unknown one only from above.
+            if f > hi || (self.width > 0 && f < lo) {
+                return Err(bad(
+                    field,
+                    format!(
+                        "{f} pixels is implausible for a {w}x{h} image (expected {lo} to {hi})"
+                    ),
+                ));
+            }
+        }
+        for (field, c, s) in [("cx", self.cx, w), ("cy", self.cy, h)] {
+            let s = f64::from(s);
+            if !(-s..=2.0 * s).contains(&c) {
+                return Err(bad(
+                    field,
+                    format!(
+                        "{c} lies far outside a {w}x{h} image (expected {} to {})",
+                        -s,
+                        2.0 * s
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
 }
+
+/// Plausible focal lengths, as multiples of the larger image side (a 640-pixel image:
+/// 32 to 64,000 pixels, fields of view from about 170 degrees down to 0.6).
+pub const FOCAL_RANGE: (f64, f64) = (0.05, 100.0);
 
 /// Whose floating-point arithmetic the back-projection reproduces. Both give the same
 /// geometry; they differ in the last bits.
@@ -224,7 +272,7 @@ pub fn parse_open3d_json(text: &str) -> Result<CameraModel, RgbdError> {
         cx: k[6],
         cy: k[7],
     };
-    intrinsics.validate()?;
+    intrinsics.check_plausible()?;
     // Open3D's RGB-D video metadata (a RealSense recording's `intrinsic.json`) adds the raw
     // depth units per metre; plain `PinholeCameraIntrinsic` files have none (millimetres).
     let mut params = DepthParams::default();
@@ -272,7 +320,7 @@ pub fn parse_pcl_xml(text: &str) -> Result<CameraModel, RgbdError> {
         cx: need("principal_point_x")?,
         cy: need("principal_point_y")?,
     };
-    intrinsics.validate().map_err(|e| match e {
+    intrinsics.check_plausible().map_err(|e| match e {
         // Name the XML element, not our struct field.
         RgbdError::BadIntrinsics { field, problem } => bad(
             match field.as_str() {

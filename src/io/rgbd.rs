@@ -7,8 +7,11 @@
 //! `z = raw / depth_scale`, `x = (u − cx)·z/fx`, `y = (v − cy)·z/fy`
 //!
 //! for column `u` and row `v` (0-based, no half-pixel offset). A raw depth of 0 (no
-//! measurement), or a depth at or beyond `depth_trunc`, gives a NaN point, never (0,0,0);
-//! the organized shape is kept. Every pixel keeps its colour, valid or not, as PCL does.
+//! measurement), a raw 65535 (saturated: the encoding's maximum is no measurement), or a
+//! depth at or beyond `depth_trunc` (else beyond [`DEFAULT_RANGE_M`]) gives a NaN point,
+//! never (0,0,0); the organized shape is kept. A frame whose every pixel is saturated or
+//! out of range is refused ([`RgbdError::NoUsableDepth`]) rather than read as empty.
+//! Every pixel keeps its colour, valid or not, as PCL does.
 //! The floating-point order follows [`Arithmetic`]: by default PCL's, which reproduces the
 //! organized PCD PCL's grabber writes for the same frames bit for bit.
 //!
@@ -203,6 +206,10 @@ pub fn read_color_image(path: impl AsRef<Path>) -> Result<ColorImage, IoError> {
     })
 }
 
+/// The sensor range when `depth_trunc` is infinite: no depth camera we read measures
+/// past 20 m, and a raw value that far (20000 mm) is a fault, not a point.
+pub const DEFAULT_RANGE_M: f64 = 20.0;
+
 /// Back-projects a row-major depth image of `intrinsics.width x intrinsics.height` raw
 /// values into an organized cloud, with colours if given (same size, row-major).
 ///
@@ -237,6 +244,25 @@ pub fn depth_to_cloud(
     }
     let nan = [f32::NAN; 3];
     let trunc = params.depth_trunc;
+    // Without a truncation, depths past a depth camera's reach are noise, not points.
+    let range = if trunc.is_finite() {
+        trunc
+    } else {
+        DEFAULT_RANGE_M
+    };
+    let (mut saturated, mut beyond_range, mut zero) = (0usize, 0usize, 0usize);
+    let mut dropped = |raw: u16, z: f64| {
+        if raw == u16::MAX {
+            saturated += 1;
+        } else if z <= 0.0 {
+            zero += 1;
+        } else if z >= range {
+            beyond_range += 1;
+        } else {
+            return false;
+        }
+        true
+    };
     let mut positions = Vec::with_capacity(n);
     match params.arithmetic {
         Arithmetic::Pcl => {
@@ -251,7 +277,7 @@ pub fn depth_to_cloud(
                     let z = f32::from(raw) * factor;
                     // z == 0: no measurement (raw 0), or a scale so large the product
                     // underflows; either way never a point at the origin.
-                    positions.push(if z <= 0.0 || f64::from(z) >= trunc {
+                    positions.push(if dropped(raw, f64::from(z)) {
                         nan
                     } else {
                         [(u as f32 - cx) * z * kx, dv * z * ky, z]
@@ -267,7 +293,7 @@ pub fn depth_to_cloud(
                 for (u, &raw) in row.iter().enumerate() {
                     let z32 = f32::from(raw) / scale;
                     let z = f64::from(z32);
-                    positions.push(if z32 <= 0.0 || z >= trunc {
+                    positions.push(if dropped(raw, z) {
                         nan
                     } else {
                         [
@@ -279,6 +305,14 @@ pub fn depth_to_cloud(
                 }
             }
         }
+    }
+    if saturated + beyond_range > 0 && saturated + beyond_range + zero == n {
+        return Err(RgbdError::NoUsableDepth {
+            saturated,
+            beyond_range,
+            range_m: range,
+            pixels: n,
+        });
     }
     Ok(PointCloud {
         positions,

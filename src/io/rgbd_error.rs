@@ -64,4 +64,20 @@ pub enum RgbdError {
         /// The size found.
         found: (u32, u32),
     },
+    /// Every pixel of a depth image is saturated (the encoding's maximum, 65535) or
+    /// beyond the sensor range, so the frame has no point at all.
+    #[error(
+        "no pixel gives a valid point: of {pixels}, {saturated} are saturated (65535), \
+         {beyond_range} at or beyond {range_m} m and the rest 0 (no measurement)"
+    )]
+    NoUsableDepth {
+        /// Pixels at 65535.
+        saturated: usize,
+        /// Pixels beyond the range.
+        beyond_range: usize,
+        /// The range in metres (`depth_trunc`, else the default sensor range).
+        range_m: f64,
+        /// Pixels in the image.
+        pixels: usize,
+    },
 }

@@ -41,7 +41,7 @@ pub enum XyzError {
 /// Parses XYZ text held in memory.
 pub fn parse_xyz(bytes: &[u8]) -> Result<PointCloud, XyzError> {
     let mut positions = Vec::new();
-    for (k, raw) in bytes.split(|&b| b == b'\n').enumerate() {
+    for (k, raw) in lines(bytes).enumerate() {
         let line = k + 1;
         let mut tokens = raw
             .split(|&b| b.is_ascii_whitespace() || b == b',')
@@ -68,6 +68,29 @@ pub fn parse_xyz(bytes: &[u8]) -> Result<PointCloud, XyzError> {
         positions.push(p);
     }
     Ok(PointCloud::from_positions(positions))
+}
+
+/// The lines of `bytes`, ended by `\n`, `\r\n` or a lone `\r` (old Mac tools write
+/// CR-only files; splitting on `\n` alone would read such a file as one line).
+fn lines(bytes: &[u8]) -> impl Iterator<Item = &[u8]> {
+    let mut rest = bytes;
+    std::iter::from_fn(move || {
+        if rest.is_empty() {
+            return None;
+        }
+        let end = rest
+            .iter()
+            .position(|&b| b == b'\n' || b == b'\r')
+            .unwrap_or(rest.len());
+        let line = &rest[..end];
+        let skip = match rest.get(end..end + 2) {
+            Some(b"\r\n") => 2,
+            _ if end < rest.len() => 1,
+            _ => 0,
+        };
+        rest = &rest[end + skip..];
+        Some(line)
+    })
 }
 
 /// Reads an XYZ file.

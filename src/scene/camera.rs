@@ -97,6 +97,52 @@ impl CameraSpec {
         }
     }
 
+    /// Which fault keeps [`camera`](Self::camera) from making a camera, in words naming
+    /// the field; `Ok` when it can.
+    pub fn check(&self) -> Result<(), String> {
+        for (name, v) in [("width", self.width), ("height", self.height)] {
+            if v == 0 {
+                return Err(format!("camera.{name} is 0"));
+            }
+        }
+        for (name, v) in [("fx", self.fx), ("fy", self.fy)] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!(
+                    "camera.{name} must be a finite number > 0, got {v}"
+                ));
+            }
+        }
+        for (name, v) in [("cx", self.cx), ("cy", self.cy)] {
+            if !v.is_finite() {
+                return Err(format!("camera.{name} must be finite, got {v}"));
+            }
+        }
+        for (name, v) in [("eye", self.eye), ("target", self.target), ("up", self.up)] {
+            if !v.iter().all(|c| c.is_finite()) {
+                return Err(format!("camera.{name} must be finite, got {v:?}"));
+            }
+        }
+        let view = [0, 1, 2].map(|i| self.target[i] - self.eye[i]);
+        let norm = |a: [f64; 3]| (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+        if norm(view) <= 1e-12 {
+            return Err("camera.eye and camera.target are the same point".into());
+        }
+        if norm(self.up) <= 1e-12 {
+            return Err("camera.up is a zero vector".into());
+        }
+        let c = crate::camera::cross(view, self.up);
+        if norm(c) <= 1e-12 * norm(view) * norm(self.up) {
+            return Err("camera.up is parallel to the view direction (target - eye)".into());
+        }
+        self.intrinsics()
+            .check_plausible()
+            .map_err(|e| format!("camera: {e}"))?;
+        if self.camera().is_none() {
+            return Err("camera: no camera can be made from the spec".into());
+        }
+        Ok(())
+    }
+
     /// The camera this spec describes ([`Camera::look_at`]); `None` when eye = target, up
     /// is parallel to the view direction, or the intrinsics are not positive.
     pub fn camera(&self) -> Option<Camera> {

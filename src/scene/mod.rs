@@ -147,15 +147,20 @@ impl Scene {
         let c = &spec.camera;
         if c.width > MAX_SIDE || c.height > MAX_SIDE {
             return Err(SceneError::Spec(format!(
-                "image larger than {MAX_SIDE} pixels"
+                "{}: image larger than {MAX_SIDE} pixels",
+                path.display()
             )));
         }
         spec.sensor
             .validate()
             .map_err(|e| SceneError::Spec(format!("{}: {e}", path.display())))?;
+        spec.camera
+            .check()
+            .map_err(|e| SceneError::Spec(format!("{}: {e}", path.display())))?;
         if spec.frames.is_empty() || spec.frames.len() > MAX_FRAMES {
             return Err(SceneError::Spec(format!(
-                "needs 1..={MAX_FRAMES} frames, has {}",
+                "{}: needs 1..={MAX_FRAMES} frames, has {}",
+                path.display(),
                 spec.frames.len()
             )));
         }
@@ -381,7 +386,7 @@ pub fn render_frame(scene: &Scene, model: &Model, index: usize) -> SceneResult<R
     let camera = spec
         .camera
         .camera()
-        .ok_or_else(|| SceneError::Spec("degenerate camera (intrinsics or pose)".into()))?;
+        .ok_or_else(|| SceneError::Spec(camera_fault(&spec.camera)))?;
     let bvh = Bvh::new(&sol.positions, &surface.triangles);
     let w = spec.camera.width as usize;
     let probes: Vec<([f64; 3], f64)> = loads
@@ -427,6 +432,38 @@ pub fn render_frame(scene: &Scene, model: &Model, index: usize) -> SceneResult<R
     })
 }
 
+/// Why the scene's camera spec makes no camera, in words.
+fn camera_fault(spec: &camera::CameraSpec) -> String {
+    spec.check()
+        .err()
+        .unwrap_or_else(|| "camera: no camera can be made from the spec".into())
+}
+
+/// Refuses a depth unit with which the robot's depths (at rest) would not fit the 16
+/// bits of a depth PNG, or would round to zero: either way the images came out all zero.
+fn check_depth_unit(unit: f64, camera: &Camera, nodes: &[[f64; 3]]) -> SceneResult<()> {
+    let (mut near, mut far) = (f64::INFINITY, 0.0f64);
+    for &p in nodes {
+        let z = camera.depth_of(p);
+        if z.is_finite() && z > 0.0 {
+            near = near.min(z);
+            far = far.max(z);
+        }
+    }
+    if far == 0.0 {
+        return Ok(()); // the robot is behind the camera; rendering says so
+    }
+    // The farthest depth must fit in 65535 units and the nearest be at least one unit.
+    let (lo, hi) = (far / 65535.0, near);
+    if !(lo..=hi).contains(&unit) {
+        return Err(SceneError::Spec(format!(
+            "sensor.depth_unit {unit} m cannot encode the robot's depths ({near:.3} to \
+             {far:.3} m) in a 16-bit image; use {lo:.2e} to {hi:.2e} m (0.001 is millimetres)"
+        )));
+    }
+    Ok(())
+}
+
 /// `target` as a path relative to the folder `base` (both must exist), e.g.
 /// `../../meshes/m.toml`; the absolute `target` when the two share no folder but the root
 /// (`/tmp/out` and `/work/m.toml`); `None` when either cannot be resolved.
@@ -466,7 +503,12 @@ pub fn generate(
     let camera = spec
         .camera
         .camera()
-        .ok_or_else(|| SceneError::Spec("degenerate camera (intrinsics or pose)".into()))?;
+        .ok_or_else(|| SceneError::Spec(camera_fault(&spec.camera)))?;
+    check_depth_unit(
+        spec.sensor.depth_unit,
+        &camera,
+        &model.problem.mesh.nodes_in_rest,
+    )?;
     writer.write_camera(&camera, spec.sensor.depth_unit)?;
     let (w, h) = (spec.camera.width, spec.camera.height);
     let total = spec.frames.len();

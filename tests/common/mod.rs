@@ -1,6 +1,7 @@
 //! Shared helpers for the test binaries: real-data location and skip policy.
 #![allow(dead_code)]
 
+pub mod corpus;
 pub mod oracle;
 
 use std::path::PathBuf;

@@ -240,10 +240,20 @@ proptest! {
             arithmetic: if open3d { Arithmetic::Open3d } else { Arithmetic::Pcl },
             ..DepthParams::default()
         };
-        let cloud = depth_to_cloud(&depth, None, &k, &params).unwrap();
+        // 0 and 65535 are no measurement, and 20 m (20000 raw) is the default range.
+        let dropped = |d: u16| d == 0 || d == u16::MAX || d >= 19_990;
+        let cloud = match depth_to_cloud(&depth, None, &k, &params) {
+            Ok(c) => c,
+            Err(RgbdError::NoUsableDepth { .. }) => {
+                prop_assert!(depth.iter().all(|&d| dropped(d)));
+                return Ok(());
+            }
+            Err(e) => panic!("{e}"),
+        };
         prop_assert_eq!(cloud.len(), n);
         for (i, p) in cloud.positions.iter().enumerate() {
-            if depth[i] == 0 {
+            if p[2].is_nan() || depth[i] == 0 {
+                prop_assert!(dropped(depth[i]), "{} dropped", depth[i]);
                 prop_assert!(p[0].is_nan() && p[1].is_nan() && p[2].is_nan());
                 continue;
             }
@@ -269,7 +279,12 @@ proptest! {
             depth_trunc: trunc,
             arithmetic: if open3d { Arithmetic::Open3d } else { Arithmetic::Pcl },
         };
-        let cloud = depth_to_cloud(&raw, None, &intr(3, 2), &params).unwrap();
+        let cloud = match depth_to_cloud(&raw, None, &intr(3, 2), &params) {
+            Ok(c) => c,
+            // Every pixel saturated or beyond the range: refused, not read as empty.
+            Err(RgbdError::NoUsableDepth { .. }) => return Ok(()),
+            Err(e) => panic!("{e}"),
+        };
         for p in &cloud.positions {
             let all_nan = p.iter().all(|c| c.is_nan());
             let valid = p.iter().all(|c| c.is_finite()) && p[2] > 0.0 && f64::from(p[2]) < trunc;

@@ -28,10 +28,18 @@ pub(super) fn ascii_records(
     let mut out = Vec::with_capacity(n * header.record_size());
     let mut rows = 0usize;
     for (k, line) in body.split(|&b| b == b'\n').enumerate() {
-        if rows == n {
-            break;
-        }
         let line_no = header_lines + k + 1;
+        if rows == n {
+            // Rows beyond POINTS mean the header's count is wrong; reading only the
+            // first POINTS rows would silently drop the rest.
+            if line.iter().any(|b| !b.is_ascii_whitespace()) {
+                return Err(PcdError::AsciiExtraRow {
+                    line: line_no,
+                    expected: n as u64,
+                });
+            }
+            continue;
+        }
         let row_err = |reason: String| PcdError::AsciiRow {
             line: line_no,
             reason,

@@ -357,6 +357,11 @@ impl RawHeader {
         }
         let width = self.width.ok_or(PcdError::MissingKey { key: "WIDTH" })?;
         let height = self.height.unwrap_or(1);
+        // HEIGHT 0 would make WIDTH x HEIGHT zero whatever the body holds, so every row
+        // would be dropped without a word.
+        if height == 0 {
+            return Err(PcdError::ZeroHeight { width });
+        }
         let organized = u64::from(width) * u64::from(height);
         let points = self.points.unwrap_or(organized);
         if points != organized {

@@ -140,6 +140,32 @@ pub enum PcdError {
         /// Declared points.
         points: u64,
     },
+    /// `HEIGHT 0`: an unorganized cloud has height 1.
+    #[error("HEIGHT is 0 (WIDTH {width}); an unorganized cloud has HEIGHT 1")]
+    ZeroHeight {
+        /// Declared width.
+        width: u32,
+    },
+    /// Bytes follow the data the header declares (PCL ignores them; we refuse, as they
+    /// mean the header's counts do not describe the body).
+    #[error("{extra} bytes follow the {expected} bytes of data the header declares")]
+    TrailingBytes {
+        /// Bytes beyond the declared data.
+        extra: u64,
+        /// Bytes of data the header declares (compressed size words included).
+        expected: u64,
+    },
+    /// The ASCII body has more rows than `POINTS`.
+    #[error("ascii body line {line}: a row beyond the POINTS {expected} declared")]
+    AsciiExtraRow {
+        /// 1-based line number within the file.
+        line: usize,
+        /// Declared points.
+        expected: u64,
+    },
+    /// The header declares more points than the memory budget allows.
+    #[error(transparent)]
+    TooLarge(#[from] super::limits::TooLarge),
     /// The `DATA` line names an unknown encoding.
     #[error("unknown DATA encoding `{kind}` (expected ascii, binary or binary_compressed)")]
     UnknownData {
@@ -229,9 +255,15 @@ const MAX_HEADER_BYTES: u64 = 1 << 20;
 /// Reads a PCD file.
 pub fn read_pcd(path: &Path) -> Result<PointCloud, IoError> {
     let bytes = super::read_bytes(path)?;
-    parse_pcd(&bytes).map_err(|source| IoError::Pcd {
-        path: path.to_path_buf(),
-        source,
+    parse_pcd(&bytes).map_err(|source| match source {
+        PcdError::TooLarge(source) => IoError::TooLarge {
+            path: path.to_path_buf(),
+            source,
+        },
+        source => IoError::Pcd {
+            path: path.to_path_buf(),
+            source,
+        },
     })
 }
 
@@ -268,6 +300,9 @@ pub fn parse_pcd(bytes: &[u8]) -> Result<PointCloud, PcdError> {
     let total = points
         .checked_mul(record)
         .ok_or(PcdError::TooManyPoints { points })?;
+    // The decoded record plus the cloud's f32 positions, per point; checked after the
+    // body-size checks, which name the more telling fault for a lying header.
+    let budget = || super::limits::check("points", points, record + 12);
     match header.encoding {
         DataEncoding::Binary => {
             if total > available {
@@ -276,6 +311,13 @@ pub fn parse_pcd(bytes: &[u8]) -> Result<PointCloud, PcdError> {
                     available,
                 });
             }
+            if available > total {
+                return Err(PcdError::TrailingBytes {
+                    extra: available - total,
+                    expected: total,
+                });
+            }
+            budget()?;
             decode(&header, &Body::new(&header, body, n, false))
         }
         DataEncoding::BinaryCompressed => SCRATCH.with(|scratch| {
@@ -291,6 +333,7 @@ pub fn parse_pcd(bytes: &[u8]) -> Result<PointCloud, PcdError> {
                 .checked_mul(header.columnar_record_size() as u64)
                 .ok_or(PcdError::TooManyPoints { points })?;
             decompress_body(body, columns, data)?;
+            budget()?;
             let cloud = decode(&header, &Body::new(&header, data, n, true));
             if data.capacity() > MAX_SCRATCH_BYTES {
                 *data = Vec::new();
@@ -299,6 +342,7 @@ pub fn parse_pcd(bytes: &[u8]) -> Result<PointCloud, PcdError> {
         }),
         DataEncoding::Ascii => {
             let records = ascii_records(&header, bytes, n)?;
+            budget()?;
             decode(&header, &Body::new(&header, &records, n, false))
         }
     }
@@ -330,6 +374,12 @@ fn decompress_body(body: &[u8], expected: u64, out: &mut Vec<u8>) -> Result<(), 
         return Err(PcdError::CompressedSize {
             declared: compressed,
             available: stream.len() as u64,
+        });
+    }
+    if compressed < stream.len() as u64 {
+        return Err(PcdError::TrailingBytes {
+            extra: stream.len() as u64 - compressed,
+            expected: compressed + 8,
         });
     }
     if uncompressed != expected {

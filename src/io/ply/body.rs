@@ -29,6 +29,8 @@ fn binary_value(b: &[u8], ty: Scalar, big_endian: bool) -> f64 {
 /// Why a value could not be read.
 pub(super) enum ReadFail {
     Eof,
+    /// An ASCII entry's line ended early (1-based file line).
+    LineEnd(usize),
     Bad(String),
 }
 
@@ -37,9 +39,54 @@ pub(super) struct Source<'a> {
     pub(super) data: &'a [u8],
     pub(super) pos: usize,
     pub(super) format: PlyFormat,
+    /// The file line the body starts on (1-based), for ASCII error messages.
+    pub(super) first_line: usize,
+}
+
+/// Blanks within an ASCII line (the line end, `\n`, is not one).
+fn is_blank(b: u8) -> bool {
+    b == b' ' || b == b'\t' || b == b'\r' || b == 0x0c || b == 0x0b
 }
 
 impl Source<'_> {
+    /// ASCII: moves to the start of the next entry, past blank lines. Each entry is one
+    /// line, so that a line with too many or too few values is caught, not spilled
+    /// into the next entry.
+    pub(super) fn start_entry(&mut self) {
+        if self.format == PlyFormat::Ascii {
+            let rest = &self.data[self.pos..];
+            self.pos += rest
+                .iter()
+                .position(|b| !b.is_ascii_whitespace())
+                .unwrap_or(rest.len());
+        }
+    }
+
+    /// ASCII: the line number when values remain on the current line; moves past the
+    /// line end otherwise.
+    pub(super) fn extra_on_line(&mut self) -> Option<usize> {
+        if self.format != PlyFormat::Ascii {
+            return None;
+        }
+        let rest = &self.data[self.pos..];
+        let blanks = rest
+            .iter()
+            .position(|&b| !is_blank(b))
+            .unwrap_or(rest.len());
+        match rest.get(blanks) {
+            None | Some(b'\n') => {
+                self.pos += blanks;
+                None
+            }
+            Some(_) => Some(self.line_at(self.pos)),
+        }
+    }
+
+    /// The 1-based file line holding body offset `pos`.
+    fn line_at(&self, pos: usize) -> usize {
+        self.first_line + self.data[..pos].iter().filter(|&&b| b == b'\n').count()
+    }
+
     pub(super) fn read(&mut self, ty: Scalar) -> Result<f64, ReadFail> {
         if self.format == PlyFormat::Ascii {
             return self.read_text(ty);
@@ -61,8 +108,11 @@ impl Source<'_> {
         let rest = &self.data[self.pos..];
         let start = rest
             .iter()
-            .position(|b| !b.is_ascii_whitespace())
+            .position(|&b| !is_blank(b))
             .ok_or(ReadFail::Eof)?;
+        if rest[start] == b'\n' {
+            return Err(ReadFail::LineEnd(self.line_at(self.pos)));
+        }
         let len = rest[start..]
             .iter()
             .position(|b| b.is_ascii_whitespace())

@@ -107,6 +107,34 @@ pub enum PlyError {
         /// Declared type.
         ty: &'static str,
     },
+    /// An ASCII line holds more values than its element's properties; reading on would
+    /// spill them into the next entry.
+    #[error("line {line}: element `{element}` entry {index} has more values than its {properties} properties")]
+    ExtraValues {
+        /// 1-based line number in the file.
+        line: usize,
+        /// Element name.
+        element: String,
+        /// 0-based entry.
+        index: u64,
+        /// Properties the element declares.
+        properties: usize,
+    },
+    /// An ASCII line ends before all of its element's properties are read.
+    #[error("line {line}: element `{element}` entry {index} has fewer values than its {properties} properties")]
+    MissingValues {
+        /// 1-based line number in the file.
+        line: usize,
+        /// Element name.
+        element: String,
+        /// 0-based entry.
+        index: u64,
+        /// Properties the element declares.
+        properties: usize,
+    },
+    /// The header declares more vertices than the memory budget allows.
+    #[error(transparent)]
+    TooLarge(#[from] super::limits::TooLarge),
     /// A list length is negative or not an integer.
     #[error("element `{element}` entry {index}: bad list length {count}")]
     BadListCount {
@@ -142,12 +170,19 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PointCloud, PlyError> {
     let targets = vertex_targets(vertex)?;
     let body = &bytes[header.body_offset..];
     check_vertex_count(vertex, header.format, body.len() as u64)?;
+    // Positions, normals, colours, curvature and label at most, per vertex.
+    super::limits::check("points", vertex.count, 40)?;
     let n = vertex.count as usize; // bounded by the body length above
     let mut out = VertexColumns::new(n, &targets);
     let mut src = Source {
         data: body,
         pos: 0,
         format: header.format,
+        first_line: bytes[..header.body_offset]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count()
+            + 1,
     };
     for (e_at, element) in header.elements.iter().enumerate() {
         if element.props.is_empty() {
@@ -248,10 +283,17 @@ fn read_values(
     mut vertex_out: Option<(&mut VertexColumns, &[Target])>,
 ) -> Result<(), PlyError> {
     for index in 0..element.count {
+        src.start_entry();
         let fail = |f: ReadFail, ty: Scalar| match f {
             ReadFail::Eof => PlyError::Truncated {
                 element: element.name.clone(),
                 index,
+            },
+            ReadFail::LineEnd(line) => PlyError::MissingValues {
+                line,
+                element: element.name.clone(),
+                index,
+                properties: element.props.len(),
             },
             ReadFail::Bad(text) => PlyError::BadValue {
                 element: element.name.clone(),
@@ -281,6 +323,14 @@ fn read_values(
                 out.set(index as usize, targets[k], v, p.ty);
             }
         }
+        if let Some(line) = src.extra_on_line() {
+            return Err(PlyError::ExtraValues {
+                line,
+                element: element.name.clone(),
+                index,
+                properties: element.props.len(),
+            });
+        }
     }
     Ok(())
 }
@@ -288,8 +338,14 @@ fn read_values(
 /// Reads a PLY file.
 pub fn read_ply(path: &Path) -> Result<PointCloud, IoError> {
     let bytes = super::read_bytes(path)?;
-    parse_ply(&bytes).map_err(|source| IoError::Ply {
-        path: path.to_path_buf(),
-        source,
+    parse_ply(&bytes).map_err(|source| match source {
+        PlyError::TooLarge(source) => IoError::TooLarge {
+            path: path.to_path_buf(),
+            source,
+        },
+        source => IoError::Ply {
+            path: path.to_path_buf(),
+            source,
+        },
     })
 }
