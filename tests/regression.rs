@@ -1060,3 +1060,18 @@ fn segment_and_contacts_errors_did_not_name_the_input_file() {
         assert!(err.contains("no_colour.pcd"), "{args:?}: {err}");
     }
 }
+
+/// `write_cloud` panicked ("inconsistent cloud") on a cloud whose colour column was
+/// shorter than its points; a library caller can build one.
+#[test]
+fn writing_a_cloud_with_a_short_colour_column_panicked() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut cloud = softsense::PointCloud::from_positions(vec![[0.0, 0.0, 1.0]; 3]);
+    cloud.colors = Some(vec![[1, 2, 3]]);
+    for name in ["a.pcd", "a.ply"] {
+        let path = dir.path().join(name);
+        let err = softsense::io::write_cloud(&path, &cloud, Default::default()).unwrap_err();
+        assert!(err.to_string().contains(name), "{err}");
+        assert!(!path.exists());
+    }
+}

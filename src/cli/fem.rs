@@ -115,11 +115,15 @@ pub fn run(args: FemArgs) -> Result<(), Box<dyn std::error::Error>> {
                 .map(|(i, c)| serde_json::json!({"name": c.name, "tension": sol.cable_tension[i], "shortening": sol.cable_shortening[i], "slack": sol.cable_slack[i]}))
                 .collect();
             if json {
-                let v = serde_json::json!({
+                let mut v = serde_json::json!({
                     "units": "SI", "converged": sol.converged, "iterations": sol.iterations,
                     "residuals": sol.residuals, "effectors": effectors, "cables": cables,
-                    "node_displacements": sol.displacement, "warning": warning,
+                    "node_displacements": sol.displacement,
                 });
+                // Only outside small strain's validity, so valid results read as before.
+                if let Some(w) = &warning {
+                    v["warning"] = serde_json::json!(w);
+                }
                 outln!("{}", serde_json::to_string(&v)?)?;
             } else {
                 outln!(

@@ -130,23 +130,7 @@ pub fn run(args: &SenseArgs) -> CliResult {
     };
     params.features.count = args.features;
     let mut sensor = Sensor::new(model, robot_from_camera, params);
-    use softsense::recording::InputsFile;
-    let recorded = rec.recorded.as_ref().map(|r| r.kind);
-    let inputs = match (recorded, &rec.calibrated) {
-        (Some(InputsFile::Actuators), _) => "recorded (actuators.json)".to_string(),
-        (recorded, Some(cal)) => {
-            sensor
-                .use_calibrated_inputs(cal)
-                .map_err(|e| CliError::Result(format!("{}: {e}", pose_file.display())))?;
-            let calibrated = format!("calibrated ({})", super::shown_path(&pose_file).display());
-            match recorded {
-                Some(_) => format!("recorded (inputs.json), else {calibrated}"),
-                None => calibrated,
-            }
-        }
-        (Some(InputsFile::Inputs), None) => "recorded (inputs.json)".to_string(),
-        (None, None) => "the model file's".to_string(),
-    };
+    let inputs = use_recorded_inputs(&rec, &mut sensor, &pose_file)?;
     eprintln!(
         "{}: {} frames, model {}, pose from {}, cable inputs {inputs}, {} feature points",
         args.scene_dir.display(),
@@ -232,6 +216,32 @@ pub fn run(args: &SenseArgs) -> CliResult {
 }
 
 /// The model file: `--model`, else the one the recording names.
+/// Which cable inputs `sensor` senses with, in words: the recorded ones, else the
+/// calibration's (set on `sensor`), else the model file's.
+fn use_recorded_inputs(
+    rec: &Recording,
+    sensor: &mut Sensor,
+    pose_file: &std::path::Path,
+) -> Result<String, CliError> {
+    use softsense::recording::InputsFile;
+    let recorded = rec.recorded.as_ref().map(|r| r.kind);
+    Ok(match (recorded, &rec.calibrated) {
+        (Some(InputsFile::Actuators), _) => "recorded (actuators.json)".to_string(),
+        (recorded, Some(cal)) => {
+            sensor
+                .use_calibrated_inputs(cal)
+                .map_err(|e| CliError::Result(format!("{}: {e}", pose_file.display())))?;
+            let calibrated = format!("calibrated ({})", super::shown_path(pose_file).display());
+            match recorded {
+                Some(_) => format!("recorded (inputs.json), else {calibrated}"),
+                None => calibrated,
+            }
+        }
+        (Some(InputsFile::Inputs), None) => "recorded (inputs.json)".to_string(),
+        (None, None) => "the model file's".to_string(),
+    })
+}
+
 fn model_path(args: &SenseArgs, rec: &Recording) -> Result<PathBuf, CliError> {
     match (&args.model, rec.model_path()) {
         (Some(m), _) => Ok(m.clone()),

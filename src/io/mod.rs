@@ -78,6 +78,15 @@ pub enum IoError {
         #[source]
         source: limits::TooLarge,
     },
+    /// A cloud to write whose attribute columns do not match its point count.
+    #[error("{path}: not written: {source}")]
+    Inconsistent {
+        /// The file.
+        path: PathBuf,
+        /// What does not match.
+        #[source]
+        source: crate::cloud::CloudError,
+    },
     /// The file extension names no format we read or write.
     #[error("{path}: unknown cloud format (expected .pcd, .ply or .xyz)")]
     UnknownFormat {
@@ -143,6 +152,14 @@ pub fn write_cloud(
     encoding: Encoding,
 ) -> Result<(), IoError> {
     let path = path.as_ref();
+    // The encoders assume every attribute column has one value per point (a cloud whose
+    // width * height is off is written unorganized instead).
+    if let Err(source @ crate::cloud::CloudError::LengthMismatch { .. }) = cloud.validate() {
+        return Err(IoError::Inconsistent {
+            path: path.to_path_buf(),
+            source,
+        });
+    }
     let bytes = match CloudFormat::from_path(path) {
         Some(CloudFormat::Pcd) => pcd::to_pcd_bytes(cloud, encoding),
         Some(CloudFormat::Ply) => ply::to_ply_bytes(cloud, encoding),
