@@ -719,16 +719,20 @@ fn trailing_bytes_after_pcd_binary_data_and_height_zero_were_silently_accepted()
     use softsense::cloud::PointCloud;
     use softsense::io::{pcd, Encoding};
     let cloud = PointCloud::from_positions(vec![[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]]);
-    for enc in [Encoding::Binary, Encoding::BinaryCompressed] {
+    for (enc, tail) in [(Encoding::Binary, 0u8), (Encoding::BinaryCompressed, 7)] {
         let mut bytes = pcd::to_pcd_bytes(&cloud, enc);
         assert!(pcd::parse_pcd(&bytes).is_ok());
-        bytes.extend_from_slice(&[0; 12]);
+        bytes.extend_from_slice(&[tail; 12]);
         let err = pcd::parse_pcd(&bytes).unwrap_err();
         assert!(
             matches!(err, pcd::PcdError::TrailingBytes { extra: 12, .. }),
             "{enc:?}: {err:?}"
         );
     }
+    // PCL's grabber pads its compressed files with zeros and reads them.
+    let mut padded = pcd::to_pcd_bytes(&cloud, Encoding::BinaryCompressed);
+    padded.extend_from_slice(&[0; 3901]);
+    assert_eq!(pcd::parse_pcd(&padded).unwrap().len(), 2);
     let ascii = String::from_utf8(pcd::to_pcd_bytes(&cloud, Encoding::Ascii)).unwrap();
     let extra_row = format!("{ascii}7 8 9\n");
     let err = pcd::parse_pcd(extra_row.as_bytes()).unwrap_err();

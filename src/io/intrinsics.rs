@@ -78,7 +78,7 @@ impl PinholeIntrinsics {
                 return Err(bad(
                     field,
                     format!(
-                        "{f} pixels is implausible for a {w}x{h} image (expected {lo} to {hi})"
+                        "{f:.6e} pixels is implausible for a {w}x{h} image (expected {lo} to {hi})"
                     ),
                 ));
             }
@@ -89,7 +89,7 @@ impl PinholeIntrinsics {
                 return Err(bad(
                     field,
                     format!(
-                        "{c} lies far outside a {w}x{h} image (expected {} to {})",
+                        "{c:.6e} lies far outside a {w}x{h} image (expected {} to {})",
                         -s,
                         2.0 * s
                     ),

@@ -147,7 +147,8 @@ pub enum PcdError {
         width: u32,
     },
     /// Bytes follow the data the header declares (PCL ignores them; we refuse, as they
-    /// mean the header's counts do not describe the body).
+    /// mean the header's counts do not describe the body; zero padding after a
+    /// compressed block, which PCL's writer leaves, is accepted).
     #[error("{extra} bytes follow the {expected} bytes of data the header declares")]
     TrailingBytes {
         /// Bytes beyond the declared data.
@@ -376,7 +377,11 @@ fn decompress_body(body: &[u8], expected: u64, out: &mut Vec<u8>) -> Result<(), 
             available: stream.len() as u64,
         });
     }
-    if compressed < stream.len() as u64 {
+    // PCL's own grabber files pad the compressed block with zeros (3,901 bytes in its
+    // 2012 Kinect sequence) and PCL reads them, so zero padding is accepted; anything
+    // else after the block means the header does not describe the body.
+    let padding = &stream[(compressed as usize).min(stream.len())..];
+    if padding.iter().any(|&b| b != 0) {
         return Err(PcdError::TrailingBytes {
             extra: stream.len() as u64 - compressed,
             expected: compressed + 8,
