@@ -917,10 +917,15 @@ fn a_small_strain_solve_converged_to_a_displacement_of_hundreds_of_metres_silent
         + "\n[[loads]]\nat = [0.0, 0.0, 125.0]\nforce = [10000.0, 0.0, 0.0]\n";
     let path = dir.path().join("model.toml");
     std::fs::write(&path, text).unwrap();
-    let out = common::run_cli(&["fem", "solve", path.to_str().unwrap()]);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{err}");
-    assert!(err.contains("outside small strain's validity"), "{err}");
+    for command in ["solve", "compliance"] {
+        let out = common::run_cli(&["fem", command, path.to_str().unwrap()]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{command}: {err}");
+        assert!(
+            err.contains("outside small strain's validity"),
+            "{command}: {err}"
+        );
+    }
 }
 
 /// Writes a two-tetrahedron VTK mesh (plus `extra_nodes` nodes in no element) and a model

@@ -146,6 +146,11 @@ pub fn run(args: FemArgs) -> Result<(), Box<dyn std::error::Error>> {
             let rows = m.rows(&x);
             let mut solver = m.problem.solver().map_err(|e| e.in_file(&model))?;
             let c = (solver.compliance_at(&x, &rows)).map_err(|e| e.in_file(&model))?;
+            // Each row's free motion is a displacement along the row's direction.
+            let along: Vec<[f64; 3]> = c.delta_free.iter().map(|&d| [d, 0.0, 0.0]).collect();
+            if let Some(w) = m.validity_warning(&along) {
+                eprintln!("warning: {}: {w}", model.display());
+            }
             let w: Vec<Vec<f64>> = (0..c.w.nrows())
                 .map(|i| c.w.row(i).iter().copied().collect())
                 .collect();
