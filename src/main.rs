@@ -62,7 +62,13 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Info(args) => cli::info::run(&args),
         Command::Convert(args) => cli::convert::run(&args),
-        Command::Fem(args) => cli::fem::run(args).map_err(cli::CliError::Other),
+        // A usage error inside `fem` keeps its own exit code (2).
+        Command::Fem(args) => {
+            cli::fem::run(args).map_err(|e| match e.downcast::<cli::CliError>() {
+                Ok(e) => *e,
+                Err(e) => cli::CliError::Other(e),
+            })
+        }
         Command::Filter(args) => cli::filter::run(&args),
         Command::Scene(args) => cli::scene::run(args).map_err(cli::CliError::Other),
         Command::Segment(args) => cli::segment::run(&args),

@@ -1084,3 +1084,30 @@ fn writing_a_cloud_with_a_short_colour_column_panicked() {
         assert!(!path.exists());
     }
 }
+
+/// `fem solve --out` accepted the mesh its model names as the output and would have
+/// replaced it with the solution; an output over the model itself exited 1, not 2.
+#[test]
+fn fem_solve_could_write_its_vtu_over_the_mesh_its_model_names() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = common::project_root().join("meshes");
+    std::fs::create_dir(dir.path().join("models")).unwrap();
+    let model = dir.path().join("models/robot.toml");
+    std::fs::copy(root.join("models/robot.toml"), &model).unwrap();
+    let mesh = dir.path().join("robot.vtu");
+    std::fs::copy(root.join("robot.vtu"), &mesh).unwrap();
+    let before = std::fs::read(&mesh).unwrap();
+    for out in [&mesh, &model] {
+        let run = common::run_cli(&[
+            "fem",
+            "solve",
+            model.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let err = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(2), "{err}");
+        assert!(err.contains("is the input"), "{err}");
+    }
+    assert_eq!(std::fs::read(&mesh).unwrap(), before);
+}

@@ -55,8 +55,10 @@ pub fn run(args: FemArgs) -> Result<(), Box<dyn std::error::Error>> {
         } => {
             if let Some(out) = &out {
                 super::refuse_output_over_input(&model, out)?;
-                if let Some(mesh) = &mesh {
-                    super::refuse_output_over_input(mesh, out)?;
+                // The mesh the VTU would replace: --mesh, else the one the model names.
+                let mesh_file = mesh.clone().map_or_else(|| Model::mesh_file(&model), Ok);
+                if let Ok(mesh_file) = mesh_file {
+                    super::refuse_output_over_input(&mesh_file, out)?;
                 }
             }
             let m = Model::load(&model, mesh.as_deref())?;

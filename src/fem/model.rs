@@ -232,6 +232,15 @@ pub struct Model {
     pub units: Units,
 }
 
+/// The mesh path of `spec`, relative paths taken from the folder of the model file `path`.
+fn mesh_path_of(path: &Path, spec: &ModelSpec) -> FemResult<PathBuf> {
+    let p = PathBuf::from(expand_env(&spec.mesh.path).map_err(|e| e.in_file(path))?);
+    Ok(match p.is_relative() {
+        true => path.parent().unwrap_or(Path::new(".")).join(p),
+        false => p,
+    })
+}
+
 /// Expands `${VAR}` from the environment; an unset variable is an error.
 pub fn expand_env(s: &str) -> FemResult<String> {
     let mut out = String::new();
@@ -270,17 +279,22 @@ impl Model {
         })?;
         let mesh_path = match mesh_override {
             Some(p) => p.to_path_buf(),
-            None => {
-                let p = PathBuf::from(expand_env(&spec.mesh.path).map_err(|e| e.in_file(path))?);
-                if p.is_relative() {
-                    path.parent().unwrap_or(Path::new(".")).join(p)
-                } else {
-                    p
-                }
-            }
+            None => mesh_path_of(path, &spec)?,
         };
         let mesh = read_mesh(&mesh_path)?;
         Self::from_spec(&spec, mesh).map_err(|e| e.in_file(path))
+    }
+
+    /// The mesh file a model file names (resolved against the model's folder, `${VAR}`s
+    /// expanded), without loading either: to refuse an output that would overwrite it.
+    pub fn mesh_file(path: &Path) -> FemResult<PathBuf> {
+        let text = std::fs::read_to_string(path).map_err(|source| FemError::File {
+            path: path.display().to_string(),
+            source,
+        })?;
+        let spec: ModelSpec = toml::from_str(&text)
+            .map_err(|e| FemError::Model(format!("{}: {e}", path.display())))?;
+        mesh_path_of(path, &spec)
     }
 
     /// Builds a model from a spec and its (unplaced, file-unit) mesh.
