@@ -232,6 +232,15 @@ pub struct Model {
     pub units: Units,
 }
 
+/// Reads and parses a model file.
+fn read_spec(path: &Path) -> FemResult<ModelSpec> {
+    let text = std::fs::read_to_string(path).map_err(|source| FemError::File {
+        path: path.display().to_string(),
+        source,
+    })?;
+    toml::from_str(&text).map_err(|e| FemError::Model(format!("{}: {e}", path.display())))
+}
+
 /// The mesh path of `spec`, relative paths taken from the folder of the model file `path`.
 fn mesh_path_of(path: &Path, spec: &ModelSpec) -> FemResult<PathBuf> {
     let p = PathBuf::from(expand_env(&spec.mesh.path).map_err(|e| e.in_file(path))?);
@@ -266,12 +275,7 @@ pub fn expand_env(s: &str) -> FemResult<String> {
 impl Model {
     /// Loads a model file; `mesh_override` replaces the mesh path.
     pub fn load(path: &Path, mesh_override: Option<&Path>) -> FemResult<Self> {
-        let text = std::fs::read_to_string(path).map_err(|source| FemError::File {
-            path: path.display().to_string(),
-            source,
-        })?;
-        let spec: ModelSpec = toml::from_str(&text)
-            .map_err(|e| FemError::Model(format!("{}: {e}", path.display())))?;
+        let spec = read_spec(path)?;
         // Checked before the mesh is read, where the file can be named.
         newton_params(spec.newton.as_ref()).map_err(|e| match e {
             FemError::Model(m) => FemError::Model(format!("{}: {m}", path.display())),
@@ -288,12 +292,7 @@ impl Model {
     /// The mesh file a model file names (resolved against the model's folder, `${VAR}`s
     /// expanded), without loading either: to refuse an output that would overwrite it.
     pub fn mesh_file(path: &Path) -> FemResult<PathBuf> {
-        let text = std::fs::read_to_string(path).map_err(|source| FemError::File {
-            path: path.display().to_string(),
-            source,
-        })?;
-        let spec: ModelSpec = toml::from_str(&text)
-            .map_err(|e| FemError::Model(format!("{}: {e}", path.display())))?;
+        let spec = read_spec(path)?;
         mesh_path_of(path, &spec)
     }
 
