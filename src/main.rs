@@ -51,6 +51,7 @@ enum Command {
     Hidden(cli::explain::HiddenArgs),
     Sense(cli::sense::SenseArgs),
     Calibrate(cli::calibrate::CalibrateArgs),
+    Score(cli::score::ScoreArgs),
 }
 
 fn main() -> ExitCode {
@@ -62,15 +63,10 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Info(args) => cli::info::run(&args),
         Command::Convert(args) => cli::convert::run(&args),
-        // A usage error inside `fem` keeps its own exit code (2).
-        Command::Fem(args) => {
-            cli::fem::run(args).map_err(|e| match e.downcast::<cli::CliError>() {
-                Ok(e) => *e,
-                Err(e) => cli::CliError::Other(e),
-            })
-        }
+        // A usage error inside `fem` or `scene` keeps its own exit code (2).
+        Command::Fem(args) => cli::fem::run(args).map_err(usage_or_other),
         Command::Filter(args) => cli::filter::run(&args),
-        Command::Scene(args) => cli::scene::run(args).map_err(cli::CliError::Other),
+        Command::Scene(args) => cli::scene::run(args).map_err(usage_or_other),
         Command::Segment(args) => cli::segment::run(&args),
         Command::Cluster(args) => cli::cluster::run(&args),
         Command::Contacts(args) => cli::contacts::run(&args),
@@ -78,6 +74,7 @@ fn main() -> ExitCode {
         Command::Hidden(args) => cli::explain::run_hidden(&args),
         Command::Sense(args) => cli::sense::run(&args),
         Command::Calibrate(args) => cli::calibrate::run(&args),
+        Command::Score(args) => cli::score::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -85,5 +82,13 @@ fn main() -> ExitCode {
             eprintln!("softsense: error: {e}");
             ExitCode::from(e.exit_code())
         }
+    }
+}
+
+/// A boxed error as the CLI error it is, if it is one.
+fn usage_or_other(e: Box<dyn std::error::Error>) -> cli::CliError {
+    match e.downcast::<cli::CliError>() {
+        Ok(e) => *e,
+        Err(e) => cli::CliError::Other(e),
     }
 }

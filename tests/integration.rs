@@ -25,3 +25,5 @@ mod sense_probe;
 mod sense_tip_weight;
 #[path = "integration/sense_track.rs"]
 mod sense_track;
+#[path = "integration/sweep.rs"]
+mod sweep;

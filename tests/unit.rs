@@ -65,3 +65,6 @@ mod flann_order;
 
 #[path = "unit/recording.rs"]
 mod recording;
+
+#[path = "unit/score.rs"]
+mod score;

@@ -19,6 +19,7 @@ pub mod fem;
 pub mod filter;
 pub mod info;
 pub mod scene;
+pub mod score;
 pub mod segment;
 pub mod sense;
 

@@ -2,6 +2,7 @@
 
 use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
+use softsense::scene::sweep::{self, Sweep};
 use softsense::scene::{generate, Scene};
 use std::path::PathBuf;
 
@@ -22,7 +23,74 @@ enum SceneCommand {
         /// Output folder (created).
         out_dir: PathBuf,
     },
+    /// Draw COUNT random physical scenes from the ranges in SWEEP and render each into
+    /// OUT_DIR/scene_NNNN (for `sense` and `score`).
+    #[command(long_about = SWEEP_LONG)]
+    Sweep {
+        /// Sweep file (TOML): the ranges scenes are drawn from.
+        sweep: PathBuf,
+        /// Output folder (created; must be empty or new).
+        out_dir: PathBuf,
+        /// Number of scenes.
+        #[arg(long, value_parser = super::parse_positive)]
+        count: usize,
+        /// Seed of the draws (scene i depends only on the file, the seed and i).
+        #[arg(long)]
+        seed: u64,
+    },
 }
+
+/// `scene sweep --help`.
+const SWEEP_LONG: &str = "\
+Draw COUNT random scenes from the ranges in SWEEP and render each (one loaded frame) into
+OUT_DIR/scene_NNNN, with its scene file OUT_DIR/scene_NNNN.toml, the sweep file with every
+default filled in (OUT_DIR/sweep.toml) and what was drawn per scene (OUT_DIR/draws.json).
+
+Each scene: a camera on a sphere around the robot (distance, azimuth, elevation, stream);
+1-4 probes on surface nodes the camera sees at rest, at least min_separation apart, each
+pushing within a cone about the inward normal; optionally a sphere halfway to the camera
+hiding a drawn share of the robot's pixels (never a probe). A draw whose solved scene
+pushes the surface or a probe through the table, nearly inverts an element
+(validity.min_volume_ratio), overlaps two probes or does not converge is redrawn; the
+reasons are in draws.json. Scene i depends only on the sweep file, the seed and i.
+
+The sweep file (TOML; metres, degrees, newtons, robot frame). Only `model` is required;
+the other keys show their defaults:
+
+  model = \"../meshes/models/robot.toml\"  # FE model, relative to this file
+  table_half = 0.3         # table under the robot's lowest point (0: none)
+  # young = 180000.0       # optional Young's modulus override (Pa)
+
+  [camera]
+  distance = [0.4, 0.6]          # from the target (m)
+  azimuth_deg = [-180.0, 180.0]  # about +z; 0 = the bundled scenes' side (-y)
+  elevation_deg = [20.0, 45.0]   # looking down
+  streams = [\"640x480\"]        # and/or \"1280x720\" (D415-like intrinsics)
+  # target = [0.0, 0.0, 0.06]    # default: centre of the robot's bounding box
+
+  [probes]
+  count = [1, 1]           # probes per scene, inclusive
+  force = [0.25, 0.9]      # magnitude (N)
+  cone_deg = 15.0          # angle to the inward normal, uniform over the cone
+  radius = [0.006, 0.010]  # probe sphere (m)
+  min_separation = 0.04    # between probes (m)
+  min_facing = 0.3         # cosine between normal and direction to the camera
+  min_height = 0.015       # above the table (m)
+
+  [occluder]
+  fraction = [0.0, 0.0]    # share of robot pixels hidden (e.g. [0.3, 0.3])
+
+  [sensor]                 # as in `scene generate --help`, for the 640x480 stream;
+                           # 1280x720 gets the same disparity noise (depth_k * 615/fx)
+
+  [validity]
+  min_volume_ratio = 0.1   # least deformed/rest element volume
+  max_attempts = 200       # draws per scene before giving up
+
+Examples:
+  softsense scene sweep tools/sweeps/robot_one_probe.toml /tmp/sw --count 100 --seed 7
+  for d in /tmp/sw/scene_*/; do softsense sense \"$d\" --json > \"$d/sense.json\"; done
+  softsense score /tmp/sw";
 
 /// `scene generate --help`: what it writes and the scene file, every key with its default.
 const GENERATE_LONG: &str = "\
@@ -115,5 +183,44 @@ pub fn run(args: SceneArgs) -> Result<(), Box<dyn std::error::Error>> {
             );
             Ok(())
         }
+        SceneCommand::Sweep {
+            sweep,
+            out_dir,
+            count,
+            seed,
+        } => run_sweep(&sweep, &out_dir, count, seed),
     }
+}
+
+fn run_sweep(
+    path: &std::path::Path,
+    out: &std::path::Path,
+    count: usize,
+    seed: u64,
+) -> Result<(), Box<dyn std::error::Error>> {
+    if std::fs::read_dir(out).is_ok_and(|mut d| d.next().is_some()) {
+        return Err(super::CliError::Usage(format!(
+            "{} is not empty: a sweep writes into a new or empty folder",
+            out.display()
+        ))
+        .into());
+    }
+    let sweep = Sweep::load(path)?;
+    let bar = ProgressBar::new(count as u64);
+    bar.set_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len} scenes {elapsed} (eta {eta})")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let records = sweep::run(&sweep, out, count, seed, |done, _| {
+        bar.set_position(done as u64)
+    })
+    .map_err(|e| format!("{}: {e}", path.display()))?;
+    bar.finish_and_clear();
+    let redrawn = records.iter().filter(|r| r.attempts > 1).count();
+    eprintln!(
+        "wrote {} scenes to {} ({redrawn} redrawn at least once; reasons in draws.json)",
+        records.len(),
+        out.display()
+    );
+    Ok(())
 }

@@ -415,6 +415,8 @@ fn render_frames(
             young: None,
             seed: spec.seed,
             table_half: 0.3,
+            table_z: None,
+            occluders: Vec::new(),
             colors: Default::default(),
             camera: w.camera.clone(),
             sensor: fine_sensor.clone(),

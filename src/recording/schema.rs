@@ -120,6 +120,13 @@ pub struct FrameTruth {
     pub newton_iterations: usize,
     /// Pixels that hit the robot / probe / table (before holes).
     pub pixels: [usize; 3],
+    /// Pixels where an occluder hides the robot (not counted in `pixels`).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub occluded: usize,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 /// Everything a scene folder's `truth.json` holds.

@@ -14,6 +14,7 @@
 //! ```
 
 pub mod camera;
+pub mod sweep;
 pub use crate::geometry::raycast;
 pub mod sensor;
 pub use crate::recording::schema::{
@@ -82,6 +83,8 @@ pub struct Colors {
     pub probe: [u8; 3],
     /// The table.
     pub table: [u8; 3],
+    /// Occluders.
+    pub occluder: [u8; 3],
 }
 
 impl Default for Colors {
@@ -90,6 +93,7 @@ impl Default for Colors {
             robot: [40, 200, 60],
             probe: [220, 40, 40],
             table: [150, 150, 160],
+            occluder: [90, 90, 95],
         }
     }
 }
@@ -109,6 +113,13 @@ pub struct SceneSpec {
     /// Half side of the square table at z = 0 (m); 0 for none.
     #[serde(default = "default_table")]
     pub table_half: f64,
+    /// Height of the table's top (m); default: the model's lowest point at rest, where the
+    /// robot's base stands (and where `sense` expects the table).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub table_z: Option<f64>,
+    /// Spheres between the camera and the robot that hide part of it (not touching it).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub occluders: Vec<Occluder>,
     /// Colours.
     #[serde(default)]
     pub colors: Colors,
@@ -124,6 +135,16 @@ pub struct SceneSpec {
 
 fn default_table() -> f64 {
     0.3
+}
+
+/// A sphere that hides part of the scene from the camera (an arm, a cable, a tool).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Occluder {
+    /// Centre in the robot frame (m).
+    pub center: [f64; 3],
+    /// Radius (m).
+    pub radius: f64,
 }
 
 /// A scene file with its resolved model path.
@@ -302,20 +323,32 @@ fn load_truths(
         .collect()
 }
 
-/// Per pixel, row-major: the nearest hit's depth, cosine of incidence and object (0
-/// robot, 1 probe, 2 table; `(0, 1, 3)` for none).
+/// The scene's table height (m): `table_z`, else the lowest rest node's z.
+pub fn table_height(spec: &SceneSpec, rest: &[[f64; 3]]) -> f64 {
+    spec.table_z
+        .unwrap_or_else(|| rest.iter().map(|p| p[2]).fold(f64::INFINITY, f64::min))
+}
+
+/// One pixel's ray: the nearest hit's depth, cosine of incidence and object (0 robot, 1
+/// probe, 2 table, 3 occluder; `(0, 1, NONE)` for none), and whether an occluder hides
+/// the robot there.
+type PixelHit = (f64, f64, usize, bool);
+const NONE: usize = 4;
+
+/// Per pixel, row-major: [`PixelHit`].
 fn cast_pixels(
     spec: &SceneSpec,
     camera: &Camera,
     bvh: &Bvh,
     probes: &[([f64; 3], f64)],
-) -> Vec<(f64, f64, usize)> {
+    table_z: f64,
+) -> Vec<PixelHit> {
     let (w, h) = (
         camera.intrinsics.width as usize,
         camera.intrinsics.height as usize,
     );
     let o = camera.eye();
-    let cast = |i: usize| -> (f64, f64, usize) {
+    let cast = |i: usize| -> PixelHit {
         let (u, v) = ((i % w) as f64, (i / w) as f64);
         let d = camera.ray(u, v);
         let dn = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
@@ -327,23 +360,29 @@ fn cast_pixels(
                 }
             }
         };
-        consider(bvh.cast(o, d), 0);
+        let robot = bvh.cast(o, d);
+        let robot_t = robot.as_ref().map(|h| h.t);
+        consider(robot, 0);
         for &(c, r) in probes {
             consider(raycast::ray_sphere(o, d, c, r), 1);
         }
         if spec.table_half > 0.0 {
-            consider(
-                raycast::ray_plane(o, d, [0.0, 0.0, 1.0], 0.0, spec.table_half),
-                2,
-            );
+            let plane = raycast::ray_plane(o, d, [0.0, 0.0, 1.0], table_z, spec.table_half);
+            consider(plane, 2);
+        }
+        let mut hidden = false;
+        for oc in &spec.occluders {
+            let hit = raycast::ray_sphere(o, d, oc.center, oc.radius);
+            hidden |= matches!((&hit, robot_t), (Some(h), Some(t)) if h.t < t);
+            consider(hit, 3);
         }
         match best {
             Some((hit, obj)) => {
                 let c =
                     (hit.normal[0] * d[0] + hit.normal[1] * d[1] + hit.normal[2] * d[2]).abs() / dn;
-                (hit.t, c, obj)
+                (hit.t, c, obj, hidden)
             }
-            None => (0.0, 1.0, 3),
+            None => (0.0, 1.0, NONE, hidden),
         }
     };
     #[cfg(feature = "parallel")]
@@ -393,16 +432,22 @@ pub fn render_frame(scene: &Scene, model: &Model, index: usize) -> SceneResult<R
         .iter()
         .filter_map(|l| l.probe_center.map(|c| (c, l.radius)))
         .collect();
-    let hits = cast_pixels(spec, &camera, &bvh, &probes);
+    let table_z = table_height(spec, rest);
+    let hits = cast_pixels(spec, &camera, &bvh, &probes, table_z);
     let z: Vec<f64> = hits.iter().map(|h| h.0).collect();
     let cosi: Vec<f64> = hits.iter().map(|h| h.1).collect();
     let depth = spec.sensor.depth(&z, &cosi, w, spec.seed, index as u64);
-    let cols = [spec.colors.robot, spec.colors.probe, spec.colors.table];
+    let cols = [
+        spec.colors.robot,
+        spec.colors.probe,
+        spec.colors.table,
+        spec.colors.occluder,
+    ];
     let color = hits
         .iter()
         .enumerate()
-        .map(|(i, &(_, c, obj))| {
-            let base = if obj < 3 { cols[obj] } else { [0, 0, 0] };
+        .map(|(i, &(_, c, obj, _))| {
+            let base = if obj < NONE { cols[obj] } else { [0, 0, 0] };
             let shade = 0.4 + 0.6 * c;
             spec.sensor.color(
                 base.map(|b| b as f64 * shade),
@@ -418,6 +463,7 @@ pub fn render_frame(scene: &Scene, model: &Model, index: usize) -> SceneResult<R
             pixels[hh.2] += 1;
         }
     }
+    let occluded = hits.iter().filter(|h| h.3).count();
     Ok(Rendered {
         depth,
         color,
@@ -427,6 +473,7 @@ pub fn render_frame(scene: &Scene, model: &Model, index: usize) -> SceneResult<R
             actuators,
             newton_iterations: sol.iterations,
             pixels,
+            occluded,
         },
         positions: sol.positions,
     })
@@ -495,10 +542,27 @@ pub fn relative_to(target: &Path, base: &Path) -> Option<PathBuf> {
 pub fn generate(
     scene: &Scene,
     out: &Path,
+    progress: impl FnMut(usize, usize),
+) -> SceneResult<Truth> {
+    let model = scene.model()?;
+    write_recording(
+        scene,
+        &model,
+        out,
+        |i| render_frame(scene, &model, i),
+        progress,
+    )
+}
+
+/// [`generate`] with the frames made by `render` (frame index → rendered frame).
+pub(crate) fn write_recording(
+    scene: &Scene,
+    model: &Model,
+    out: &Path,
+    mut render: impl FnMut(usize) -> SceneResult<Rendered>,
     mut progress: impl FnMut(usize, usize),
 ) -> SceneResult<Truth> {
     let writer = RecordingWriter::create(out)?;
-    let model = scene.model()?;
     let spec = &scene.spec;
     let camera = spec
         .camera
@@ -516,11 +580,11 @@ pub fn generate(
     // should not cost the minutes of the ones before it.
     let surface = model.problem.mesh.surface();
     for i in 0..total {
-        frame_problem(&model, &surface, spec, i)?;
+        frame_problem(model, &surface, spec, i)?;
     }
     let mut frames = Vec::new();
     for i in 0..total {
-        let r = render_frame(scene, &model, i)?;
+        let r = render(i)?;
         writer.write_frame(i, [w, h], r.depth, &r.color)?;
         frames.push(r.truth);
         progress(i + 1, total);

@@ -37,6 +37,7 @@ mod locate;
 mod observe;
 mod params;
 mod report;
+pub mod score;
 mod stream;
 mod track;
 

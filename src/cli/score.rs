@@ -1,0 +1,222 @@
+//! `softsense score`: sense results against the truth, over many recordings.
+
+use super::{CliError, CliResult};
+use clap::Args;
+use softsense::sense::score::{score, Score, SensedFrame, Summary, LOCATED, WITHIN};
+use std::path::{Path, PathBuf};
+
+/// Score `sense --json` results against each recording's truth.json: located and within-5%
+/// rates, silent misses, sigma coverage, time per frame.
+#[derive(Args, Debug)]
+#[command(long_about = LONG)]
+pub struct ScoreArgs {
+    /// Recording folders (each with truth.json and the sense output), or sweep folders
+    /// (their scene_* recordings are scored).
+    #[arg(required = true)]
+    recordings: Vec<PathBuf>,
+    /// Name of the sense output inside each recording (`sense DIR --json > DIR/NAME`).
+    #[arg(long, value_name = "NAME", default_value = "sense.json")]
+    sense_file: String,
+    /// Print the score as one JSON object (every load and phantom listed) on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+const LONG: &str = "\
+Score `softsense sense --json` results against each recording's truth.json (made by
+`scene generate` or `scene sweep`), over any number of recordings.
+
+Each RECORDING is a recording folder holding truth.json and the sense output (sense.json
+by default: `softsense sense DIR --json > DIR/sense.json`), or a sweep folder, whose
+scene_* recordings are all scored.
+
+Rules:
+  located       the estimate `sense` matched to a true load is within 5 mm of it
+  within 5%     located, and |F_est - F_true| <= 5% of |F_true| (3-D force)
+  flagged       the frame was not sensed, is marked unreliable, or has a warning
+  silent miss   a load of an unflagged frame that is not located or whose 3-D error
+                exceeds max(5%, 2 sigma along the error); or an estimate of an unflagged
+                frame matched to no true load (a phantom)
+  sigma         over located loads: the magnitude error within 1/2/3 sigma (Gaussian:
+                68.3/95.4/99.7%), and the squared Mahalanobis distance e' C^-1 e of the
+                3-D error (Gaussian: median 2.37, 95% below 7.81)
+
+Every silent miss is listed with its recording and frame. Exit code 1 when a recording
+has no truth.json or its sense output lacks frames the truth has.
+
+Examples:
+  softsense scene sweep tools/sweeps/robot_one_probe.toml /tmp/sw --count 100 --seed 7
+  for d in /tmp/sw/scene_*/; do softsense sense \"$d\" --json > \"$d/sense.json\"; done
+  softsense score /tmp/sw
+  softsense score /tmp/sw --json | jq '.all'";
+
+/// The recordings named on the command line, sweep folders expanded.
+fn expand(paths: &[PathBuf]) -> Result<Vec<PathBuf>, CliError> {
+    let mut out = Vec::new();
+    for p in paths {
+        if p.join("truth.json").is_file() {
+            out.push(p.clone());
+            continue;
+        }
+        let mut scenes: Vec<PathBuf> = std::fs::read_dir(p)
+            .map_err(|e| CliError::Result(format!("{}: {e}", p.display())))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|d| {
+                d.is_dir()
+                    && d.file_name()
+                        .is_some_and(|n| n.to_string_lossy().starts_with("scene_"))
+            })
+            .collect();
+        if scenes.is_empty() {
+            return Err(CliError::Result(format!(
+                "{}: neither a recording with truth.json nor a sweep folder with scene_* recordings",
+                p.display()
+            )));
+        }
+        scenes.sort();
+        out.extend(scenes);
+    }
+    Ok(out)
+}
+
+/// Reads one recording's sense lines and checks them against its truth's frame count.
+fn read_recording(dir: &Path, sense_file: &str) -> Result<Vec<SensedFrame>, CliError> {
+    let truth_path = dir.join("truth.json");
+    let truth: serde_json::Value = std::fs::read_to_string(&truth_path)
+        .map_err(|e| e.to_string())
+        .and_then(|t| serde_json::from_str(&t).map_err(|e| e.to_string()))
+        .map_err(|e| CliError::Result(format!("{}: {e}", truth_path.display())))?;
+    let frames = truth["frames"].as_array().map_or(0, |f| f.len());
+    let path = dir.join(sense_file);
+    let text = std::fs::read_to_string(&path).map_err(|e| {
+        CliError::Result(format!(
+            "{}: {e} (make it with `softsense sense {} --json > {}`)",
+            path.display(),
+            dir.display(),
+            path.display()
+        ))
+    })?;
+    let mut lines = Vec::new();
+    for (k, line) in text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty())
+    {
+        let f: SensedFrame = serde_json::from_str(line)
+            .map_err(|e| CliError::Result(format!("{} line {}: {e}", path.display(), k + 1)))?;
+        if f.errors.is_none() {
+            return Err(CliError::Result(format!(
+                "{} line {}: frame {} has no errors against the truth (was it sensed without truth.json?)",
+                path.display(),
+                k + 1,
+                f.frame
+            )));
+        }
+        lines.push(f);
+    }
+    if lines.len() < frames {
+        return Err(CliError::Result(format!(
+            "{}: {} frames, but truth.json has {frames}: sense every frame (was it interrupted?)",
+            path.display(),
+            lines.len()
+        )));
+    }
+    Ok(lines)
+}
+
+/// Runs the subcommand.
+pub fn run(args: &ScoreArgs) -> CliResult {
+    let dirs = expand(&args.recordings)?;
+    let mut recordings = Vec::new();
+    for d in &dirs {
+        recordings.push((
+            d.display().to_string(),
+            read_recording(d, &args.sense_file)?,
+        ));
+    }
+    let s = score(&recordings);
+    if args.json {
+        let v = serde_json::to_value(&s).map_err(|e| CliError::Result(e.to_string()))?;
+        return super::print_json(&v);
+    }
+    print_text(&s, dirs.len())
+}
+
+fn pct(n: usize, of: usize) -> String {
+    if of == 0 {
+        "-".into()
+    } else {
+        format!("{n}/{of} ({:.1}%)", 100.0 * n as f64 / of as f64)
+    }
+}
+
+/// A share as a percentage, "-" when there was nothing to share.
+fn pc(share: f64) -> String {
+    if share.is_nan() {
+        "-".into()
+    } else {
+        format!("{:.1}%", 100.0 * share)
+    }
+}
+
+fn summary_lines(s: &Summary) -> Vec<String> {
+    let cover = s.sigma_coverage.map(pc);
+    vec![
+        format!("frames                       {} ({} sensed, {} flagged)", s.frames, s.sensed, s.flagged_frames),
+        format!("located within {:.0} mm         {}", LOCATED * 1e3, pct(s.located, s.loads)),
+        format!("3-D force within {:.0}%         {}", WITHIN * 100.0, pct(s.within, s.loads)),
+        format!("frames: all loads located    {}", pct(s.frames_all_located, s.frames)),
+        format!("frames: all loads within 5%  {}", pct(s.frames_all_within, s.frames)),
+        format!("silent misses                {} (phantom estimates: {})", s.silent, s.phantoms),
+        format!(
+            "magnitude within 1/2/3 sigma {} / {} / {} (Gaussian 68.3 / 95.4 / 99.7)",
+            cover[0], cover[1], cover[2]
+        ),
+        format!(
+            "squared Mahalanobis, 3-D     median {:.2} (Gaussian 2.37); {} inside the 95% ellipsoid",
+            s.median_mahalanobis2,
+            pc(s.within_ellipsoid95)
+        ),
+        format!("time per frame               median {:.0} ms", s.median_ms),
+    ]
+}
+
+fn print_text(s: &Score, recordings: usize) -> CliResult {
+    outln!("{recordings} recordings, {} loads", s.all.loads)?;
+    for l in summary_lines(&s.all) {
+        outln!("  {l}")?;
+    }
+    if s.by_loads.len() > 1 {
+        for (k, g) in &s.by_loads {
+            outln!("frames with {k} load(s):")?;
+            for l in summary_lines(g) {
+                outln!("  {l}")?;
+            }
+        }
+    }
+    let silent: Vec<_> = s.loads.iter().filter(|l| l.silent).collect();
+    if !silent.is_empty() {
+        outln!("silent misses:")?;
+        for l in silent {
+            let loc = l
+                .location_error
+                .map_or("no estimate".into(), |d| format!("{:.1} mm", d * 1e3));
+            outln!(
+                "  {} frame {}: {:.3} N load, location {loc}, force {:.1}% off",
+                l.recording,
+                l.frame,
+                l.magnitude,
+                100.0 * l.force_error
+            )?;
+        }
+    }
+    for p in s.phantoms.iter().filter(|p| !p.flagged) {
+        outln!(
+            "  {} frame {}: phantom estimate of {:.3} N (no true load near it)",
+            p.recording,
+            p.frame,
+            p.magnitude
+        )?;
+    }
+    Ok(())
+}

@@ -1,0 +1,321 @@
+//! Scoring `sense --json` output against `truth.json` (`softsense score`): how often loads
+//! are located and within 5%, whether the sigma cover the errors, and which misses were
+//! reported reliable with no warning (silent misses).
+//!
+//! Rules, stated once here and in `softsense score --help`:
+//! - a true load is matched to the estimate `sense` matched it to (nearest location);
+//!   it is *located* when that estimate lies within [`LOCATED`] of it;
+//! - *within 5%*: located and |F_est − F_true| ≤ 5% of |F_true|;
+//! - a frame is *flagged* when it was not sensed, is marked unreliable, or carries a
+//!   warning;
+//! - a *silent miss* is a load of an unflagged frame that is not located, or whose 3-D
+//!   error exceeds max(5%, 2σ_e) with σ_e the one-sigma of the estimate's covariance
+//!   along the error; and an estimate of an unflagged frame matched to no true load
+//!   (a phantom);
+//! - sigma coverage: the magnitude error against `sigma` (1, 2, 3 σ) and the squared
+//!   Mahalanobis distance eᵀ C⁻¹ e of the 3-D error, over located loads.
+
+use serde::{Deserialize, Serialize};
+
+/// Largest distance between an estimate and its true load for "located" (m).
+pub const LOCATED: f64 = 0.005;
+/// Largest relative 3-D force error for "within 5%".
+pub const WITHIN: f64 = 0.05;
+
+/// The part of one `sense --json` line the score reads.
+#[derive(Clone, Debug, Deserialize)]
+pub struct SensedFrame {
+    /// Frame number.
+    pub frame: usize,
+    /// `sensed` or why not.
+    pub status: String,
+    /// Estimated forces.
+    #[serde(default)]
+    pub forces: Vec<SensedForce>,
+    /// Whether the frame was marked reliable.
+    #[serde(default)]
+    pub reliable: bool,
+    /// Warnings.
+    #[serde(default)]
+    pub warnings: Vec<String>,
+    /// Errors against the truth, as `sense` matched them.
+    #[serde(default)]
+    pub errors: Option<Vec<SensedError>>,
+    /// Time of the frame (ms).
+    #[serde(default)]
+    pub ms: f64,
+}
+
+/// One estimated force as `sense --json` prints it.
+#[derive(Clone, Debug, Deserialize)]
+pub struct SensedForce {
+    /// Force (N).
+    pub force: [f64; 3],
+    /// Magnitude sigma (N).
+    pub sigma: f64,
+    /// Covariance (N²).
+    pub covariance: [[f64; 3]; 3],
+}
+
+/// One true load's error as `sense --json` prints it.
+#[derive(Clone, Debug, Deserialize)]
+pub struct SensedError {
+    /// True force (N).
+    pub truth_force: [f64; 3],
+    /// Matched estimate.
+    pub estimate: Option<usize>,
+    /// Location error (m); null when unmatched.
+    pub location_error: Option<f64>,
+    /// Relative 3-D force error.
+    pub force_error: f64,
+}
+
+/// One true load, scored.
+#[derive(Clone, Debug, Serialize)]
+pub struct LoadScore {
+    /// Recording folder.
+    pub recording: String,
+    /// Frame.
+    pub frame: usize,
+    /// Loads in the frame.
+    pub loads_in_frame: usize,
+    /// True magnitude (N).
+    pub magnitude: f64,
+    /// Location error (m); `None` when no estimate.
+    pub location_error: Option<f64>,
+    /// Relative 3-D force error.
+    pub force_error: f64,
+    /// Magnitude error over its sigma.
+    pub magnitude_z: Option<f64>,
+    /// Squared Mahalanobis distance of the 3-D error.
+    pub mahalanobis2: Option<f64>,
+    /// The frame was flagged (not sensed, unreliable or warned).
+    pub flagged: bool,
+    /// Located within [`LOCATED`].
+    pub located: bool,
+    /// Located and within [`WITHIN`].
+    pub within: bool,
+    /// A silent miss (see the module rules).
+    pub silent: bool,
+}
+
+/// A phantom: an estimate matched to no true load.
+#[derive(Clone, Debug, Serialize)]
+pub struct Phantom {
+    /// Recording folder.
+    pub recording: String,
+    /// Frame.
+    pub frame: usize,
+    /// Its magnitude (N).
+    pub magnitude: f64,
+    /// The frame was flagged.
+    pub flagged: bool,
+}
+
+/// Counts for a group of loads (all, or the frames with k loads).
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct Summary {
+    /// Frames.
+    pub frames: usize,
+    /// Frames sensed.
+    pub sensed: usize,
+    /// Frames flagged.
+    pub flagged_frames: usize,
+    /// True loads.
+    pub loads: usize,
+    /// Located loads.
+    pub located: usize,
+    /// Loads within 5%.
+    pub within: usize,
+    /// Frames whose every load is located.
+    pub frames_all_located: usize,
+    /// Frames whose every load is within 5%.
+    pub frames_all_within: usize,
+    /// Silent misses (loads and phantoms).
+    pub silent: usize,
+    /// Phantom estimates.
+    pub phantoms: usize,
+    /// Share of located loads with a magnitude error within 1, 2, 3 sigma.
+    pub sigma_coverage: [f64; 3],
+    /// Median squared Mahalanobis distance (Gaussian, 3-D: 2.366).
+    pub median_mahalanobis2: f64,
+    /// Share of located loads inside the Gaussian 95% ellipsoid (χ²₃ ≤ 7.815).
+    pub within_ellipsoid95: f64,
+    /// Median time per frame (ms).
+    pub median_ms: f64,
+}
+
+/// Everything `score` prints.
+#[derive(Clone, Debug, Serialize)]
+pub struct Score {
+    /// All loads.
+    pub all: Summary,
+    /// Per number of loads in the frame (1, 2, ...).
+    pub by_loads: Vec<(usize, Summary)>,
+    /// Every scored load.
+    pub loads: Vec<LoadScore>,
+    /// Every phantom.
+    pub phantoms: Vec<Phantom>,
+}
+
+fn inverse3(m: &[[f64; 3]; 3]) -> Option<nalgebra::Matrix3<f64>> {
+    nalgebra::Matrix3::from_fn(|i, j| m[i][j]).try_inverse()
+}
+
+/// Scores one frame: its loads and its phantoms. `frame_ms` is kept per load.
+pub fn score_frame(recording: &str, f: &SensedFrame) -> (Vec<LoadScore>, Vec<Phantom>) {
+    let flagged = f.status != "sensed" || !f.reliable || !f.warnings.is_empty();
+    let errors = f.errors.as_deref().unwrap_or(&[]);
+    let mut matched = vec![false; f.forces.len()];
+    let loads = errors
+        .iter()
+        .map(|e| {
+            let magnitude = e.truth_force.iter().map(|c| c * c).sum::<f64>().sqrt();
+            let est = e.estimate.and_then(|i| f.forces.get(i).map(|g| (i, g)));
+            let location_error = est.and(e.location_error);
+            let located = location_error.is_some_and(|d| d <= LOCATED);
+            let mut s = LoadScore {
+                recording: recording.to_string(),
+                frame: f.frame,
+                loads_in_frame: errors.len(),
+                magnitude,
+                location_error,
+                force_error: e.force_error,
+                magnitude_z: None,
+                mahalanobis2: None,
+                flagged,
+                located,
+                within: located && e.force_error <= WITHIN,
+                silent: false,
+            };
+            let mut quiet_bad = !located;
+            if let Some((i, g)) = est {
+                matched[i] = located;
+                let d = [0, 1, 2].map(|k| g.force[k] - e.truth_force[k]);
+                let gm = g.force.iter().map(|c| c * c).sum::<f64>().sqrt();
+                s.magnitude_z = (g.sigma > 0.0).then(|| (gm - magnitude).abs() / g.sigma);
+                let c = nalgebra::Matrix3::from_fn(|i, j| g.covariance[i][j]);
+                let dv = nalgebra::Vector3::from(d);
+                s.mahalanobis2 = inverse3(&g.covariance).map(|ci| (dv.transpose() * ci * dv)[0]);
+                let en = dv.norm();
+                let sigma_e = if en > 0.0 {
+                    (dv.transpose() * c * dv)[0].max(0.0).sqrt() / en
+                } else {
+                    0.0
+                };
+                let limit = (WITHIN * magnitude).max(2.0 * sigma_e);
+                quiet_bad |= en > limit;
+            }
+            s.silent = !flagged && quiet_bad;
+            s
+        })
+        .collect();
+    let phantoms = f
+        .forces
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| !matched[*i] && !errors.iter().any(|e| e.estimate == Some(*i)))
+        .map(|(_, g)| Phantom {
+            recording: recording.to_string(),
+            frame: f.frame,
+            magnitude: g.force.iter().map(|c| c * c).sum::<f64>().sqrt(),
+            flagged,
+        })
+        .collect();
+    (loads, phantoms)
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// Summarises loads and phantoms of `frames` (each with its frame time).
+fn summarise(frames: &[(&SensedFrame, Vec<LoadScore>, Vec<Phantom>)]) -> Summary {
+    let loads: Vec<&LoadScore> = frames.iter().flat_map(|f| &f.1).collect();
+    let located: Vec<&&LoadScore> = loads.iter().filter(|l| l.located).collect();
+    let share = |n: usize, of: usize| {
+        if of == 0 {
+            f64::NAN
+        } else {
+            n as f64 / of as f64
+        }
+    };
+    let cover = [1.0, 2.0, 3.0].map(|k| {
+        share(
+            located
+                .iter()
+                .filter(|l| l.magnitude_z.is_some_and(|z| z <= k))
+                .count(),
+            located.len(),
+        )
+    });
+    let m2: Vec<f64> = located.iter().filter_map(|l| l.mahalanobis2).collect();
+    let phantoms = frames.iter().map(|f| f.2.len()).sum::<usize>();
+    let silent_phantoms = frames
+        .iter()
+        .flat_map(|f| &f.2)
+        .filter(|p| !p.flagged)
+        .count();
+    Summary {
+        frames: frames.len(),
+        sensed: frames.iter().filter(|f| f.0.status == "sensed").count(),
+        flagged_frames: frames
+            .iter()
+            .filter(|f| f.0.status != "sensed" || !f.0.reliable || !f.0.warnings.is_empty())
+            .count(),
+        loads: loads.len(),
+        located: located.len(),
+        within: loads.iter().filter(|l| l.within).count(),
+        frames_all_located: frames
+            .iter()
+            .filter(|f| f.1.iter().all(|l| l.located))
+            .count(),
+        frames_all_within: frames
+            .iter()
+            .filter(|f| f.1.iter().all(|l| l.within))
+            .count(),
+        silent: loads.iter().filter(|l| l.silent).count() + silent_phantoms,
+        phantoms,
+        sigma_coverage: cover,
+        median_mahalanobis2: median(m2.clone()),
+        within_ellipsoid95: share(m2.iter().filter(|&&d| d <= 7.815).count(), m2.len()),
+        median_ms: median(frames.iter().map(|f| f.0.ms).collect()),
+    }
+}
+
+/// Scores every frame of every recording: `(recording name, its sense lines)`. Frames
+/// without truth (`errors` absent) are left out.
+pub fn score(recordings: &[(String, Vec<SensedFrame>)]) -> Score {
+    let mut frames = Vec::new();
+    for (name, lines) in recordings {
+        for f in lines.iter().filter(|f| f.errors.is_some()) {
+            let (l, p) = score_frame(name, f);
+            frames.push((f, l, p));
+        }
+    }
+    let mut counts: Vec<usize> = frames.iter().map(|f| f.1.len()).collect();
+    counts.sort_unstable();
+    counts.dedup();
+    let by_loads = counts
+        .into_iter()
+        .map(|k| {
+            let group: Vec<_> = frames.iter().filter(|f| f.1.len() == k).cloned().collect();
+            (k, summarise(&group))
+        })
+        .collect();
+    Score {
+        all: summarise(&frames),
+        by_loads,
+        loads: frames.iter().flat_map(|f| f.1.clone()).collect(),
+        phantoms: frames.iter().flat_map(|f| f.2.clone()).collect(),
+    }
+}

@@ -1,0 +1,208 @@
+//! `scene sweep` and `score`: drawn scenes keep to their ranges and are physical, the
+//! occluder hides what was asked, and a sweep sensed and scored end to end counts right.
+
+use crate::common::run_cli;
+use softsense::register::vertex_normals;
+use softsense::scene::sweep::{draw, Prepared, Sweep};
+use std::path::{Path, PathBuf};
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn norm(a: [f64; 3]) -> f64 {
+    dot(a, a).sqrt()
+}
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A sweep file in a temporary folder, the robot model referred to absolutely.
+fn sweep_file(dir: &Path, body: &str) -> Sweep {
+    let model = root().join("meshes/models/robot.toml");
+    let path = dir.join("sweep.toml");
+    std::fs::write(
+        &path,
+        format!("model = {:?}\n{body}", model.display().to_string()),
+    )
+    .unwrap();
+    Sweep::load(&path).unwrap()
+}
+
+#[test]
+fn drawn_two_probe_scenes_keep_to_their_ranges_and_are_physical() {
+    let dir = tempfile::tempdir().unwrap();
+    let sweep = sweep_file(
+        dir.path(),
+        "[camera]\ndistance = [0.45, 0.55]\nelevation_deg = [25.0, 40.0]\n\
+         [probes]\ncount = [2, 2]\nforce = [0.3, 0.6]\ncone_deg = 10.0\nmin_separation = 0.05\n",
+    );
+    let prepared = Prepared::new(&sweep).unwrap();
+    let mesh = &prepared.model.problem.mesh;
+    // Directions are drawn about the normals of the robot as the camera sees it unloaded.
+    let normals = vertex_normals(prepared.unloaded(), &mesh.surface().triangles);
+    for index in 0..3 {
+        let d = draw(&sweep, &prepared, 5, index).unwrap();
+        let r = &d.record;
+        assert!((0.45..=0.55).contains(&r.distance), "{r:?}");
+        assert!((25.0..=40.0).contains(&r.elevation_deg), "{r:?}");
+        let c = &d.scene.spec.camera;
+        let eye_dist = norm(sub(c.eye, c.target));
+        assert!((eye_dist - r.distance).abs() < 1e-9);
+        let loads = &d.rendered.truth.loads;
+        assert_eq!(loads.len(), 2);
+        let gap = norm(sub(loads[0].at_rest, loads[1].at_rest));
+        assert!(gap >= 0.05, "probes {:.1} mm apart", gap * 1e3);
+        for l in loads {
+            assert!((0.3..=0.6).contains(&l.magnitude), "{}", l.magnitude);
+            let inward = normals[l.node].map(|v| -v);
+            let cos = dot(inward, l.force) / (norm(inward) * l.magnitude);
+            assert!(cos >= 10f64.to_radians().cos() - 1e-9, "cone: cos {cos}");
+        }
+        assert!(
+            d.rendered.truth.pixels[1] >= 40,
+            "probes seen: {:?}",
+            d.rendered.truth.pixels
+        );
+        // Nearly inverted elements are redrawn.
+        let x = &d.rendered.positions;
+        let x0 = &mesh.nodes_in_rest;
+        for t in &mesh.tets {
+            let v = |p: &[[f64; 3]]| {
+                softsense::fem::mesh::signed_volume(p[t[0]], p[t[1]], p[t[2]], p[t[3]])
+            };
+            assert!(v(x) / v(x0) >= 0.1);
+        }
+    }
+}
+
+#[test]
+fn a_sweeps_scene_depends_only_on_the_file_the_seed_and_its_index() {
+    let dir = tempfile::tempdir().unwrap();
+    let sweep = sweep_file(dir.path(), "");
+    let prepared = Prepared::new(&sweep).unwrap();
+    let a = draw(&sweep, &prepared, 9, 1).unwrap();
+    let b = draw(&sweep, &prepared, 9, 1).unwrap();
+    let c = draw(&sweep, &prepared, 10, 1).unwrap();
+    let text = |d: &softsense::scene::sweep::Drawn| toml::to_string(&d.scene.spec).unwrap();
+    assert_eq!(text(&a), text(&b));
+    assert_ne!(text(&a), text(&c));
+    assert_eq!(a.rendered.depth, b.rendered.depth);
+}
+
+#[test]
+fn an_occluded_sweep_hides_the_drawn_share_of_the_robot_but_not_the_probe() {
+    let dir = tempfile::tempdir().unwrap();
+    let sweep = sweep_file(dir.path(), "[occluder]\nfraction = [0.3, 0.3]\n");
+    let prepared = Prepared::new(&sweep).unwrap();
+    for index in 0..2 {
+        let d = draw(&sweep, &prepared, 3, index).unwrap();
+        // Sized on the robot at rest; the loaded robot moves a few pixels.
+        assert!(
+            (d.record.occluded - 0.3).abs() < 0.04,
+            "hidden share {}",
+            d.record.occluded
+        );
+        assert_eq!(d.scene.spec.occluders.len(), 1);
+        assert!(d.rendered.truth.pixels[1] >= 20);
+    }
+}
+
+#[test]
+fn a_sweep_file_with_a_bad_range_is_refused_naming_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bad.toml");
+    std::fs::write(
+        &path,
+        "model = \"x.toml\"\n[camera]\ndistance = [0.6, 0.4]\n",
+    )
+    .unwrap();
+    let e = Sweep::load(&path).expect_err("refused").to_string();
+    assert!(e.contains("camera.distance"), "{e}");
+    let out = run_cli(&[
+        "scene",
+        "sweep",
+        path.to_str().unwrap(),
+        dir.path().join("out").to_str().unwrap(),
+        "--count",
+        "1",
+        "--seed",
+        "1",
+    ]);
+    assert_eq!(out.status.code(), Some(1));
+}
+
+#[test]
+fn a_sweep_refuses_a_folder_that_is_not_empty() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("keep.txt"), "mine").unwrap();
+    let sweep = root().join("tools/sweeps/robot_one_probe.toml");
+    let out = run_cli(&[
+        "scene",
+        "sweep",
+        sweep.to_str().unwrap(),
+        dir.path().to_str().unwrap(),
+        "--count",
+        "1",
+        "--seed",
+        "1",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("not empty"));
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("keep.txt")).unwrap(),
+        "mine"
+    );
+}
+
+#[test]
+fn a_sweep_sensed_and_scored_counts_every_load_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_dir = dir.path().join("sw");
+    let sweep = root().join("tools/sweeps/robot_one_probe.toml");
+    let out = run_cli(&[
+        "scene",
+        "sweep",
+        sweep.to_str().unwrap(),
+        out_dir.to_str().unwrap(),
+        "--count",
+        "2",
+        "--seed",
+        "4",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(out_dir.join("sweep.toml").is_file() && out_dir.join("draws.json").is_file());
+    // The written sweep file draws the same scenes again.
+    let again = Sweep::load(&out_dir.join("sweep.toml")).unwrap();
+    assert_eq!(again.spec.probes.count, [1, 1]);
+    for k in 0..2 {
+        let rec = out_dir.join(format!("scene_{k:04}"));
+        let sensed = run_cli(&["sense", rec.to_str().unwrap(), "--json"]);
+        assert!(sensed.status.success());
+        std::fs::write(rec.join("sense.json"), &sensed.stdout).unwrap();
+    }
+    let scored = run_cli(&["score", out_dir.to_str().unwrap(), "--json"]);
+    assert!(
+        scored.status.success(),
+        "{}",
+        String::from_utf8_lossy(&scored.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&scored.stdout).unwrap();
+    assert_eq!(v["all"]["loads"], 2);
+    assert_eq!(v["all"]["frames"], 2);
+    assert_eq!(v["loads"].as_array().unwrap().len(), 2);
+    // A sense output that lost a frame is refused, not scored as fewer loads.
+    std::fs::write(out_dir.join("scene_0001/sense.json"), "").unwrap();
+    let scored = run_cli(&["score", out_dir.to_str().unwrap()]);
+    assert_eq!(scored.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&scored.stderr).contains("truth.json has 1"));
+}
