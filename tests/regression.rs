@@ -1111,3 +1111,46 @@ fn fem_solve_could_write_its_vtu_over_the_mesh_its_model_names() {
     }
     assert_eq!(std::fs::read(&mesh).unwrap(), before);
 }
+
+/// The diamond's base reaches below z = 0, where scenes put the table: the base showed
+/// through the table top as "contacts" and an unloaded frame was sensed with forces of
+/// 148-188 N. The table now stands at the model's lowest point, where `sense` expects it.
+#[test]
+fn the_diamonds_base_below_the_table_gave_phantom_contacts_of_150_newtons() {
+    let Some(data) = common::data_dir("the_diamonds_base_below_the_table") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let model = common::project_root().join("meshes/models/diamond.toml");
+    let scene_path = dir.path().join("scene.toml");
+    std::fs::write(
+        &scene_path,
+        format!("model = {:?}\n\n[[frames]]\n", model.display().to_string()),
+    )
+    .unwrap();
+    // The model file names its mesh through ${SOFTSENSE_DATA}.
+    assert!(data.join("sofa/diamond.vtu").is_file());
+    let scene = softsense::scene::Scene::load(&scene_path).unwrap();
+    let out = dir.path().join("frames");
+    let truth = softsense::scene::generate(&scene, &out, |_, _| {}).unwrap();
+    assert!(
+        truth.frames[0].pixels[0] > 10_000,
+        "{:?}",
+        truth.frames[0].pixels
+    );
+    let rec = softsense::sense::Recording::open(&out).unwrap();
+    let model = softsense::fem::model::Model::load(&rec.model_path().unwrap(), None).unwrap();
+    let sensor = softsense::sense::Sensor::new(
+        model,
+        rec.robot_from_camera.unwrap(),
+        SenseParams::default(),
+    );
+    let obs = sensor.observe(&rec, 0).unwrap();
+    let report = sensor.sense(0, &obs, rec.inputs_of(0).as_ref());
+    assert_eq!(report.status, FrameStatus::Sensed, "{:?}", report.warnings);
+    assert!(
+        report.forces.is_empty(),
+        "phantom forces: {:?}",
+        report.forces
+    );
+}
