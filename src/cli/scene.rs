@@ -107,12 +107,14 @@ the model's own) and the example frame:
   model = \"../../meshes/models/robot.toml\"  # FE model, relative to this file
   young = 250000.0         # optional: Young's modulus override (Pa)
   seed = 0                 # sensor-noise seed (the same seed gives the same frames)
-  table_half = 0.3         # half side of the table at z = 0 (0: none)
+  table_half = 0.3         # half side of the table (0: none)
+  # table_z = 0.0          # height of the table top; default: the model's lowest point
 
   [colors]                 # sRGB 0-255
   robot = [40, 200, 60]
   probe = [220, 40, 40]
   table = [150, 150, 160]
+  occluder = [90, 90, 95]
 
   [camera]                 # RealSense D415-like, 0.5 m away, looking down at 30 degrees
   width = 640
@@ -133,6 +135,10 @@ the model's own) and the example frame:
   edge_jump = 0.02         # a depth jump above this marks a silhouette edge...
   edge_hole_probability = 0.5  # ...whose pixels become holes with this probability
   color_sigma = 3.0        # colour noise per channel
+
+  [[occluders]]            # optional, any number: a sphere hiding part of the view
+  center = [0.1, -0.2, 0.2]
+  radius = 0.03
 
   [[frames]]               # one table per frame; a frame without loads is a reference
   [[frames.cables]]        # optional; unlisted cables keep the model's input

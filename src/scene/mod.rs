@@ -147,6 +147,16 @@ pub struct Occluder {
     pub radius: f64,
 }
 
+/// `name` as written in the file `file`: relative to the file's folder unless absolute.
+pub(crate) fn beside(file: &Path, name: &str) -> PathBuf {
+    let p = PathBuf::from(name);
+    if p.is_relative() {
+        file.parent().unwrap_or(Path::new(".")).join(p)
+    } else {
+        p
+    }
+}
+
 /// A scene file with its resolved model path.
 #[derive(Clone, Debug)]
 pub struct Scene {
@@ -185,12 +195,7 @@ impl Scene {
                 spec.frames.len()
             )));
         }
-        let mp = PathBuf::from(&spec.model);
-        let model_path = if mp.is_relative() {
-            path.parent().unwrap_or(Path::new(".")).join(mp)
-        } else {
-            mp
-        };
+        let model_path = beside(path, &spec.model);
         Ok(Self { spec, model_path })
     }
 

@@ -160,12 +160,7 @@ impl Sweep {
             .map_err(|e| SceneError::Spec(format!("{}: {e}", path.display())))?;
         spec.check()
             .map_err(|e| SceneError::Spec(format!("{}: {e}", path.display())))?;
-        let mp = PathBuf::from(&spec.model);
-        let model_path = if mp.is_relative() {
-            path.parent().unwrap_or(Path::new(".")).join(mp)
-        } else {
-            mp
-        };
+        let model_path = super::super::beside(path, &spec.model);
         Ok(Self { spec, model_path })
     }
 }
