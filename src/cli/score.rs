@@ -41,7 +41,9 @@ Rules:
                 68.3/95.4/99.7%), and the squared Mahalanobis distance e' C^-1 e of the
                 3-D error (Gaussian: median 2.37, 95% below 7.81)
 
-Every silent miss is listed with its recording and frame. Exit code 1 when a recording
+Every silent miss is listed with its recording and frame. Recordings of a sweep (its
+draws.json beside them) are also scored by how far the camera's azimuth is from the
+bundled scenes' direction: 0-30, 30-90 and 90-180 degrees. Exit code 1 when a recording
 has no truth.json or its sense output lacks frames the truth has.
 
 Examples:
@@ -135,11 +137,64 @@ pub fn run(args: &ScoreArgs) -> CliResult {
         ));
     }
     let s = score(&recordings);
+    let by_azimuth = azimuth_groups(&dirs, &recordings);
     if args.json {
-        let v = serde_json::to_value(&s).map_err(|e| CliError::Result(e.to_string()))?;
+        let mut v = serde_json::to_value(&s).map_err(|e| CliError::Result(e.to_string()))?;
+        let groups: Vec<serde_json::Value> = by_azimuth
+            .iter()
+            .map(|(name, g)| serde_json::json!({"azimuth": name, "summary": g}))
+            .collect();
+        v["by_azimuth"] = serde_json::Value::Array(groups);
         return super::print_json(&v);
     }
-    print_text(&s, dirs.len())
+    print_text(&s, dirs.len())?;
+    for (name, g) in &by_azimuth {
+        outln!("camera {name} from the bundled direction:")?;
+        for l in summary_lines(g) {
+            outln!("  {l}")?;
+        }
+    }
+    Ok(())
+}
+
+/// Bins of the camera's azimuth away from the bundled scenes' direction (degrees).
+const AZIMUTH_BINS: [(f64, f64, &str); 3] = [
+    (0.0, 30.0, "0-30 degrees"),
+    (30.0, 90.0, "30-90 degrees"),
+    (90.0, 180.1, "90-180 degrees"),
+];
+
+/// The azimuth `scene sweep` drew for `dir` (from its sweep's `draws.json`), if any.
+fn drawn_azimuth(dir: &Path) -> Option<f64> {
+    let name = dir.file_name()?.to_str()?;
+    let index: usize = name.strip_prefix("scene_")?.parse().ok()?;
+    let text = std::fs::read_to_string(dir.parent()?.join("draws.json")).ok()?;
+    let draws: serde_json::Value = serde_json::from_str(&text).ok()?;
+    let az = draws.as_array()?.get(index)?["azimuth_deg"].as_f64()?;
+    // Folded to 0-180 degrees either side of the bundled direction.
+    Some(((az + 180.0).rem_euclid(360.0) - 180.0).abs())
+}
+
+/// Scores per azimuth bin, when every recording comes from a sweep (else none).
+fn azimuth_groups(
+    dirs: &[PathBuf],
+    recordings: &[(String, Vec<SensedFrame>)],
+) -> Vec<(&'static str, Summary)> {
+    let Some(az): Option<Vec<f64>> = dirs.iter().map(|d| drawn_azimuth(d)).collect() else {
+        return Vec::new();
+    };
+    AZIMUTH_BINS
+        .iter()
+        .filter_map(|&(lo, hi, name)| {
+            let group: Vec<_> = recordings
+                .iter()
+                .zip(&az)
+                .filter(|(_, a)| (lo..hi).contains(*a))
+                .map(|(r, _)| r.clone())
+                .collect();
+            (!group.is_empty()).then(|| (name, score(&group).all))
+        })
+        .collect()
 }
 
 fn pct(n: usize, of: usize) -> String {

@@ -200,6 +200,14 @@ fn a_sweep_sensed_and_scored_counts_every_load_once() {
     assert_eq!(v["all"]["loads"], 2);
     assert_eq!(v["all"]["frames"], 2);
     assert_eq!(v["loads"].as_array().unwrap().len(), 2);
+    // Every scene falls in exactly one azimuth bin.
+    let binned: u64 = v["by_azimuth"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|g| g["summary"]["frames"].as_u64().unwrap())
+        .sum();
+    assert_eq!(binned, 2);
     // A sense output that lost a frame is refused, not scored as fewer loads.
     std::fs::write(out_dir.join("scene_0001/sense.json"), "").unwrap();
     let scored = run_cli(&["score", out_dir.to_str().unwrap()]);
