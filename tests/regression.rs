@@ -1139,12 +1139,7 @@ fn the_diamonds_base_below_the_table_gave_phantom_contacts_of_150_newtons() {
         truth.frames[0].pixels
     );
     let rec = softsense::sense::Recording::open(&out).unwrap();
-    let model = softsense::fem::model::Model::load(&rec.model_path().unwrap(), None).unwrap();
-    let sensor = softsense::sense::Sensor::new(
-        model,
-        rec.robot_from_camera.unwrap(),
-        SenseParams::default(),
-    );
+    let sensor = common::sensor_for(&rec, SenseParams::default());
     let obs = sensor.observe(&rec, 0).unwrap();
     let report = sensor.sense(0, &obs, rec.inputs_of(0).as_ref());
     assert_eq!(report.status, FrameStatus::Sensed, "{:?}", report.warnings);

@@ -166,12 +166,11 @@ fn inverse3(m: &[[f64; 3]; 3]) -> Option<nalgebra::Matrix3<f64>> {
 pub fn score_frame(recording: &str, f: &SensedFrame) -> (Vec<LoadScore>, Vec<Phantom>) {
     let flagged = f.status != "sensed" || !f.reliable || !f.warnings.is_empty();
     let errors = f.errors.as_deref().unwrap_or(&[]);
-    let mut matched = vec![false; f.forces.len()];
     let loads = errors
         .iter()
         .map(|e| {
             let magnitude = e.truth_force.iter().map(|c| c * c).sum::<f64>().sqrt();
-            let est = e.estimate.and_then(|i| f.forces.get(i).map(|g| (i, g)));
+            let est = e.estimate.and_then(|i| f.forces.get(i));
             let location_error = est.and(e.location_error);
             let located = location_error.is_some_and(|d| d <= LOCATED);
             let mut s = LoadScore {
@@ -189,8 +188,7 @@ pub fn score_frame(recording: &str, f: &SensedFrame) -> (Vec<LoadScore>, Vec<Pha
                 silent: false,
             };
             let mut quiet_bad = !located;
-            if let Some((i, g)) = est {
-                matched[i] = located;
+            if let Some(g) = est {
                 let d = [0, 1, 2].map(|k| g.force[k] - e.truth_force[k]);
                 let gm = g.force.iter().map(|c| c * c).sum::<f64>().sqrt();
                 s.magnitude_z = (g.sigma > 0.0).then(|| (gm - magnitude).abs() / g.sigma);
@@ -214,7 +212,7 @@ pub fn score_frame(recording: &str, f: &SensedFrame) -> (Vec<LoadScore>, Vec<Pha
         .forces
         .iter()
         .enumerate()
-        .filter(|(i, _)| !matched[*i] && !errors.iter().any(|e| e.estimate == Some(*i)))
+        .filter(|(i, _)| !errors.iter().any(|e| e.estimate == Some(*i)))
         .map(|(_, g)| Phantom {
             recording: recording.to_string(),
             frame: f.frame,

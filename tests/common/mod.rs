@@ -99,9 +99,17 @@ pub fn bundled(
 ) -> (softsense::sense::Recording, softsense::sense::Sensor) {
     let rec = softsense::sense::Recording::open(&project_root().join("clouds/scenes").join(scene))
         .unwrap();
-    let model = softsense::fem::model::Model::load(&rec.model_path().unwrap(), None).unwrap();
-    let sensor = softsense::sense::Sensor::new(model, rec.robot_from_camera.unwrap(), params);
+    let sensor = sensor_for(&rec, params);
     (rec, sensor)
+}
+
+/// A sensor for `rec` with its own model file and pose, and `params`.
+pub fn sensor_for(
+    rec: &softsense::sense::Recording,
+    params: softsense::sense::SenseParams,
+) -> softsense::sense::Sensor {
+    let model = softsense::fem::model::Model::load(&rec.model_path().unwrap(), None).unwrap();
+    softsense::sense::Sensor::new(model, rec.robot_from_camera.unwrap(), params)
 }
 
 /// Generates the scene whose TOML body follows `model = "<the bundled robot>"` into a
@@ -147,8 +155,7 @@ pub fn sense_generated(
         "seed = {seed}\n\n[sensor]\nenabled = true\ndepth_k = 0.002\ncolor_sigma = 3.0\n\n\
          [[frames]]\n[[frames.loads]]\nkind = \"probe\"\nat = {at:?}\nforce = {force:?}\n"
     ));
-    let model = softsense::fem::model::Model::load(&rec.model_path().unwrap(), None).unwrap();
-    let sensor = softsense::sense::Sensor::new(model, rec.robot_from_camera.unwrap(), params);
+    let sensor = sensor_for(&rec, params);
     let obs = sensor.observe(&rec, 0).unwrap();
     let report = sensor.sense(0, &obs, rec.inputs_of(0).as_ref());
     let errors = softsense::sense::compare(&report, rec.truth_of(0).unwrap());

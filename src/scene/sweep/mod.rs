@@ -9,7 +9,7 @@
 
 use super::camera::CameraSpec;
 use super::sensor::uniform;
-use super::{render_frame, table_height, Occluder, Rendered, Scene, SceneError};
+use super::{render_frame, Occluder, Rendered, Scene, SceneError};
 use super::{SceneResult, SceneSpec};
 use crate::camera::Camera;
 use crate::fem::mesh::signed_volume;
@@ -80,26 +80,24 @@ impl Draws {
 /// The surface nodes a probe may press on for `camera`: seen from the camera at rest,
 /// facing it by at least `min_facing`, `min_height` above the table, not held; all judged
 /// on `x`, the robot under gravity and its cable inputs, as the camera will see it.
-fn probe_candidates(
-    model: &Model,
-    x: &[[f64; 3]],
-    bvh: &Bvh,
-    normals: &[[f64; 3]],
-    eye: [f64; 3],
-    table_z: f64,
-    p: &ProbeRanges,
-) -> Vec<usize> {
-    let mesh = &model.problem.mesh;
-    let held = model.problem.held_nodes();
-    mesh.surface()
-        .nodes
+fn probe_candidates(prepared: &Prepared, eye: [f64; 3], p: &ProbeRanges) -> Vec<usize> {
+    let Prepared {
+        unloaded: x,
+        bvh,
+        normals,
+        table_z,
+        held,
+        ..
+    } = prepared;
+    prepared
+        .surface_nodes
         .iter()
         .copied()
         .filter(|&v| {
             let d = sub(x[v], eye);
             let dist = norm(d);
             let facing = -dot(d, normals[v]) / dist;
-            x[v][2] >= table_z + p.min_height
+            x[v][2] >= *table_z + p.min_height
                 && facing >= p.min_facing
                 && held.binary_search(&v).is_err()
                 && bvh
@@ -203,14 +201,13 @@ const MIN_PROBE_PIXELS: usize = 20;
 
 /// Why a solved draw is not a physical scene, if it is not.
 fn physical_fault(
-    model: &Model,
+    prepared: &Prepared,
     spec: &SceneSpec,
     r: &Rendered,
-    table_z: f64,
-    unloaded_low: f64,
     min_volume_ratio: f64,
 ) -> Option<String> {
-    let mesh = &model.problem.mesh;
+    let (table_z, unloaded_low) = (prepared.table_z, prepared.unloaded_low);
+    let mesh = &prepared.model.problem.mesh;
     let (x0, x) = (&mesh.nodes_in_rest, &r.positions);
     let worst = mesh
         .tets
@@ -242,10 +239,10 @@ fn physical_fault(
     }
     // A probe pressing into a crevice would cut into the robot beside its node: the
     // sphere touches the surface only where it presses.
-    let surface_nodes = mesh.surface().nodes;
     for l in &r.truth.loads {
         if let Some(c) = l.probe_center {
-            let cut = surface_nodes
+            let cut = prepared
+                .surface_nodes
                 .iter()
                 .any(|&v| v != l.node && norm(sub(x[v], c)) < PROBE_CLEARANCE * l.radius);
             if cut {
@@ -284,6 +281,8 @@ pub struct Prepared {
     table_z: f64,
     unloaded_low: f64,
     unloaded: Vec<[f64; 3]>,
+    surface_nodes: Vec<usize>,
+    held: Vec<usize>,
 }
 
 impl Prepared {
@@ -324,6 +323,8 @@ impl Prepared {
                 .map(|p| p[2])
                 .fold(f64::INFINITY, f64::min),
             unloaded: unloaded.positions,
+            held: model.problem.held_nodes(),
+            surface_nodes: surface.nodes,
             model,
         })
     }
@@ -465,9 +466,8 @@ fn try_draw(sweep: &Sweep, prepared: &Prepared, r: &mut Draws) -> SceneResult<At
         normals,
         bvh,
         target,
-        table_z,
-        unloaded_low,
         unloaded,
+        ..
     } = prepared;
     let x0 = &model.problem.mesh.nodes_in_rest;
     let mut record = draw_camera(r, &spec.camera)?;
@@ -475,15 +475,7 @@ fn try_draw(sweep: &Sweep, prepared: &Prepared, r: &mut Draws) -> SceneResult<At
     let camera = cam
         .camera()
         .ok_or_else(|| SceneError::Spec("camera: degenerate pose".into()))?;
-    let candidates = probe_candidates(
-        model,
-        unloaded,
-        bvh,
-        normals,
-        cam.eye,
-        *table_z,
-        &spec.probes,
-    );
+    let candidates = probe_candidates(prepared, cam.eye, &spec.probes);
     let (nodes, loads) = match draw_loads(r, &spec.probes, &candidates, x0, normals) {
         Ok(drawn) => drawn,
         Err(why) => return Ok(Err(why)),
@@ -529,9 +521,8 @@ fn try_draw(sweep: &Sweep, prepared: &Prepared, r: &mut Draws) -> SceneResult<At
         }
         Err(e) => return Err(e),
     };
-    let tz = table_height(&scene.spec, x0);
     let ratio = spec.validity.min_volume_ratio;
-    if let Some(fault) = physical_fault(model, &scene.spec, &rendered, tz, *unloaded_low, ratio) {
+    if let Some(fault) = physical_fault(prepared, &scene.spec, &rendered, ratio) {
         return Ok(Err(fault));
     }
     let t = &rendered.truth;
