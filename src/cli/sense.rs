@@ -322,6 +322,18 @@ fn print_human(r: &FrameReport) -> CliResult {
             f.sigma,
             f.sigma_max
         )?;
+        if let Some(s) = f.location_sigma.filter(|s| *s > 0.0) {
+            let alts: Vec<String> = f
+                .alternatives
+                .iter()
+                .map(|a| format!("node {} (misfit {:.1})", a.node, a.misfit))
+                .collect();
+            outln!(
+                "    location ± {:.1} mm; other locations that fit: {}",
+                s * 1e3,
+                alts.join(", ")
+            )?;
+        }
     }
     if !r.actuators.is_empty() {
         let a: Vec<String> = r

@@ -2,12 +2,11 @@
 //! factorizes at an equilibrium, and the intensity problem linearised there.
 
 use super::intensity::{ActuatorInput, IntensityProblem};
-use super::sensing::{ms_since, FrameParams, LoopTimings};
+use super::sensing::{ms_since, FrameInputs, LoopTimings};
 use super::{InverseError, InverseResult};
 use crate::fem::constraint::{ConstraintRow, RowKind};
 use crate::fem::solve::{CableControl, MappedPoint, Solver, SolverState};
 use crate::fem::tet4::Tangent;
-use crate::register::{Registrar, SurfaceFeature};
 
 /// A candidate force: a point on the mesh and the force direction (unit after normalising).
 #[derive(Clone, Copy, Debug)]
@@ -67,21 +66,20 @@ pub(crate) fn factorize_loop_tangent(
 
 /// The intensity problem linearised at node positions `x` (an equilibrium of the solver's
 /// problem without its point loads, plus some candidate loads; the solver holds the tangent
-/// factorised at `x`): features registered at `x`, compliance of the feature, actuator and
-/// candidate rows. Returns the problem and the number of visible features.
+/// factorised at `x`): the frame's features registered at `x`, compliance of the feature,
+/// actuator and candidate rows. Returns the problem and the number of visible features.
 pub(crate) fn linearise(
     solver: &Solver<'_>,
     x: &[[f64; 3]],
-    registrar: &Registrar,
-    features: &[SurfaceFeature],
+    inputs: &FrameInputs<'_>,
     candidates: &[Candidate],
-    params: &FrameParams,
     timings: &mut LoopTimings,
 ) -> InverseResult<(IntensityProblem, usize)> {
     let base = solver.problem;
     let rest = &base.mesh.nodes_in_rest;
     let clock = std::time::Instant::now();
     // Register at the current state.
+    let (registrar, features, params) = (inputs.registrar, inputs.features, inputs.params);
     let mut rows = Vec::new();
     let mut measured = Vec::new();
     let matches = registrar.match_features(features, x, &params.register);

@@ -26,6 +26,24 @@ pub struct LocationChoice {
     /// Its QP's solution there: the forces a sensing loop started at that point would get
     /// from its first FE update ([`Start::AfterChoice`](super::Start::AfterChoice)).
     pub estimate: IntensityEstimate,
+    /// Per contact, the other options that fit nearly as well: the chosen combination with
+    /// that contact's option swapped, when its misfit is within the `window` of
+    /// [`choose_locations`], best first.
+    pub alternatives: Vec<Vec<Alternative>>,
+}
+
+/// A location a contact could have instead of the chosen one, and the fit it gives.
+#[derive(Clone, Debug)]
+pub struct Alternative {
+    /// The option (an index into the contact's options).
+    pub option: usize,
+    /// How much worse it fits, in units of the rows' noise variance: (RSS − RSS₀) / s²,
+    /// with RSS the QP's residual sum of squares, RSS₀ the chosen one's and s² = RSS₀ /
+    /// (rows − unknowns) the noise the chosen fit leaves. With Gaussian rows the fit
+    /// difference of two equally good locations of k force unknowns is about χ²_k.
+    pub misfit: f64,
+    /// The intensities of this option's candidates in that QP (N).
+    pub forces: Vec<f64>,
 }
 
 /// Location mapping by the data: for each seen contact, a list of options (each option the
@@ -37,6 +55,8 @@ pub struct LocationChoice {
 /// contact, with its QP. More than `max_combinations` combinations: coordinate descent from
 /// the first options instead. Combinations in `excluded` (one option index per contact,
 /// e.g. ones whose estimate failed) are never chosen; an error if nothing else is left.
+/// Each contact's alternatives are the other options whose misfit ([`Alternative::misfit`]),
+/// with the others' choice kept, is at most `window`.
 /// `inputs.candidates` are not used.
 pub fn choose_locations(
     inputs: &FrameInputs<'_>,
@@ -44,6 +64,7 @@ pub fn choose_locations(
     at: LinearisationPoint<'_>,
     max_combinations: usize,
     excluded: &[Vec<usize>],
+    window: f64,
 ) -> InverseResult<LocationChoice> {
     if options.iter().any(|o| o.is_empty()) {
         return Err(InverseError::Intensity(
@@ -84,10 +105,12 @@ pub fn choose_locations(
     if !estimate.status.is_solution() {
         return Err(InverseError::NotSolved(estimate.status));
     }
+    let alternatives = combinations.alternatives(&best, &problem, &estimate, window);
     Ok(LocationChoice {
         pick: best,
         problem,
         estimate,
+        alternatives,
     })
 }
 
@@ -123,15 +146,7 @@ fn joint_problem(
     let newton_tangent = model.newton.tangent;
     solver.assemble(at, newton_tangent)?;
     factorize_loop_tangent(&mut solver, at, tensions, newton_tangent)?;
-    let (joint, _) = linearise(
-        &solver,
-        at,
-        inputs.registrar,
-        inputs.features,
-        all,
-        inputs.params,
-        &mut LoopTimings::default(),
-    )?;
+    let (joint, _) = linearise(&solver, at, inputs, all, &mut LoopTimings::default())?;
     Ok(joint)
 }
 
@@ -165,6 +180,66 @@ impl Combinations<'_> {
             push_only: idx.iter().map(|&i| joint.push_only[i]).collect(),
             ..joint.clone()
         }
+    }
+
+    /// Per contact, the options whose misfit is within `window` when swapped into the
+    /// winner `best` alone (its `problem`, solved as `estimate`), best first. Only QPs whose
+    /// closed-form bound is inside the window are solved: most options are far outside it.
+    fn alternatives(
+        &self,
+        best: &[usize],
+        problem: &IntensityProblem,
+        estimate: &IntensityEstimate,
+        window: f64,
+    ) -> Vec<Vec<Alternative>> {
+        let rows = problem.w_ef.nrows();
+        let unknowns = problem.w_ef.ncols() + problem.w_ea.ncols();
+        let rss0 = estimate.residual_rms.powi(2) * rows as f64;
+        // The noise variance the chosen fit leaves, per row.
+        let s2 = rss0 / rows.saturating_sub(unknowns).max(1) as f64;
+        let misfit = |rms: f64| (rms * rms * rows as f64 - rss0) / s2;
+        if !(s2 > 0.0 && s2.is_finite()) {
+            return vec![Vec::new(); self.cols.len()];
+        }
+        let mut trials = Vec::new();
+        for (k, group) in self.cols.iter().enumerate() {
+            for o in (0..group.len()).filter(|&o| o != best[k]) {
+                let mut t = best.to_vec();
+                t[k] = o;
+                if !self.excluded.contains(&t) {
+                    trials.push((k, t));
+                }
+            }
+        }
+        let fits = par_map(&trials, |(k, t)| {
+            let problem = self.sub_problem(t);
+            let bound = problem.unbounded_residual_rms().unwrap_or(0.0);
+            if misfit(bound) > window {
+                return None;
+            }
+            let e = problem.solve(&self.params.intensity).ok()?;
+            if !e.status.is_solution() || misfit(e.residual_rms) > window {
+                return None;
+            }
+            // This contact's columns in the trial's problem.
+            let start: usize = (0..*k).map(|j| self.cols[j][t[j]].len()).sum();
+            let len = self.cols[*k][t[*k]].len();
+            Some(Alternative {
+                option: t[*k],
+                misfit: misfit(e.residual_rms).max(0.0),
+                forces: e.forces[start..start + len].to_vec(),
+            })
+        });
+        let mut out = vec![Vec::new(); self.cols.len()];
+        for ((k, _), fit) in trials.iter().zip(fits) {
+            if let Some(a) = fit {
+                out[*k].push(a);
+            }
+        }
+        for group in &mut out {
+            group.sort_by(|a, b| a.misfit.total_cmp(&b.misfit));
+        }
+        out
     }
 
     /// The QP residual of `choice` (infinite when excluded or not solved).

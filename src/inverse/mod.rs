@@ -24,7 +24,7 @@ pub mod sensing;
 pub mod uncertainty;
 
 pub use linearise::{Candidate, LinearisationPoint};
-pub use locations::{choose_locations, LocationChoice};
+pub use locations::{choose_locations, Alternative, LocationChoice};
 pub use sensing::{estimate, FrameEstimate, FrameInputs, FrameParams, LoopTimings, Start};
 pub use uncertainty::SharedPoints;
 

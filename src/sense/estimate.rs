@@ -228,6 +228,7 @@ fn force_points(
                 points: 0,
                 node: None,
                 range: 0..sets[b].len(),
+                alternatives: Vec::new(),
             };
             return Ok(Estimated {
                 est,

@@ -5,7 +5,7 @@
 //! previous frame's locations and forces, and checks them with one choice.
 
 use super::estimate::{fail, Estimated, Frame};
-use super::report::{ms, Group};
+use super::report::{ms, Group, LocationAlternative};
 use super::track::{resume_contacts, Resumed, Track};
 use super::FrameReport;
 use super::FrameStatus;
@@ -109,6 +109,9 @@ struct Rounds<'f, 'a> {
     /// Whether the first estimate is a preview (the first update is at the free state
     /// itself: a preview needs two).
     previews: bool,
+    /// The last choice's picked nodes, and per contact the locations that fit nearly as
+    /// well (their `force`: the change the swap makes in the choice's QP).
+    alternatives: Option<(Vec<usize>, Vec<Vec<LocationAlternative>>)>,
 }
 
 /// The seen contacts' locations and their estimate.
@@ -137,6 +140,7 @@ pub(super) fn locate(
         held: Held::Nothing,
         keep_state: want_track,
         previews: params.preview_updates >= 2,
+        alternatives: None,
     };
     let resumed = prev
         .and_then(|t| resume_contacts(t, params.track_radius, &frame.cables, &rounds.centroids));
@@ -275,6 +279,8 @@ impl Rounds<'_, '_> {
             else {
                 return Ok(Flow::Stop);
             };
+            let alternatives = alternatives_of(&options, &choice, &self.at.x);
+            self.alternatives = Some((picked.clone(), alternatives));
             let attempt = match action(self, &picked) {
                 Action::Keep => return Ok(Flow::Stop),
                 Action::GoOn(p) => self.go_on(*p),
@@ -446,6 +452,23 @@ impl Rounds<'_, '_> {
         let (Held::Preview(mut out) | Held::Estimate(mut out)) = self.held else {
             return Err(FrameStatus::NotSolved("no estimate".into()));
         };
+        // The last choice's alternatives, where it picked the estimate's locations, moved
+        // to the estimate's forces.
+        if let Some((picked, alternatives)) = self.alternatives.take() {
+            if picked == out.nodes {
+                for (g, alts) in out.groups.iter_mut().zip(alternatives) {
+                    let r = g.range.clone();
+                    let f = force_of(&out.candidates[r.clone()], &out.est.estimate.forces[r]);
+                    g.alternatives = alts
+                        .into_iter()
+                        .map(|a| LocationAlternative {
+                            force: std::array::from_fn(|q| f[q] + a.force[q]),
+                            ..a
+                        })
+                        .collect();
+                }
+            }
+        }
         // `at.state` is the last estimate's solver state.
         out.est.solver = self.at.state;
         Ok(Estimated {
@@ -464,8 +487,53 @@ impl Rounds<'_, '_> {
             points: self.frame.contacts[i].points,
             node: Some(node),
             range,
+            alternatives: Vec::new(),
         }
     }
+}
+
+/// Per contact, `choice`'s alternatives among `options` at node positions `x`, each with
+/// (as its `force`) the change of the contact's force in the choice's QP when it moves
+/// there.
+fn alternatives_of(
+    options: &[(Vec<usize>, Vec<Vec<Candidate>>)],
+    choice: &LocationChoice,
+    x: &[[f64; 3]],
+) -> Vec<Vec<LocationAlternative>> {
+    let mut start = 0;
+    let mut out = Vec::new();
+    for (k, ((nodes, opts), alts)) in options.iter().zip(&choice.alternatives).enumerate() {
+        let chosen = &opts[choice.pick[k]];
+        let range = start..start + chosen.len();
+        start = range.end;
+        let f = force_of(chosen, &choice.estimate.forces[range]);
+        out.push(
+            alts.iter()
+                .map(|a| {
+                    let g = force_of(&opts[a.option], &a.forces);
+                    LocationAlternative {
+                        node: nodes[a.option],
+                        location: x[nodes[a.option]],
+                        force: sub(g, f),
+                        misfit: a.misfit,
+                    }
+                })
+                .collect(),
+        );
+    }
+    out
+}
+
+/// The force of candidates `cands` with intensities `forces` (N).
+fn force_of(cands: &[Candidate], forces: &[f64]) -> [f64; 3] {
+    let mut f = [0.0; 3];
+    for (c, l) in cands.iter().zip(forces) {
+        let d = unit(c.direction);
+        for q in 0..3 {
+            f[q] += l * d[q];
+        }
+    }
+    f
 }
 
 /// The options of each contact (surface nodes near its centroid at node positions `x`, and
@@ -506,7 +574,14 @@ fn choose(
         tensions,
         state,
     };
-    let choice = choose_locations(&frame.inputs, &all, at, params.max_combinations, excluded)?;
+    let choice = choose_locations(
+        &frame.inputs,
+        &all,
+        at,
+        params.max_combinations,
+        excluded,
+        2.0 * params.location_ambiguity,
+    )?;
     let picked: Vec<usize> = choice
         .pick
         .iter()

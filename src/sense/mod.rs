@@ -47,7 +47,7 @@ pub use observe::Observation;
 pub use params::SenseParams;
 pub use report::{
     compare, largest_sigma, median_timings, ForceEstimate, FrameReport, FrameStatus, LoadError,
-    StageTimings, MIN_SCORED_FORCE,
+    LocationAlternative, StageTimings, MIN_SCORED_FORCE,
 };
 pub use stream::default_window;
 pub use track::Track;

@@ -29,6 +29,11 @@ pub struct SenseParams {
     pub location_radius: f64,
     /// At most this many options per contact, nearest first (16).
     pub location_options: usize,
+    /// Another location whose misfit (the fit's loss in units of the noise,
+    /// [`LocationAlternative::misfit`](super::LocationAlternative::misfit)) is at most this
+    /// "fits within the noise": the force gets a warning (7.81, χ² of 3 unknowns at 95%).
+    /// Up to twice this, alternatives are reported and widen the σ.
+    pub location_ambiguity: f64,
     /// FE updates of the preview, the first estimate of an untracked frame with seen
     /// contacts, after which the choice is made again (2; 0 or 1: no preview).
     pub preview_updates: usize,
@@ -94,6 +99,7 @@ impl Default for SenseParams {
             direction_warning: 0.025,
             location_radius: 0.015,
             location_options: 16,
+            location_ambiguity: 7.81,
             preview_updates: 2,
             location_checks: 2,
             max_combinations: 400,

@@ -154,6 +154,39 @@ pub struct ForceEstimate {
     /// force only through the faces it tilts. One-sigma of a component along a unit
     /// vector u: sqrt(uᵀ C u); `sigma` is that along the force.
     pub covariance: [[f64; 3]; 3],
+    /// The location's uncertainty (m): the RMS distance to the other surface nodes that
+    /// explain the frame nearly as well, weighted as `alternatives`; 0 when none does
+    /// (the location is then known to the mesh's node spacing). Seen contacts only.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub location_sigma: Option<f64>,
+    /// Other surface nodes that explain the frame nearly as well (seen contacts; empty when
+    /// none does), best first. `sigma`, `sigma_max` and `covariance` include the spread of
+    /// the forces they would give (each weighted by [`LocationAlternative::weight`]).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub alternatives: Vec<LocationAlternative>,
+}
+
+/// Another surface node that explains a frame nearly as well as a contact's chosen one.
+#[derive(Clone, Debug, Serialize)]
+pub struct LocationAlternative {
+    /// The surface node.
+    pub node: usize,
+    /// Its position where the choice was made (robot frame, m).
+    pub location: [f64; 3],
+    /// The contact's force were it there (N, robot frame): the estimate moved by what the
+    /// swap changes in the choice's QP.
+    pub force: [f64; 3],
+    /// How much worse the frame fits with the contact there, in units of the noise
+    /// ([`crate::inverse::Alternative::misfit`]); at most
+    /// [`SenseParams::location_ambiguity`] reads "fits within the noise".
+    pub misfit: f64,
+}
+
+impl LocationAlternative {
+    /// Its weight against the chosen location's 1: the likelihood ratio exp(−misfit / 2).
+    pub fn weight(&self) -> f64 {
+        (-0.5 * self.misfit).exp()
+    }
 }
 
 /// The smallest true force a relative error is taken against (N): a weaker or zero true
@@ -279,6 +312,8 @@ pub(super) struct Group {
     pub node: Option<usize>,
     /// Its candidates (a range of the estimate's).
     pub range: std::ops::Range<usize>,
+    /// Other locations that fit nearly as well.
+    pub alternatives: Vec<LocationAlternative>,
 }
 
 impl FrameReport {
@@ -335,7 +370,33 @@ impl FrameReport {
             let force = force_estimate(g, e, candidates, &est.positions);
             self.forces.push(force);
         }
+        self.warn_ambiguous_locations(params.location_ambiguity);
         self.warn_uncertain_directions(params.direction_warning);
+    }
+
+    /// A warning for each force with another location whose misfit is at most `limit`:
+    /// the frame cannot tell the two apart, so the choice must not pass silently.
+    fn warn_ambiguous_locations(&mut self, limit: f64) {
+        for (i, f) in self.forces.iter().enumerate() {
+            let close: Vec<&LocationAlternative> = f
+                .alternatives
+                .iter()
+                .filter(|a| a.misfit <= limit)
+                .collect();
+            let Some(a) = close.first() else {
+                continue;
+            };
+            let d = sub(a.location, f.location);
+            self.warnings.push(format!(
+                "force {i}: its location is ambiguous: {} other node(s) fit within the noise, the best node {} ({:.1} mm away, misfit {:.1} ≤ {limit:.1}) with |F| {:.1} mN there; σ include the spread (location σ {:.1} mm)",
+                close.len(),
+                a.node,
+                norm(d) * 1e3,
+                a.misfit,
+                norm(a.force) * 1e3,
+                f.location_sigma.unwrap_or(0.0) * 1e3,
+            ));
+        }
     }
 
     /// A warning for each force whose largest σ is more than `limit` of its magnitude.
@@ -421,7 +482,7 @@ fn force_estimate(
     }
     let var = var.max(0.0);
     let at = cands[g.range.start].at.position(positions);
-    ForceEstimate {
+    let mut out = ForceEstimate {
         source: g.source.clone(),
         seen_at: g.seen_at,
         contact_points: g.points,
@@ -432,6 +493,50 @@ fn force_estimate(
         sigma: var.sqrt(),
         sigma_max: largest_sigma(&covariance),
         covariance,
+        location_sigma: g.seen_at.map(|_| 0.0),
+        alternatives: Vec::new(),
+    };
+    out.blend(g.alternatives.clone());
+    out
+}
+
+impl ForceEstimate {
+    /// Takes in the locations that explain the frame nearly as well: the answer is then a
+    /// mixture over them (weights [`LocationAlternative::weight`], the chosen location's
+    /// 1), so the force's mean squared error about the reported force gains
+    /// Σ w_k ΔF_k ΔF_kᵀ / Σ w (ΔF_k the force's change were the contact at k), and the
+    /// location's the same of the distances.
+    fn blend(&mut self, alternatives: Vec<LocationAlternative>) {
+        if alternatives.is_empty() {
+            return;
+        }
+        let total: f64 = 1.0 + alternatives.iter().map(|a| a.weight()).sum::<f64>();
+        let mut spread = 0.0;
+        for a in &alternatives {
+            let w = a.weight() / total;
+            let df = sub(a.force, self.force);
+            let dx = sub(a.location, self.location);
+            spread += w * dot(dx, dx);
+            for (r, row) in self.covariance.iter_mut().enumerate() {
+                for (c, v) in row.iter_mut().enumerate() {
+                    *v += w * df[r] * df[c];
+                }
+            }
+        }
+        let c = &self.covariance;
+        let u = if self.magnitude > 0.0 {
+            self.force.map(|v| v / self.magnitude)
+        } else {
+            [1.0, 0.0, 0.0]
+        };
+        let var: f64 = (0..3)
+            .flat_map(|r| (0..3).map(move |q| (r, q)))
+            .map(|(r, q)| u[r] * c[r][q] * u[q])
+            .sum();
+        self.sigma = var.max(0.0).sqrt();
+        self.sigma_max = largest_sigma(c);
+        self.location_sigma = Some(spread.sqrt());
+        self.alternatives = alternatives;
     }
 }
 
@@ -485,7 +590,7 @@ pub fn compare(report: &FrameReport, truth: &FrameTruth) -> Vec<LoadError> {
 
 #[cfg(test)]
 mod tests {
-    use super::{largest_sigma, ForceEstimate, FrameReport, FrameStatus};
+    use super::{largest_sigma, ForceEstimate, FrameReport, FrameStatus, LocationAlternative};
 
     fn force(seen: bool, magnitude: f64, sigma_max: f64) -> ForceEstimate {
         ForceEstimate {
@@ -499,7 +604,60 @@ mod tests {
             sigma: sigma_max,
             sigma_max,
             covariance: [[sigma_max * sigma_max, 0.0, 0.0], [0.0; 3], [0.0; 3]],
+            location_sigma: seen.then_some(0.0),
+            alternatives: Vec::new(),
         }
+    }
+
+    fn alternative(node: usize, dx: f64, force: [f64; 3], misfit: f64) -> LocationAlternative {
+        LocationAlternative {
+            node,
+            location: [dx, 0.0, 0.0],
+            force,
+            misfit,
+        }
+    }
+
+    #[test]
+    fn an_equally_good_location_adds_half_its_force_change_squared_to_the_variance() {
+        let mut f = force(true, 1.0, 0.01);
+        // Misfit 0: weight 1 against the chosen location's 1.
+        f.blend(vec![alternative(7, 0.008, [1.2, 0.0, 0.0], 0.0)]);
+        let var = 0.01f64.powi(2) + 0.5 * 0.2f64.powi(2);
+        assert!((f.covariance[0][0] - var).abs() < 1e-15);
+        assert!((f.sigma - var.sqrt()).abs() < 1e-15);
+        assert!((f.sigma_max - var.sqrt()).abs() < 1e-15);
+        assert!((f.location_sigma.unwrap() - (0.5f64 * 0.008 * 0.008).sqrt()).abs() < 1e-15);
+        assert_eq!(f.alternatives.len(), 1);
+    }
+
+    #[test]
+    fn a_location_that_fits_far_worse_than_the_noise_barely_widens_the_sigma() {
+        let mut f = force(true, 1.0, 0.01);
+        f.blend(vec![alternative(7, 0.008, [0.0, 1.0, 0.0], 40.0)]);
+        assert!(f.sigma_max < 0.01 * (1.0 + 1e-4), "{}", f.sigma_max);
+        assert!(f.location_sigma.unwrap() < 1e-6);
+    }
+
+    #[test]
+    fn a_second_location_within_the_noise_is_named_in_a_warning() {
+        let mut r = FrameReport::empty(0, FrameStatus::Sensed);
+        let mut near = force(true, 0.5, 0.005);
+        near.blend(vec![
+            alternative(12, 0.009, [0.4, 0.0, 0.0], 3.0),
+            alternative(13, 0.012, [0.3, 0.0, 0.0], 9.0),
+        ]);
+        let mut far = force(true, 0.5, 0.005);
+        far.blend(vec![alternative(14, 0.009, [0.4, 0.0, 0.0], 9.0)]);
+        r.forces = vec![near, far];
+        r.warn_ambiguous_locations(7.81);
+        assert_eq!(r.warnings.len(), 1, "{:?}", r.warnings);
+        let w = &r.warnings[0];
+        assert!(
+            w.starts_with("force 0: its location is ambiguous: 1 other node(s)"),
+            "{w}"
+        );
+        assert!(w.contains("node 12 (9.0 mm away, misfit 3.0"), "{w}");
     }
 
     /// Regression: a seen contact whose force was within 2σ of zero (0.29 N ± 0.15 N,
