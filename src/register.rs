@@ -31,9 +31,6 @@ use crate::geometry::raycast::Bvh;
 use crate::math::{cross, dot, norm, sub, unit};
 use serde::Serialize;
 
-mod disc;
-pub use disc::FeatureDiscs;
-
 pub use crate::geometry::triangle::{
     closest_point_on_triangle, closest_point_on_triangle_weights, point_triangle_distance2,
     vertex_normals,
@@ -146,8 +143,6 @@ pub struct Registrar {
     points: Vec<[f64; 3]>,
     /// Index of each (cell-ordered) point in the finite input points: ties break by it.
     index: Vec<u32>,
-    /// Where each finite input point is in `points`.
-    slot: Vec<u32>,
     /// Start of each cell's run in `points` (cells in x-fastest order), plus the end.
     starts: Vec<u32>,
     origin: [f64; 3],
@@ -213,29 +208,21 @@ impl Registrar {
         let mut fill = starts.clone();
         let mut sorted = vec![[0.0; 3]; finite.len()];
         let mut index = vec![0u32; finite.len()];
-        let mut slot = vec![0u32; finite.len()];
         for (i, (&c, p)) in cells.iter().zip(&finite).enumerate() {
             let at = fill[c] as usize;
             fill[c] += 1;
             sorted[at] = *p;
             index[at] = i as u32;
-            slot[i] = at as u32;
         }
         Self {
             points: sorted,
             index,
-            slot,
             starts,
             origin: lo,
             cell,
             dims,
             memo: Default::default(),
         }
-    }
-
-    /// The finite input point `i` (an index as [`Registrar::match_feature_points`] gives).
-    pub fn point(&self, i: u32) -> [f64; 3] {
-        self.points[self.slot[i as usize] as usize]
     }
 
     /// Number of indexed points.

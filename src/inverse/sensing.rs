@@ -115,6 +115,11 @@ pub struct FrameEstimate {
     /// The candidate forces of that state (N): the loop's last iterate, of which
     /// `estimate.forces` is the QP's answer at `positions`.
     pub applied: Vec<f64>,
+    /// How much each of `estimate.forces` moved in the loop's last update (N): the QP's
+    /// answer at `positions` against the forces that made them. The answer depends on the
+    /// state it is linearised at by about this much (a weakly identified component keeps
+    /// cycling by it). Empty when no QP was solved.
+    pub last_change: Vec<f64>,
     /// Where the time went.
     pub timings: LoopTimings,
 }
@@ -247,6 +252,8 @@ struct LoopState<'a> {
     updates: usize,
     halvings: usize,
     settled: bool,
+    /// The last QP's change of each force (N).
+    last_change: Vec<f64>,
     last: Option<(IntensityEstimate, usize, IntensityProblem)>,
     timings: LoopTimings,
 }
@@ -318,6 +325,7 @@ impl<'a> LoopState<'a> {
             },
             halvings: 0,
             settled: false,
+            last_change: Vec::new(),
             last: None,
             timings: LoopTimings::default(),
         })
@@ -414,15 +422,7 @@ impl<'a> LoopState<'a> {
         let tensions = self.prev.as_ref().map_or(&[][..], |s| &s.cable_tension[..]);
         factorize_loop_tangent(&mut solver, &self.x, tensions, self.newton.tangent)?;
         self.timings.compliance += ms_since(clock);
-        let (prob, visible) = linearise(
-            &solver,
-            &self.x,
-            inputs.registrar,
-            inputs.features,
-            candidates,
-            inputs.params,
-            &mut self.timings,
-        )?;
+        let (prob, visible) = linearise(&solver, &self.x, inputs, candidates, &mut self.timings)?;
         self.carry = Some(solver.into_state());
         self.cable_compliance = max_diagonal(&prob.w_aa);
         Ok((prob, visible))
@@ -473,6 +473,7 @@ impl<'a> LoopState<'a> {
         // Settled: every force is (predicted to be) within `force_tol` of the fixed point,
         // or within `sigma_tol` of its own noise spread (further updates only move it within
         // its noise).
+        self.last_change = r.iter().map(|v| v.abs()).collect();
         self.settled = r.iter().enumerate().all(|(i, v)| {
             let s = est.force_sigma.get(i).copied().filter(|s| s.is_finite());
             let tol = params.force_tol.max(params.sigma_tol * s.unwrap_or(0.0));
@@ -504,6 +505,7 @@ impl<'a> LoopState<'a> {
             settled: self.settled,
             halvings: self.halvings,
             applied: self.applied,
+            last_change: self.last_change,
             positions: self.x,
             solver: self.carry,
             timings: self.timings,

@@ -13,7 +13,9 @@ impl FrameEstimate {
     /// whose residual is larger than its spread from the points' noise has its errors
     /// scaled up to its residual (the rows' correlations kept): what the noise model leaves
     /// out (e.g. a bias in how the points near the probe's edge are selected) shows in the
-    /// residuals, and the σ then cover it. The forces do not change. `registrar` and
+    /// residuals, and the σ then cover it. Each force's variance also gains the square of
+    /// its last change in the loop ([`FrameEstimate::last_change`]): the linearisation's
+    /// share. The forces do not change. `registrar` and
     /// `features` must be the estimate's own. Returns whether the σ were replaced (not when
     /// a match is the single nearest point or the forces are not identifiable).
     pub fn use_shared_point_uncertainty(
@@ -34,18 +36,26 @@ impl FrameEstimate {
             return false;
         }
         // sqrt(max(1, r_i² / C_ii)): never below the noise model.
+        let variances = shared.row_variances();
         let scale: Vec<f64> = residuals
             .iter()
-            .enumerate()
-            .map(|(i, r)| (r * r / shared.row_variance(i)).max(1.0).sqrt())
+            .zip(&variances)
+            .map(|(r, v)| (r * r / v).max(1.0).sqrt())
             .map(|s| if s.is_finite() { s } else { 1.0 })
             .collect();
-        let Some(cov) = self
+        let Some(mut cov) = self
             .problem
             .force_covariance_with(|a| shared.sandwich_scaled(a, &scale))
         else {
             return false;
         };
+        // Linearisation: the QP's answer still moved by the loop's last change from the
+        // previous state to this one, so it is known only to about that.
+        if self.last_change.len() == e.forces.len() {
+            for (i, d) in self.last_change.iter().enumerate() {
+                cov[(i, i)] += d * d;
+            }
+        }
         self.estimate.force_sigma = (0..cov.nrows())
             .map(|i| cov[(i, i)].max(0.0).sqrt())
             .collect();
@@ -55,16 +65,21 @@ impl FrameEstimate {
 }
 
 /// The points behind the offsets of the features visible at node positions `x` (the rows
-/// of the sensing loop's linearised problem, in its order): row i's offset is the mean of its n_i points,
-/// so with independent points of variance s² the covariance of rows i and j is
-/// s² n_ij / (n_i n_j), n_ij the points they share. s² is the median, over the rows, of the
-/// points' scatter about their offset.
+/// of the sensing loop's linearised problem, in its order): row i's offset is the mean of
+/// its n_i points, so with independent points of variance s_p² the covariance of rows i
+/// and j is Σ s_p² / (n_i n_j) over the points p they share. A point's s_p² is the largest
+/// of its rows' spreads: a row's spread is its points' scatter about their offset, never
+/// below the median over the rows. Depth noise sets the median; where a row's points
+/// scatter more (a dented patch near a contact, a silhouette, grazing view) its offset
+/// also depends more on which of them the camera happens to see (e.g. the part a probe
+/// hides), and the spread says by how much.
 #[derive(Clone, Debug)]
 pub struct SharedPoints {
     /// Each row's points (indices into the registrar's finite points, ascending).
     pub rows: Vec<Vec<u32>>,
-    /// Per-point variance along the line, s² (m²).
-    pub point_variance: f64,
+    /// Each row's per-point variance along the line (m²): its points' scatter, at least the
+    /// median over the rows.
+    pub row_spread: Vec<f64>,
 }
 
 impl SharedPoints {
@@ -80,7 +95,7 @@ impl SharedPoints {
             return None;
         }
         let mut rows = Vec::new();
-        let mut variances = Vec::new();
+        let mut own = Vec::new();
         for f in features {
             let (p, n) = (f.position(x), f.normal(x));
             if n == [0.0; 3] {
@@ -90,19 +105,19 @@ impl SharedPoints {
             let Some((m, pts, scatter)) = registrar.match_feature_points(p, n, params) else {
                 continue;
             };
-            if m.points > 1 {
-                variances.push(scatter / (m.points - 1) as f64);
-            }
+            own.push((m.points > 1).then(|| scatter / (m.points - 1) as f64));
             rows.push(pts);
         }
+        let mut variances: Vec<f64> = own.iter().flatten().copied().collect();
         if variances.is_empty() {
             return None;
         }
-        let point_variance = crate::math::median(&mut variances);
-        Some(Self {
-            rows,
-            point_variance,
-        })
+        let median = crate::math::median(&mut variances);
+        let row_spread = own
+            .into_iter()
+            .map(|v| v.map_or(median, |v| v.max(median)))
+            .collect();
+        Some(Self { rows, row_spread })
     }
 
     /// The covariance of the rows' offsets (m², rows x rows).
@@ -110,31 +125,47 @@ impl SharedPoints {
         let m = self.rows.len();
         let mut c = nalgebra::DMatrix::<f64>::zeros(m, m);
         for (_, owners) in self.owners() {
+            let s2 = self.point_spread(&owners);
             for &a in &owners {
                 for &b in &owners {
-                    c[(a, b)] += 1.0;
+                    c[(a, b)] += s2;
                 }
             }
         }
         let n: Vec<f64> = self.rows.iter().map(|r| r.len() as f64).collect();
         for i in 0..m {
             for j in 0..m {
-                c[(i, j)] *= self.point_variance / (n[i] * n[j]);
+                c[(i, j)] /= n[i] * n[j];
             }
         }
         c
     }
 
     /// B C Bᵀ for the rows' covariance C ([`SharedPoints::matrix`]) and `b` (k x rows),
-    /// without forming C: s² Σ_points v vᵀ, v = Σ over the rows holding the point of
+    /// without forming C: Σ_points s_p² v vᵀ, v = Σ over the rows holding the point of
     /// b's column / n_row.
     pub fn sandwich(&self, b: &nalgebra::DMatrix<f64>) -> Option<nalgebra::DMatrix<f64>> {
         self.sandwich_scaled(b, &vec![1.0; self.rows.len()])
     }
 
-    /// Row i's variance in [`SharedPoints::matrix`], s² / n_i (m²).
+    /// Row i's variance in [`SharedPoints::matrix`] (m²).
     pub fn row_variance(&self, i: usize) -> f64 {
-        self.point_variance / self.rows[i].len() as f64
+        self.row_variances()[i]
+    }
+
+    /// Every row's variance in [`SharedPoints::matrix`] (m²).
+    pub fn row_variances(&self) -> Vec<f64> {
+        let mut v = vec![0.0; self.rows.len()];
+        for (_, owners) in self.owners() {
+            let s2 = self.point_spread(&owners);
+            for &i in &owners {
+                v[i] += s2;
+            }
+        }
+        for (v, r) in v.iter_mut().zip(&self.rows) {
+            *v /= (r.len() * r.len()) as f64;
+        }
+        v
     }
 
     /// [`SharedPoints::sandwich`] with row i's errors scaled by `scale[i]`: B D C D Bᵀ, D =
@@ -156,9 +187,17 @@ impl SharedPoints {
                 let w = scale[i] / self.rows[i].len() as f64;
                 v.axpy(w, &b.column(i), 1.0);
             }
-            out.ger(self.point_variance, &v, &v, 1.0);
+            out.ger(self.point_spread(&owners), &v, &v, 1.0);
         }
         Some(out)
+    }
+
+    /// The variance of a point held by rows `owners`: the largest of their spreads.
+    fn point_spread(&self, owners: &[usize]) -> f64 {
+        owners
+            .iter()
+            .map(|&i| self.row_spread[i])
+            .fold(0.0, f64::max)
     }
 
     /// Each point used, with the rows holding it (ascending), in point order.
