@@ -214,3 +214,21 @@ fn a_sweep_sensed_and_scored_counts_every_load_once() {
     assert_eq!(scored.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&scored.stderr).contains("truth.json has 1"));
 }
+
+/// Regression: a diamond sweep stopped at its first draw whose load inverted an element
+/// during the FE solve ("inverted tetrahedron 3545"), instead of drawing again.
+#[test]
+fn a_load_that_inverts_an_element_is_redrawn_not_the_end_of_the_sweep() {
+    let dir = tempfile::tempdir().unwrap();
+    let sweep = sweep_file(
+        dir.path(),
+        "[probes]\nforce = [30.0, 40.0]\n[validity]\nmax_attempts = 3\n",
+    );
+    let prepared = Prepared::new(&sweep).unwrap();
+    let err = draw(&sweep, &prepared, 1, 0).err().unwrap().to_string();
+    assert!(err.contains("no physical scene in 3 attempts"), "{err}");
+    assert!(
+        err.contains("the FE solve failed (inverted tetrahedron"),
+        "{err}"
+    );
+}

@@ -14,6 +14,7 @@ use super::{SceneResult, SceneSpec};
 use crate::camera::Camera;
 use crate::fem::mesh::signed_volume;
 use crate::fem::model::Model;
+use crate::fem::FemError;
 use crate::geometry::raycast::{ray_sphere, Bvh};
 use crate::math::{cross, dot, norm, sub};
 use crate::recording::schema::{FrameInput, LoadInput, LoadKind};
@@ -519,6 +520,13 @@ fn try_draw(sweep: &Sweep, prepared: &Prepared, r: &mut Draws) -> SceneResult<At
         Err(SceneError::NotConverged { .. }) => {
             return Ok(Err("the FE solve did not converge".into()))
         }
+        // The load turned an element inside out on the way (Newton's steps, or the
+        // solution itself): no physical scene, another draw.
+        Err(SceneError::Fem(
+            e @ (FemError::InvertedElement { .. }
+            | FemError::NoConvergence { .. }
+            | FemError::NotPositiveDefinite { .. }),
+        )) => return Ok(Err(format!("the FE solve failed ({e})"))),
         Err(e) => return Err(e),
     };
     let ratio = spec.validity.min_volume_ratio;
