@@ -351,3 +351,91 @@ impl Combinations<'_> {
         Ok(best)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::{Combinations, IntensityProblem};
+    use crate::inverse::sensing::FrameParams;
+    use nalgebra::DMatrix;
+
+    /// A joint problem of two contacts with three options each (one push-only column per
+    /// option, no actuators): rows of a smooth response, and data made by option 1 of
+    /// contact 0 and option 2 of contact 1, plus a deterministic ripple for noise.
+    fn joint() -> IntensityProblem {
+        let m = 40;
+        let centres = [0.2, 0.3, 0.45, 0.6, 0.7, 0.85];
+        let w_ef = DMatrix::from_fn(m, 6, |i, j| {
+            let t = i as f64 / m as f64 - centres[j];
+            1e-3 * (-t * t / 0.02).exp()
+        });
+        let truth = [0.0, 0.5, 0.0, 0.0, 0.0, 0.8];
+        let measured: Vec<f64> = (0..m)
+            .map(|i| {
+                let clean: f64 = (0..6).map(|j| w_ef[(i, j)] * truth[j]).sum();
+                clean + 2e-6 * ((i * 7 % 11) as f64 - 5.0)
+            })
+            .collect();
+        IntensityProblem {
+            w_ea: DMatrix::zeros(m, 0),
+            w_ef,
+            delta_free_e: vec![0.0; m],
+            delta_measured: measured,
+            w_aa: DMatrix::zeros(0, 0),
+            w_af: DMatrix::zeros(0, 6),
+            delta_free_a: Vec::new(),
+            actuators: Vec::new(),
+            push_only: vec![true; 6],
+        }
+    }
+
+    #[test]
+    fn each_alternatives_misfit_is_its_own_qps_loss_of_fit_over_the_noise_left() {
+        let params = FrameParams::default();
+        let excluded: Vec<Vec<usize>> = Vec::new();
+        let combinations = Combinations {
+            joint: joint(),
+            cols: vec![
+                vec![vec![0], vec![1], vec![2]],
+                vec![vec![3], vec![4], vec![5]],
+            ],
+            excluded: &excluded,
+            params: &params,
+        };
+        let best = combinations.exhaustive(&[3, 3], 9).unwrap();
+        assert_eq!(best, vec![1, 2]);
+        let problem = combinations.sub_problem(&best);
+        let estimate = problem.solve(&params.intensity).unwrap();
+        let alternatives = combinations.alternatives(&best, &problem, &estimate, f64::INFINITY);
+        // Brute force: every single swap solved on its own.
+        let (m, n) = (40.0, 2.0);
+        let rss0 = estimate.residual_rms.powi(2) * m;
+        let s2 = rss0 / (m - n);
+        for (k, alts) in alternatives.iter().enumerate() {
+            assert_eq!(
+                alts.len(),
+                2,
+                "contact {k}: every other option with no window"
+            );
+            for pair in alts.windows(2) {
+                assert!(pair[0].misfit <= pair[1].misfit, "best first");
+            }
+            for a in alts {
+                let mut swap = best.clone();
+                swap[k] = a.option;
+                let e = combinations
+                    .sub_problem(&swap)
+                    .solve(&params.intensity)
+                    .unwrap();
+                let misfit = (e.residual_rms.powi(2) * m - rss0) / s2;
+                assert!((a.misfit - misfit).abs() <= 1e-6 * misfit.abs().max(1.0));
+                assert!(a.misfit > 0.0, "the winner fits best");
+                assert_eq!(a.forces.len(), 1);
+            }
+        }
+        // A window keeps exactly those within it.
+        let cut = alternatives[0][0].misfit;
+        let within = combinations.alternatives(&best, &problem, &estimate, cut * (1.0 + 1e-9));
+        assert_eq!(within[0].len(), 1);
+        assert!(within[1].iter().all(|a| a.misfit <= cut * (1.0 + 1e-9)));
+    }
+}
