@@ -26,10 +26,27 @@ pub struct LocationChoice {
     /// Its QP's solution there: the forces a sensing loop started at that point would get
     /// from its first FE update ([`Start::AfterChoice`](super::Start::AfterChoice)).
     pub estimate: IntensityEstimate,
+    /// Every option's intensity problem, linearised together.
+    joint: IntensityProblem,
+    /// Columns of each option in `joint`, per contact.
+    cols: Vec<Vec<Vec<usize>>>,
+    /// The combinations that were never to be chosen.
+    excluded: Vec<Vec<usize>>,
+}
+
+impl LocationChoice {
     /// Per contact, the other options that fit nearly as well: the chosen combination with
-    /// that contact's option swapped, when its misfit is within the `window` of
-    /// [`choose_locations`], best first.
-    pub alternatives: Vec<Vec<Alternative>>,
+    /// that contact's option swapped, when its misfit ([`Alternative::misfit`]) is at most
+    /// `window`, best first. Solves the QPs of those that may be (`params.intensity`).
+    pub fn alternatives(&self, params: &FrameParams, window: f64) -> Vec<Vec<Alternative>> {
+        let combinations = Combinations {
+            joint: &self.joint,
+            cols: &self.cols,
+            excluded: &self.excluded,
+            params,
+        };
+        combinations.alternatives(&self.pick, &self.problem, &self.estimate, window)
+    }
 }
 
 /// A location a contact could have instead of the chosen one, and the fit it gives.
@@ -55,8 +72,6 @@ pub struct Alternative {
 /// contact, with its QP. More than `max_combinations` combinations: coordinate descent from
 /// the first options instead. Combinations in `excluded` (one option index per contact,
 /// e.g. ones whose estimate failed) are never chosen; an error if nothing else is left.
-/// Each contact's alternatives are the other options whose misfit ([`Alternative::misfit`]),
-/// with the others' choice kept, is at most `window`.
 /// `inputs.candidates` are not used.
 pub fn choose_locations(
     inputs: &FrameInputs<'_>,
@@ -64,7 +79,6 @@ pub fn choose_locations(
     at: LinearisationPoint<'_>,
     max_combinations: usize,
     excluded: &[Vec<usize>],
-    window: f64,
 ) -> InverseResult<LocationChoice> {
     if options.iter().any(|o| o.is_empty()) {
         return Err(InverseError::Intensity(
@@ -82,9 +96,10 @@ pub fn choose_locations(
         }
         cols.push(g);
     }
+    let joint = joint_problem(inputs, &all, at)?;
     let combinations = Combinations {
-        joint: joint_problem(inputs, &all, at)?,
-        cols,
+        joint: &joint,
+        cols: &cols,
         excluded,
         params: inputs.params,
     };
@@ -105,12 +120,13 @@ pub fn choose_locations(
     if !estimate.status.is_solution() {
         return Err(InverseError::NotSolved(estimate.status));
     }
-    let alternatives = combinations.alternatives(&best, &problem, &estimate, window);
     Ok(LocationChoice {
         pick: best,
         problem,
         estimate,
-        alternatives,
+        joint,
+        cols,
+        excluded: excluded.to_vec(),
     })
 }
 
@@ -157,9 +173,9 @@ fn every_excluded() -> InverseError {
 /// The combinations of one option per contact, as sub-problems of the joint one.
 struct Combinations<'a> {
     /// Every option's candidates, linearised together.
-    joint: IntensityProblem,
+    joint: &'a IntensityProblem,
     /// Columns of each option in `joint`, per contact.
-    cols: Vec<Vec<Vec<usize>>>,
+    cols: &'a [Vec<Vec<usize>>],
     /// Combinations never chosen.
     excluded: &'a [Vec<usize>],
     params: &'a FrameParams,
@@ -168,10 +184,10 @@ struct Combinations<'a> {
 impl Combinations<'_> {
     /// The intensity problem of one option per contact (`choice`).
     fn sub_problem(&self, choice: &[usize]) -> IntensityProblem {
-        let joint = &self.joint;
+        let joint = self.joint;
         let idx: Vec<usize> = choice
             .iter()
-            .zip(&self.cols)
+            .zip(self.cols)
             .flat_map(|(&c, g)| g[c].iter().copied())
             .collect();
         IntensityProblem {
@@ -392,12 +408,14 @@ mod tests {
     fn each_alternatives_misfit_is_its_own_qps_loss_of_fit_over_the_noise_left() {
         let params = FrameParams::default();
         let excluded: Vec<Vec<usize>> = Vec::new();
+        let joint = joint();
+        let cols = vec![
+            vec![vec![0], vec![1], vec![2]],
+            vec![vec![3], vec![4], vec![5]],
+        ];
         let combinations = Combinations {
-            joint: joint(),
-            cols: vec![
-                vec![vec![0], vec![1], vec![2]],
-                vec![vec![3], vec![4], vec![5]],
-            ],
+            joint: &joint,
+            cols: &cols,
             excluded: &excluded,
             params: &params,
         };

@@ -11,8 +11,8 @@ use super::FrameReport;
 use super::FrameStatus;
 use crate::fem::solve::{MappedPoint, SolverState};
 use crate::inverse::{
-    choose_locations, estimate, Candidate, FrameEstimate, FrameInputs, FrameParams, InverseResult,
-    LinearisationPoint, LocationChoice, Start,
+    choose_locations, estimate, Alternative, Candidate, FrameEstimate, FrameInputs, FrameParams,
+    InverseResult, LinearisationPoint, LocationChoice, Start,
 };
 use crate::math::{cross, dot, sub, unit};
 use crate::register::vertex_normals;
@@ -109,9 +109,9 @@ struct Rounds<'f, 'a> {
     /// Whether the first estimate is a preview (the first update is at the free state
     /// itself: a preview needs two).
     previews: bool,
-    /// The last choice's picked nodes, and per contact the locations that fit nearly as
-    /// well (their `force`: the change the swap makes in the choice's QP).
-    alternatives: Option<(Vec<usize>, Vec<Vec<LocationAlternative>>)>,
+    /// The last choice that stood or was estimated: the frame's alternative locations
+    /// come from it, if it picked the final estimate's nodes.
+    last_choice: Option<Chosen>,
 }
 
 /// The seen contacts' locations and their estimate.
@@ -140,7 +140,7 @@ pub(super) fn locate(
         held: Held::Nothing,
         keep_state: want_track,
         previews: params.preview_updates >= 2,
-        alternatives: None,
+        last_choice: None,
     };
     let resumed = prev
         .and_then(|t| resume_contacts(t, params.track_radius, &frame.cables, &rounds.centroids));
@@ -206,6 +206,7 @@ impl Rounds<'_, '_> {
                     free: false,
                 };
                 let kept = matches!(&choice.0, Ok((_, _, picked)) if *picked == r.nodes);
+                self.last_choice = choice.0.ok();
                 self.held = Held::Estimate(Located {
                     est,
                     candidates: r.candidates,
@@ -279,17 +280,19 @@ impl Rounds<'_, '_> {
             else {
                 return Ok(Flow::Stop);
             };
-            let alternatives = alternatives_of(&options, &choice, &self.at.x);
-            self.alternatives = Some((picked.clone(), alternatives));
             let attempt = match action(self, &picked) {
-                Action::Keep => return Ok(Flow::Stop),
+                Action::Keep => {
+                    self.last_choice = Some((options, choice, picked));
+                    return Ok(Flow::Stop);
+                }
                 Action::GoOn(p) => self.go_on(*p),
                 Action::Estimate { preview } => self.estimate_new(&options, &choice, preview),
             };
             let (solved, candidates, groups, preview) = attempt;
             match solved {
                 Ok(est) => {
-                    self.hold(est, candidates, groups, picked, preview);
+                    self.hold(est, candidates, groups, picked.clone(), preview);
+                    self.last_choice = Some((options, choice, picked));
                     return Ok(Flow::Next);
                 }
                 Err(e) if failed.len() < LOCATION_RETRIES => {
@@ -453,9 +456,13 @@ impl Rounds<'_, '_> {
             return Err(FrameStatus::NotSolved("no estimate".into()));
         };
         // The last choice's alternatives, where it picked the estimate's locations, moved
-        // to the estimate's forces.
-        if let Some((picked, alternatives)) = self.alternatives.take() {
+        // to the estimate's forces (solved once per frame, not per round).
+        if let Some((options, choice, picked)) = self.last_choice.take() {
             if picked == out.nodes {
+                let params = &self.frame.sensor.params;
+                let window = 2.0 * params.location_ambiguity;
+                let fits = choice.alternatives(self.frame.inputs.params, window);
+                let alternatives = alternatives_of(&options, &choice, &fits, &out.est.positions);
                 for (g, alts) in out.groups.iter_mut().zip(alternatives) {
                     let r = g.range.clone();
                     let f = force_of(&out.candidates[r.clone()], &out.est.estimate.forces[r]);
@@ -492,17 +499,18 @@ impl Rounds<'_, '_> {
     }
 }
 
-/// Per contact, `choice`'s alternatives among `options` at node positions `x`, each with
-/// (as its `force`) the change of the contact's force in the choice's QP when it moves
-/// there.
+/// Per contact, `choice`'s alternatives `fits` among `options` at node positions `x`, each
+/// with (as its `force`) the change of the contact's force in the choice's QP when it
+/// moves there.
 fn alternatives_of(
     options: &[(Vec<usize>, Vec<Vec<Candidate>>)],
     choice: &LocationChoice,
+    fits: &[Vec<Alternative>],
     x: &[[f64; 3]],
 ) -> Vec<Vec<LocationAlternative>> {
     let mut start = 0;
     let mut out = Vec::new();
-    for (k, ((nodes, opts), alts)) in options.iter().zip(&choice.alternatives).enumerate() {
+    for (k, ((nodes, opts), alts)) in options.iter().zip(fits).enumerate() {
         let chosen = &opts[choice.pick[k]];
         let range = start..start + chosen.len();
         start = range.end;
@@ -574,14 +582,7 @@ fn choose(
         tensions,
         state,
     };
-    let choice = choose_locations(
-        &frame.inputs,
-        &all,
-        at,
-        params.max_combinations,
-        excluded,
-        2.0 * params.location_ambiguity,
-    )?;
+    let choice = choose_locations(&frame.inputs, &all, at, params.max_combinations, excluded)?;
     let picked: Vec<usize> = choice
         .pick
         .iter()
