@@ -64,6 +64,26 @@ pub(crate) fn factorize_loop_tangent(
     }
 }
 
+/// The features' rows at node positions `x`: each matched feature along its normal, its
+/// measured value the row's plus the match's offset.
+fn feature_rows(
+    inputs: &FrameInputs<'_>,
+    x: &[[f64; 3]],
+) -> InverseResult<(Vec<ConstraintRow>, Vec<f64>)> {
+    let (registrar, features, params) = (inputs.registrar, inputs.features, inputs.params);
+    let mut rows = Vec::new();
+    let mut measured = Vec::new();
+    let matches = registrar.match_features(features, x, &params.register);
+    for (f, m) in features.iter().zip(matches) {
+        if let Some(m) = m {
+            let row = ConstraintRow::along(RowKind::Effector, &f.mapped(), f.normal(x))?;
+            measured.push(row.value(x) + m.offset);
+            rows.push(row);
+        }
+    }
+    Ok((rows, measured))
+}
+
 /// The intensity problem linearised at node positions `x` (an equilibrium of the solver's
 /// problem without its point loads, plus some candidate loads; the solver holds the tangent
 /// factorised at `x`): the frame's features registered at `x`, compliance of the feature,
@@ -79,17 +99,10 @@ pub(crate) fn linearise(
     let rest = &base.mesh.nodes_in_rest;
     let clock = std::time::Instant::now();
     // Register at the current state.
-    let (registrar, features, params) = (inputs.registrar, inputs.features, inputs.params);
-    let mut rows = Vec::new();
-    let mut measured = Vec::new();
-    let matches = registrar.match_features(features, x, &params.register);
-    for (f, m) in features.iter().zip(matches) {
-        if let Some(m) = m {
-            let row = ConstraintRow::along(RowKind::Effector, &f.mapped(), f.normal(x))?;
-            measured.push(row.value(x) + m.offset);
-            rows.push(row);
-        }
-    }
+    let (mut rows, measured) = match inputs.dense {
+        Some(dense) => super::dense::dense_rows(dense, x)?,
+        None => feature_rows(inputs, x)?,
+    };
     let visible = rows.len();
     timings.register += ms_since(clock);
     let clock = std::time::Instant::now();
