@@ -81,7 +81,7 @@ pub(crate) fn dense_rows(
         if cos > -params.min_view_cos {
             return None;
         }
-        let offset = cos * (hit.t - range);
+        let offset = cos * (range - hit.t);
         if offset.abs() > params.max_offset {
             return None;
         }
