@@ -124,7 +124,12 @@ impl FrameEstimate {
         if !(var > 0.0 && var.is_finite()) {
             return false;
         }
-        let row_var: Vec<f64> = residuals.iter().map(|r| (r * r).max(var)).collect();
+        // SOFTSENSE_DENSE_NOSCALE=1 (measurement only): every row at the robust spread.
+        let scaled = std::env::var("SOFTSENSE_DENSE_NOSCALE").map_or(true, |v| v != "1");
+        let row_var: Vec<f64> = residuals
+            .iter()
+            .map(|r| if scaled { (r * r).max(var) } else { var })
+            .collect();
         let Some(mut cov) = self.problem.force_covariance_with(|a| {
             let mut scaled = a.clone();
             for (j, v) in row_var.iter().enumerate() {
