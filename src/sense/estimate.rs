@@ -9,7 +9,8 @@ use super::{FrameReport, FrameStatus, ModelInputs, Observation, Sensor};
 use crate::contact::Contact;
 use crate::fem::solve::CableControl;
 use crate::inverse::{
-    estimate, par_map, Candidate, DenseInputs, FrameEstimate, FrameInputs, FrameParams, InverseResult, Start,
+    estimate, par_map, Candidate, DenseInputs, FrameEstimate, FrameInputs, FrameParams,
+    InverseResult, Start,
 };
 use crate::math::{dot, sub};
 use crate::recording::FrameInput;
