@@ -170,6 +170,42 @@ impl Solver<'_> {
         skip: usize,
     ) -> FemResult<Compliance> {
         let m = rows.len();
+        let (cols, delta_free) = self.compliance_columns(rows, x, residual, skip)?;
+        let mut w = DMatrix::<f64>::zeros(m, m);
+        for c in 0..m - skip {
+            let j = skip + c;
+            for i in 0..m {
+                w[(i, j)] = cols[(i, c)];
+                w[(j, i)] = cols[(i, c)];
+            }
+        }
+        Ok(Compliance {
+            w,
+            delta_free,
+            kinds: rows.iter().map(|r| r.kind).collect(),
+        })
+    }
+
+    /// The columns of W from row `skip` on (rows x (rows − skip): column c is W's column
+    /// `skip + c`, the block among the rows from `skip` on symmetrised) and δ^free, as
+    /// [`Solver::compliance_skipping`] computes them, without forming W: with thousands of
+    /// rows before `skip` (one per measured point) W itself would be most of the cost.
+    pub fn compliance_columns(
+        &self,
+        rows: &[ConstraintRow],
+        x: &[[f64; 3]],
+        residual: &[f64],
+        skip: usize,
+    ) -> FemResult<(DMatrix<f64>, Vec<f64>)> {
+        let m = rows.len();
+        let skip = skip.min(m);
+        if residual.len() != self.ndof() {
+            return Err(FemError::Model(format!(
+                "residual has {} entries, the system {}",
+                residual.len(),
+                self.ndof()
+            )));
+        }
         let ko = m - skip + 1;
         let dof = |n: usize| self.dofs.node_dof.get(n).copied().flatten();
         let mut z = Mat::<f64>::zeros(self.ndof(), ko);
@@ -198,25 +234,18 @@ impl Solver<'_> {
                 }
             }
         }
-        let mut w = DMatrix::<f64>::zeros(m, m);
+        let mut cols = DMatrix::<f64>::zeros(m, ko - 1);
         for c in 0..ko - 1 {
-            let j = skip + c;
             for i in 0..m {
-                let v = if i >= skip {
-                    0.5 * (hz[(i, c)] + hz[(j, i - skip)])
+                cols[(i, c)] = if i >= skip {
+                    0.5 * (hz[(i, c)] + hz[(skip + c, i - skip)])
                 } else {
                     hz[(i, c)]
                 };
-                w[(i, j)] = v;
-                w[(j, i)] = v;
             }
         }
         let delta_free = (0..m).map(|i| rows[i].value(x) + hz[(i, ko - 1)]).collect();
-        Ok(Compliance {
-            w,
-            delta_free,
-            kinds: rows.iter().map(|r| r.kind).collect(),
-        })
+        Ok((cols, delta_free))
     }
 
     /// Yᵀ Y (upper triangle valid) for Y = L⁻¹ P B, B (ndof x `k`) given by `fill`, which

@@ -127,6 +127,8 @@ struct Node {
 #[derive(Clone, Debug)]
 pub struct Bvh {
     tris: Vec<[[f64; 3]; 3]>,
+    /// Index of each of `tris` in the triangles given to [`Bvh::new`].
+    source: Vec<usize>,
     order: Vec<usize>,
     nodes: Vec<Node>,
 }
@@ -136,11 +138,12 @@ const LEAF: usize = 4;
 impl Bvh {
     /// Builds the hierarchy (indices must be valid for `vertices`; invalid ones are skipped).
     pub fn new(vertices: &[[f64; 3]], triangles: &[[usize; 3]]) -> Self {
-        let tris: Vec<[[f64; 3]; 3]> = triangles
+        let (source, tris): (Vec<usize>, Vec<[[f64; 3]; 3]>) = triangles
             .iter()
-            .filter(|t| t.iter().all(|&i| i < vertices.len()))
-            .map(|t| t.map(|i| vertices[i]))
-            .collect();
+            .enumerate()
+            .filter(|(_, t)| t.iter().all(|&i| i < vertices.len()))
+            .map(|(k, t)| (k, t.map(|i| vertices[i])))
+            .unzip();
         let centroids: Vec<[f64; 3]> = tris
             .iter()
             .map(|t| [0, 1, 2].map(|k| (t[0][k] + t[1][k] + t[2][k]) / 3.0))
@@ -148,6 +151,7 @@ impl Bvh {
         let mut bvh = Self {
             order: (0..tris.len()).collect(),
             tris,
+            source,
             nodes: Vec::new(),
         };
         if !bvh.tris.is_empty() {
@@ -201,6 +205,12 @@ impl Bvh {
     /// The nearest hit of the ray `o + t d` (t > 0) with its triangle's unit normal
     /// oriented by the triangle winding (outward for a surface from [`crate::fem`]).
     pub fn cast(&self, o: [f64; 3], d: [f64; 3]) -> Option<Hit> {
+        self.cast_triangle(o, d).map(|(hit, _)| hit)
+    }
+
+    /// [`Bvh::cast`] with the index of the hit triangle in the triangles given to
+    /// [`Bvh::new`].
+    pub fn cast_triangle(&self, o: [f64; 3], d: [f64; 3]) -> Option<(Hit, usize)> {
         if self.nodes.is_empty() {
             return None;
         }
@@ -231,10 +241,11 @@ impl Bvh {
         }
         best.map(|(t, i)| {
             let tri = self.tris[i];
-            Hit {
+            let hit = Hit {
                 t,
                 normal: unit(cross(sub(tri[1], tri[0]), sub(tri[2], tri[0]))),
-            }
+            };
+            (hit, self.source[i])
         })
     }
 }

@@ -64,6 +64,26 @@ pub(crate) fn factorize_loop_tangent(
     }
 }
 
+/// The features' rows at node positions `x`: each matched feature along its normal, its
+/// measured value the row's plus the match's offset.
+fn feature_rows(
+    inputs: &FrameInputs<'_>,
+    x: &[[f64; 3]],
+) -> InverseResult<(Vec<ConstraintRow>, Vec<f64>)> {
+    let (registrar, features, params) = (inputs.registrar, inputs.features, inputs.params);
+    let mut rows = Vec::new();
+    let mut measured = Vec::new();
+    let matches = registrar.match_features(features, x, &params.register);
+    for (f, m) in features.iter().zip(matches) {
+        if let Some(m) = m {
+            let row = ConstraintRow::along(RowKind::Effector, &f.mapped(), f.normal(x))?;
+            measured.push(row.value(x) + m.offset);
+            rows.push(row);
+        }
+    }
+    Ok((rows, measured))
+}
+
 /// The intensity problem linearised at node positions `x` (an equilibrium of the solver's
 /// problem without its point loads, plus some candidate loads; the solver holds the tangent
 /// factorised at `x`): the frame's features registered at `x`, compliance of the feature,
@@ -79,17 +99,10 @@ pub(crate) fn linearise(
     let rest = &base.mesh.nodes_in_rest;
     let clock = std::time::Instant::now();
     // Register at the current state.
-    let (registrar, features, params) = (inputs.registrar, inputs.features, inputs.params);
-    let mut rows = Vec::new();
-    let mut measured = Vec::new();
-    let matches = registrar.match_features(features, x, &params.register);
-    for (f, m) in features.iter().zip(matches) {
-        if let Some(m) = m {
-            let row = ConstraintRow::along(RowKind::Effector, &f.mapped(), f.normal(x))?;
-            measured.push(row.value(x) + m.offset);
-            rows.push(row);
-        }
-    }
+    let (mut rows, measured) = match inputs.dense {
+        Some(dense) => super::dense::dense_rows(dense, x)?,
+        None => feature_rows(inputs, x)?,
+    };
     let visible = rows.len();
     timings.register += ms_since(clock);
     let clock = std::time::Instant::now();
@@ -118,20 +131,20 @@ pub(crate) fn linearise(
         *f -= fi;
     }
     let r = solver.dofs.gather(&full);
-    // W_ee is not used: skip the products among the feature rows.
-    let comp = solver.compliance_skipping(&rows, x, &r, ne)?;
+    // W_ee is not used: only the columns of the actuator and force rows.
+    let (cols, delta_free) = solver.compliance_columns(&rows, x, &r, ne)?;
     timings.compliance += ms_since(clock);
-    let e: Vec<usize> = (0..ne).collect();
-    let a: Vec<usize> = (ne..ne + na).collect();
-    let fo: Vec<usize> = (ne + na..ne + na + nf).collect();
+    let block = |r0: usize, nr: usize, c0: usize, nc: usize| {
+        cols.view((r0, c0 - ne), (nr, nc)).clone_owned()
+    };
     let prob = IntensityProblem {
-        w_ea: comp.block(&e, &a),
-        w_ef: comp.block(&e, &fo),
-        delta_free_e: comp.delta_free[..ne].to_vec(),
+        w_ea: block(0, ne, ne, na),
+        w_ef: block(0, ne, ne + na, nf),
+        delta_free_e: delta_free[..ne].to_vec(),
         delta_measured: measured,
-        w_aa: comp.block(&a, &a),
-        w_af: comp.block(&a, &fo),
-        delta_free_a: comp.delta_free[ne..ne + na].to_vec(),
+        w_aa: block(ne, na, ne, na),
+        w_af: block(ne, na, ne + na, nf),
+        delta_free_a: delta_free[ne..ne + na].to_vec(),
         actuators: inputs,
         push_only: candidates.iter().map(|c| c.push_only).collect(),
     };

@@ -16,6 +16,7 @@
 //! assert!((s.x[0] - 2.0).abs() < 1e-6);
 //! ```
 
+pub mod dense;
 pub mod intensity;
 pub mod linearise;
 pub mod locations;
@@ -23,6 +24,7 @@ pub mod qp;
 pub mod sensing;
 pub mod uncertainty;
 
+pub use dense::{DenseInputs, DenseParams};
 pub use linearise::{Candidate, LinearisationPoint};
 pub use locations::{choose_locations, Alternative, LocationChoice};
 pub use sensing::{estimate, FrameEstimate, FrameInputs, FrameParams, LoopTimings, Start};

@@ -138,6 +138,9 @@ pub struct FrameInputs<'a> {
     pub features: &'a [SurfaceFeature],
     /// The loop's parameters.
     pub params: &'a FrameParams,
+    /// Dense registration: rows of the robot points themselves instead of the features'
+    /// (`None`: the features').
+    pub dense: Option<&'a super::dense::DenseInputs<'a>>,
 }
 
 /// Where [`estimate`]'s loop starts.

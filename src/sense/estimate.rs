@@ -9,7 +9,8 @@ use super::{FrameReport, FrameStatus, ModelInputs, Observation, Sensor};
 use crate::contact::Contact;
 use crate::fem::solve::CableControl;
 use crate::inverse::{
-    estimate, par_map, Candidate, FrameEstimate, FrameInputs, FrameParams, InverseResult, Start,
+    estimate, par_map, Candidate, DenseInputs, FrameEstimate, FrameInputs, FrameParams,
+    InverseResult, Start,
 };
 use crate::math::{dot, sub};
 use crate::recording::FrameInput;
@@ -139,6 +140,17 @@ impl Sensor {
         report.features = features.len();
         let clock = std::time::Instant::now();
         let registrar = Registrar::new(&obs.robot);
+        let dense_points = if self.params.dense {
+            crate::inverse::dense::subsample(&obs.robot, self.params.dense_rows.max_points)
+        } else {
+            Vec::new()
+        };
+        let dense = DenseInputs {
+            points: &dense_points,
+            eye: self.eye,
+            triangles: &self.surface.triangles,
+            params: self.params.dense_rows,
+        };
         report.timings.register += ms(clock.elapsed());
         let frame = Frame {
             sensor: self,
@@ -147,6 +159,7 @@ impl Sensor {
                 registrar: &registrar,
                 features: &features,
                 params: &self.params.frame,
+                dense: self.params.dense.then_some(&dense),
             },
             free: &free,
             contacts: &contacts,
@@ -162,7 +175,11 @@ impl Sensor {
         } else {
             super::locate::locate(&frame, prev, want_track, report)?
         };
-        est.use_shared_point_uncertainty(&registrar, &features, &self.params.frame.register);
+        if self.params.dense {
+            est.use_independent_uncertainty();
+        } else {
+            est.use_shared_point_uncertainty(&registrar, &features, &self.params.frame.register);
+        }
         report.describe(&est, &candidates, &groups, &model, &self.params);
         if est.visible == 0 {
             return Err(FrameStatus::NoFeatures);

@@ -66,6 +66,12 @@ pub struct SenseParams {
     /// ([`ForceEstimate::sigma_max`](super::ForceEstimate::sigma_max)) exceeds this fraction
     /// of its magnitude (0.025).
     pub direction_warning: f64,
+    /// Register every (subsampled) robot point against the FE surface instead of the
+    /// features ([`crate::inverse::dense`]) (false; `SOFTSENSE_DENSE=1` in the environment
+    /// turns it on in [`SenseParams::default`]).
+    pub dense: bool,
+    /// The dense rows' tunables.
+    pub dense_rows: crate::inverse::DenseParams,
 }
 
 impl Default for SenseParams {
@@ -80,6 +86,11 @@ impl Default for SenseParams {
         frame.max_updates = 20;
         // 1 mN: far below the 5% of the lightest load (0.26 N) the estimates are held to.
         frame.force_tol = 1e-3;
+        let dense = std::env::var("SOFTSENSE_DENSE").is_ok_and(|v| v == "1");
+        if dense {
+            // One point per row: 0.5 mm depth noise and 1 mm depth steps (0.29 mm).
+            frame.intensity.sensor_sigma = 5.8e-4;
+        }
         Self {
             color: RobotColorModel::default(),
             crop_margin: 0.03,
@@ -107,6 +118,8 @@ impl Default for SenseParams {
             local_features_radius: 0.03,
             local_feature_pool: 600,
             track_radius: 0.005,
+            dense,
+            dense_rows: crate::inverse::DenseParams::default(),
         }
     }
 }
