@@ -1,6 +1,6 @@
 //! Dense registration: instead of the features' averaged normal-line offsets, one row per
 //! (subsampled) robot point the camera sees, its offset from the deformed FE surface
-//! along the ray from the camera ([`DenseInputs`], [`dense_rows`]), and the forces'
+//! along the ray from the camera ([`DenseInputs`], `dense_rows`), and the forces'
 //! covariance from independent rows ([`FrameEstimate::use_independent_uncertainty`]).
 
 use super::sensing::FrameEstimate;
@@ -124,12 +124,7 @@ impl FrameEstimate {
         if !(var > 0.0 && var.is_finite()) {
             return false;
         }
-        // SOFTSENSE_DENSE_NOSCALE=1 (measurement only): every row at the robust spread.
-        let scaled = std::env::var("SOFTSENSE_DENSE_NOSCALE").map_or(true, |v| v != "1");
-        let row_var: Vec<f64> = residuals
-            .iter()
-            .map(|r| if scaled { (r * r).max(var) } else { var })
-            .collect();
+        let row_var: Vec<f64> = residuals.iter().map(|r| (r * r).max(var)).collect();
         let Some(mut cov) = self.problem.force_covariance_with(|a| {
             let mut scaled = a.clone();
             for (j, v) in row_var.iter().enumerate() {

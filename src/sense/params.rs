@@ -67,8 +67,8 @@ pub struct SenseParams {
     /// of its magnitude (0.025).
     pub direction_warning: f64,
     /// Register every (subsampled) robot point against the FE surface instead of the
-    /// features ([`crate::inverse::dense`]) (false; `SOFTSENSE_DENSE=1` in the environment
-    /// turns it on in [`SenseParams::default`]).
+    /// features ([`crate::inverse::dense`]) (false; [`SenseParams::dense`] sets it with its
+    /// noise).
     pub dense: bool,
     /// The dense rows' tunables.
     pub dense_rows: crate::inverse::DenseParams,
@@ -86,11 +86,6 @@ impl Default for SenseParams {
         frame.max_updates = 20;
         // 1 mN: far below the 5% of the lightest load (0.26 N) the estimates are held to.
         frame.force_tol = 1e-3;
-        let dense = std::env::var("SOFTSENSE_DENSE").is_ok_and(|v| v == "1");
-        if dense {
-            // One point per row: 0.5 mm depth noise and 1 mm depth steps (0.29 mm).
-            frame.intensity.sensor_sigma = 5.8e-4;
-        }
         Self {
             color: RobotColorModel::default(),
             crop_margin: 0.03,
@@ -118,8 +113,21 @@ impl Default for SenseParams {
             local_features_radius: 0.03,
             local_feature_pool: 600,
             track_radius: 0.005,
-            dense,
+            dense: false,
             dense_rows: crate::inverse::DenseParams::default(),
         }
+    }
+}
+
+impl SenseParams {
+    /// The defaults with dense registration ([`SenseParams::dense`]).
+    pub fn dense() -> Self {
+        let mut params = Self {
+            dense: true,
+            ..Self::default()
+        };
+        // One point per row: 0.5 mm depth noise and 1 mm depth steps (0.29 mm).
+        params.frame.intensity.sensor_sigma = 5.8e-4;
+        params
     }
 }

@@ -1,0 +1,45 @@
+#!/usr/bin/env python3
+"""The bench's sense row for two builds, in alternating rounds: did a change make it slower?
+
+    tools/bench/ab_sense.py OLD_BENCH_STAGES NEW_BENCH_STAGES [ROUNDS]
+
+Each argument is a release `examples/bench_stages` binary (e.g. one built from a clone at
+the old commit with `cargo build --release --example bench_stages`). Each round runs every
+bundled scene 3 times per build, the builds' order swapped every round so a slow minute of
+a busy machine falls on both; prints the median ms per frame and new/old per scene.
+Run from the repository's root.
+"""
+import json
+import statistics
+import subprocess
+import sys
+
+SCENES = ["clouds/scenes/tip_weight", "clouds/scenes/probe_side",
+          "clouds/scenes/two_probes", "clouds/scenes/probe_press"]
+
+
+def main():
+    if len(sys.argv) not in (3, 4):
+        sys.exit(__doc__)
+    builds = {"old": sys.argv[1], "new": sys.argv[2]}
+    rounds = int(sys.argv[3]) if len(sys.argv) == 4 else 4
+    times = {(b, s): [] for b in builds for s in SCENES}
+    for rnd in range(rounds):
+        order = ["old", "new"] if rnd % 2 == 0 else ["new", "old"]
+        for scene in SCENES:
+            for b in order:
+                p = subprocess.run([builds[b], "sense", scene, "3", "{}"],
+                                   capture_output=True, text=True, check=True)
+                r = json.loads(p.stdout.strip().splitlines()[-1])
+                if not r["ok"]:
+                    sys.exit(f"{b} {scene}: {r['error']}")
+                times[(b, scene)] += r["timings_ms"]
+    print(f"median ms per frame, {rounds} alternating rounds of 3 passes")
+    for scene in SCENES:
+        old = statistics.median(times[("old", scene)])
+        new = statistics.median(times[("new", scene)])
+        print(f"{scene}: old {old:.0f}, new {new:.0f}, new/old {new / old:.2f}")
+
+
+if __name__ == "__main__":
+    main()
