@@ -125,7 +125,7 @@ impl FrameEstimate {
             return false;
         }
         let row_var: Vec<f64> = residuals.iter().map(|r| (r * r).max(var)).collect();
-        let Some(mut cov) = self.problem.force_covariance_with(|a| {
+        let Some(cov) = self.problem.force_covariance_with(|a| {
             let mut scaled = a.clone();
             for (j, v) in row_var.iter().enumerate() {
                 scaled.column_mut(j).scale_mut(*v);
@@ -134,15 +134,7 @@ impl FrameEstimate {
         }) else {
             return false;
         };
-        if self.last_change.len() == e.forces.len() {
-            for (i, d) in self.last_change.iter().enumerate() {
-                cov[(i, i)] += d * d;
-            }
-        }
-        self.estimate.force_sigma = (0..cov.nrows())
-            .map(|i| cov[(i, i)].max(0.0).sqrt())
-            .collect();
-        self.estimate.force_covariance = Some(cov);
+        self.set_force_covariance(cov);
         true
     }
 }

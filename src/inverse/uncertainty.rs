@@ -43,15 +43,22 @@ impl FrameEstimate {
             .map(|(r, v)| (r * r / v).max(1.0).sqrt())
             .map(|s| if s.is_finite() { s } else { 1.0 })
             .collect();
-        let Some(mut cov) = self
+        let Some(cov) = self
             .problem
             .force_covariance_with(|a| shared.sandwich_scaled(a, &scale))
         else {
             return false;
         };
-        // Linearisation: the QP's answer still moved by the loop's last change from the
-        // previous state to this one, so it is known only to about that.
-        if self.last_change.len() == e.forces.len() {
+        self.set_force_covariance(cov);
+        true
+    }
+
+    /// Takes `cov` (the rows' share of the forces' covariance) as the forces' covariance,
+    /// with the linearisation's share added: the QP's answer still moved by the loop's
+    /// last change from the previous state to this one, so it is known only to about that.
+    /// The σ are its diagonal's square roots.
+    pub(super) fn set_force_covariance(&mut self, mut cov: nalgebra::DMatrix<f64>) {
+        if self.last_change.len() == cov.nrows() {
             for (i, d) in self.last_change.iter().enumerate() {
                 cov[(i, i)] += d * d;
             }
@@ -60,7 +67,6 @@ impl FrameEstimate {
             .map(|i| cov[(i, i)].max(0.0).sqrt())
             .collect();
         self.estimate.force_covariance = Some(cov);
-        true
     }
 }
 

@@ -5,7 +5,7 @@
 //! previous frame's locations and forces, and checks them with one choice.
 
 use super::estimate::{fail, Estimated, Frame};
-use super::report::{ms, Group, LocationAlternative};
+use super::report::{force_of, ms, Group, LocationAlternative};
 use super::track::{resume_contacts, Resumed, Track};
 use super::FrameReport;
 use super::FrameStatus;
@@ -530,18 +530,6 @@ fn alternatives_of(
         );
     }
     out
-}
-
-/// The force of candidates `cands` with intensities `forces` (N).
-fn force_of(cands: &[Candidate], forces: &[f64]) -> [f64; 3] {
-    let mut f = [0.0; 3];
-    for (c, l) in cands.iter().zip(forces) {
-        let d = unit(c.direction);
-        for q in 0..3 {
-            f[q] += l * d[q];
-        }
-    }
-    f
 }
 
 /// The options of each contact (surface nodes near its centroid at node positions `x`, and

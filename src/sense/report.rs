@@ -441,14 +441,8 @@ fn force_estimate(
     cands: &[Candidate],
     positions: &[[f64; 3]],
 ) -> ForceEstimate {
-    let mut f = [0.0; 3];
+    let f = force_of(&cands[g.range.clone()], &e.forces[g.range.clone()]);
     let mut var = 0.0;
-    for k in g.range.clone() {
-        let d = unit(cands[k].direction);
-        for q in 0..3 {
-            f[q] += e.forces[k] * d[q];
-        }
-    }
     let magnitude = norm(f);
     // The components' (co)variance: the sandwich's when the estimate has it, else
     // the independent σ.
@@ -538,6 +532,18 @@ impl ForceEstimate {
         self.location_sigma = Some(spread.sqrt());
         self.alternatives = alternatives;
     }
+}
+
+/// The force of candidates `cands` with intensities `forces` (N).
+pub(super) fn force_of(cands: &[Candidate], forces: &[f64]) -> [f64; 3] {
+    let mut f = [0.0; 3];
+    for (c, l) in cands.iter().zip(forces) {
+        let d = unit(c.direction);
+        for q in 0..3 {
+            f[q] += l * d[q];
+        }
+    }
+    f
 }
 
 /// The square root of a symmetric 3x3 covariance's largest eigenvalue (0 for a negative
