@@ -101,14 +101,14 @@ pub struct SenseArgs {
     /// (`--window` does not apply). Tracked frames say "tracked" (JSON: "tracked": true).
     #[arg(long, conflicts_with = "window")]
     pub track: bool,
-    /// Register every robot point the camera sees (up to 4000, evenly subsampled) against
-    /// the deformed FE surface, instead of 300-600 feature points each averaging a 5 mm
-    /// disc. On development sweeps of random single-probe scenes it located 83-90% of
-    /// probes (features: 59-66%) and put 54-65% within 5% (15-43%), at about +85 ms per
-    /// frame; with two probes it located fewer, and its σ are too wide. Not yet the
-    /// default: see docs/dense-registration.md.
-    #[arg(long)]
-    pub dense: bool,
+    /// What the deformed FE surface is registered against. `dense`: every robot point the
+    /// camera sees (up to 4000, evenly subsampled), each with its own depth noise;
+    /// `features`: 300-600 feature points, each the mean of a 5 mm disc of points; `auto`:
+    /// dense for a frame with one seen contact, features otherwise (two contacts are
+    /// located better from features, tip weights are held by them). Dense costs about
+    /// 85 ms per frame; docs/dense-registration.md has the sweeps behind the rule.
+    #[arg(long, value_enum, default_value_t = RegistrationArg::Auto)]
+    pub registration: RegistrationArg,
 }
 
 pub fn run(args: &SenseArgs) -> CliResult {
@@ -131,10 +131,9 @@ pub fn run(args: &SenseArgs) -> CliResult {
     }
     let model_path = model_path(args, &rec)?;
     let model = Model::load(&model_path, None).map_err(|e| CliError::Lib(e.into()))?;
-    let base = if args.dense {
-        SenseParams::dense()
-    } else {
-        SenseParams::default()
+    let base = SenseParams {
+        registration: args.registration.into(),
+        ..SenseParams::default()
     };
     let mut params = SenseParams {
         color: softsense::segment::robot_color::RobotColorModel::with_reference(args.robot_color),
@@ -557,4 +556,25 @@ fn picture(
     };
     sense_overlay(&frame, &overlay, &params)?.save_png(path)?;
     Ok(())
+}
+
+/// `--registration`'s values ([`softsense::sense::Registration`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum RegistrationArg {
+    /// Dense for a frame with one seen contact, features otherwise.
+    Auto,
+    /// The feature points.
+    Features,
+    /// Every robot point.
+    Dense,
+}
+
+impl From<RegistrationArg> for softsense::sense::Registration {
+    fn from(arg: RegistrationArg) -> Self {
+        match arg {
+            RegistrationArg::Auto => Self::Auto,
+            RegistrationArg::Features => Self::Features,
+            RegistrationArg::Dense => Self::Dense,
+        }
+    }
 }

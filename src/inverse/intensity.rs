@@ -47,6 +47,19 @@ pub struct IntensityProblem {
     pub actuators: Vec<ActuatorInput>,
     /// Per candidate force: whether it can only push (λ_f ≥ 0).
     pub push_only: Vec<bool>,
+    /// The feature rows' noise, where known (the dense rows); else empty.
+    pub row_noise: RowNoise,
+}
+
+/// What the dense rows know of their noise (empty for the features, whose noise
+/// [`crate::inverse::uncertainty`] takes from their points).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RowNoise {
+    /// Each row's expected noise (m).
+    pub sigma: Vec<f64>,
+    /// Each row's patch (the FE surface triangle it meets): the model cannot bend within
+    /// a triangle, so rows of one patch share its misfit.
+    pub patch: Vec<usize>,
 }
 
 /// Identifiability of the force unknowns (thesis Corollaries 1-2 and index I_w of 4.6.1).
@@ -389,6 +402,33 @@ impl IntensityProblem {
         let cov = sandwich(&a)?;
         let k = a.nrows();
         (cov.nrows() == k && cov.ncols() == k && cov.iter().all(|v| v.is_finite())).then_some(cov)
+    }
+
+    /// The cluster-robust (White, Liang-Zeger) covariance of the force unknowns from the
+    /// `residuals` r of the feature rows: Σ_g (A_g r_g)(A_g r_g)ᵀ over the groups g of rows
+    /// sharing a `patch` entry (each row its own group when `patch` is empty), with
+    /// A = (W_efᵀ W_ef)⁻¹ W_efᵀ. Each row's variance is its own squared residual, and rows
+    /// of a group are as correlated as their residuals. `None` when the lengths differ or
+    /// the forces are not identifiable.
+    pub fn white_covariance(&self, residuals: &[f64], patch: &[usize]) -> Option<DMatrix<f64>> {
+        let m = self.w_ef.nrows();
+        if residuals.len() != m || !(patch.is_empty() || patch.len() == m) {
+            return None;
+        }
+        self.force_covariance_with(|a| {
+            let k = a.nrows();
+            let mut sums: std::collections::BTreeMap<usize, DVector<f64>> = Default::default();
+            for (j, r) in residuals.iter().enumerate() {
+                let g = if patch.is_empty() { j } else { patch[j] };
+                let sum = sums.entry(g).or_insert_with(|| DVector::zeros(k));
+                sum.axpy(*r, &a.column(j), 1.0);
+            }
+            let mut cov = DMatrix::zeros(k, k);
+            for s in sums.values() {
+                cov.ger(1.0, s, s, 1.0);
+            }
+            Some(cov)
+        })
     }
 
     /// σ_f = σ_d sqrt(diag((W_efᵀ W_ef)⁻¹)): the Gauss-Markov spread of the force unknowns

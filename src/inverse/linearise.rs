@@ -99,9 +99,12 @@ pub(crate) fn linearise(
     let rest = &base.mesh.nodes_in_rest;
     let clock = std::time::Instant::now();
     // Register at the current state.
-    let (mut rows, measured) = match inputs.dense {
+    let (mut rows, measured, row_noise) = match inputs.dense {
         Some(dense) => super::dense::dense_rows(dense, x)?,
-        None => feature_rows(inputs, x)?,
+        None => {
+            let (rows, measured) = feature_rows(inputs, x)?;
+            (rows, measured, Default::default())
+        }
     };
     let visible = rows.len();
     timings.register += ms_since(clock);
@@ -147,6 +150,7 @@ pub(crate) fn linearise(
         delta_free_a: delta_free[ne..ne + na].to_vec(),
         actuators: inputs,
         push_only: candidates.iter().map(|c| c.push_only).collect(),
+        row_noise,
     };
     if ne == 0 {
         return Err(InverseError::Intensity("no visible feature point".into()));

@@ -401,6 +401,7 @@ mod tests {
             delta_free_a: Vec::new(),
             actuators: Vec::new(),
             push_only: vec![true; 6],
+            row_noise: Default::default(),
         }
     }
 

@@ -120,6 +120,9 @@ pub struct FrameEstimate {
     /// state it is linearised at by about this much (a weakly identified component keeps
     /// cycling by it). Empty when no QP was solved.
     pub last_change: Vec<f64>,
+    /// The rows' fit against their expected noise, where the rows know it (the dense rows,
+    /// [`FrameEstimate::use_independent_uncertainty`]).
+    pub fit: Option<super::dense::NoiseFit>,
     /// Where the time went.
     pub timings: LoopTimings,
 }
@@ -509,6 +512,7 @@ impl<'a> LoopState<'a> {
             halvings: self.halvings,
             applied: self.applied,
             last_change: self.last_change,
+            fit: None,
             positions: self.x,
             solver: self.carry,
             timings: self.timings,

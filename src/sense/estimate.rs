@@ -140,7 +140,8 @@ impl Sensor {
         report.features = features.len();
         let clock = std::time::Instant::now();
         let registrar = Registrar::new(&obs.robot);
-        let dense_points = if self.params.dense {
+        let dense_on = self.params.registration.is_dense(contacts.len());
+        let dense_points = if dense_on {
             crate::inverse::dense::subsample(&obs.robot, self.params.dense_rows.max_points)
         } else {
             Vec::new()
@@ -148,6 +149,7 @@ impl Sensor {
         let dense = DenseInputs {
             points: &dense_points,
             eye: self.eye,
+            axis: self.robot_from_camera.axis(2),
             triangles: &self.surface.triangles,
             params: self.params.dense_rows,
         };
@@ -159,7 +161,7 @@ impl Sensor {
                 registrar: &registrar,
                 features: &features,
                 params: &self.params.frame,
-                dense: self.params.dense.then_some(&dense),
+                dense: dense_on.then_some(&dense),
             },
             free: &free,
             contacts: &contacts,
@@ -175,7 +177,7 @@ impl Sensor {
         } else {
             super::locate::locate(&frame, prev, want_track, report)?
         };
-        if self.params.dense {
+        if dense_on {
             est.use_independent_uncertainty();
         } else {
             est.use_shared_point_uncertainty(&registrar, &features, &self.params.frame.register);

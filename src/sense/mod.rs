@@ -44,7 +44,7 @@ mod track;
 pub use crate::recording::Recording;
 pub use free::SAME_INPUT;
 pub use observe::Observation;
-pub use params::SenseParams;
+pub use params::{Registration, SenseParams};
 pub use report::{
     compare, largest_sigma, median_timings, ForceEstimate, FrameReport, FrameStatus, LoadError,
     LocationAlternative, StageTimings, MIN_SCORED_FORCE,

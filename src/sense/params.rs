@@ -60,17 +60,22 @@ pub struct SenseParams {
     /// tangential components) instead of a normal force alone (true).
     pub three_d: bool,
     /// A frame is unreliable when its residual's robust spread exceeds this many times the
-    /// expected noise `frame.intensity.sensor_sigma` (1.5).
+    /// expected noise: the dense rows' own, else `frame.intensity.sensor_sigma` (1.5).
     pub poor_fit: f64,
+    /// A densely registered frame is unreliable when more than this many surface patches
+    /// sit off the model beyond its noise ([`NoiseFit::patches_off`]) (3): noise alone
+    /// leaves none, a depth step now and then one, a dent the model misses dozens.
+    ///
+    /// [`NoiseFit::patches_off`]: crate::inverse::dense::NoiseFit::patches_off
+    pub misfit_patches: usize,
     /// Warn that a force's direction (or magnitude) is uncertain when its largest one-sigma
     /// ([`ForceEstimate::sigma_max`](super::ForceEstimate::sigma_max)) exceeds this fraction
     /// of its magnitude (0.025).
     pub direction_warning: f64,
-    /// Register every (subsampled) robot point against the FE surface instead of the
-    /// features ([`crate::inverse::dense`]) (false; [`SenseParams::dense`] sets it with its
-    /// noise).
-    pub dense: bool,
-    /// The dense rows' tunables.
+    /// What the FE surface is registered against ([`Registration::Auto`]: every robot
+    /// point for a frame with one seen contact, the features otherwise).
+    pub registration: Registration,
+    /// The dense rows' tunables (their noise model among them).
     pub dense_rows: crate::inverse::DenseParams,
 }
 
@@ -102,6 +107,7 @@ impl Default for SenseParams {
             frame,
             three_d: true,
             poor_fit: 1.5,
+            misfit_patches: 3,
             direction_warning: 0.025,
             location_radius: 0.015,
             location_options: 16,
@@ -113,21 +119,52 @@ impl Default for SenseParams {
             local_features_radius: 0.03,
             local_feature_pool: 600,
             track_radius: 0.005,
-            dense: false,
+            registration: Registration::Auto,
             dense_rows: crate::inverse::DenseParams::default(),
         }
     }
 }
 
 impl SenseParams {
-    /// The defaults with dense registration ([`SenseParams::dense`]).
+    /// The defaults with dense registration for every frame ([`Registration::Dense`]).
     pub fn dense() -> Self {
-        let mut params = Self {
-            dense: true,
+        Self {
+            registration: Registration::Dense,
             ..Self::default()
-        };
-        // One point per row: 0.5 mm depth noise and 1 mm depth steps (0.29 mm).
-        params.frame.intensity.sensor_sigma = 5.8e-4;
-        params
+        }
+    }
+
+    /// The defaults with the feature registration for every frame
+    /// ([`Registration::Features`]).
+    pub fn features() -> Self {
+        Self {
+            registration: Registration::Features,
+            ..Self::default()
+        }
+    }
+}
+
+/// What a frame's deformed FE surface is registered against.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Registration {
+    /// Dense for a frame with exactly one seen contact, features otherwise: on the
+    /// development sweeps dense located more single probes (83-90% against 59-66%) but
+    /// fewer of two probes, and the tip weights (no contact) are held by the features.
+    #[default]
+    Auto,
+    /// The feature points (300-600 flat patches, each the mean of a 5 mm disc of points).
+    Features,
+    /// Every (subsampled) robot point against the FE surface ([`crate::inverse::dense`]).
+    Dense,
+}
+
+impl Registration {
+    /// Whether a frame with `contacts` seen contacts is registered densely.
+    pub fn is_dense(self, contacts: usize) -> bool {
+        match self {
+            Self::Auto => contacts == 1,
+            Self::Features => false,
+            Self::Dense => true,
+        }
     }
 }

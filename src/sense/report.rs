@@ -333,9 +333,16 @@ impl FrameReport {
         self.positions.clone_from(&est.positions);
         self.residual_rms = e.residual_rms;
         self.updates = est.updates;
-        let noise = params.frame.intensity.sensor_sigma;
         self.residual_robust = e.residual_robust;
-        let fits = e.residual_robust <= params.poor_fit * noise;
+        // Dense rows know each row's noise; features share one.
+        let (ratio, noise) = match est.fit {
+            Some(fit) => (fit.ratio, fit.expected),
+            None => {
+                let noise = params.frame.intensity.sensor_sigma;
+                (e.residual_robust / noise, noise)
+            }
+        };
+        let fits = ratio <= params.poor_fit;
         self.reliable = est.settled && fits;
         if !est.settled {
             self.warnings.push(format!(
@@ -347,8 +354,17 @@ impl FrameReport {
             self.warnings.push(format!(
                 "unreliable: the residual's robust spread ({:.3} mm) is {:.1} times the expected noise ({:.3} mm): the model cannot explain this frame with its force locations (a contact not seen, a wrong location, or a deformation the loop did not follow)",
                 e.residual_robust * 1e3,
-                e.residual_robust / noise,
+                ratio,
                 noise * 1e3
+            ));
+        }
+        if let Some(fit) = est.fit.filter(|f| f.patches_off > params.misfit_patches) {
+            self.reliable = false;
+            self.warnings.push(format!(
+                "unreliable: {} surface patches sit off the model beyond {}σ of their noise (up to {:.2} mm): a dent the estimate does not explain (a contact not seen, or a wrong location)",
+                fit.patches_off,
+                crate::inverse::dense::PATCH_OFF,
+                fit.worst_patch * 1e3
             ));
         }
         self.identifiability = Some(e.identifiability.clone());

@@ -4,6 +4,20 @@ use proptest::prelude::*;
 use softsense::inverse::intensity::{ActuatorInput, IntensityParams, IntensityProblem};
 use softsense::inverse::qp::{QpParams, QpProblem, QpStatus, SecondOrderCone};
 
+/// Standard normal draws (Box-Muller on a 64-bit LCG), reproducible from `seed`.
+fn normals(mut seed: u64) -> impl FnMut() -> f64 {
+    move || {
+        let mut u = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((seed >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        };
+        let (a, b) = (u(), u());
+        (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
+    }
+}
+
 fn spd(n: usize, seed: u64) -> DMatrix<f64> {
     let mut s = seed;
     let mut r = || {
@@ -193,6 +207,7 @@ fn synthetic(actuators: Vec<ActuatorInput>) -> (IntensityProblem, Vec<f64>, Vec<
             delta_free_a: free_a,
             actuators,
             push_only: vec![true, true],
+            row_noise: Default::default(),
         },
         la.iter().copied().collect(),
         lf.iter().copied().collect(),
@@ -292,6 +307,7 @@ fn the_robust_residual_matches_the_rms_on_gaussian_noise_and_ignores_a_few_outli
         delta_free_a: vec![0.0],
         actuators: vec![ActuatorInput::Force(0.2)],
         push_only: vec![true, true],
+        row_noise: Default::default(),
     };
     let clean: Vec<f64> = (0..m).map(|i| model[i] + noise[i]).collect();
     let e = problem(clean.clone())
@@ -434,18 +450,7 @@ fn force_covariance_of_correlated_rows_matches_the_spread_of_solved_forces() {
     let l = c.clone().cholesky().unwrap().l();
     let predicted = p.force_covariance(&c).unwrap();
     let gauss_markov = p.force_sigma(s);
-    let mut seed = 17u64;
-    let mut normal = || {
-        // Box-Muller on a 64-bit LCG.
-        let mut u = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((seed >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-        };
-        let (a, b) = (u(), u());
-        (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
-    };
+    let mut normal = normals(17);
     let n = 2000;
     let mut samples = Vec::with_capacity(n);
     for _ in 0..n {
@@ -498,6 +503,7 @@ fn the_regularization_shrink_is_the_ridge_factor_of_the_weakest_force_and_warns_
         delta_free_a: vec![0.0],
         actuators: vec![ActuatorInput::Force(0.0)],
         push_only: vec![false, false],
+        row_noise: Default::default(),
     };
     let plain = problem.solve(&IntensityParams::default()).unwrap();
     assert_eq!(plain.regularization_shrink, 0.0);
@@ -520,5 +526,115 @@ fn the_regularization_shrink_is_the_ridge_factor_of_the_weakest_force_and_warns_
             warned,
             "ε {eps}: {e:?}"
         );
+    }
+}
+
+/// A passive problem: two free forces, no actuators, `measured` offsets of the rows `w_ef`.
+fn passive(w_ef: &DMatrix<f64>, measured: Vec<f64>) -> IntensityProblem {
+    let m = w_ef.nrows();
+    IntensityProblem {
+        w_ea: DMatrix::zeros(m, 0),
+        w_ef: w_ef.clone(),
+        delta_free_e: vec![0.0; m],
+        delta_measured: measured,
+        w_aa: DMatrix::zeros(0, 0),
+        w_af: DMatrix::zeros(0, w_ef.ncols()),
+        delta_free_a: Vec::new(),
+        actuators: Vec::new(),
+        push_only: vec![false; w_ef.ncols()],
+        row_noise: Default::default(),
+    }
+}
+
+/// White's covariance from one draw's residuals (the dense rows' σ) against the truth
+/// A diag(s_i²) Aᵀ of rows whose noise differs: the rows that decide force 0 are four
+/// times as noisy as those that decide force 1.
+#[test]
+fn white_covariance_from_one_draw_matches_the_truth_when_each_row_has_its_own_noise() {
+    let m = 4000;
+    let mut normal = normals(29);
+    let w_ef = DMatrix::from_fn(m, 2, |i, j| {
+        let strong = (i % 2 == 0) == (j == 0);
+        1e-3 * if strong { 1.0 } else { 0.2 }
+    });
+    let s: Vec<f64> = (0..m)
+        .map(|i| if i % 2 == 0 { 4e-4 } else { 1e-4 })
+        .collect();
+    let truth = [0.5, 0.3];
+    let residual_noise: Vec<f64> = s.iter().map(|si| si * normal()).collect();
+    let clean = &w_ef * DVector::from_column_slice(&truth);
+    let measured = clean.iter().zip(&residual_noise).map(|(c, e)| c + e);
+    let p = passive(&w_ef, measured.collect());
+    let e = p.solve(&IntensityParams::default()).unwrap();
+    let r = p.residuals(&e.actuator_forces, &e.forces).unwrap();
+    let white = p.white_covariance(&r, &[]).unwrap();
+    let exact = p
+        .force_covariance(&DMatrix::from_diagonal(&DVector::from_iterator(
+            m,
+            s.iter().map(|v| v * v),
+        )))
+        .unwrap();
+    // One pooled noise (the rows' rms) for Gauss-Markov.
+    let pooled = (s.iter().map(|v| v * v).sum::<f64>() / m as f64).sqrt();
+    let gauss_markov = p.force_sigma(pooled);
+    for i in 0..2 {
+        let ratio = (white[(i, i)] / exact[(i, i)]).sqrt();
+        // 4000 rows: the estimate's σ is within a few % of the truth.
+        assert!(
+            (ratio - 1.0).abs() < 0.06,
+            "force {i}: white/true σ {ratio}"
+        );
+    }
+    // A pooled noise puts force 1's σ far off (its rows are the quiet ones).
+    let gm = gauss_markov[1] / exact[(1, 1)].sqrt();
+    assert!(gm > 1.3, "force 1: Gauss-Markov/true σ {gm}");
+    // Rows that do not fit are refused.
+    assert!(p.white_covariance(&r[1..], &[]).is_none());
+}
+
+/// Rows of one patch share an offset (a misfit the model cannot bend to inside one FE
+/// triangle): the cluster-robust covariance over the patches matches the spread of the
+/// solved forces over many draws, and treating the rows as independent is far too small.
+#[test]
+fn patch_robust_covariance_covers_noise_shared_within_each_patch() {
+    let (m, patch_size) = (2400, 20);
+    let mut normal = normals(31);
+    let w_ef = DMatrix::from_fn(m, 2, |i, j| {
+        let t = i as f64 / m as f64;
+        1e-3 * if j == 0 { 1.0 + t } else { (6.0 * t).sin() }
+    });
+    let patch: Vec<usize> = (0..m).map(|i| i / patch_size).collect();
+    let truth = DVector::from_vec(vec![0.5, 0.3]);
+    let clean = &w_ef * &truth;
+    let draw = |normal: &mut dyn FnMut() -> f64| {
+        let shared: Vec<f64> = (0..m / patch_size).map(|_| 2e-4 * normal()).collect();
+        let measured: Vec<f64> = (0..m)
+            .map(|i| clean[i] + shared[patch[i]] + 1e-4 * normal())
+            .collect();
+        passive(&w_ef, measured)
+    };
+    let params = IntensityParams::default();
+    let (n, mut spread, mut robust, mut independent) = (300, [0.0; 2], [0.0; 2], [0.0; 2]);
+    for _ in 0..n {
+        let p = draw(&mut normal);
+        let e = p.solve(&params).unwrap();
+        let r = p.residuals(&e.actuator_forces, &e.forces).unwrap();
+        let by_patch = p.white_covariance(&r, &patch).unwrap();
+        let by_row = p.white_covariance(&r, &[]).unwrap();
+        for i in 0..2 {
+            spread[i] += (e.forces[i] - truth[i]).powi(2) / n as f64;
+            robust[i] += by_patch[(i, i)] / n as f64;
+            independent[i] += by_row[(i, i)] / n as f64;
+        }
+    }
+    for i in 0..2 {
+        // 300 draws: the sample σ is within ~4% (1σ) of the true one.
+        let ratio = (robust[i] / spread[i]).sqrt();
+        assert!(
+            (ratio - 1.0).abs() < 0.15,
+            "force {i}: by patch/sample σ {ratio}"
+        );
+        let ratio = (independent[i] / spread[i]).sqrt();
+        assert!(ratio < 0.6, "force {i}: by row/sample σ {ratio}");
     }
 }
