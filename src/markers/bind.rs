@@ -55,7 +55,7 @@ pub fn bind_markers(
             }
         }
         let (distance, tri, w) = best;
-        if !(distance <= max_distance) {
+        if distance.is_nan() || distance > max_distance {
             return Err(MarkersError::Binding(format!(
                 "marker {name} at {p:?} m is {distance:.4} m from the surface (more than {max_distance} m)"
             )));
