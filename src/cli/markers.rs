@@ -16,8 +16,9 @@ use std::path::PathBuf;
     long_about = "Forces at candidate locations from tracked markers and an FE model \
 (thesis 4.4: the analytic least squares 4.9 iterated with the FE model, actuators held at \
 the model file's cable inputs).\n\n\
-Each marker is bound to the model's surface at the position of its first visible entry \
-(the first frame should be the unloaded body). Per frame, markers that are missing or moved \
+Each marker is bound to the model's surface at the position of its first visible entry, \
+the surface taken in the model's free equilibrium (gravity and cable inputs, no loads): \
+the first frame should show the body unloaded. Per frame, markers that are missing or moved \
 more than the hidden threshold since their last accepted position lose their 3 rows; the \
 forces are solved at all candidates together, and candidates whose force exceeds 5 sigma \
 and 20% of the largest are reported as found, neighbours merged at their weighted centre.\n\n\
@@ -93,8 +94,12 @@ pub fn run(args: &MarkersArgs) -> CliResult {
         .collect::<Option<_>>()
         .ok_or_else(|| CliError::Result("a marker is never visible: it cannot be bound".into()))?;
     let surface = mesh.surface();
+    // The first frame shows the body unloaded: the model's free equilibrium, not its rest.
+    let free = (model.problem.without_loads())
+        .solve_static(&model.newton)
+        .map_err(|e| CliError::Lib(e.into()))?;
     let markers = bind_markers(
-        mesh,
+        &free.positions,
         &surface,
         &tracks.names,
         &first,

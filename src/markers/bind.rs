@@ -1,6 +1,6 @@
 //! Markers bound to the FE surface and candidate force locations.
 //!
-//! A marker sits at the nearest point of the rest surface (barycentric on that triangle)
+//! A marker sits at the nearest point of the surface (barycentric on that triangle)
 //! and measures 3 rows (its x, y, z). A candidate force location is a surface node with its
 //! allowed directions: the surface normal only (1 unknown) or free in 3-D (3 unknowns).
 
@@ -31,17 +31,18 @@ impl BoundMarker {
     }
 }
 
-/// Binds each of `positions` (m, model frame) to its nearest surface triangle point on the
-/// rest shape. A position farther than `max_distance` from the surface is an error.
+/// Binds each of `positions` (m, model frame) to its nearest surface triangle point with the
+/// nodes at `x` (the rest shape, or the free equilibrium the first frame shows); the
+/// barycentric weights then hold in every shape. A position farther than `max_distance`
+/// from the surface is an error.
 pub fn bind_markers(
-    mesh: &TetMesh,
+    x: &[[f64; 3]],
     surface: &Surface,
     names: &[String],
     positions: &[[f64; 3]],
     max_distance: f64,
 ) -> MarkersResult<Vec<BoundMarker>> {
     assert_eq!(names.len(), positions.len(), "one name per marker position");
-    let x = &mesh.nodes_in_rest;
     let mut out = Vec::with_capacity(positions.len());
     for (name, p) in names.iter().zip(positions) {
         // PERF: brute force over the triangles; a few dozen markers on a few thousand.

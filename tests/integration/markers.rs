@@ -27,7 +27,7 @@ fn sensor(
     let surface = mesh.surface();
     let names: Vec<String> = (0..markers_mm.len()).map(|i| format!("m{i}")).collect();
     let at: Vec<[f64; 3]> = markers_mm.iter().map(|p| p.map(|c| c * 1e-3)).collect();
-    let markers = bind_markers(mesh, &surface, &names, &at, 0.005).unwrap();
+    let markers = bind_markers(&mesh.nodes_in_rest, &surface, &names, &at, 0.005).unwrap();
     let candidates = (candidates_mm.iter().enumerate())
         .map(|(i, p)| {
             ForceCandidate::snapped(&format!("c{i}"), mesh, &surface, p.map(|c| c * 1e-3), dirs)
@@ -141,7 +141,7 @@ fn a_tip_weight_on_the_robot_is_recovered_within_one_percent_from_markers_near_i
     near.sort_by(|a, b| dist(*a).total_cmp(&dist(*b)));
     let at: Vec<[f64; 3]> = near[..16].iter().map(|&v| mesh.nodes_in_rest[v]).collect();
     let names: Vec<String> = (0..16).map(|i| format!("m{i}")).collect();
-    let markers = bind_markers(mesh, &surface, &names, &at, 1e-6).unwrap();
+    let markers = bind_markers(&mesh.nodes_in_rest, &surface, &names, &at, 1e-6).unwrap();
     let hook = m.force_points.iter().find(|e| e.name == "hook").unwrap();
     let candidates = vec![ForceCandidate::from_force_point(hook, mesh)];
     let s = MarkerSensor::new(
@@ -268,4 +268,54 @@ fn with_thirty_percent_of_markers_hidden_the_forces_stay_within_five_percent() {
         );
         assert!(err < 0.05);
     }
+}
+
+#[test]
+fn the_markers_command_reads_a_track_file_and_prints_the_forces() {
+    let s = sheet_with_two_candidates();
+    let dir = tempfile::tempdir().unwrap();
+    let truth = [[0.0, 0.0, -0.459], [0.0, 0.0, -0.359]];
+    // Frame 0: the sheet under gravity alone (where the command binds the markers);
+    // frame 1: the two weights hang.
+    let frames = [measure(&s, &[[0.0; 3]; 2], 120), measure(&s, &truth, 121)];
+    let tracks = softsense::markers::MarkerTracks {
+        names: s.markers.iter().map(|m| m.name.clone()).collect(),
+        frames: (frames.into_iter().enumerate())
+            .map(|(k, positions)| softsense::markers::TrackFrame {
+                frame: k as u64,
+                positions,
+            })
+            .collect(),
+    };
+    let track_path = dir.path().join("tracks.csv");
+    softsense::markers::tracks::write_tracks(&track_path, &tracks).unwrap();
+    let cand_path = dir.path().join("candidates.csv");
+    std::fs::write(
+        &cand_path,
+        "name,x,y,z,directions\nleft,-0.04,0,0.004,normal\nright,0.04,0,0.004,normal\n",
+    )
+    .unwrap();
+    let (cand, track) = (cand_path.to_str().unwrap(), track_path.to_str().unwrap());
+    let model = "meshes/models/sheet.toml";
+    let out = crate::cli::softsense(&["markers", "--json", "--candidates", cand, track, model]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let lines: Vec<serde_json::Value> = (String::from_utf8(out.stdout).unwrap().lines())
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines.len(), 2);
+    let forces = &lines[1]["forces_n"];
+    for (i, f) in truth.iter().enumerate() {
+        let z = forces[i][2].as_f64().unwrap();
+        let sigma = lines[1]["sigma_n"][i].as_f64().unwrap();
+        eprintln!(
+            "cli: force {i} {z:.4} N against {:.3} N (sigma {sigma:.4})",
+            f[2]
+        );
+        assert!((z - f[2]).abs() < 4.0 * sigma);
+    }
+    assert_eq!(lines[1]["located"].as_array().unwrap().len(), 2);
 }

@@ -112,7 +112,7 @@ fn bar_sensor(cable: bool) -> MarkerSensor {
         [0.075, 0.0, 0.005],
     ];
     let names: Vec<String> = ["a", "b", "c"].map(String::from).to_vec();
-    let markers = bind_markers(&p.mesh, &surface, &names, &at, 1e-3).unwrap();
+    let markers = bind_markers(&p.mesh.nodes_in_rest, &surface, &names, &at, 1e-3).unwrap();
     let cand = vec![
         ForceCandidate::snapped(
             "tip",
@@ -158,7 +158,7 @@ fn markers_bind_to_their_nearest_surface_point() {
         assert!(m.distance < 1e-12);
     }
     let far = bind_markers(
-        &s.problem.mesh,
+        &s.problem.mesh.nodes_in_rest,
         &s.problem.mesh.surface(),
         &["f".into()],
         &[[0.05, 0.01, 0.05]],
