@@ -267,3 +267,26 @@ fn found_candidates_are_grouped_at_their_weighted_centre() {
     est.sigma = vec![1.0; 4];
     assert!(locate_forces(&est, &s.candidates, &params).is_empty());
 }
+
+#[test]
+fn candidate_files_snap_to_surface_nodes_and_name_bad_lines() {
+    let p = bar(false);
+    let text = "name,x,y,z,directions\ntip,0.1005,0.0098,0.0201,3d\nmid,0.06,0.01,0.02,normal\n";
+    let c = softsense::markers::bind::parse_candidates(text, &p.mesh).unwrap();
+    assert_eq!(c.len(), 2);
+    assert_eq!(c[0].position, [0.1, 0.01, 0.02]);
+    assert_eq!(c[0].directions.len(), 3);
+    // The top face's normal at an interior node of it.
+    let n = c[1].directions[0];
+    assert!((n[2] - 1.0).abs() < 1e-12, "{n:?}");
+    for (bad, line) in [
+        ("a,0,0,0,normal\nb,0,0,0,sideways\n", 2),
+        ("a,0,0,x,normal\n", 1),
+        ("name,x,y,z,directions\n\na,0,0\n", 3),
+    ] {
+        match softsense::markers::bind::parse_candidates(bad, &p.mesh) {
+            Err(MarkersError::Parse { line: l, .. }) => assert_eq!(l, line, "{bad:?}"),
+            other => panic!("{bad:?}: {other:?}"),
+        }
+    }
+}
