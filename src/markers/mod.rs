@@ -105,9 +105,9 @@ pub struct MarkersParams {
     pub force_tol: f64,
     /// Or when the markers' residual RMS changes by less than this fraction (default 1e-3).
     pub residual_tol: f64,
-    /// A candidate is found when its intensity exceeds this many of its σ (default 5).
+    /// A candidate is found only when its force magnitude exceeds this many σ (default 5).
     pub found_sigmas: f64,
-    /// ... and this fraction of the largest candidate intensity (default 0.2).
+    /// A candidate is found only above this fraction of the largest force magnitude (default 0.2).
     pub found_fraction: f64,
     /// Found candidates closer than this form one located force (m; default 0.03).
     pub group_radius: f64,

@@ -66,7 +66,8 @@ pub struct MarkerFrame {
     pub residual_rms: f64,
     /// Warnings (identifiability, FE).
     pub warnings: Vec<String>,
-    /// The FE state under `intensities`' predecessor, to warm-start the next frame.
+    /// The last FE state (under `intensities` when converged, else under the iterate before
+    /// them), to warm-start the next frame.
     #[serde(skip)]
     pub solution: Option<Solution>,
 }

@@ -121,37 +121,54 @@ fn sheet_markers() -> Vec<[f64; 3]> {
     grid(&xs, &xs, 4.0)
 }
 
-#[test]
-fn a_tip_weight_on_the_robot_is_recovered_within_one_percent_from_markers_near_it() {
+/// The robot with the tip hook as the candidate and 16 markers: the surface nodes nearest
+/// `around` (m) that are over 8 mm from the tip (not on the hook itself).
+fn robot_tip_sensor(around: [f64; 3]) -> MarkerSensor {
     let m = model("robot.toml");
     let mesh = &m.problem.mesh;
     let surface = mesh.surface();
-    let tip = [0.0, 0.0, 0.125];
-    let dist = |v: usize| {
+    let dist = |v: usize, q: [f64; 3]| {
         let p = mesh.nodes_in_rest[v];
-        ((p[0] - tip[0]).powi(2) + (p[1] - tip[1]).powi(2) + (p[2] - tip[2]).powi(2)).sqrt()
+        ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
     };
-    // The 16 surface nodes nearest the tip beyond 8 mm (not on the hook itself).
-    let mut near: Vec<usize> = surface
-        .nodes
-        .iter()
-        .copied()
-        .filter(|&v| dist(v) > 0.008)
+    let tip = [0.0, 0.0, 0.125];
+    let mut near: Vec<usize> = (surface.nodes.iter().copied())
+        .filter(|&v| dist(v, tip) > 0.008)
         .collect();
-    near.sort_by(|a, b| dist(*a).total_cmp(&dist(*b)));
+    near.sort_by(|a, b| dist(*a, around).total_cmp(&dist(*b, around)));
     let at: Vec<[f64; 3]> = near[..16].iter().map(|&v| mesh.nodes_in_rest[v]).collect();
     let names: Vec<String> = (0..16).map(|i| format!("m{i}")).collect();
     let markers = bind_markers(&mesh.nodes_in_rest, &surface, &names, &at, 1e-6).unwrap();
     let hook = m.force_points.iter().find(|e| e.name == "hook").unwrap();
     let candidates = vec![ForceCandidate::from_force_point(hook, mesh)];
-    let s = MarkerSensor::new(
-        &m.problem,
-        m.newton.clone(),
-        markers,
-        candidates,
-        MarkersParams::default(),
-    )
-    .unwrap();
+    let params = MarkersParams::default();
+    MarkerSensor::new(&m.problem, m.newton.clone(), markers, candidates, params).unwrap()
+}
+
+#[test]
+fn a_tip_weight_seen_by_markers_far_from_it_is_reported_within_its_sigma() {
+    // Table 4.5's far group: markers around the east knee (97, 0, 45) mm; the thesis
+    // reports 89-97% there. Reported, and held to the noise it predicts (4σ).
+    let s = robot_tip_sensor([0.097, 0.0, 0.045]);
+    let w = 0.659;
+    let est = s
+        .solve_frame(0, &measure(&s, &[[0.0, 0.0, -w]], 60), None)
+        .unwrap();
+    let err = (est.intensities[0] - w).abs() / w;
+    eprintln!(
+        "robot tip {w} N, far markers: {:.4} N, error {:.3}%, sigma {:.4} N, I_w {:.2} N/m",
+        est.intensities[0],
+        100.0 * err,
+        est.sigma[0],
+        est.i_w
+    );
+    assert_eq!(est.status, softsense::markers::MarkersStatus::Converged);
+    assert!(err * w < 4.0 * est.sigma[0], "{:?}", est.intensities);
+}
+
+#[test]
+fn a_tip_weight_on_the_robot_is_recovered_within_one_percent_from_markers_near_it() {
+    let s = robot_tip_sensor([0.0, 0.0, 0.125]);
     // Thesis Table 4.5's weights (N) with the north cable held at the model's 10 mm. One σ
     // is 1.0% of the 259 mN weight: each estimate is held to 4σ, the mean error to 1%.
     let weights = [0.859, 0.659, 0.459, 0.259];
