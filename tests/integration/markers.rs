@@ -1,72 +1,7 @@
 //! Marker-based sensing end to end (thesis 4.6-4.7): the direct FE model makes the truth
 //! (known forces at candidate nodes, marker positions with 0.1 mm Gaussian noise from a
 //! seeded generator), the inverse model recovers the forces from the markers alone.
-use softsense::fem::model::Model;
-use softsense::fem::solve::PointLoad;
-use softsense::markers::{
-    bind_markers, locate_forces, Directions, ForceCandidate, MarkerSensor, MarkersParams,
-};
-use softsense::scene::sensor::normal;
-use std::path::Path;
-
-const SIGMA: f64 = 1e-4;
-
-fn model(name: &str) -> Model {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    Model::load(&root.join("meshes/models").join(name), None).unwrap()
-}
-
-/// A sensor with markers at `markers_mm` and candidates at `candidates_mm` (rest, mm).
-fn sensor(
-    model: &Model,
-    markers_mm: &[[f64; 3]],
-    candidates_mm: &[[f64; 3]],
-    dirs: Directions,
-) -> MarkerSensor {
-    let mesh = &model.problem.mesh;
-    let surface = mesh.surface();
-    let names: Vec<String> = (0..markers_mm.len()).map(|i| format!("m{i}")).collect();
-    let at: Vec<[f64; 3]> = markers_mm.iter().map(|p| p.map(|c| c * 1e-3)).collect();
-    let markers = bind_markers(&mesh.nodes_in_rest, &surface, &names, &at, 0.005).unwrap();
-    let candidates = (candidates_mm.iter().enumerate())
-        .map(|(i, p)| {
-            ForceCandidate::snapped(&format!("c{i}"), mesh, &surface, p.map(|c| c * 1e-3), dirs)
-                .unwrap()
-        })
-        .collect();
-    MarkerSensor::new(
-        &model.problem,
-        model.newton.clone(),
-        markers,
-        candidates,
-        MarkersParams::default(),
-    )
-    .unwrap()
-}
-
-/// Marker positions under `forces` (one vector per candidate, N) with noise from `seed`.
-fn measure(s: &MarkerSensor, forces: &[[f64; 3]], seed: u64) -> Vec<Option<[f64; 3]>> {
-    let mut p = s.problem.clone();
-    for (c, f) in s.candidates.iter().zip(forces) {
-        p.loads.push(PointLoad {
-            at: c.at,
-            force: *f,
-        });
-    }
-    let sol = p.solve_static(&s.newton).unwrap();
-    (s.markers.iter().enumerate())
-        .map(|(m, mk)| {
-            let q = mk.at.position(&sol.positions);
-            Some([0, 1, 2].map(|k| q[k] + SIGMA * normal(seed, 0, m as u64, k as u64)))
-        })
-        .collect()
-}
-
-fn grid(xs: &[f64], ys: &[f64], z: f64) -> Vec<[f64; 3]> {
-    xs.iter()
-        .flat_map(|x| ys.iter().map(move |y| [*x, *y, z]))
-        .collect()
-}
+use crate::common::markers::*;
 
 #[test]
 fn two_hanging_weights_on_the_sheet_are_recovered_within_two_percent() {
@@ -106,43 +41,6 @@ fn two_hanging_weights_on_the_sheet_are_recovered_within_two_percent() {
         eprintln!("sheet {f1}/{f2} N: mean error {:.3}%", 100.0 * mean);
         assert!(mean < 0.02, "{f1}/{f2}: mean error {mean}");
     }
-}
-
-/// The sheet with 25 markers and normal candidates 80 mm apart on its x axis.
-fn sheet_with_two_candidates() -> MarkerSensor {
-    let m = model("sheet.toml");
-    let c = [[-40.0, 0.0, 4.0], [40.0, 0.0, 4.0]];
-    sensor(&m, &sheet_markers(), &c, Directions::Normal)
-}
-
-/// 25 markers on the sheet's top face, 40 mm apart.
-fn sheet_markers() -> Vec<[f64; 3]> {
-    let xs = [-80.0, -40.0, 0.0, 40.0, 80.0];
-    grid(&xs, &xs, 4.0)
-}
-
-/// The robot with the tip hook as the candidate and 16 markers: the surface nodes nearest
-/// `around` (m) that are over 8 mm from the tip (not on the hook itself).
-fn robot_tip_sensor(around: [f64; 3]) -> MarkerSensor {
-    let m = model("robot.toml");
-    let mesh = &m.problem.mesh;
-    let surface = mesh.surface();
-    let dist = |v: usize, q: [f64; 3]| {
-        let p = mesh.nodes_in_rest[v];
-        ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
-    };
-    let tip = [0.0, 0.0, 0.125];
-    let mut near: Vec<usize> = (surface.nodes.iter().copied())
-        .filter(|&v| dist(v, tip) > 0.008)
-        .collect();
-    near.sort_by(|a, b| dist(*a, around).total_cmp(&dist(*b, around)));
-    let at: Vec<[f64; 3]> = near[..16].iter().map(|&v| mesh.nodes_in_rest[v]).collect();
-    let names: Vec<String> = (0..16).map(|i| format!("m{i}")).collect();
-    let markers = bind_markers(&mesh.nodes_in_rest, &surface, &names, &at, 1e-6).unwrap();
-    let hook = m.force_points.iter().find(|e| e.name == "hook").unwrap();
-    let candidates = vec![ForceCandidate::from_force_point(hook, mesh)];
-    let params = MarkersParams::default();
-    MarkerSensor::new(&m.problem, m.newton.clone(), markers, candidates, params).unwrap()
 }
 
 #[test]
@@ -194,45 +92,14 @@ fn a_tip_weight_on_the_robot_is_recovered_within_one_percent_from_markers_near_i
     assert!(mean < 0.01, "mean error {mean}");
 }
 
-/// A small seeded generator for the trials (splitmix-style hashing of the scene's).
-fn uniform(seed: u64, k: u64) -> f64 {
-    softsense::scene::sensor::uniform(seed, 7, k, 0)
-}
-
 #[test]
 fn forces_on_two_of_twelve_sheet_candidates_are_located_in_most_random_trials() {
-    let m = model("sheet.toml");
-    let cands: Vec<[f64; 3]> = grid(&[-60.0, -20.0, 20.0, 60.0], &[-40.0, 0.0, 40.0], 4.0);
-    let s = sensor(&m, &sheet_markers(), &cands, Directions::Normal);
+    let s = sheet_with_twelve_candidates();
     let trials: u64 = 6;
     let mut right: u64 = 0;
     for t in 0..trials {
-        // One or two distinct candidates, 0.3-0.6 N each, hanging along -z.
-        let count = 1 + (uniform(t, 0) < 0.5) as usize;
-        let mut truth = vec![[0.0; 3]; cands.len()];
-        let mut chosen = Vec::new();
-        let mut k = 1;
-        while chosen.len() < count {
-            let c = (uniform(t, k) * cands.len() as f64) as usize;
-            k += 1;
-            if !chosen.contains(&c) {
-                chosen.push(c);
-                truth[c] = [0.0, 0.0, -(0.3 + 0.3 * uniform(t, 100 + k))];
-            }
-        }
-        chosen.sort_unstable();
-        let est = s
-            .solve_frame(t, &measure(&s, &truth, 70 + t), None)
-            .unwrap();
-        let mut found: Vec<usize> = locate_forces(&est, &s.candidates, &s.params)
-            .iter()
-            .flat_map(|l| l.candidates.clone())
-            .collect();
-        found.sort_unstable();
-        eprintln!(
-            "trial {t}: truth {chosen:?}, found {found:?}, I_w {:.1} N/m",
-            est.i_w
-        );
+        let (chosen, found) = location_trial(&s, t);
+        eprintln!("trial {t}: truth {chosen:?}, found {found:?}");
         right += (found == chosen) as u64;
     }
     eprintln!("located {right}/{trials}");
