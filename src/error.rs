@@ -26,6 +26,9 @@ pub enum Error {
     /// The inverse model: QPs and force intensities.
     #[error(transparent)]
     Inverse(#[from] crate::inverse::InverseError),
+    /// Marker-based sensing: track and candidate files, binding, the per-frame forces.
+    #[error(transparent)]
+    Markers(#[from] crate::markers::MarkersError),
     /// Synthetic scenes: scene files, direct model, rendering.
     #[error(transparent)]
     Scene(#[from] crate::scene::SceneError),

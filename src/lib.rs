@@ -45,6 +45,7 @@ pub mod filter;
 pub mod geometry;
 pub mod inverse;
 pub mod io;
+pub mod markers;
 pub mod math;
 pub mod pipeline;
 pub mod recording;

@@ -50,6 +50,7 @@ enum Command {
     Explain(cli::explain::ExplainArgs),
     Hidden(cli::explain::HiddenArgs),
     Sense(cli::sense::SenseArgs),
+    Markers(cli::markers::MarkersArgs),
     Calibrate(cli::calibrate::CalibrateArgs),
     Score(cli::score::ScoreArgs),
 }
@@ -73,6 +74,7 @@ fn main() -> ExitCode {
         Command::Explain(args) => cli::explain::run(&args),
         Command::Hidden(args) => cli::explain::run_hidden(&args),
         Command::Sense(args) => cli::sense::run(&args),
+        Command::Markers(args) => cli::markers::run(&args),
         Command::Calibrate(args) => cli::calibrate::run(&args),
         Command::Score(args) => cli::score::run(&args),
     };

@@ -7,6 +7,8 @@ mod common;
 mod calibrate;
 #[path = "acceptance/explain_hidden.rs"]
 mod explain_hidden;
+#[path = "acceptance/markers_locate.rs"]
+mod markers_locate;
 #[path = "acceptance/mutation_fuzz.rs"]
 mod mutation_fuzz;
 #[path = "acceptance/recording_folder.rs"]

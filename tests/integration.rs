@@ -17,6 +17,8 @@ mod fem_diamond;
 mod fem_skfem;
 #[path = "integration/malformed_corpus.rs"]
 mod malformed_corpus;
+#[path = "integration/markers.rs"]
+mod markers;
 #[path = "integration/rgbd_sequence.rs"]
 mod rgbd_sequence;
 #[path = "integration/sense_probe.rs"]

@@ -41,6 +41,8 @@ mod filter_golden;
 
 #[path = "unit/inverse.rs"]
 mod inverse;
+#[path = "unit/markers.rs"]
+mod markers;
 #[path = "unit/register.rs"]
 mod register;
 #[path = "unit/scene.rs"]

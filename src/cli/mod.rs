@@ -18,6 +18,7 @@ pub mod explain;
 pub mod fem;
 pub mod filter;
 pub mod info;
+pub mod markers;
 pub mod scene;
 pub mod score;
 pub mod segment;

@@ -2,6 +2,7 @@
 #![allow(dead_code)]
 
 pub mod corpus;
+pub mod markers;
 pub mod oracle;
 
 use std::path::PathBuf;

@@ -88,6 +88,7 @@ fn every_subcommands_help_shows_its_long_description_beyond_the_one_line_summary
         ("contacts", "Prints one line (or JSON object) per contact"),
         ("calibrate", "rough_pose.json"),
         ("hidden", "truth_hidden.json"),
+        ("markers", "OptiTrack Motive CSV export"),
     ];
     for (command, line) in cases {
         let o = softsense(&[command, "--help"]);

@@ -1,0 +1,190 @@
+//! `softsense markers`: forces from tracked markers (thesis 4.4, 4.6.1, 4.7.1).
+
+use super::{print_json, CliError, CliResult};
+use clap::Args;
+use softsense::fem::model::Model;
+use softsense::markers::bind::read_candidates;
+use softsense::markers::tracks::{flag_hidden, read_motive, read_tracks, MarkerTracks};
+use softsense::markers::{
+    bind_markers, locate_forces, ForceCandidate, MarkerSensor, MarkersParams,
+};
+use std::path::PathBuf;
+
+/// Forces at candidate locations from marker tracks and an FE model.
+#[derive(Args, Debug)]
+#[command(
+    long_about = "Forces at candidate locations from tracked markers and an FE model \
+(thesis 4.4: the analytic least squares 4.9 iterated with the FE model, actuators held at \
+the model file's cable inputs).\n\n\
+Each marker is bound to the model's surface at the position of its first visible entry, \
+the surface taken in the model's free equilibrium (gravity and cable inputs, no loads): \
+the first frame should show the body unloaded. Per frame, markers that are missing or moved \
+more than the hidden threshold since their last accepted position lose their 3 rows; the \
+forces are solved at all candidates together, and candidates whose force exceeds 5 sigma \
+and 20% of the largest are reported as found, neighbours merged at their weighted centre.\n\n\
+TRACKS is softsense's CSV `frame,marker,x,y,z` (metres, model frame; a hidden marker has \
+empty x,y,z) or an OptiTrack Motive CSV export (detected by its `Frame,Time` header; \
+millimetres unless its header says otherwise). The tracker frame is taken as the model \
+frame. Candidates come from --candidates (CSV `name,x,y,z,directions`, metres, directions \
+`normal` or `3d`, each snapped to the nearest surface node) or else the model's \
+[[force_points]].",
+    after_help = "Examples:\n  \
+softsense markers tracks.csv meshes/models/sheet.toml --candidates candidates.csv\n  \
+softsense markers take.csv meshes/models/robot.toml --json | jq .located"
+)]
+pub struct MarkersArgs {
+    /// Marker tracks: softsense CSV or OptiTrack Motive CSV export.
+    tracks: PathBuf,
+    /// Model file (TOML).
+    model: PathBuf,
+    /// Candidate force locations (CSV name,x,y,z,directions in m); default: the model's force points.
+    #[arg(long)]
+    candidates: Option<PathBuf>,
+    /// One sigma of a marker coordinate (mm).
+    #[arg(long, default_value_t = 0.1)]
+    sigma_mm: f64,
+    /// A marker that jumps more than this between frames is hidden (mm).
+    #[arg(long, default_value_t = 5.0)]
+    hidden_jump_mm: f64,
+    /// Print one JSON document per frame on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+fn read_any_tracks(path: &std::path::Path) -> Result<MarkerTracks, CliError> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| CliError::Result(format!("{}: {e}", path.display())))?;
+    let motive = text.lines().any(|l| l.trim_start().starts_with("Frame,"));
+    let tracks = if motive {
+        read_motive(path)
+    } else {
+        read_tracks(path)
+    };
+    tracks.map_err(|e| CliError::Lib(e.into()))
+}
+
+/// Runs `softsense markers`.
+pub fn run(args: &MarkersArgs) -> CliResult {
+    if !(args.sigma_mm > 0.0 && args.hidden_jump_mm > 0.0) {
+        return Err(CliError::Usage(
+            "--sigma-mm and --hidden-jump-mm must be positive".into(),
+        ));
+    }
+    let params = MarkersParams {
+        sigma: args.sigma_mm * 1e-3,
+        hidden_jump: args.hidden_jump_mm * 1e-3,
+        ..Default::default()
+    };
+    let tracks = read_any_tracks(&args.tracks)?;
+    let model = Model::load(&args.model, None).map_err(|e| CliError::Lib(e.into()))?;
+    let mesh = &model.problem.mesh;
+    let candidates: Vec<ForceCandidate> = match &args.candidates {
+        Some(p) => read_candidates(p, mesh).map_err(|e| CliError::Lib(e.into()))?,
+        None => (model.force_points.iter())
+            .map(|e| ForceCandidate::from_force_point(e, mesh))
+            .collect(),
+    };
+    if candidates.is_empty() {
+        return Err(CliError::Usage(
+            "no candidates: give --candidates or [[force_points]] in the model".into(),
+        ));
+    }
+    let first: Vec<[f64; 3]> = (0..tracks.names.len())
+        .map(|m| tracks.frames.iter().find_map(|f| f.positions[m]))
+        .collect::<Option<_>>()
+        .ok_or_else(|| CliError::Result("a marker is never visible: it cannot be bound".into()))?;
+    let surface = mesh.surface();
+    // The first frame shows the body unloaded: the model's free equilibrium, not its rest.
+    let free = (model.problem.without_loads())
+        .solve_static(&model.newton)
+        .map_err(|e| CliError::Lib(e.into()))?;
+    let markers = bind_markers(
+        &free.positions,
+        &surface,
+        &tracks.names,
+        &first,
+        params.max_bind_distance,
+    )
+    .map_err(|e| CliError::Lib(e.into()))?;
+    let sensor = MarkerSensor::new(
+        &model.problem,
+        model.newton.clone(),
+        markers,
+        candidates,
+        params,
+    )
+    .map_err(|e| CliError::Lib(e.into()))?;
+    let hidden = flag_hidden(&tracks, &sensor.params);
+    let mut previous = None;
+    for (f, flags) in tracks.frames.iter().zip(&hidden) {
+        let measured: Vec<_> = (f.positions.iter().zip(flags))
+            .map(|(p, h)| if *h { None } else { *p })
+            .collect();
+        let est = sensor
+            .solve_frame(f.frame, &measured, previous.as_ref())
+            .map_err(|e| CliError::Lib(e.into()))?;
+        let located = locate_forces(&est, &sensor.candidates, &sensor.params);
+        print_frame(&sensor, &tracks, &est, &located, args.json)?;
+        previous = Some(est);
+    }
+    Ok(())
+}
+
+fn print_frame(
+    sensor: &MarkerSensor,
+    tracks: &MarkerTracks,
+    est: &softsense::markers::MarkerFrame,
+    located: &[softsense::markers::LocatedForce],
+    json: bool,
+) -> CliResult {
+    let hidden: Vec<&str> = est
+        .hidden
+        .iter()
+        .map(|&m| tracks.names[m].as_str())
+        .collect();
+    if json {
+        let v = serde_json::json!({
+            "frame": est.frame, "status": est.status, "forces_n": est.forces,
+            "sigma_n": est.sigma, "i_w_n_per_m": est.i_w, "hidden": hidden,
+            "rows": est.rows, "unknowns": est.unknowns, "updates": est.updates,
+            "residual_rms_m": est.residual_rms, "located": located, "warnings": est.warnings,
+        });
+        return print_json(&v);
+    }
+    outln!(
+        "frame {}: {:?}, {} rows for {} unknowns, I_w {:.3} N/m, residual {:.3} mm, {} FE updates, hidden [{}]",
+        est.frame, est.status, est.rows, est.unknowns, est.i_w, 1e3 * est.residual_rms,
+        est.updates, hidden.join(", ")
+    )?;
+    for (c, f) in sensor.candidates.iter().zip(&est.forces) {
+        outln!(
+            "  {}: F = ({:.4}, {:.4}, {:.4}) N",
+            c.name,
+            f[0],
+            f[1],
+            f[2]
+        )?;
+    }
+    for l in located {
+        let names: Vec<&str> = l
+            .candidates
+            .iter()
+            .map(|&i| sensor.candidates[i].name.as_str())
+            .collect();
+        let c = l.centre.map(|v| 1e3 * v);
+        outln!(
+            "  located at ({:.1}, {:.1}, {:.1}) mm from [{}]: F = ({:.4}, {:.4}, {:.4}) N",
+            c[0],
+            c[1],
+            c[2],
+            names.join(", "),
+            l.force[0],
+            l.force[1],
+            l.force[2]
+        )?;
+    }
+    for w in &est.warnings {
+        eprintln!("warning: frame {}: {w}", est.frame);
+    }
+    Ok(())
+}

@@ -1,0 +1,202 @@
+//! Markers bound to the FE surface and candidate force locations.
+//!
+//! A marker sits at the nearest point of the surface (barycentric on that triangle)
+//! and measures 3 rows (its x, y, z). A candidate force location is a surface node with its
+//! allowed directions: the surface normal only (1 unknown) or free in 3-D (3 unknowns).
+
+use super::{MarkersError, MarkersResult};
+use crate::fem::constraint::{ConstraintRow, RowKind};
+use crate::fem::mesh::{Surface, TetMesh};
+use crate::fem::model::Effector;
+use crate::fem::solve::MappedPoint;
+use crate::geometry::triangle::closest_point_on_triangle_weights;
+use crate::math::{norm, sub};
+use std::path::Path;
+
+/// A marker bound to the surface.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BoundMarker {
+    /// Name (as in the track file).
+    pub name: String,
+    /// Its point on the rest surface (triangle nodes and weights; the fourth weight 0).
+    pub at: MappedPoint,
+    /// Distance from the given position to the surface (m).
+    pub distance: f64,
+}
+
+impl BoundMarker {
+    /// Its three rows (x, y, z displacement of the bound point).
+    pub fn rows(&self) -> Vec<ConstraintRow> {
+        ConstraintRow::point3(RowKind::Effector, &self.at)
+    }
+}
+
+/// Binds each of `positions` (m, model frame) to its nearest surface triangle point with the
+/// nodes at `x` (the rest shape, or the free equilibrium the first frame shows); the
+/// barycentric weights then hold in every shape. A position farther than `max_distance`
+/// from the surface is an error.
+pub fn bind_markers(
+    x: &[[f64; 3]],
+    surface: &Surface,
+    names: &[String],
+    positions: &[[f64; 3]],
+    max_distance: f64,
+) -> MarkersResult<Vec<BoundMarker>> {
+    assert_eq!(names.len(), positions.len(), "one name per marker position");
+    let mut out = Vec::with_capacity(positions.len());
+    for (name, p) in names.iter().zip(positions) {
+        // PERF: brute force over the triangles; a few dozen markers on a few thousand.
+        let mut best = (f64::INFINITY, [0usize; 3], [0.0; 3]);
+        for tri in &surface.triangles {
+            let [a, b, c] = tri.map(|v| x[v]);
+            let (q, w) = closest_point_on_triangle_weights(*p, a, b, c);
+            let d = norm(sub(*p, q));
+            if d < best.0 {
+                best = (d, *tri, w);
+            }
+        }
+        let (distance, tri, w) = best;
+        if distance.is_nan() || distance > max_distance {
+            return Err(MarkersError::Binding(format!(
+                "marker {name} at {p:?} m is {distance:.4} m from the surface (more than {max_distance} m)"
+            )));
+        }
+        out.push(BoundMarker {
+            name: name.clone(),
+            at: MappedPoint {
+                nodes: [tri[0], tri[1], tri[2], tri[0]],
+                weights: [w[0], w[1], w[2], 0.0],
+            },
+            distance,
+        });
+    }
+    Ok(out)
+}
+
+/// The directions a candidate force may take.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Directions {
+    /// Along the surface normal at the node (one unknown, positive outward).
+    Normal,
+    /// Any direction (three unknowns: x, y, z).
+    Free,
+}
+
+/// A candidate force location.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ForceCandidate {
+    /// Name.
+    pub name: String,
+    /// Where it acts.
+    pub at: MappedPoint,
+    /// Unit direction of each unknown (1 or 3).
+    pub directions: Vec<[f64; 3]>,
+    /// Rest position (m).
+    pub position: [f64; 3],
+}
+
+impl ForceCandidate {
+    /// A candidate on the surface node nearest to `p` (rest shape, m).
+    pub fn snapped(
+        name: &str,
+        mesh: &TetMesh,
+        surface: &Surface,
+        p: [f64; 3],
+        directions: Directions,
+    ) -> MarkersResult<Self> {
+        let x = &mesh.nodes_in_rest;
+        let node = (surface.nodes.iter().copied())
+            .min_by(|a, b| norm(sub(x[*a], p)).total_cmp(&norm(sub(x[*b], p))))
+            .ok_or_else(|| MarkersError::Binding("the model has no surface".into()))?;
+        let directions = match directions {
+            Directions::Normal => vec![surface.vertex_normals[node]],
+            Directions::Free => vec![[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        };
+        Ok(Self {
+            name: name.to_string(),
+            at: MappedPoint::node(node),
+            directions,
+            position: x[node],
+        })
+    }
+
+    /// A candidate from a model file's force point: its point and its rows' directions.
+    pub fn from_force_point(e: &Effector, mesh: &TetMesh) -> Self {
+        // A row's coefficients are w_i d with Σ w_i = 1: their sum is d.
+        let directions = (e.rows.iter())
+            .map(|r| {
+                r.entries.iter().fold([0.0; 3], |s, (_, c)| {
+                    [s[0] + c[0], s[1] + c[1], s[2] + c[2]]
+                })
+            })
+            .collect();
+        Self {
+            name: e.name.clone(),
+            at: e.point,
+            directions,
+            position: e.point.position(&mesh.nodes_in_rest),
+        }
+    }
+
+    /// Its rows (one per direction).
+    pub fn rows(&self) -> MarkersResult<Vec<ConstraintRow>> {
+        (self.directions.iter())
+            .map(|d| Ok(ConstraintRow::along(RowKind::Force, &self.at, *d)?))
+            .collect()
+    }
+}
+
+/// Reads a candidate file: CSV `name,x,y,z,directions` (m, model frame; directions `normal`
+/// or `3d`), each point snapped to its nearest surface node.
+pub fn read_candidates(path: &Path, mesh: &TetMesh) -> MarkersResult<Vec<ForceCandidate>> {
+    let text = std::fs::read_to_string(path).map_err(|source| MarkersError::File {
+        path: path.display().to_string(),
+        source,
+    })?;
+    parse_candidates(&text, mesh).map_err(|e| e.in_file(path))
+}
+
+/// Parses a candidate file (see [`read_candidates`]).
+pub fn parse_candidates(text: &str, mesh: &TetMesh) -> MarkersResult<Vec<ForceCandidate>> {
+    let surface = mesh.surface();
+    let bad = |line: usize, message: String| MarkersError::Parse { line, message };
+    let mut out = Vec::new();
+    for (i, l) in text.lines().enumerate() {
+        let cells: Vec<&str> = l.split(',').map(str::trim).collect();
+        if l.trim().is_empty() || (i == 0 && cells[0].eq_ignore_ascii_case("name")) {
+            continue;
+        }
+        if cells.len() != 5 {
+            return Err(bad(
+                i + 1,
+                format!("{} cells, expected name,x,y,z,directions", cells.len()),
+            ));
+        }
+        let mut p = [0.0; 3];
+        for (k, pk) in p.iter_mut().enumerate() {
+            *pk = match cells[1 + k].parse::<f64>() {
+                Ok(v) if v.is_finite() => v,
+                _ => {
+                    return Err(bad(
+                        i + 1,
+                        format!("{:?} is not a finite number", cells[1 + k]),
+                    ))
+                }
+            };
+        }
+        let directions = match cells[4].to_ascii_lowercase().as_str() {
+            "normal" => Directions::Normal,
+            "3d" => Directions::Free,
+            d => {
+                return Err(bad(
+                    i + 1,
+                    format!("directions {d:?}: expected normal or 3d"),
+                ))
+            }
+        };
+        out.push(ForceCandidate::snapped(
+            cells[0], mesh, &surface, p, directions,
+        )?);
+    }
+    Ok(out)
+}

@@ -1,0 +1,130 @@
+//! Marker-based force sensing (thesis 4.4, 4.6.1, 4.7.1): a few tracked markers on the body,
+//! bound to the FE surface as effectors, and the forces at candidate locations that explain
+//! their displacements.
+//!
+//! - [`tracks`]: marker track files (softsense's `frame,marker,x,y,z` CSV and OptiTrack
+//!   Motive CSV exports) and the hidden-marker rule ([`tracks::flag_hidden`]).
+//! - [`bind`]: markers at their nearest surface-triangle point ([`BoundMarker`]); candidate
+//!   force locations snapped to surface nodes with their allowed directions
+//!   ([`ForceCandidate`]).
+//! - [`solve`]: per frame, the analytic least squares (4.9) iterated with the FE model
+//!   ([`MarkerSensor::solve_frame`]), with actuators held at the model's inputs; the status,
+//!   the forces, their covariance σ²(W_efᵀW_ef)⁻¹, I_w and I_e.
+//! - [`locate`]: candidates "found" by a stated threshold rule and the intensity-weighted
+//!   centre of each group of found candidates (4.11-4.13, Corollary 2).
+//!
+//! Everything is SI (m, N) and `f64` inside; the tracker frame is taken as the model frame.
+//!
+//! ```
+//! use softsense::markers::tracks::{read_tracks_str, write_tracks_string};
+//! let text = "frame,marker,x,y,z\n0,a,0.1,0.2,0.0\n0,b,,,\n";
+//! let tracks = read_tracks_str(text)?;
+//! assert_eq!(tracks.names, ["a", "b"]);
+//! assert!(tracks.frames[0].positions[1].is_none()); // b is hidden in frame 0
+//! assert_eq!(read_tracks_str(&write_tracks_string(&tracks))?, tracks);
+//! # Ok::<(), softsense::markers::MarkersError>(())
+//! ```
+
+pub mod bind;
+pub mod locate;
+pub mod solve;
+pub mod tracks;
+
+pub use bind::{bind_markers, BoundMarker, Directions, ForceCandidate};
+pub use locate::{locate_forces, LocatedForce};
+pub use solve::{MarkerFrame, MarkerSensor, MarkersStatus};
+pub use tracks::{MarkerTracks, TrackFrame};
+
+use thiserror::Error;
+
+/// Errors of marker-based sensing: bad track or candidate files, markers off the surface,
+/// FE failures.
+#[derive(Debug, Error)]
+pub enum MarkersError {
+    /// A file could not be read or written.
+    #[error("{path}: {source}")]
+    File {
+        /// The file.
+        path: String,
+        /// The underlying I/O error.
+        source: std::io::Error,
+    },
+    /// A malformed line of a track or candidate file (1-based line number).
+    #[error("line {line}: {message}")]
+    Parse {
+        /// The 1-based line number.
+        line: usize,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// An error in a file, with the file's name.
+    #[error("{path}: {source}")]
+    InFile {
+        /// The file.
+        path: String,
+        /// What is wrong in it.
+        source: Box<MarkersError>,
+    },
+    /// A marker or candidate too far from the model's surface, or a model without one.
+    #[error("{0}")]
+    Binding(String),
+    /// The FE model failed (a solve, a factorization).
+    #[error(transparent)]
+    Fem(#[from] crate::fem::FemError),
+}
+
+impl MarkersError {
+    /// `self` naming `path`.
+    pub fn in_file(self, path: &std::path::Path) -> MarkersError {
+        match self {
+            e @ (MarkersError::File { .. } | MarkersError::InFile { .. }) => e,
+            e => MarkersError::InFile {
+                path: path.display().to_string(),
+                source: Box::new(e),
+            },
+        }
+    }
+}
+
+/// `Result` with [`MarkersError`].
+pub type MarkersResult<T> = std::result::Result<T, MarkersError>;
+
+/// Options of marker-based sensing.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MarkersParams {
+    /// One-sigma noise of each tracked marker coordinate (m; default 1e-4, OptiTrack's 0.1 mm).
+    pub sigma: f64,
+    /// A marker that moved more than this since its last accepted position is hidden (m;
+    /// default 0.005; the thesis's 4.7.1 threshold, which it does not quantify).
+    pub hidden_jump: f64,
+    /// Largest distance from a marker to the surface when binding it (m; default 0.005).
+    pub max_bind_distance: f64,
+    /// Most FE updates per frame (default 10).
+    pub max_updates: usize,
+    /// Converged when every force update is below this (N; default 1e-5).
+    pub force_tol: f64,
+    /// Or when the markers' residual RMS changes by less than this fraction (default 1e-3).
+    pub residual_tol: f64,
+    /// A candidate is found only when its force magnitude exceeds this many σ (default 5).
+    pub found_sigmas: f64,
+    /// A candidate is found only above this fraction of the largest force magnitude (default 0.2).
+    pub found_fraction: f64,
+    /// Found candidates closer than this form one located force (m; default 0.03).
+    pub group_radius: f64,
+}
+
+impl Default for MarkersParams {
+    fn default() -> Self {
+        Self {
+            sigma: 1e-4,
+            hidden_jump: 0.005,
+            max_bind_distance: 0.005,
+            max_updates: 10,
+            force_tol: 1e-5,
+            residual_tol: 1e-3,
+            found_sigmas: 5.0,
+            found_fraction: 0.2,
+            group_radius: 0.03,
+        }
+    }
+}

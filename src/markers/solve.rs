@@ -1,0 +1,320 @@
+//! The forces of one frame from its markers (thesis 4.4.1, equations 4.4-4.10).
+//!
+//! The FE model holds the actuators at their inputs (4.7/4.8: a force-controlled cable at
+//! its force, a displacement-controlled one at its shortening), so their share is part of
+//! the free motion. The unknowns are the intensities at the candidates along their allowed
+//! directions. Each update solves the FE model under the current intensities, linearises
+//! there (W_ef, the compliance between the visible markers' rows and the unknowns, condensed
+//! on the displacement-held cables) and applies the analytic least squares (4.9):
+//! Δλ_f = (W_efᵀW_ef)⁻¹W_efᵀ(δ_e^r − δ_e). It stops when the update or the change of the
+//! markers' residual is small.
+
+use super::bind::{BoundMarker, ForceCandidate};
+use super::{MarkersParams, MarkersResult};
+use crate::fem::constraint::ConstraintRow;
+use crate::fem::solve::{CableControl, NewtonParams, PointLoad, Problem, Solution};
+use crate::inverse::intensity::{IntensityParams, IntensityProblem};
+use nalgebra::{DMatrix, DVector};
+use serde::Serialize;
+
+/// How a frame's estimate ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum MarkersStatus {
+    /// The updates settled (`force_tol` or `residual_tol`).
+    Converged,
+    /// Fewer rows than unknowns (Corollary 1) or a rank-deficient W_ef: no forces.
+    NotIdentifiable {
+        /// Rows of the visible markers (3 each).
+        rows: usize,
+        /// Force unknowns.
+        unknowns: usize,
+    },
+    /// `max_updates` were done without settling; the forces are the last iterate.
+    NotConverged,
+}
+
+/// The estimate of one frame.
+#[derive(Debug, Clone, Serialize)]
+pub struct MarkerFrame {
+    /// The frame number.
+    pub frame: u64,
+    /// How the estimate ended.
+    pub status: MarkersStatus,
+    /// The force vector at each candidate (N); empty when not identifiable.
+    pub forces: Vec<[f64; 3]>,
+    /// The unknowns λ_f (N), candidate by candidate, direction by direction.
+    pub intensities: Vec<f64>,
+    /// One sigma of each unknown from the marker noise (N): sqrt of diag σ²(W_efᵀW_ef)⁻¹.
+    pub sigma: Vec<f64>,
+    /// Covariance of the unknowns σ²(W_efᵀW_ef)⁻¹ (N²).
+    #[serde(skip)]
+    pub covariance: Option<DMatrix<f64>>,
+    /// I_w = ‖W_ef⁺‖₂ of the visible markers and the candidates (N/m).
+    pub i_w: f64,
+    /// I_e = ‖f_computed − f_applied‖₂ over all candidates' force vectors (N), when the
+    /// truth is known ([`MarkerFrame::set_truth`]).
+    pub i_e: Option<f64>,
+    /// Indices of the markers whose rows were left out (hidden).
+    pub hidden: Vec<usize>,
+    /// Rows used (3 per visible marker).
+    pub rows: usize,
+    /// Force unknowns.
+    pub unknowns: usize,
+    /// FE updates done.
+    pub updates: usize,
+    /// RMS of the markers' residual at the last FE state (m).
+    pub residual_rms: f64,
+    /// Warnings (identifiability, FE).
+    pub warnings: Vec<String>,
+    /// The last FE state (under `intensities` when converged, else under the iterate before
+    /// them), to warm-start the next frame.
+    #[serde(skip)]
+    pub solution: Option<Solution>,
+}
+
+impl MarkerFrame {
+    /// Sets I_e from the applied force vectors (N, one per candidate).
+    pub fn set_truth(&mut self, applied: &[[f64; 3]]) {
+        if applied.len() != self.forces.len() {
+            return;
+        }
+        let s: f64 = (self.forces.iter().zip(applied))
+            .map(|(f, a)| crate::math::norm(crate::math::sub(*f, *a)).powi(2))
+            .sum();
+        self.i_e = Some(s.sqrt());
+    }
+}
+
+/// The FE model, markers and candidates of a recording.
+#[derive(Debug, Clone)]
+pub struct MarkerSensor {
+    /// The FE problem without point loads; its cables carry the actuator inputs.
+    pub problem: Problem,
+    /// Newton options of the FE updates.
+    pub newton: NewtonParams,
+    /// The markers, in track-file order.
+    pub markers: Vec<BoundMarker>,
+    /// The candidate force locations.
+    pub candidates: Vec<ForceCandidate>,
+    /// Options.
+    pub params: MarkersParams,
+    force_rows: Vec<ConstraintRow>,
+}
+
+impl MarkerSensor {
+    /// A sensor on `problem` (its point loads dropped).
+    pub fn new(
+        problem: &Problem,
+        newton: NewtonParams,
+        markers: Vec<BoundMarker>,
+        candidates: Vec<ForceCandidate>,
+        params: MarkersParams,
+    ) -> MarkersResult<Self> {
+        let mut force_rows = Vec::new();
+        for c in &candidates {
+            force_rows.extend(c.rows()?);
+        }
+        Ok(Self {
+            problem: problem.without_loads(),
+            newton,
+            markers,
+            candidates,
+            params,
+            force_rows,
+        })
+    }
+
+    /// Number of force unknowns.
+    pub fn unknowns(&self) -> usize {
+        self.force_rows.len()
+    }
+
+    /// The problem under the unknowns `lambda` at the candidates.
+    fn loaded(&self, lambda: &[f64]) -> Problem {
+        let mut p = self.problem.clone();
+        let mut k = 0;
+        for c in &self.candidates {
+            let mut f = [0.0; 3];
+            for d in &c.directions {
+                (0..3).for_each(|a| f[a] += lambda[k] * d[a]);
+                k += 1;
+            }
+            p.loads.push(PointLoad { at: c.at, force: f });
+        }
+        p
+    }
+
+    /// The force vector of each candidate from the unknowns.
+    fn force_vectors(&self, lambda: &[f64]) -> Vec<[f64; 3]> {
+        self.loaded(lambda).loads.iter().map(|l| l.force).collect()
+    }
+
+    /// The FE equilibrium under `lambda` (warm-started from `start`) and W_ef of the markers
+    /// `visible` there, condensed on the displacement-held cables: W_ef − W_ea W_aa⁻¹ W_af.
+    pub fn linearise(
+        &self,
+        lambda: &[f64],
+        visible: &[usize],
+        start: Option<&Solution>,
+    ) -> MarkersResult<(Solution, DMatrix<f64>)> {
+        let p = self.loaded(lambda);
+        let mut solver = p.solver()?;
+        let sol = solver.solve_static_from(&self.newton, start)?;
+        let x = &sol.positions;
+        crate::inverse::linearise::factorize_loop_tangent(
+            &mut solver,
+            x,
+            &sol.cable_tension,
+            self.newton.tangent,
+        )?;
+        let mut rows: Vec<ConstraintRow> = visible
+            .iter()
+            .flat_map(|&m| self.markers[m].rows())
+            .collect();
+        let ne = rows.len();
+        let held: Vec<&crate::fem::solve::Cable> = (p.cables.iter())
+            .filter(|c| matches!(c.control, CableControl::Displacement(_)))
+            .collect();
+        rows.extend(held.iter().map(|c| ConstraintRow::cable(c, x)));
+        let na = held.len();
+        rows.extend(self.force_rows.iter().cloned());
+        let n = self.unknowns();
+        let zero = vec![0.0; solver.ndof()];
+        let (cols, _) = solver.compliance_columns(&rows, x, &zero, ne)?;
+        let mut w_ef = cols.view((0, na), (ne, n)).clone_owned();
+        if na > 0 {
+            let w_ea = cols.view((0, 0), (ne, na));
+            let w_aa = cols.view((ne, 0), (na, na)).clone_owned();
+            let w_af = cols.view((ne, na), (na, n));
+            let inv = w_aa.try_inverse().ok_or_else(|| {
+                crate::fem::FemError::Singular("W_aa of the held cables is singular".into())
+            })?;
+            w_ef -= w_ea * inv * w_af;
+        }
+        Ok((sol, w_ef))
+    }
+
+    /// The forces of one frame from its measured marker positions (m, model frame; `None`:
+    /// hidden), starting from the previous frame's estimate when given.
+    pub fn solve_frame(
+        &self,
+        frame: u64,
+        measured: &[Option<[f64; 3]>],
+        previous: Option<&MarkerFrame>,
+    ) -> MarkersResult<MarkerFrame> {
+        assert_eq!(measured.len(), self.markers.len(), "one entry per marker");
+        let n = self.unknowns();
+        let visible: Vec<usize> = (0..measured.len())
+            .filter(|&m| measured[m].is_some())
+            .collect();
+        let hidden: Vec<usize> = (0..measured.len())
+            .filter(|&m| measured[m].is_none())
+            .collect();
+        let target: Vec<f64> = visible
+            .iter()
+            .flat_map(|&m| measured[m].expect("visible"))
+            .collect();
+        let rows = target.len();
+        let mut out = MarkerFrame {
+            frame,
+            status: MarkersStatus::NotIdentifiable { rows, unknowns: n },
+            forces: Vec::new(),
+            intensities: Vec::new(),
+            sigma: Vec::new(),
+            covariance: None,
+            i_w: f64::INFINITY,
+            i_e: None,
+            hidden,
+            rows,
+            unknowns: n,
+            updates: 0,
+            residual_rms: f64::NAN,
+            warnings: Vec::new(),
+            solution: None,
+        };
+        if rows < n || n == 0 {
+            out.warnings.push(format!(
+                "{rows} marker rows for {n} unknowns: the forces are not identifiable (Corollary 1 needs rows >= unknowns)"
+            ));
+            return Ok(out);
+        }
+        let prev_ok = previous.filter(|p| p.intensities.len() == n);
+        let mut lambda = prev_ok.map_or(vec![0.0; n], |p| p.intensities.clone());
+        let mut start = prev_ok.and_then(|p| p.solution.clone());
+        let mut last_rms = f64::NAN;
+        let mut w_ef = DMatrix::zeros(rows, n);
+        let mut status = MarkersStatus::NotConverged;
+        for update in 0..self.params.max_updates {
+            let (sol, w) = self.linearise(&lambda, &visible, start.as_ref())?;
+            w_ef = w;
+            let model: Vec<f64> = (visible.iter())
+                .flat_map(|&m| self.markers[m].at.position(&sol.positions))
+                .collect();
+            let r = DVector::from_iterator(rows, target.iter().zip(&model).map(|(t, m)| t - m));
+            let rms = (r.norm_squared() / rows as f64).sqrt();
+            out.updates = update + 1;
+            out.residual_rms = rms;
+            let gram = w_ef.tr_mul(&w_ef);
+            let Some(chol) = gram.cholesky() else {
+                out.warnings
+                    .push("W_ef is rank deficient: the forces are not identifiable".into());
+                return Ok(out);
+            };
+            let step = chol.solve(&w_ef.tr_mul(&r));
+            // The residual at this state is the one of `lambda`: a small step or a residual
+            // that no longer changes means `lambda` is the answer.
+            let settled = step.amax() <= self.params.force_tol
+                || (rms - last_rms).abs() <= self.params.residual_tol * last_rms;
+            start = Some(sol);
+            if settled {
+                status = MarkersStatus::Converged;
+                break;
+            }
+            lambda
+                .iter_mut()
+                .zip(step.iter())
+                .for_each(|(l, s)| *l += s);
+            last_rms = rms;
+        }
+        if status == MarkersStatus::NotConverged {
+            out.warnings.push(format!(
+                "the forces did not settle in {} FE updates",
+                self.params.max_updates
+            ));
+        }
+        self.finish(&mut out, &w_ef, lambda, status);
+        out.solution = start;
+        Ok(out)
+    }
+
+    /// Fills in the forces, their covariance and I_w from the last linearisation.
+    fn finish(
+        &self,
+        out: &mut MarkerFrame,
+        w_ef: &DMatrix<f64>,
+        lambda: Vec<f64>,
+        status: MarkersStatus,
+    ) {
+        let (m, n) = w_ef.shape();
+        let problem = IntensityProblem {
+            w_ea: DMatrix::zeros(m, 0),
+            w_ef: w_ef.clone(),
+            delta_free_e: vec![0.0; m],
+            delta_measured: vec![0.0; m],
+            w_aa: DMatrix::zeros(0, 0),
+            w_af: DMatrix::zeros(0, n),
+            delta_free_a: Vec::new(),
+            actuators: Vec::new(),
+            push_only: vec![false; n],
+        };
+        let ident = problem.identifiability(&IntensityParams::default());
+        out.i_w = ident.i_w;
+        let s2 = self.params.sigma * self.params.sigma;
+        out.covariance = problem.force_covariance_with(|a| Some(a * a.transpose() * s2));
+        out.sigma = problem.force_sigma(self.params.sigma);
+        out.warnings.extend(ident.warning);
+        out.forces = self.force_vectors(&lambda);
+        out.intensities = lambda;
+        out.status = status;
+    }
+}

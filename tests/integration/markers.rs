@@ -1,0 +1,205 @@
+//! Marker-based sensing end to end (thesis 4.6-4.7): the direct FE model makes the truth
+//! (known forces at candidate nodes, marker positions with 0.1 mm Gaussian noise from a
+//! seeded generator), the inverse model recovers the forces from the markers alone.
+use crate::common::markers::*;
+
+#[test]
+fn two_hanging_weights_on_the_sheet_are_recovered_within_two_percent() {
+    let s = sheet_with_two_candidates();
+    // Thesis Table 4.4's weights (N), hanging along -z.
+    let pairs = [
+        (0.559, 0.559),
+        (0.559, 0.459),
+        (0.559, 0.359),
+        (0.459, 0.459),
+        (0.459, 0.359),
+        (0.359, 0.359),
+    ];
+    // The line is "each within 2%"; with 0.1 mm noise one σ is 0.9-1.1% of a
+    // 359-459 mN force here, so each force is held to 4σ and the thesis's own metric
+    // (Table 4.4: the mean of the two relative errors) to 2%.
+    for (k, (f1, f2)) in pairs.into_iter().enumerate() {
+        let truth = [[0.0, 0.0, -f1], [0.0, 0.0, -f2]];
+        let measured = measure(&s, &truth, 10 + k as u64);
+        let mut est = s.solve_frame(k as u64, &measured, None).unwrap();
+        est.set_truth(&truth);
+        assert_eq!(est.status, softsense::markers::MarkersStatus::Converged);
+        let mut mean = 0.0;
+        for (i, w) in [f1, f2].into_iter().enumerate() {
+            let err = (est.forces[i][2] + w).abs() / w;
+            mean += 0.5 * err;
+            eprintln!(
+                "sheet {f1}/{f2} N: force {i} {:.4} N, error {:.3}%, sigma {:.4} N, I_w {:.3} N/m, I_e {:.4} N, updates {}",
+                -est.forces[i][2], 100.0 * err, est.sigma[i], est.i_w, est.i_e.unwrap(), est.updates
+            );
+            assert!(
+                err * w < 4.0 * est.sigma[i],
+                "force {i}: {:?} against {w}",
+                est.forces[i]
+            );
+        }
+        eprintln!("sheet {f1}/{f2} N: mean error {:.3}%", 100.0 * mean);
+        assert!(mean < 0.02, "{f1}/{f2}: mean error {mean}");
+    }
+}
+
+#[test]
+fn a_tip_weight_seen_by_markers_far_from_it_is_reported_within_its_sigma() {
+    // Table 4.5's far group: markers around the east knee (97, 0, 45) mm; the thesis
+    // reports 89-97% there. Reported, and held to the noise it predicts (4σ).
+    let s = robot_tip_sensor([0.097, 0.0, 0.045]);
+    let w = 0.659;
+    let est = s
+        .solve_frame(0, &measure(&s, &[[0.0, 0.0, -w]], 60), None)
+        .unwrap();
+    let err = (est.intensities[0] - w).abs() / w;
+    eprintln!(
+        "robot tip {w} N, far markers: {:.4} N, error {:.3}%, sigma {:.4} N, I_w {:.2} N/m",
+        est.intensities[0],
+        100.0 * err,
+        est.sigma[0],
+        est.i_w
+    );
+    assert_eq!(est.status, softsense::markers::MarkersStatus::Converged);
+    assert!(err * w < 4.0 * est.sigma[0], "{:?}", est.intensities);
+}
+
+#[test]
+fn a_tip_weight_on_the_robot_is_recovered_within_one_percent_from_markers_near_it() {
+    let s = robot_tip_sensor([0.0, 0.0, 0.125]);
+    // Thesis Table 4.5's weights (N) with the north cable held at the model's 10 mm. One σ
+    // is 1.0% of the 259 mN weight: each estimate is held to 4σ, the mean error to 1%.
+    let weights = [0.859, 0.659, 0.459, 0.259];
+    let mut mean = 0.0;
+    for (k, w) in weights.into_iter().enumerate() {
+        let truth = [[0.0, 0.0, -w]];
+        let measured = measure(&s, &truth, 40 + k as u64);
+        let est = s.solve_frame(k as u64, &measured, None).unwrap();
+        let err = (est.intensities[0] - w).abs() / w;
+        mean += err / weights.len() as f64;
+        eprintln!(
+            "robot tip {w} N: {:.4} N, error {:.3}%, sigma {:.4} N, I_w {:.2} N/m, updates {}",
+            est.intensities[0],
+            100.0 * err,
+            est.sigma[0],
+            est.i_w,
+            est.updates
+        );
+        assert_eq!(est.status, softsense::markers::MarkersStatus::Converged);
+        assert!(err * w < 4.0 * est.sigma[0], "{w} N: {:?}", est.intensities);
+    }
+    eprintln!("robot tip: mean error {:.3}%", 100.0 * mean);
+    assert!(mean < 0.01, "mean error {mean}");
+}
+
+#[test]
+fn forces_on_two_of_twelve_sheet_candidates_are_located_in_most_random_trials() {
+    let s = sheet_with_twelve_candidates();
+    let trials: u64 = 6;
+    let mut right: u64 = 0;
+    for t in 0..trials {
+        let (chosen, found) = location_trial(&s, t);
+        eprintln!("trial {t}: truth {chosen:?}, found {found:?}");
+        right += (found == chosen) as u64;
+    }
+    eprintln!("located {right}/{trials}");
+    assert!(right + 1 >= trials, "located {right} of {trials}");
+}
+
+#[test]
+fn with_thirty_percent_of_markers_hidden_the_forces_stay_within_five_percent() {
+    let s = sheet_with_two_candidates();
+    let truth = [[0.0, 0.0, -0.459], [0.0, 0.0, -0.359]];
+    let before = measure(&s, &truth, 90);
+    let mut now = measure(&s, &truth, 91);
+    // 7 of 25 markers lost and one swapped 20 mm away by the tracker: 8 hidden (32%).
+    let lost = [1, 4, 7, 11, 15, 18, 22];
+    for &i in &lost {
+        now[i] = None;
+    }
+    let swapped = 12;
+    now[swapped] = now[swapped].map(|p| [p[0] + 0.02, p[1], p[2]]);
+    let tracks = softsense::markers::MarkerTracks {
+        names: s.markers.iter().map(|m| m.name.clone()).collect(),
+        frames: vec![
+            softsense::markers::TrackFrame {
+                frame: 0,
+                positions: before,
+            },
+            softsense::markers::TrackFrame {
+                frame: 1,
+                positions: now.clone(),
+            },
+        ],
+    };
+    let flags = softsense::markers::tracks::flag_hidden(&tracks, &s.params);
+    let measured: Vec<_> = now
+        .iter()
+        .zip(&flags[1])
+        .map(|(p, h)| if *h { None } else { *p })
+        .collect();
+    let est = s.solve_frame(1, &measured, None).unwrap();
+    let mut want: Vec<usize> = lost.to_vec();
+    want.push(swapped);
+    want.sort_unstable();
+    assert_eq!(est.hidden, want, "hidden markers flagged");
+    for (i, f) in truth.iter().enumerate() {
+        let err = (est.forces[i][2] - f[2]).abs() / -f[2];
+        eprintln!(
+            "hidden 32%: force {i} error {:.3}%, sigma {:.4} N",
+            100.0 * err,
+            est.sigma[i]
+        );
+        assert!(err < 0.05);
+    }
+}
+
+#[test]
+fn the_markers_command_reads_a_track_file_and_prints_the_forces() {
+    let s = sheet_with_two_candidates();
+    let dir = tempfile::tempdir().unwrap();
+    let truth = [[0.0, 0.0, -0.459], [0.0, 0.0, -0.359]];
+    // Frame 0: the sheet under gravity alone (where the command binds the markers);
+    // frame 1: the two weights hang.
+    let frames = [measure(&s, &[[0.0; 3]; 2], 120), measure(&s, &truth, 121)];
+    let tracks = softsense::markers::MarkerTracks {
+        names: s.markers.iter().map(|m| m.name.clone()).collect(),
+        frames: (frames.into_iter().enumerate())
+            .map(|(k, positions)| softsense::markers::TrackFrame {
+                frame: k as u64,
+                positions,
+            })
+            .collect(),
+    };
+    let track_path = dir.path().join("tracks.csv");
+    softsense::markers::tracks::write_tracks(&track_path, &tracks).unwrap();
+    let cand_path = dir.path().join("candidates.csv");
+    std::fs::write(
+        &cand_path,
+        "name,x,y,z,directions\nleft,-0.04,0,0.004,normal\nright,0.04,0,0.004,normal\n",
+    )
+    .unwrap();
+    let (cand, track) = (cand_path.to_str().unwrap(), track_path.to_str().unwrap());
+    let model = "meshes/models/sheet.toml";
+    let out = crate::cli::softsense(&["markers", "--json", "--candidates", cand, track, model]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let lines: Vec<serde_json::Value> = (String::from_utf8(out.stdout).unwrap().lines())
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines.len(), 2);
+    let forces = &lines[1]["forces_n"];
+    for (i, f) in truth.iter().enumerate() {
+        let z = forces[i][2].as_f64().unwrap();
+        let sigma = lines[1]["sigma_n"][i].as_f64().unwrap();
+        eprintln!(
+            "cli: force {i} {z:.4} N against {:.3} N (sigma {sigma:.4})",
+            f[2]
+        );
+        assert!((z - f[2]).abs() < 4.0 * sigma);
+    }
+    assert_eq!(lines[1]["located"].as_array().unwrap().len(), 2);
+}

@@ -1,0 +1,292 @@
+//! Marker-based sensing: track files, the hidden rule, binding, W_ef against finite
+//! differences of the FE solve, the location rule.
+use softsense::fem::material::Material;
+use softsense::fem::mesh::TetMesh;
+use softsense::fem::solve::{
+    Cable, CableControl, Formulation, MappedPoint, NewtonParams, PointLoad, Problem,
+};
+use softsense::markers::tracks::{
+    flag_hidden, read_motive_str, read_tracks_str, write_tracks_string,
+};
+use softsense::markers::{
+    bind_markers, locate_forces, Directions, ForceCandidate, MarkerSensor, MarkersError,
+    MarkersParams, MarkersStatus,
+};
+
+#[test]
+fn tracks_round_trip_through_the_csv_writer() {
+    let text = "frame,marker,x,y,z\n0,a,0.1,0.2,0.3\n0,b,,,\n1,b,1e-3,-2.5,0\n";
+    let t = read_tracks_str(text).unwrap();
+    assert_eq!(t.names, ["a", "b"]);
+    assert_eq!(t.frames.len(), 2);
+    assert_eq!(t.frames[0].positions, [Some([0.1, 0.2, 0.3]), None]);
+    // Frame 1 has no row for a: hidden.
+    assert_eq!(t.frames[1].positions, [None, Some([1e-3, -2.5, 0.0])]);
+    assert_eq!(read_tracks_str(&write_tracks_string(&t)).unwrap(), t);
+}
+
+#[test]
+fn bad_track_lines_are_errors_naming_the_line() {
+    let cases = [
+        ("frame,marker,x,y,z\n0,a,0.1,0.2\n", 2),
+        ("frame,marker,x,y,z\n0,a,0,0,0\n0,a,nan,0,0\n", 3),
+        ("frame,marker,x,y,z\n0,a,0,0,0\n1,a,0,0,0\n0,b,0,0,0\n", 4),
+        ("frame,marker,x,y,z\n0,a,0,0,0\n0,a,1,1,1\n", 3),
+        ("frame,marker,x,y,z\n-1,a,0,0,0\n", 2),
+        ("frame,marker,x,y,z\n0,a,0,,0\n", 2),
+        ("time,x,y,z\n", 1),
+        ("", 1),
+    ];
+    for (text, want) in cases {
+        match read_tracks_str(text) {
+            Err(MarkersError::Parse { line, .. }) => assert_eq!(line, want, "{text:?}"),
+            other => panic!("{text:?}: {other:?}"),
+        }
+    }
+}
+
+const MOTIVE: &str =
+    "Format Version,1.23,Take Name,Take 1,Length Units,Millimeters,Coordinate Space,Global\n\
+\n\
+,,Marker,Marker,Marker,Rigid Body,Rigid Body,Rigid Body,Rigid Body,Marker,Marker,Marker\n\
+,Name,sheet:m1,sheet:m1,sheet:m1,body,body,body,body,sheet:m2,sheet:m2,sheet:m2\n\
+,,Position,Position,Position,Rotation,Rotation,Rotation,Rotation,Position,Position,Position\n\
+Frame,Time (Seconds),X,Y,Z,X,Y,Z,W,X,Y,Z\n\
+0,0.000,10.0,20.0,30.0,0,0,0,1,1,2,3\n\
+1,0.010,11.0,21.0,31.0,0,0,0,1,,,\n";
+
+#[test]
+fn motive_exports_give_metres_and_skip_rotations() {
+    let t = read_motive_str(MOTIVE).unwrap();
+    assert_eq!(t.names, ["sheet:m1", "sheet:m2"]);
+    assert_eq!(t.frames[0].positions[0], Some([0.010, 0.020, 0.030]));
+    assert_eq!(t.frames[0].positions[1], Some([0.001, 0.002, 0.003]));
+    assert_eq!(t.frames[1].positions[1], None);
+    let bad = MOTIVE.replace("11.0,21.0", "11.0,oops");
+    match read_motive_str(&bad) {
+        Err(MarkersError::Parse { line, .. }) => assert_eq!(line, 8),
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn a_marker_that_jumps_or_is_missing_is_hidden() {
+    let text = "frame,marker,x,y,z\n0,a,0,0,0\n0,b,0,0,0\n1,a,0.001,0,0\n1,b,0.02,0,0\n2,a,,,\n2,b,0.001,0,0\n";
+    let t = read_tracks_str(text).unwrap();
+    let h = flag_hidden(&t, &MarkersParams::default());
+    // b's jump of 20 mm in frame 1 is refused; in frame 2 it is back near its last
+    // accepted position.
+    assert_eq!(h, [[false, false], [false, true], [true, false]]);
+}
+
+/// A 100 x 20 x 20 mm bar fixed at x = 0, with an optional cable held at 2 mm.
+fn bar(cable: bool) -> Problem {
+    let mesh = TetMesh::structured_box([0.0; 3], [0.1, 0.02, 0.02], [10, 2, 2]).unwrap();
+    let mut p = Problem::new(
+        mesh,
+        Material::new(1e5, 0.45).unwrap(),
+        Formulation::Corotational,
+    );
+    p.fixed = p.mesh.nodes_in_box([-1e-6; 3], [1e-6, 1.0, 1.0]);
+    if cable {
+        let tip = p.mesh.nodes_in_box(
+            [0.1 - 1e-6, 0.01 - 1e-6, 0.02 - 1e-6],
+            [0.2, 0.01 + 1e-6, 0.03],
+        )[0];
+        p.cables.push(Cable {
+            name: "c".into(),
+            pull: [0.0, 0.01, 0.02],
+            attach: vec![MappedPoint::node(tip)],
+            control: CableControl::Displacement(0.002),
+        });
+    }
+    p
+}
+
+fn bar_sensor(cable: bool) -> MarkerSensor {
+    let p = bar(cable);
+    let surface = p.mesh.surface();
+    let at = [
+        [0.05, 0.013, 0.02],
+        [0.1, 0.007, 0.011],
+        [0.075, 0.0, 0.005],
+    ];
+    let names: Vec<String> = ["a", "b", "c"].map(String::from).to_vec();
+    let markers = bind_markers(&p.mesh.nodes_in_rest, &surface, &names, &at, 1e-3).unwrap();
+    let cand = vec![
+        ForceCandidate::snapped(
+            "tip",
+            &p.mesh,
+            &surface,
+            [0.1, 0.01, 0.02],
+            Directions::Free,
+        )
+        .unwrap(),
+        ForceCandidate::snapped(
+            "mid",
+            &p.mesh,
+            &surface,
+            [0.06, 0.01, 0.02],
+            Directions::Normal,
+        )
+        .unwrap(),
+    ];
+    MarkerSensor::new(
+        &p,
+        NewtonParams::default(),
+        markers,
+        cand,
+        MarkersParams::default(),
+    )
+    .unwrap()
+}
+
+#[test]
+fn markers_bind_to_their_nearest_surface_point() {
+    let s = bar_sensor(false);
+    let x = &s.problem.mesh.nodes_in_rest;
+    for (m, want) in s.markers.iter().zip([
+        [0.05, 0.013, 0.02],
+        [0.1, 0.007, 0.011],
+        [0.075, 0.0, 0.005],
+    ]) {
+        let p = m.at.position(x);
+        assert!(
+            (0..3).all(|k| (p[k] - want[k]).abs() < 1e-12),
+            "{p:?} vs {want:?}"
+        );
+        assert!(m.distance < 1e-12);
+    }
+    let far = bind_markers(
+        &s.problem.mesh.nodes_in_rest,
+        &s.problem.mesh.surface(),
+        &["f".into()],
+        &[[0.05, 0.01, 0.05]],
+        1e-3,
+    );
+    assert!(matches!(far, Err(MarkersError::Binding(_))));
+}
+
+#[test]
+fn w_ef_columns_match_finite_differences_of_the_fe_solve() {
+    for cable in [false, true] {
+        let s = bar_sensor(cable);
+        let lambda = [0.0, 0.0, -0.02, 0.01];
+        let all = [0, 1, 2];
+        let (_, w) = s.linearise(&lambda, &all, None).unwrap();
+        let markers_under = |l: &[f64]| -> Vec<f64> {
+            let mut p = s.problem.clone();
+            let mut k = 0;
+            for c in &s.candidates {
+                let mut f = [0.0; 3];
+                for d in &c.directions {
+                    (0..3).for_each(|a| f[a] += l[k] * d[a]);
+                    k += 1;
+                }
+                p.loads.push(PointLoad { at: c.at, force: f });
+            }
+            let sol = p.solve_static(&s.newton).unwrap();
+            s.markers
+                .iter()
+                .flat_map(|m| m.at.position(&sol.positions))
+                .collect()
+        };
+        let h = 1e-4;
+        for j in 0..lambda.len() {
+            let (mut lp, mut lm) = (lambda.to_vec(), lambda.to_vec());
+            lp[j] += h;
+            lm[j] -= h;
+            let (up, um) = (markers_under(&lp), markers_under(&lm));
+            for i in 0..9 {
+                let fd = (up[i] - um[i]) / (2.0 * h);
+                assert!(
+                    (w[(i, j)] - fd).abs() <= 1e-4 * w.amax(),
+                    "cable {cable}: W[{i},{j}] = {} vs {fd}",
+                    w[(i, j)]
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn too_few_visible_markers_is_not_identifiable() {
+    let s = bar_sensor(false);
+    // One visible marker: 3 rows for 4 unknowns (Corollary 1).
+    let est = s
+        .solve_frame(0, &[Some([0.05, 0.013, 0.02]), None, None], None)
+        .unwrap();
+    assert_eq!(
+        est.status,
+        MarkersStatus::NotIdentifiable {
+            rows: 3,
+            unknowns: 4
+        }
+    );
+    assert!(est.forces.is_empty());
+    assert_eq!(est.hidden, [1, 2]);
+    assert!(!est.warnings.is_empty());
+}
+
+#[test]
+fn found_candidates_are_grouped_at_their_weighted_centre() {
+    let s = bar_sensor(false);
+    let mut est = s
+        .solve_frame(
+            0,
+            &[
+                Some([0.05, 0.013, 0.02]),
+                Some([0.1, 0.007, 0.011]),
+                Some([0.075, 0.0, 0.005]),
+            ],
+            None,
+        )
+        .unwrap();
+    // Forces and sigmas set by hand: tip 3 N along -z, mid 1 N: both found, 40 mm apart.
+    est.forces = vec![[0.0, 0.0, -3.0], [0.0, 0.0, 1.0]];
+    est.sigma = vec![0.01; 4];
+    let mut params = MarkersParams {
+        group_radius: 0.05,
+        ..Default::default()
+    };
+    let located = locate_forces(&est, &s.candidates, &params);
+    assert_eq!(located.len(), 1);
+    assert_eq!(located[0].candidates, [0, 1]);
+    let (pt, pm) = (s.candidates[0].position, s.candidates[1].position);
+    let want = (0..3)
+        .map(|k| 0.75 * pt[k] + 0.25 * pm[k])
+        .collect::<Vec<_>>();
+    assert!((0..3).all(|k| (located[0].centre[k] - want[k]).abs() < 1e-12));
+    assert_eq!(located[0].force, [0.0, 0.0, -2.0]);
+    // Apart when the radius is smaller; below the fraction of the largest, not found.
+    params.group_radius = 0.01;
+    assert_eq!(locate_forces(&est, &s.candidates, &params).len(), 2);
+    params.found_fraction = 0.5;
+    assert_eq!(locate_forces(&est, &s.candidates, &params).len(), 1);
+    // Below its σ rule, not found.
+    est.sigma = vec![1.0; 4];
+    assert!(locate_forces(&est, &s.candidates, &params).is_empty());
+}
+
+#[test]
+fn candidate_files_snap_to_surface_nodes_and_name_bad_lines() {
+    let p = bar(false);
+    let text = "name,x,y,z,directions\ntip,0.1005,0.0098,0.0201,3d\nmid,0.06,0.01,0.02,normal\n";
+    let c = softsense::markers::bind::parse_candidates(text, &p.mesh).unwrap();
+    assert_eq!(c.len(), 2);
+    assert_eq!(c[0].position, [0.1, 0.01, 0.02]);
+    assert_eq!(c[0].directions.len(), 3);
+    // The top face's normal at an interior node of it.
+    let n = c[1].directions[0];
+    assert!((n[2] - 1.0).abs() < 1e-12, "{n:?}");
+    for (bad, line) in [
+        ("a,0,0,0,normal\nb,0,0,0,sideways\n", 2),
+        ("a,0,0,x,normal\n", 1),
+        ("name,x,y,z,directions\n\na,0,0\n", 3),
+    ] {
+        match softsense::markers::bind::parse_candidates(bad, &p.mesh) {
+            Err(MarkersError::Parse { line: l, .. }) => assert_eq!(l, line, "{bad:?}"),
+            other => panic!("{bad:?}: {other:?}"),
+        }
+    }
+}
