@@ -306,6 +306,7 @@ impl MarkerSensor {
             delta_free_a: Vec::new(),
             actuators: Vec::new(),
             push_only: vec![false; n],
+            row_noise: Default::default(),
         };
         let ident = problem.identifiability(&IntensityParams::default());
         out.i_w = ident.i_w;
