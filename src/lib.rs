@@ -37,6 +37,7 @@ pub mod calibrate;
 pub mod camera;
 pub mod cloud;
 pub mod contact;
+pub mod control;
 pub mod discrepancy;
 pub mod error;
 pub mod features;

@@ -51,6 +51,7 @@ enum Command {
     Hidden(cli::explain::HiddenArgs),
     Sense(cli::sense::SenseArgs),
     Markers(cli::markers::MarkersArgs),
+    Control(cli::control::ControlArgs),
     Calibrate(cli::calibrate::CalibrateArgs),
     Score(cli::score::ScoreArgs),
 }
@@ -75,6 +76,7 @@ fn main() -> ExitCode {
         Command::Hidden(args) => cli::explain::run_hidden(&args),
         Command::Sense(args) => cli::sense::run(&args),
         Command::Markers(args) => cli::markers::run(&args),
+        Command::Control(args) => cli::control::run_control(&args),
         Command::Calibrate(args) => cli::calibrate::run(&args),
         Command::Score(args) => cli::score::run(&args),
     };

@@ -9,6 +9,8 @@ mod cli;
 mod cli_segment;
 #[path = "integration/cli_sense.rs"]
 mod cli_sense;
+#[path = "integration/control.rs"]
+mod control;
 #[path = "integration/fem_cantilever.rs"]
 mod fem_cantilever;
 #[path = "integration/fem_diamond.rs"]

@@ -70,3 +70,6 @@ mod recording;
 
 #[path = "unit/score.rs"]
 mod score;
+
+#[path = "unit/control.rs"]
+mod control;

@@ -13,6 +13,7 @@ macro_rules! outln {
 pub mod calibrate;
 pub mod cluster;
 pub mod contacts;
+pub mod control;
 pub mod convert;
 pub mod explain;
 pub mod fem;

@@ -91,6 +91,10 @@ pub struct QpProblem {
     pub a_eq: DMatrix<f64>,
     /// Equality right-hand sides, length m.
     pub b_eq: Vec<f64>,
+    /// Inequality rows, k x n: `a_le x <= b_le`.
+    pub a_le: DMatrix<f64>,
+    /// Inequality right-hand sides, length k.
+    pub b_le: Vec<f64>,
     /// Lower bounds (−∞ for none), length n.
     pub lower: Vec<f64>,
     /// Upper bounds (+∞ for none), length n.
@@ -131,6 +135,8 @@ impl QpProblem {
             q: vec![0.0; n],
             a_eq: DMatrix::zeros(0, n),
             b_eq: Vec::new(),
+            a_le: DMatrix::zeros(0, n),
+            b_le: Vec::new(),
             lower: vec![f64::NEG_INFINITY; n],
             upper: vec![f64::INFINITY; n],
             cones: Vec::new(),
@@ -171,6 +177,9 @@ impl QpProblem {
         if self.a_eq.ncols() != n || self.a_eq.nrows() != self.b_eq.len() {
             return bad("equality rows and right-hand side disagree".into());
         }
+        if self.a_le.ncols() != n || self.a_le.nrows() != self.b_le.len() {
+            return bad("inequality rows and right-hand side disagree".into());
+        }
         if self.lower.len() != n || self.upper.len() != n {
             return bad("bounds must have one entry per unknown".into());
         }
@@ -183,6 +192,8 @@ impl QpProblem {
             && self.q.iter().all(|v| v.is_finite())
             && self.a_eq.iter().all(|v| v.is_finite())
             && self.b_eq.iter().all(|v| v.is_finite())
+            && self.a_le.iter().all(|v| v.is_finite())
+            && self.b_le.iter().all(|v| v.is_finite())
             && self
                 .cones
                 .iter()
@@ -229,6 +240,16 @@ impl QpProblem {
             cones.push(SupportedConeT::ZeroConeT(m_eq));
         }
         let before = b.len();
+        for i in 0..self.a_le.nrows() {
+            // a x <= h  <=>  a x + s = h, s >= 0
+            for j in 0..n {
+                let v = self.a_le[(i, j)];
+                if v != 0.0 {
+                    rows.push((b.len(), j, v));
+                }
+            }
+            b.push(self.b_le[i]);
+        }
         for j in 0..n {
             if self.lower[j].is_finite() {
                 // x_j >= l  <=>  -x_j + s = -l, s >= 0

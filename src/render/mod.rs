@@ -39,6 +39,7 @@ mod chart;
 mod colormap;
 pub mod discrepancy;
 mod font;
+mod lines;
 mod overlay;
 mod project;
 mod surface;
@@ -47,6 +48,7 @@ pub use canvas::{Canvas, Rgb, BLACK, GREY, MAX_PIXELS, MAX_SIDE, WHITE};
 pub use chart::{bar_chart, legend, Swatch, BAR, BAR_HIGHLIGHT};
 pub use colormap::{colorbar, finite_range, format_value, symmetric_range, ColorMap};
 pub use font::{text_size, EXTRA_CHARS};
+pub use lines::{line_chart, Series};
 pub use overlay::{
     mask_from_indices, sense_overlay, side_by_side, ContactMark, FeatureMark, ForceArrow,
     LabelPlacer, OverlayParams, SenseOverlay, CONTACT, FEATURE_HIDDEN, FEATURE_VISIBLE, FORCE,
