@@ -5,6 +5,8 @@ mod common;
 
 #[path = "acceptance/calibrate.rs"]
 mod calibrate;
+#[path = "acceptance/control.rs"]
+mod control;
 #[path = "acceptance/explain_hidden.rs"]
 mod explain_hidden;
 #[path = "acceptance/markers_locate.rs"]
