@@ -77,7 +77,8 @@ pub struct Summary {
     pub max_input_jump: f64,
     /// Steps where an allocation hit a limit or a tension bound.
     pub bounded_steps: usize,
-    /// Theorem 2's mismatch γ (3.32) at the start, the robot's J against the model's.
+    /// Theorem 2's mismatch γ (3.32), the robot's J against the model's: the larger of
+    /// the start's and (for a completed run) the end's.
     pub gamma: f64,
     /// 2 / (1 + γ) when γ < 1: the largest k_p Theorem 2 guarantees.
     pub gain_bound: Option<f64>,
@@ -193,7 +194,12 @@ pub fn run(scenario: &Scenario, progress: &mut dyn FnMut(usize, usize)) -> Contr
         model_history.push(kin.position);
         progress(k + 1, scenario.steps);
     }
-    let summary = summarise(&records, &sensor, gamma, scale);
+    // Theorem 2's γ at the end too: the robot's J moves away from the model's on the way.
+    let gamma_end = match (&status, plant.kinematics()) {
+        (RunStatus::Completed, Ok(Some(k))) => law::mismatch(&k.j, &kin.j),
+        _ => f64::NAN,
+    };
+    let summary = summarise(&records, &sensor, gamma.max(gamma_end), scale);
     Ok(Run {
         name: scenario.name.clone(),
         law: scenario.controller.law,

@@ -27,12 +27,16 @@ fn closed_loop_positioning_settles_within_half_a_millimetre_with_and_without_the
 }
 
 #[test]
-fn the_diamond_settles_within_half_a_millimetre_after_a_weight_is_hung() {
-    if data_dir("the_diamond_settles_within_half_a_millimetre_after_a_weight_is_hung").is_none() {
+fn the_diamond_settles_and_tracks_within_half_a_millimetre_with_a_weight_hung() {
+    if data_dir("the_diamond_settles_and_tracks_within_half_a_millimetre_with_a_weight_hung")
+        .is_none()
+    {
         return;
     }
     let r = full("diamond_positioning.toml");
     assert!(r.summary.settled_max_mm < 0.5, "{:?}", r.summary);
+    let r = full("diamond_circle_control2.toml");
+    assert!(r.summary.average_error_mm <= 0.5, "{:?}", r.summary);
 }
 
 #[test]
