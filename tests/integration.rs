@@ -3,6 +3,8 @@ mod common;
 
 #[path = "integration/calibrate.rs"]
 mod calibrate;
+#[path = "integration/calibrate_pso.rs"]
+mod calibrate_pso;
 #[path = "integration/cli.rs"]
 mod cli;
 #[path = "integration/cli_segment.rs"]

@@ -54,6 +54,8 @@ mod segment_geometric;
 
 #[path = "unit/calibrate.rs"]
 mod calibrate;
+#[path = "unit/calibrate_pso.rs"]
+mod calibrate_pso;
 #[path = "unit/contact.rs"]
 mod contact;
 #[path = "unit/discrepancy.rs"]

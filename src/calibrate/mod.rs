@@ -21,7 +21,9 @@
 //! (Kabsch and point-to-plane steps), [`surface`] (exact closest points on the FE
 //! surface), [`observe`] (robot pixels of a frame), `icp` (matching and rigid ICP),
 //! [`solve`] (Algorithm 3.1: the actuator QP and the outer loop), [`schema`] (the
-//! calibration file).
+//! calibration file). With markers (known feature-point correspondences) instead of a
+//! cloud: [`feature`] (the sequential method, Algorithm 3.1 with Kabsch) and [`pso`] (the
+//! simultaneous method by particle swarm optimisation, 3.3.1).
 //!
 //! ```
 //! use softsense::calibrate::{kabsch, pose_from_matrix, pose_to_matrix};
@@ -38,18 +40,25 @@
 //! assert!(back.rotation.angle_to(&truth.rotation) < 1e-12);
 //! ```
 
+pub mod feature;
 mod icp;
 pub mod observe;
 pub mod params;
 pub mod pose;
+pub mod pso;
 pub mod rigid;
 pub mod schema;
 pub mod solve;
 pub mod surface;
 
+pub use feature::{
+    calibrate_sequential, observe_features, surface_features, FeatureCalibration, FeatureStatus,
+    ROBOT_MARKERS,
+};
 pub use observe::{read_scene_robot_points, recording_robot_points, robot_points};
 pub use params::CalibrateParams;
 pub use pose::{pose_difference, pose_from_matrix, pose_to_matrix, read_pose};
+pub use pso::{calibrate_pso, PsoParams};
 pub use rigid::{kabsch, point_to_plane_step};
 pub use schema::{ActuatorCalibration, Calibration, CalibrationStatus, IterationReport};
 pub use solve::calibrate;
@@ -103,6 +112,9 @@ pub enum CalibrateError {
     /// The FE model failed (load, solve, factorization).
     #[error(transparent)]
     Fem(#[from] FemError),
+    /// Feature points could not be bound to the FE surface.
+    #[error(transparent)]
+    Markers(#[from] crate::markers::MarkersError),
     /// The actuator QP failed.
     #[error(transparent)]
     Inverse(#[from] InverseError),

@@ -68,14 +68,20 @@ fn solve_step(
         target[i] = row.value(x) - n.dot(&qv) - w_lk;
     }
     let y = solve_scaled(a, &target, np, &params.qp)?;
-    let step = if joint {
+    Ok(split_solution(&y, np, centroid))
+}
+
+/// The tensions (clipped at 0) and the pose step of a solved [ω, t, λ] (`np` = 6: the
+/// rotation vector ω turns about `centroid`) or [λ] (`np` = 0: no step).
+pub(super) fn split_solution(y: &[f64], np: usize, centroid: Vec3) -> (Vec<f64>, Iso3) {
+    let step = if np == 6 {
         let rot = UnitQuaternion::from_scaled_axis(Vec3::new(y[0], y[1], y[2]));
         let t = Vec3::new(y[3], y[4], y[5]);
         Iso3::from_parts(Translation3::from(centroid + t - rot * centroid), rot)
     } else {
         Iso3::identity()
     };
-    Ok((y[np..].iter().map(|v| v.max(0.0)).collect(), step))
+    (y[np..].iter().map(|v| v.max(0.0)).collect(), step)
 }
 
 /// K⁻¹ H_aᵀ at the factorized state: one solve per cable, so that W_ea = H_e K⁻¹ H_aᵀ
@@ -100,8 +106,9 @@ fn cable_responses(
 }
 
 /// Least squares ‖a y − target‖² with y ≥ 0 beyond the first `np` unknowns, columns
-/// scaled to O(1) for the solver: the unscaled solution.
-fn solve_scaled(
+/// scaled to O(1) for the solver: the unscaled solution. Also the actuator QP of the
+/// feature-point calibration ([`super::feature`]), with `np` = 0.
+pub(super) fn solve_scaled(
     mut a: DMatrix<f64>,
     target: &[f64],
     np: usize,
