@@ -57,6 +57,9 @@ pub struct Gains {
     pub limits: [f64; 2],
     /// Keep the robot-model input offset of the last seen step while features are lost.
     pub keep_input_offset: bool,
+    /// Controller 2 moves the model by the robot's predicted motion as well (3.29's
+    /// feed-forward), not only by k_p^s times the gap (3.8.4's simplification).
+    pub model_feed_forward: bool,
 }
 
 /// What one step did.
@@ -111,12 +114,20 @@ pub fn step(
             SwitchState::Closed
         }
         (LawKind::Closed2 | LawKind::Switched, Some(e)) => {
-            // (3.28) on the robot, (3.29) simplified as in 3.8.4 on the model.
+            // (3.28) on the robot. On the model (3.29): the robot's next position is its
+            // desired one, which the model predicts as J times the robot's input change;
+            // without it (3.8.4's simplification) the model lags a moving robot by
+            // speed / k_p^s.
             let a = kin.allocate(lin(-g.gain, e, -1.0, ff), &state.robot, g.limits)?;
             add(&mut state.robot, &a.delta);
             bounded = a.bounded;
             if let Some(es) = s.model_error {
-                let m = kin.allocate(es.map(|v| -g.model_gain * v), &state.model, g.limits)?;
+                let robot_motion = match g.model_feed_forward {
+                    true => &kin.j * nalgebra::DVector::from_column_slice(&a.delta),
+                    false => nalgebra::DVector::zeros(3),
+                };
+                let us = [0, 1, 2].map(|i| -g.model_gain * es[i] + robot_motion[i]);
+                let m = kin.allocate(us, &state.model, g.limits)?;
                 add(&mut state.model, &m.delta);
                 bounded |= m.bounded;
             }
@@ -130,9 +141,17 @@ pub fn step(
             // a fraction p of the way to the model's (3.43).
             let m = model_open(g.model_gain, &state.model)?;
             add(&mut state.model, &m.delta);
-            let keep = if g.keep_input_offset { 1.0 } else { 0.0 };
-            for ((r, ms), o) in state.robot.iter_mut().zip(&state.model).zip(&state.offset) {
-                *r += g.switch_rate * (ms + keep * o - *r);
+            if g.keep_input_offset {
+                // The model's input changes pass straight through; the robot keeps the
+                // offset to the model's inputs that the closed loop had found (at the
+                // switch the robot's inputs are exactly model + offset: no jump).
+                for ((r, ms), o) in state.robot.iter_mut().zip(&state.model).zip(&state.offset) {
+                    *r = ms + o;
+                }
+            } else {
+                for (r, ms) in state.robot.iter_mut().zip(&state.model) {
+                    *r += g.switch_rate * (ms - *r);
+                }
             }
             bounded = m.bounded;
             SwitchState::Open

@@ -125,6 +125,7 @@ pub fn run(scenario: &Scenario, progress: &mut dyn FnMut(usize, usize)) -> Contr
         switch_rate: c.switch_rate,
         limits: c.limits.map(|v| v * scale),
         keep_input_offset: c.keep_input_offset,
+        model_feed_forward: c.model_feed_forward,
     };
     let mut kin = predictor.update(&initial)?;
     let task = Task::new(scenario.task.clone(), kin.position, scenario.rate_hz);

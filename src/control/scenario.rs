@@ -98,6 +98,11 @@ pub struct ControllerSpec {
     /// p of the progressive switch (3.43), in (0, 1) (default 0.5).
     #[serde(default = "half")]
     pub switch_rate: f64,
+    /// Controller 2's feed-forward (3.29): the model also moves by J times the robot's
+    /// input change, its prediction of where the robot goes (default true; false is the
+    /// thesis's simplification of 3.8.4, under which the model lags a moving robot).
+    #[serde(default = "yes")]
+    pub model_feed_forward: bool,
     /// Switched law: while features are lost, keep the offset between the robot's and the
     /// model's inputs learned at the last seen step (3.43 with that offset added; default
     /// false: the thesis's rule, which drives the robot to the model's inputs).
@@ -111,6 +116,9 @@ pub struct ControllerSpec {
     pub limits: [f64; 2],
 }
 
+fn yes() -> bool {
+    true
+}
 fn default_actuation() -> Actuation {
     Actuation::Displacement
 }

@@ -96,8 +96,34 @@ fn switched_inputs_move_by_the_progressive_rule_while_features_are_lost() {
 }
 
 #[test]
-#[ignore = "known miss: while lost, the error is 1.1-1.2 mm with the thesis's rule and 0.25, \
-            0.57, 1.18 mm keeping the input offset, against 3 x 0.31 mm seen (docs/control.md)"]
+fn keeping_the_offset_the_robot_moves_with_the_model_while_features_are_lost() {
+    let r = full("switched_offset.toml");
+    for w in r.steps.windows(2) {
+        if w[1].switch != SwitchState::Open || w[0].step == 0 {
+            continue;
+        }
+        let gap =
+            |s: &softsense::control::run::StepRecord, i: usize| s.inputs[i] - s.model_inputs[i];
+        for i in 0..w[0].inputs.len() {
+            assert!(
+                (gap(&w[1], i) - gap(&w[0], i)).abs() < 1e-12,
+                "step {}",
+                w[1].step
+            );
+        }
+    }
+    let (per, seen) = loss_errors(&r);
+    // The short losses stay within 3 x the seen error; the 250-step one does not (below).
+    assert!(
+        per[0] <= 3.0 * seen && per[1] <= 3.0 * seen,
+        "{per:?} vs {seen:.3}"
+    );
+}
+
+#[test]
+#[ignore = "known miss: while lost, the error is 1.10, 1.23, 1.24 mm with the thesis's rule \
+            and 0.24, 0.68, 1.23 mm keeping the input offset, against 3 x 0.32 mm seen \
+            (docs/control.md)"]
 fn switched_control_keeps_every_loss_within_three_times_the_seen_error() {
     for name in ["switched.toml", "switched_offset.toml"] {
         let r = full(name);
