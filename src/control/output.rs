@@ -1,7 +1,7 @@
 //! A run's files: the trajectory as CSV and JSON, and pictures a person reads (error
 //! against step, the 3-D path of target, robot and model, inputs against step).
 
-use super::run::Run;
+use super::run::{dist, Run};
 use super::{ControlError, ControlResult};
 use crate::render::{line_chart, Canvas, Rgb, Series};
 use std::fmt::Write as _;
@@ -170,8 +170,4 @@ pub fn pictures(run: &Run) -> ControlResult<Vec<(&'static str, Canvas)>> {
         ("path.png", path),
         ("inputs.png", inputs),
     ])
-}
-
-fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
-    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }

@@ -85,14 +85,6 @@ impl Plant {
         Ok(Some(k))
     }
 
-    /// Cable tensions of the last state (N).
-    pub fn tension(&self) -> Vec<f64> {
-        self.solution
-            .as_ref()
-            .map(|s| s.cable_tension.clone())
-            .unwrap_or_default()
-    }
-
     fn hang_weight(&mut self, on: bool) {
         let p = &mut self.model.problem;
         if on {

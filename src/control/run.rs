@@ -215,7 +215,8 @@ fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
-fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
+/// Distance between two points.
+pub(crate) fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
     let d = sub(a, b);
     (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
 }
