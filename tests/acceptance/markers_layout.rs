@@ -48,11 +48,17 @@ fn mean_i_e(
                 let w = 0.3 + 0.3 * uniform(d, 3 + k as u64);
                 truth[c] = candidates[c].directions[0].map(|v| -w * v);
             }
-            let mut est = s
-                .solve_frame(d, &measure(&s, &truth, 900 + d), None)
-                .unwrap();
-            est.set_truth(&truth);
-            est.i_e.unwrap_or(f64::INFINITY)
+            // An inverse that fails (an FE update inverts an element) is the worst I_e.
+            match s.solve_frame(d, &measure(&s, &truth, 900 + d), None) {
+                Ok(mut est) => {
+                    est.set_truth(&truth);
+                    est.i_e.unwrap_or(f64::INFINITY)
+                }
+                Err(e) => {
+                    eprintln!("inverse failed: {e}");
+                    f64::INFINITY
+                }
+            }
         })
         .sum();
     total / DRAWS as f64
