@@ -9,6 +9,8 @@ mod calibrate;
 mod control;
 #[path = "acceptance/explain_hidden.rs"]
 mod explain_hidden;
+#[path = "acceptance/markers_layout.rs"]
+mod markers_layout;
 #[path = "acceptance/markers_locate.rs"]
 mod markers_locate;
 #[path = "acceptance/mutation_fuzz.rs"]

@@ -1,7 +1,7 @@
 //! `softsense markers`: forces from tracked markers (thesis 4.4, 4.6.1, 4.7.1).
 
 use super::{print_json, CliError, CliResult};
-use clap::Args;
+use clap::{Args, Subcommand};
 use softsense::fem::model::Model;
 use softsense::markers::bind::read_candidates;
 use softsense::markers::tracks::{flag_hidden, read_motive, read_tracks, MarkerTracks};
@@ -30,13 +30,22 @@ frame. Candidates come from --candidates (CSV `name,x,y,z,directions`, metres, d
 [[force_points]].",
     after_help = "Examples:\n  \
 softsense markers tracks.csv meshes/models/sheet.toml --candidates candidates.csv\n  \
-softsense markers take.csv meshes/models/robot.toml --json | jq .located"
+softsense markers take.csv meshes/models/robot.toml --json | jq .located\n  \
+softsense markers layout meshes/models/robot.toml --markers 8",
+    // `markers TRACKS MODEL` stays as it was; `markers layout ...` is the one subcommand.
+    args_conflicts_with_subcommands = true,
+    subcommand_negates_reqs = true
 )]
 pub struct MarkersArgs {
+    /// `layout`: propose where to put the markers.
+    #[command(subcommand)]
+    command: Option<MarkersCommand>,
     /// Marker tracks: softsense CSV or OptiTrack Motive CSV export.
-    tracks: PathBuf,
+    #[arg(required = true)]
+    tracks: Option<PathBuf>,
     /// Model file (TOML).
-    model: PathBuf,
+    #[arg(required = true)]
+    model: Option<PathBuf>,
     /// Candidate force locations (CSV name,x,y,z,directions in m); default: the model's force points.
     #[arg(long)]
     candidates: Option<PathBuf>,
@@ -49,6 +58,33 @@ pub struct MarkersArgs {
     /// Print one JSON document per frame on stdout.
     #[arg(long)]
     json: bool,
+}
+
+/// Subcommands of `softsense markers`.
+#[derive(Subcommand, Debug)]
+pub enum MarkersCommand {
+    /// Propose a marker layout minimising I_w (thesis 4.6.1).
+    Layout(super::markers_layout::LayoutArgs),
+}
+
+/// The candidates of `--candidates` or else the model's force points.
+pub(crate) fn load_candidates(
+    model: &Model,
+    path: Option<&std::path::Path>,
+) -> Result<Vec<ForceCandidate>, CliError> {
+    let mesh = &model.problem.mesh;
+    let candidates: Vec<ForceCandidate> = match path {
+        Some(p) => read_candidates(p, mesh).map_err(|e| CliError::Lib(e.into()))?,
+        None => (model.force_points.iter())
+            .map(|e| ForceCandidate::from_force_point(e, mesh))
+            .collect(),
+    };
+    if candidates.is_empty() {
+        return Err(CliError::Usage(
+            "no candidates: give --candidates or [[force_points]] in the model".into(),
+        ));
+    }
+    Ok(candidates)
 }
 
 fn read_any_tracks(path: &std::path::Path) -> Result<MarkerTracks, CliError> {
@@ -65,6 +101,12 @@ fn read_any_tracks(path: &std::path::Path) -> Result<MarkerTracks, CliError> {
 
 /// Runs `softsense markers`.
 pub fn run(args: &MarkersArgs) -> CliResult {
+    if let Some(MarkersCommand::Layout(a)) = &args.command {
+        return super::markers_layout::run(a);
+    }
+    let (Some(tracks_path), Some(model_path)) = (&args.tracks, &args.model) else {
+        return Err(CliError::Usage("give TRACKS and MODEL".into()));
+    };
     if !(args.sigma_mm > 0.0 && args.hidden_jump_mm > 0.0) {
         return Err(CliError::Usage(
             "--sigma-mm and --hidden-jump-mm must be positive".into(),
@@ -75,20 +117,10 @@ pub fn run(args: &MarkersArgs) -> CliResult {
         hidden_jump: args.hidden_jump_mm * 1e-3,
         ..Default::default()
     };
-    let tracks = read_any_tracks(&args.tracks)?;
-    let model = Model::load(&args.model, None).map_err(|e| CliError::Lib(e.into()))?;
+    let tracks = read_any_tracks(tracks_path)?;
+    let model = Model::load(model_path, None).map_err(|e| CliError::Lib(e.into()))?;
     let mesh = &model.problem.mesh;
-    let candidates: Vec<ForceCandidate> = match &args.candidates {
-        Some(p) => read_candidates(p, mesh).map_err(|e| CliError::Lib(e.into()))?,
-        None => (model.force_points.iter())
-            .map(|e| ForceCandidate::from_force_point(e, mesh))
-            .collect(),
-    };
-    if candidates.is_empty() {
-        return Err(CliError::Usage(
-            "no candidates: give --candidates or [[force_points]] in the model".into(),
-        ));
-    }
+    let candidates = load_candidates(&model, args.candidates.as_deref())?;
     let first: Vec<[f64; 3]> = (0..tracks.names.len())
         .map(|m| tracks.frames.iter().find_map(|f| f.positions[m]))
         .collect::<Option<_>>()

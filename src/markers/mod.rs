@@ -10,6 +10,8 @@
 //! - [`solve`]: per frame, the analytic least squares (4.9) iterated with the FE model
 //!   ([`MarkerSensor::solve_frame`]), with actuators held at the model's inputs; the status,
 //!   the forces, their covariance σ²(W_efᵀW_ef)⁻¹, I_w and I_e.
+//! - [`layout`]: marker layouts minimising I_w from the pool's compliance at the free
+//!   equilibrium (greedy, then exchanges; [`layout::propose_layout`]).
 //! - [`locate`]: candidates "found" by a stated threshold rule and the intensity-weighted
 //!   centre of each group of found candidates (4.11-4.13, Corollary 2).
 //!
@@ -26,6 +28,7 @@
 //! ```
 
 pub mod bind;
+pub mod layout;
 pub mod locate;
 pub mod solve;
 pub mod tracks;
@@ -68,6 +71,9 @@ pub enum MarkersError {
     /// A marker or candidate too far from the model's surface, or a model without one.
     #[error("{0}")]
     Binding(String),
+    /// A layout that cannot be proposed (Corollary 1, a pool smaller than the markers).
+    #[error("{0}")]
+    Layout(String),
     /// The FE model failed (a solve, a factorization).
     #[error(transparent)]
     Fem(#[from] crate::fem::FemError),

@@ -203,3 +203,47 @@ fn the_markers_command_reads_a_track_file_and_prints_the_forces() {
     }
     assert_eq!(lines[1]["located"].as_array().unwrap().len(), 2);
 }
+
+#[test]
+fn markers_layout_proposes_eight_robot_markers_and_writes_a_track_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("layout.csv");
+    let out = crate::cli::softsense(&[
+        "markers",
+        "layout",
+        "meshes/models/robot.toml",
+        "--markers",
+        "8",
+        "--candidates",
+        "tests/fixtures/markers/robot_candidates.csv",
+        "--json",
+        "--csv",
+        csv.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let (greedy, last) = (
+        v["i_w_greedy_n_per_m"].as_f64().unwrap(),
+        v["i_w_n_per_m"].as_f64().unwrap(),
+    );
+    eprintln!("cli layout: I_w greedy {greedy:.2}, exchange {last:.2} N/m");
+    assert!(last.is_finite() && last <= greedy);
+    assert_eq!(v["nodes"].as_array().unwrap().len(), 8);
+    let tracks = softsense::markers::tracks::read_tracks(&csv).unwrap();
+    assert_eq!(tracks.names.len(), 8);
+    let refused = crate::cli::softsense(&[
+        "markers",
+        "layout",
+        "meshes/models/robot.toml",
+        "--markers",
+        "2",
+        "--candidates",
+        "tests/fixtures/markers/robot_candidates.csv",
+    ]);
+    assert!(!refused.status.success());
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("Corollary 1"));
+}
