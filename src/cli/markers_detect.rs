@@ -84,7 +84,9 @@ pub fn run(args: &DetectArgs) -> CliResult {
         max_jump: args.max_jump_mm * 1e-3,
         ..Default::default()
     };
-    params.validate().map_err(|e| CliError::Usage(e.to_string()))?;
+    params
+        .validate()
+        .map_err(|e| CliError::Usage(e.to_string()))?;
     let rec = Recording::open(&args.recording).map_err(|e| CliError::Lib(e.into()))?;
     let reference = (args.reference.as_deref())
         .map(read_tracks)

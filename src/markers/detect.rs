@@ -84,7 +84,9 @@ impl DetectParams {
         }
         let [lo, hi] = self.area_range;
         if !(lo >= 0.0 && hi >= lo && hi.is_finite()) {
-            return bad(format!("area_range must be 0 <= lo <= hi, got [{lo}, {hi}]"));
+            return bad(format!(
+                "area_range must be 0 <= lo <= hi, got [{lo}, {hi}]"
+            ));
         }
         Ok(())
     }
@@ -355,13 +357,7 @@ pub fn track_detections(
     }
     out.iter_mut()
         .for_each(|f| f.positions.resize(names.len(), None));
-    (
-        MarkerTracks {
-            names,
-            frames: out,
-        },
-        dropped,
-    )
+    (MarkerTracks { names, frames: out }, dropped)
 }
 
 /// Each detected position's distance to the nearest true marker of the same frame (m),
@@ -406,7 +402,10 @@ pub fn detect_recording(
             .colors
             .as_ref()
             .ok_or_else(|| fail("no colour image".into()))?;
-        let mut k = rec.camera_of(f).map_err(|e| fail(e.to_string()))?.intrinsics;
+        let mut k = rec
+            .camera_of(f)
+            .map_err(|e| fail(e.to_string()))?
+            .intrinsics;
         (k.width, k.height) = (cloud.width, cloud.height);
         let found = detect_frame(colours, &cloud.positions, &k, pose, params)?;
         per_frame.push((f as u64, found.iter().map(|d| d.position).collect()));

@@ -68,7 +68,8 @@ pub struct PaintedMarkers {
 
 /// The surface nodes `count` markers are spread over: nodes facing the camera (the eye
 /// within 60° of the vertex normal) whose neighbourhood within `2·radius` is flat (every
-/// surface node there has a normal within 10° of the node's), so that a disc is neither
+/// surface node there on the same side, its normal less than 90° from the node's, has it
+/// within 10°), so that a disc is neither
 /// seen at a grazing angle nor folded over an edge. Farthest-point sampling then picks
 /// `count` of them, starting from the one nearest their centroid.
 pub fn spread_markers(
@@ -90,7 +91,9 @@ pub fn spread_markers(
     let flat: Vec<usize> = (facing.iter().copied())
         .filter(|&v| {
             surface.nodes.iter().all(|&w| {
-                norm(sub(rest[w], rest[v])) > 2.0 * radius || dot(n[w], n[v]) > cos_flat
+                // The far side of a thin body (normals opposed) is no edge.
+                let c = dot(n[w], n[v]);
+                norm(sub(rest[w], rest[v])) > 2.0 * radius || c <= 0.0 || c > cos_flat
             })
         })
         .collect();
@@ -104,10 +107,7 @@ pub fn spread_markers(
     for &v in &flat {
         (0..3).for_each(|k| centroid[k] += rest[v][k] / flat.len() as f64);
     }
-    let mut nearest: Vec<f64> = flat
-        .iter()
-        .map(|&v| norm(sub(rest[v], centroid)))
-        .collect();
+    let mut nearest: Vec<f64> = flat.iter().map(|&v| norm(sub(rest[v], centroid))).collect();
     let mut chosen = Vec::with_capacity(count);
     // The first pick is the node nearest the centroid; then the node farthest from all picks.
     let mut next = (0..flat.len()).min_by(|&a, &b| nearest[a].total_cmp(&nearest[b]));

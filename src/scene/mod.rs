@@ -513,9 +513,7 @@ fn paint_markers(
     let positions = painted.positions(x);
     let w = camera.intrinsics.width as usize;
     let points: Vec<Option<[f64; 3]>> = (hits.iter().enumerate())
-        .map(|(i, h)| {
-            (h.2 == 0).then(|| camera.backproject((i % w) as f64, (i / w) as f64, h.0))
-        })
+        .map(|(i, h)| (h.2 == 0).then(|| camera.backproject((i % w) as f64, (i / w) as f64, h.0)))
         .collect();
     let mask = painted.painted(&points, &positions);
     Ok((positions, mask))
