@@ -187,7 +187,8 @@ fn fit_plane(points: &[[f64; 3]]) -> Option<([f64; 3], f64)> {
     order.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
     let [k, middle, largest] = order;
     // Collinear points (or one point repeated) span no plane.
-    if !(eig.eigenvalues[middle] > 1e-12 * eig.eigenvalues[largest]) {
+    let spread = eig.eigenvalues[middle];
+    if spread.is_nan() || spread <= 1e-12 * eig.eigenvalues[largest] {
         return None;
     }
     let v = eig.eigenvectors.column(k);

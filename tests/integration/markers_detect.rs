@@ -37,12 +37,7 @@ fn painted_markers_are_located_within_half_a_millimetre_at_half_a_metre() {
     );
     assert!(sag > 1e-3, "largest sag {sag} m");
     let rec = Recording::open(&out).unwrap();
-    // The sheet sags by more than the default 10 mm between some frames; the markers are
-    // tens of millimetres apart, so 25 mm still tells them apart.
-    let params = DetectParams {
-        max_jump: 0.025,
-        ..Default::default()
-    };
+    let params = DetectParams::default();
     let (tracks, found, dropped) = detect_recording(&rec, &params, None).unwrap();
     assert_eq!(dropped, 0);
     for (f, d) in found.iter().enumerate() {
@@ -97,8 +92,6 @@ fn markers_detect_on_the_cli_writes_tracks_and_scores_them_against_the_truth() {
         out.to_str().unwrap(),
         "--colour",
         "30,60,230",
-        "--max-jump-mm",
-        "25",
         "--out",
         tracks.to_str().unwrap(),
     ]);
