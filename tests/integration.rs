@@ -23,6 +23,8 @@ mod fem_skfem;
 mod malformed_corpus;
 #[path = "integration/markers.rs"]
 mod markers;
+#[path = "integration/markers_detect.rs"]
+mod markers_detect;
 #[path = "integration/rgbd_sequence.rs"]
 mod rgbd_sequence;
 #[path = "integration/sense_probe.rs"]

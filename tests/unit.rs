@@ -43,6 +43,8 @@ mod filter_golden;
 mod inverse;
 #[path = "unit/markers.rs"]
 mod markers;
+#[path = "unit/markers_detect.rs"]
+mod markers_detect;
 #[path = "unit/markers_layout.rs"]
 mod markers_layout;
 #[path = "unit/register.rs"]

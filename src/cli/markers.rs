@@ -31,13 +31,15 @@ frame. Candidates come from --candidates (CSV `name,x,y,z,directions`, metres, d
     after_help = "Examples:\n  \
 softsense markers tracks.csv meshes/models/sheet.toml --candidates candidates.csv\n  \
 softsense markers take.csv meshes/models/robot.toml --json | jq .located\n  \
-softsense markers layout meshes/models/robot.toml --markers 8",
-    // `markers TRACKS MODEL` stays as it was; `markers layout ...` is the one subcommand.
+softsense markers layout meshes/models/robot.toml --markers 8\n  \
+softsense markers detect /tmp/painted --colour 30,60,230 --out tracks.csv",
+    // `markers TRACKS MODEL` stays as it was; `layout` and `detect` are subcommands.
     args_conflicts_with_subcommands = true,
     subcommand_negates_reqs = true
 )]
 pub struct MarkersArgs {
-    /// `layout`: propose where to put the markers.
+    /// `layout`: propose where to put the markers; `detect`: find coloured markers in a
+    /// recording.
     #[command(subcommand)]
     command: Option<MarkersCommand>,
     /// Marker tracks: softsense CSV or OptiTrack Motive CSV export.
@@ -65,6 +67,8 @@ pub struct MarkersArgs {
 pub enum MarkersCommand {
     /// Propose a marker layout minimising I_w (thesis 4.6.1).
     Layout(super::markers_layout::LayoutArgs),
+    /// Find coloured markers in an RGB-D recording and write their tracks.
+    Detect(super::markers_detect::DetectArgs),
 }
 
 /// The candidates of `--candidates` or else the model's force points.
@@ -101,8 +105,10 @@ fn read_any_tracks(path: &std::path::Path) -> Result<MarkerTracks, CliError> {
 
 /// Runs `softsense markers`.
 pub fn run(args: &MarkersArgs) -> CliResult {
-    if let Some(MarkersCommand::Layout(a)) = &args.command {
-        return super::markers_layout::run(a);
+    match &args.command {
+        Some(MarkersCommand::Layout(a)) => return super::markers_layout::run(a),
+        Some(MarkersCommand::Detect(a)) => return super::markers_detect::run(a),
+        None => {}
     }
     let (Some(tracks_path), Some(model_path)) = (&args.tracks, &args.model) else {
         return Err(CliError::Usage("give TRACKS and MODEL".into()));

@@ -20,6 +20,7 @@ pub mod fem;
 pub mod filter;
 pub mod info;
 pub mod markers;
+pub mod markers_detect;
 pub mod markers_layout;
 pub mod scene;
 pub mod score;

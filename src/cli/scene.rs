@@ -98,7 +98,8 @@ Render every frame of SCENE into OUT_DIR: the FE model is solved under each fram
 and cable inputs, then the deformed robot, the probes and the table are ray-cast into
 depth_NNNN.png (16-bit, in depth_unit) and color_NNNN.png, with intrinsics.json (Open3D
 format plus depth_scale), camera_pose.json, actuators.json and truth.json (every load,
-location and parameter used; `sense` reports its errors against it).
+location and parameter used; `sense` reports its errors against it), and with [markers]
+markers_truth.csv (the painted markers' true positions per frame).
 
 The scene file (TOML; lengths in metres, forces in newtons, robot frame). Only `model` and
 `frames` are required. Below, the other keys show their defaults, except `young` (default:
@@ -135,6 +136,13 @@ the model's own) and the example frame:
   edge_jump = 0.02         # a depth jump above this marks a silhouette edge...
   edge_hole_probability = 0.5  # ...whose pixels become holes with this probability
   color_sigma = 3.0        # colour noise per channel
+
+  [markers]                # optional: painted marker discs that move with the surface
+  colour = [30, 60, 230]   # sRGB 0-255 (keep it unlike the robot's and the probe's)
+  radius = 0.003           # disc radius (m)
+  count = 16               # spread over flat surface facing the camera (farthest points)
+  # at = [[0.0, 0.0, 0.004]]  # or: these points, snapped to the surface (instead of count)
+                           # writes markers_truth.csv (frame,marker,x,y,z, robot frame)
 
   [[occluders]]            # optional, any number: a sphere hiding part of the view
   center = [0.1, -0.2, 0.2]

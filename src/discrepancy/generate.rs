@@ -418,6 +418,7 @@ fn render_frames(
             table_z: None,
             occluders: Vec::new(),
             colors: Default::default(),
+            markers: None,
             camera: w.camera.clone(),
             sensor: fine_sensor.clone(),
             frames: w.applied.clone(),

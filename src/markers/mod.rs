@@ -12,6 +12,8 @@
 //!   the forces, their covariance σ²(W_efᵀW_ef)⁻¹, I_w and I_e.
 //! - [`layout`]: marker layouts minimising I_w from the pool's compliance at the free
 //!   equilibrium (greedy, then exchanges; [`layout::propose_layout`]).
+//! - [`detect`]: coloured markers found in RGB-D frames (colour blobs, their centre on the
+//!   surface, identities across frames; [`detect::detect_recording`]).
 //! - [`locate`]: candidates "found" by a stated threshold rule and the intensity-weighted
 //!   centre of each group of found candidates (4.11-4.13, Corollary 2).
 //!
@@ -28,6 +30,7 @@
 //! ```
 
 pub mod bind;
+pub mod detect;
 pub mod layout;
 pub mod locate;
 pub mod solve;
@@ -68,6 +71,10 @@ pub enum MarkersError {
         /// What is wrong in it.
         source: Box<MarkersError>,
     },
+    /// Coloured-marker detection could not run (bad options, a frame without colour or
+    /// camera pose).
+    #[error("marker detection: {0}")]
+    Detection(String),
     /// A marker or candidate too far from the model's surface, or a model without one.
     #[error("{0}")]
     Binding(String),

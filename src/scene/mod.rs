@@ -14,6 +14,7 @@
 //! ```
 
 pub mod camera;
+pub mod markers;
 pub mod sweep;
 pub use crate::geometry::raycast;
 pub mod sensor;
@@ -123,6 +124,9 @@ pub struct SceneSpec {
     /// Colours.
     #[serde(default)]
     pub colors: Colors,
+    /// Painted markers (`[markers]`; none by default).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub markers: Option<markers::MarkerPaint>,
     /// Camera.
     #[serde(default)]
     pub camera: CameraSpec,
@@ -220,6 +224,8 @@ pub struct Rendered {
     pub truth: FrameTruth,
     /// The deformed node positions (m).
     pub positions: Vec<[f64; 3]>,
+    /// The painted markers' positions on the deformed surface (m; empty without markers).
+    pub markers: Vec<[f64; 3]>,
 }
 
 /// The nearest surface node to `p` in the rest mesh.
@@ -448,11 +454,16 @@ pub fn render_frame(scene: &Scene, model: &Model, index: usize) -> SceneResult<R
         spec.colors.table,
         spec.colors.occluder,
     ];
+    let (markers, painted) = paint_markers(spec, &camera, &hits, rest, &surface, &sol.positions)?;
     let color = hits
         .iter()
         .enumerate()
         .map(|(i, &(_, c, obj, _))| {
-            let base = if obj < NONE { cols[obj] } else { [0, 0, 0] };
+            let base = match (&spec.markers, painted.get(i)) {
+                (Some(m), Some(true)) => m.colour,
+                _ if obj < NONE => cols[obj],
+                _ => [0, 0, 0],
+            };
             let shade = 0.4 + 0.6 * c;
             spec.sensor.color(
                 base.map(|b| b as f64 * shade),
@@ -481,7 +492,31 @@ pub fn render_frame(scene: &Scene, model: &Model, index: usize) -> SceneResult<R
             occluded,
         },
         positions: sol.positions,
+        markers,
     })
+}
+
+/// The painted markers' deformed positions and, per pixel, whether its ray hit the body
+/// within a marker's radius (both empty for a scene without markers).
+fn paint_markers(
+    spec: &SceneSpec,
+    camera: &Camera,
+    hits: &[PixelHit],
+    rest: &[[f64; 3]],
+    surface: &Surface,
+    x: &[[f64; 3]],
+) -> SceneResult<(Vec<[f64; 3]>, Vec<bool>)> {
+    let Some(paint) = &spec.markers else {
+        return Ok((Vec::new(), Vec::new()));
+    };
+    let painted = markers::PaintedMarkers::bind(paint, rest, surface, camera)?;
+    let positions = painted.positions(x);
+    let w = camera.intrinsics.width as usize;
+    let points: Vec<Option<[f64; 3]>> = (hits.iter().enumerate())
+        .map(|(i, h)| (h.2 == 0).then(|| camera.backproject((i % w) as f64, (i / w) as f64, h.0)))
+        .collect();
+    let mask = painted.painted(&points, &positions);
+    Ok((positions, mask))
 }
 
 /// Why the scene's camera spec makes no camera, in words.
@@ -541,8 +576,12 @@ pub fn relative_to(target: &Path, base: &Path) -> Option<PathBuf> {
     Some(rel)
 }
 
+/// The file of the painted markers' true positions in a generated recording.
+pub const MARKERS_TRUTH: &str = "markers_truth.csv";
+
 /// Generates every frame into `out`: `depth_NNNN.png` (16-bit), `color_NNNN.png`,
-/// `intrinsics.json`, `camera_pose.json`, `actuators.json` and `truth.json`.
+/// `intrinsics.json`, `camera_pose.json`, `actuators.json` and `truth.json`, and with
+/// `[markers]` the markers' true positions per frame ([`MARKERS_TRUTH`]).
 /// `progress` is called after each frame with (done, total).
 pub fn generate(
     scene: &Scene,
@@ -587,12 +626,26 @@ pub(crate) fn write_recording(
     for i in 0..total {
         frame_problem(model, &surface, spec, i)?;
     }
+    let rest = &model.problem.mesh.nodes_in_rest;
+    let painted = (spec.markers.as_ref())
+        .map(|paint| markers::PaintedMarkers::bind(paint, rest, &surface, &camera))
+        .transpose()?;
     let mut frames = Vec::new();
+    let mut marker_positions = Vec::new();
     for i in 0..total {
         let r = render(i)?;
         writer.write_frame(i, [w, h], r.depth, &r.color)?;
         frames.push(r.truth);
+        marker_positions.push(r.markers);
         progress(i + 1, total);
+    }
+    if let Some(painted) = painted {
+        let path = writer.dir().join(MARKERS_TRUTH);
+        crate::markers::tracks::write_tracks(&path, &painted.truth_tracks(&marker_positions))
+            .map_err(|e| SceneError::File {
+                path: path.display().to_string(),
+                message: e.to_string(),
+            })?;
     }
     let actuators: Vec<&Vec<ActuatorTruth>> = frames.iter().map(|f| &f.actuators).collect();
     writer.write_json("actuators.json", &actuators)?;

@@ -506,6 +506,7 @@ fn try_draw(sweep: &Sweep, prepared: &Prepared, r: &mut Draws) -> SceneResult<At
             table_z: None,
             occluders,
             colors: spec.colors.clone(),
+            markers: None,
             camera: cam,
             sensor,
             frames: vec![FrameInput {
