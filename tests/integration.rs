@@ -33,3 +33,5 @@ mod sense_tip_weight;
 mod sense_track;
 #[path = "integration/sweep.rs"]
 mod sweep;
+#[path = "integration/batch.rs"]
+mod batch;
