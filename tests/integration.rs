@@ -1,6 +1,8 @@
 //! Integration tests: whole stages and the CLI on files.
 mod common;
 
+#[path = "integration/batch.rs"]
+mod batch;
 #[path = "integration/calibrate.rs"]
 mod calibrate;
 #[path = "integration/calibrate_pso.rs"]
@@ -33,5 +35,3 @@ mod sense_tip_weight;
 mod sense_track;
 #[path = "integration/sweep.rs"]
 mod sweep;
-#[path = "integration/batch.rs"]
-mod batch;

@@ -5,8 +5,8 @@ use super::manifest::{Item, SenseOptions, Source};
 use crate::fem::model::Model;
 use crate::scene::sweep::{self, Prepared, Sweep};
 use crate::scene::{generate, Scene};
-use crate::sense::{compare, FrameReport, Recording, SenseParams, Sensor};
 use crate::segment::robot_color::RobotColorModel;
+use crate::sense::{compare, FrameReport, Recording, SenseParams, Sensor};
 use std::path::{Path, PathBuf};
 
 /// The recording folder of an item that generates one: `OUT/recordings/ID`.
@@ -98,7 +98,9 @@ pub fn sense_recording(
         Some(crate::recording::InputsFile::Actuators)
     );
     if let (false, Some(cal)) = (recorded_actuators, &rec.calibrated) {
-        sensor.use_calibrated_inputs(cal).map_err(|e| e.to_string())?;
+        sensor
+            .use_calibrated_inputs(cal)
+            .map_err(|e| e.to_string())?;
     }
     let mut reports = Vec::with_capacity(rec.frames.len());
     sensor

@@ -182,11 +182,23 @@ impl Manifest {
         let mut items = Vec::new();
         for r in file.recording {
             let id = r.id.unwrap_or_else(|| name_of(&r.path));
-            items.push(item(id, Source::Recording { path: base.join(&r.path) }, &r.options));
+            items.push(item(
+                id,
+                Source::Recording {
+                    path: base.join(&r.path),
+                },
+                &r.options,
+            ));
         }
         for s in file.scene {
             let id = s.id.unwrap_or_else(|| name_of(&s.spec));
-            items.push(item(id, Source::Scene { spec: base.join(&s.spec) }, &s.options));
+            items.push(item(
+                id,
+                Source::Scene {
+                    spec: base.join(&s.spec),
+                },
+                &s.options,
+            ));
         }
         for s in file.sweep {
             if s.count == 0 {

@@ -187,10 +187,14 @@ pub fn run(
 fn run_and_record(item: &Item, out: &Path, window: usize) -> BatchResult<ItemOutcome> {
     let clock = std::time::Instant::now();
     // A bug in one item (a panic) fails that item, not the run.
-    let ran = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        run_item(item, out, window)
-    }))
-    .unwrap_or_else(|p| Err(format!("internal error (a bug; please report it): {}", panic_text(&p))));
+    let ran =
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run_item(item, out, window)))
+            .unwrap_or_else(|p| {
+                Err(format!(
+                    "internal error (a bug; please report it): {}",
+                    panic_text(&p)
+                ))
+            });
     let seconds = clock.elapsed().as_secs_f64();
     let (value, result) = result_value(item, ran, seconds);
     let text = serde_json::to_string_pretty(&value).unwrap_or_else(|e| {

@@ -153,9 +153,15 @@ pub fn run_batch(args: &BatchArgs) -> CliResult {
 fn kinds(manifest: &Manifest) -> String {
     let count = |f: fn(&Source) -> bool| manifest.items.iter().filter(|i| f(&i.source)).count();
     let parts = [
-        (count(|s| matches!(s, Source::Recording { .. })), "recordings"),
+        (
+            count(|s| matches!(s, Source::Recording { .. })),
+            "recordings",
+        ),
         (count(|s| matches!(s, Source::Scene { .. })), "scene files"),
-        (count(|s| matches!(s, Source::SweepScene { .. })), "sweep scenes"),
+        (
+            count(|s| matches!(s, Source::SweepScene { .. })),
+            "sweep scenes",
+        ),
     ];
     parts
         .iter()

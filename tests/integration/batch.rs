@@ -1,10 +1,10 @@
 //! `softsense batch` as a user runs it: killed (SIGKILL) after its first result file and
 //! restarted, it ends with one complete result per item, equal to an uninterrupted run
 //! with another `--jobs`, and equal to `sense --json`; a failed item is kept, not retried.
+use crate::common::batch::{kill_after_first, results, without_times};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
-use std::time::{Duration, Instant};
+use std::process::{Command, Output};
 
 const ROOT: &str = env!("CARGO_MANIFEST_DIR");
 
@@ -20,7 +20,11 @@ path = "ROOT/clouds/scenes/probe_side"
 
 fn batch(manifest: &Path, out: &Path, extra: &[&str]) -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_softsense"));
-    c.arg("batch").arg(manifest).arg("--out").arg(out).args(extra);
+    c.arg("batch")
+        .arg(manifest)
+        .arg("--out")
+        .arg(out)
+        .args(extra);
     c
 }
 
@@ -28,64 +32,6 @@ fn ok(out: Output) -> String {
     let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
     assert!(out.status.success(), "{stderr}");
     stderr
-}
-
-/// Every result file in `out/results`, by id, with the wall times taken out; panics on a
-/// file that is not a complete result or on any other file (a left temporary).
-pub fn results(out: &Path) -> Vec<(String, Value)> {
-    let mut all: Vec<(String, Value)> = std::fs::read_dir(out.join("results"))
-        .unwrap()
-        .map(|e| {
-            let path = e.unwrap().path();
-            let name = path.file_name().unwrap().to_string_lossy().into_owned();
-            let id = name.strip_suffix(".json").unwrap_or_else(|| panic!("{name}"));
-            let text = std::fs::read_to_string(&path).unwrap();
-            let v: Value = serde_json::from_str(&text).unwrap_or_else(|e| panic!("{name}: {e}"));
-            assert_eq!(v["id"], id);
-            (id.to_string(), without_times(v))
-        })
-        .collect();
-    all.sort_by(|a, b| a.0.cmp(&b.0));
-    all
-}
-
-/// A result (or a `sense --json` line) without the wall-clock fields.
-pub fn without_times(mut v: Value) -> Value {
-    if let Some(o) = v.as_object_mut() {
-        o.remove("seconds");
-        o.remove("ms");
-        o.remove("timings");
-    }
-    if let Some(frames) = v.get_mut("frames").and_then(Value::as_array_mut) {
-        for f in frames {
-            *f = without_times(f.take());
-        }
-    }
-    v
-}
-
-/// Starts a run, kills it (SIGKILL) once its first result file is there and the run is
-/// still going, and returns the result files there were then.
-pub fn kill_after_first_result(mut cmd: Command, out: &Path) -> usize {
-    let mut child = cmd.stderr(Stdio::null()).spawn().unwrap();
-    let results = out.join("results");
-    let start = Instant::now();
-    let complete = |d: &Path| {
-        std::fs::read_dir(d).map_or(0, |r| {
-            r.flatten()
-                .filter(|e| !e.file_name().to_string_lossy().starts_with('.'))
-                .count()
-        })
-    };
-    while complete(&results) == 0 {
-        assert!(child.try_wait().unwrap().is_none(), "the run ended before any result");
-        assert!(start.elapsed() < Duration::from_secs(120), "no result after 120 s");
-        std::thread::sleep(Duration::from_millis(10));
-    }
-    assert!(child.try_wait().unwrap().is_none(), "the run ended before the kill");
-    child.kill().unwrap();
-    child.wait().unwrap();
-    complete(&results)
 }
 
 fn manifest_in(dir: &Path, text: &str) -> PathBuf {
@@ -99,25 +45,37 @@ fn a_killed_batch_resumes_to_the_results_of_a_straight_run_for_any_jobs() {
     let dir = tempfile::tempdir().unwrap();
     let manifest = manifest_in(dir.path(), MANIFEST);
     let (killed, straight) = (dir.path().join("killed"), dir.path().join("straight"));
-    let before = kill_after_first_result(batch(&manifest, &killed, &["--jobs", "1"]), &killed);
+    let before = kill_after_first(batch(&manifest, &killed, &["--jobs", "1"]), &killed, 1);
     assert!(before < 3, "{before}");
-    let stderr = ok(batch(&manifest, &killed, &["--jobs", "1"]).output().unwrap());
+    let stderr = ok(batch(&manifest, &killed, &["--jobs", "1"])
+        .output()
+        .unwrap());
     assert!(
-        stderr.contains(&format!("skipped {before} items with a result from an earlier run")),
+        stderr.contains(&format!(
+            "skipped {before} items with a result from an earlier run"
+        )),
         "{stderr}"
     );
-    ok(batch(&manifest, &straight, &["--jobs", "2"]).output().unwrap());
+    ok(batch(&manifest, &straight, &["--jobs", "2"])
+        .output()
+        .unwrap());
     let (resumed, straight) = (results(&killed), results(&straight));
     let ids: Vec<&str> = resumed.iter().map(|r| r.0.as_str()).collect();
     assert_eq!(ids, ["calib", "probe_side", "tip_weight"]);
     for ((id, a), (_, b)) in resumed.iter().zip(&straight) {
         assert_eq!(a["status"], "done", "{id}: {a}");
         // Bit for bit: JSON prints every f64 so that it reads back to the same bits.
-        assert_eq!(a, b, "{id}: resumed with --jobs 1 vs straight with --jobs 2");
+        assert_eq!(
+            a, b,
+            "{id}: resumed with --jobs 1 vs straight with --jobs 2"
+        );
     }
     // A third run has nothing to do.
     let stderr = ok(batch(&manifest, &straight, &[]).output().unwrap());
-    assert!(stderr.contains("0 run (0 done, 0 failed; 0 frames), 3 skipped"), "{stderr}");
+    assert!(
+        stderr.contains("0 run (0 done, 0 failed; 0 frames), 3 skipped"),
+        "{stderr}"
+    );
     // The frames are what `sense --json` prints for the folder.
     let sense = Command::new(env!("CARGO_BIN_EXE_softsense"))
         .args(["sense", "--json"])
@@ -149,12 +107,23 @@ fn a_failed_item_keeps_its_error_and_is_rerun_only_when_asked() {
     let all = results(&out);
     let failed = &all[1].1;
     assert_eq!(failed["status"], "failed");
-    assert!(failed["error"].as_str().unwrap().contains("no_such_folder"), "{failed}");
+    assert!(
+        failed["error"].as_str().unwrap().contains("no_such_folder"),
+        "{failed}"
+    );
     let again = batch(&manifest, &out, &[]).output().unwrap();
     let stderr = String::from_utf8_lossy(&again.stderr);
-    assert!(stderr.contains("0 run (0 done, 0 failed; 0 frames), 2 skipped, 1 failed before"), "{stderr}");
-    assert!(stderr.contains("no_such_folder: failed in an earlier run"), "{stderr}");
-    let retried = batch(&manifest, &out, &["--retry-failed"]).output().unwrap();
+    assert!(
+        stderr.contains("0 run (0 done, 0 failed; 0 frames), 2 skipped, 1 failed before"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("no_such_folder: failed in an earlier run"),
+        "{stderr}"
+    );
+    let retried = batch(&manifest, &out, &["--retry-failed"])
+        .output()
+        .unwrap();
     let stderr = String::from_utf8_lossy(&retried.stderr);
     assert!(stderr.contains("1 run (0 done, 1 failed"), "{stderr}");
 }
@@ -163,9 +132,14 @@ fn a_failed_item_keeps_its_error_and_is_rerun_only_when_asked() {
 fn a_bad_manifest_is_a_clear_error() {
     let dir = tempfile::tempdir().unwrap();
     let manifest = manifest_in(dir.path(), "[[recording]]\npath = \"a\"\nfeatres = 3\n");
-    let run = batch(&manifest, &dir.path().join("out"), &[]).output().unwrap();
+    let run = batch(&manifest, &dir.path().join("out"), &[])
+        .output()
+        .unwrap();
     assert_eq!(run.status.code(), Some(1));
     let stderr = String::from_utf8_lossy(&run.stderr);
-    assert!(stderr.contains("m.toml") && stderr.contains("featres"), "{stderr}");
+    assert!(
+        stderr.contains("m.toml") && stderr.contains("featres"),
+        "{stderr}"
+    );
     assert!(!stderr.contains("panicked"), "{stderr}");
 }

@@ -34,7 +34,10 @@ fn items_take_defaults_and_paths_from_the_manifests_folder() {
     )
     .unwrap();
     let ids: Vec<&str> = m.items.iter().map(|i| i.id.as_str()).collect();
-    assert_eq!(ids, ["tip_weight", "side", "one_0000", "one_0001", "one_0002"]);
+    assert_eq!(
+        ids,
+        ["tip_weight", "side", "one_0000", "one_0001", "one_0002"]
+    );
     let tip = &m.items[0];
     assert_eq!(
         tip.source,
@@ -48,7 +51,10 @@ fn items_take_defaults_and_paths_from_the_manifests_folder() {
         tip.options.model.as_deref(),
         Some(Path::new("runs/models/robot.toml"))
     );
-    assert_eq!(m.items[1].options.registration, Some(RegistrationName::Dense));
+    assert_eq!(
+        m.items[1].options.registration,
+        Some(RegistrationName::Dense)
+    );
     assert_eq!(m.items[1].options.features, Some(40));
     assert_eq!(
         m.items[4].source,
@@ -66,9 +72,18 @@ fn a_bad_manifest_names_the_file_and_the_fault() {
         ("[[recording]]\npath = 3\n", "path"),
         ("[[recording]]\npath = \"a\"\nfeatres = 3\n", "featres"),
         ("[[sweep]]\nspec = \"s.toml\"\ncount = 2\n", "seed"),
-        ("[[sweep]]\nspec = \"s.toml\"\ncount = 0\nseed = 1\n", "at least 1"),
-        ("[[recording]]\npath = \"x/a\"\n[[recording]]\npath = \"y/a\"\n", "two items are called \"a\""),
-        ("[[recording]]\npath = \"a\"\nid = \"../b\"\n", "cannot name a file"),
+        (
+            "[[sweep]]\nspec = \"s.toml\"\ncount = 0\nseed = 1\n",
+            "at least 1",
+        ),
+        (
+            "[[recording]]\npath = \"x/a\"\n[[recording]]\npath = \"y/a\"\n",
+            "two items are called \"a\"",
+        ),
+        (
+            "[[recording]]\npath = \"a\"\nid = \"../b\"\n",
+            "cannot name a file",
+        ),
         ("# nothing\n", "no items"),
     ];
     for (text, want) in cases {
@@ -79,7 +94,11 @@ fn a_bad_manifest_names_the_file_and_the_fault() {
     let e = parse("[[recording]]\npath = \"a\"\nregistration = \"sparse\"\n").unwrap_err();
     assert!(e.contains("sparse"), "{e}");
     let e = Manifest::load(Path::new("/no/such/manifest.toml")).unwrap_err();
-    assert!(e.to_string().contains("/no/such/manifest.toml: cannot read it"), "{e}");
+    assert!(
+        e.to_string()
+            .contains("/no/such/manifest.toml: cannot read it"),
+        "{e}"
+    );
 }
 
 fn write(out: &Path, item: &Item, json: serde_json::Value) {
@@ -100,10 +119,22 @@ fn plan_skips_complete_results_and_earlier_failures_unless_retried() {
     let [a, b, c, d, _e] = &m.items[..] else {
         panic!()
     };
-    write(out, a, serde_json::json!({"id": "a", "item": a, "status": "done", "frames": []}));
-    write(out, b, serde_json::json!({"id": "b", "item": b, "status": "failed", "error": "boom"}));
+    write(
+        out,
+        a,
+        serde_json::json!({"id": "a", "item": a, "status": "done", "frames": []}),
+    );
+    write(
+        out,
+        b,
+        serde_json::json!({"id": "b", "item": b, "status": "failed", "error": "boom"}),
+    );
     // c's result is of another item (the manifest changed); d's is cut short.
-    write(out, c, serde_json::json!({"id": "c", "item": a, "status": "done", "frames": []}));
+    write(
+        out,
+        c,
+        serde_json::json!({"id": "c", "item": a, "status": "done", "frames": []}),
+    );
     std::fs::write(result_path(out, "d"), "{\"id\": \"d\", \"st").unwrap();
     let _ = d;
     let p = plan(&m.items, out, false);
