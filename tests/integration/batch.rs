@@ -59,10 +59,11 @@ fn a_killed_batch_resumes_to_the_results_of_a_straight_run_for_any_jobs() {
     ok(batch(&manifest, &straight, &["--jobs", "2"])
         .output()
         .unwrap());
-    let (resumed, straight) = (results(&killed), results(&straight));
+    let (resumed, straight_results) = (results(&killed), results(&straight));
     let ids: Vec<&str> = resumed.iter().map(|r| r.0.as_str()).collect();
     assert_eq!(ids, ["calib", "probe_side", "tip_weight"]);
-    for ((id, a), (_, b)) in resumed.iter().zip(&straight) {
+    assert_eq!(resumed.len(), straight_results.len());
+    for ((id, a), (_, b)) in resumed.iter().zip(&straight_results) {
         assert_eq!(a["status"], "done", "{id}: {a}");
         // Bit for bit: JSON prints every f64 so that it reads back to the same bits.
         assert_eq!(
