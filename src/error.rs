@@ -47,6 +47,9 @@ pub enum Error {
     /// Force sensing.
     #[error(transparent)]
     Sense(#[from] crate::sense::SenseError),
+    /// Batch runs: the manifest, the output folder, result files.
+    #[error(transparent)]
+    Batch(#[from] crate::batch::BatchError),
     /// Calibration of the camera pose and actuator inputs.
     #[error(transparent)]
     Calibrate(#[from] crate::calibrate::CalibrateError),

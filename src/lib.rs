@@ -33,6 +33,7 @@
 //! ```
 #![warn(missing_docs, rustdoc::broken_intra_doc_links)]
 
+pub mod batch;
 pub mod calibrate;
 pub mod camera;
 pub mod cloud;

@@ -54,6 +54,7 @@ enum Command {
     Control(cli::control::ControlArgs),
     Calibrate(cli::calibrate::CalibrateArgs),
     Score(cli::score::ScoreArgs),
+    Batch(cli::batch::BatchArgs),
 }
 
 fn main() -> ExitCode {
@@ -79,6 +80,7 @@ fn main() -> ExitCode {
         Command::Control(args) => cli::control::run_control(&args),
         Command::Calibrate(args) => cli::calibrate::run(&args),
         Command::Score(args) => cli::score::run(&args),
+        Command::Batch(args) => cli::batch::run_batch(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

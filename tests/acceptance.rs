@@ -3,6 +3,8 @@
 //! `test = false`); run it with `cargo test --test acceptance` (`.ci/run` does).
 mod common;
 
+#[path = "acceptance/batch.rs"]
+mod batch;
 #[path = "acceptance/calibrate.rs"]
 mod calibrate;
 #[path = "acceptance/control.rs"]

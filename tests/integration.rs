@@ -1,6 +1,8 @@
 //! Integration tests: whole stages and the CLI on files.
 mod common;
 
+#[path = "integration/batch.rs"]
+mod batch;
 #[path = "integration/calibrate.rs"]
 mod calibrate;
 #[path = "integration/calibrate_pso.rs"]

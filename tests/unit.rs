@@ -79,3 +79,6 @@ mod score;
 
 #[path = "unit/control.rs"]
 mod control;
+
+#[path = "unit/batch.rs"]
+mod batch;

@@ -10,6 +10,7 @@ macro_rules! outln {
     };
 }
 
+pub mod batch;
 pub mod calibrate;
 pub mod cluster;
 pub mod contacts;

@@ -539,6 +539,35 @@ fn try_draw(sweep: &Sweep, prepared: &Prepared, r: &mut Draws) -> SceneResult<At
     Ok(Ok((scene, rendered, record)))
 }
 
+/// Draws scene `index` ([`draw`]) and writes its recording into `dir`; returns the scene
+/// (its model path the sweep's) and what was drawn.
+pub fn write_drawn(
+    sweep: &Sweep,
+    prepared: &Prepared,
+    seed: u64,
+    index: usize,
+    dir: &Path,
+) -> SceneResult<(Scene, DrawRecord)> {
+    let Drawn {
+        mut scene,
+        rendered,
+        record,
+    } = draw(sweep, prepared, seed, index)?;
+    scene.model_path = sweep.model_path.clone();
+    let mut once = Some(rendered);
+    super::write_recording(
+        &scene,
+        &prepared.model,
+        dir,
+        |_| {
+            once.take()
+                .ok_or_else(|| SceneError::Spec("one frame per scene".into()))
+        },
+        |_, _| {},
+    )?;
+    Ok((scene, record))
+}
+
 /// Draws and writes `count` scenes into `out`: `sweep.toml` (the spec with every default
 /// filled in, the seed and the count), `scene_NNNN.toml` and the recording `scene_NNNN/`
 /// per scene, and `draws.json` (what was drawn, and why attempts were redrawn).
@@ -556,7 +585,6 @@ pub fn run(
     };
     std::fs::create_dir_all(out).map_err(|e| io(out, &e))?;
     let prepared = Prepared::new(sweep)?;
-    let model = &prepared.model;
     let mut spec = sweep.spec.clone();
     spec.model = super::relative_to(&sweep.model_path, out)
         .unwrap_or_else(|| sweep.model_path.clone())
@@ -575,29 +603,13 @@ pub fn run(
     .map_err(|e| io(&out.join("sweep.toml"), &e))?;
     let mut records = Vec::new();
     for index in 0..count {
-        let Drawn {
-            mut scene,
-            rendered,
-            record,
-        } = draw(sweep, &prepared, seed, index)?;
         let dir = out.join(format!("scene_{index:04}"));
-        let mut file_spec = scene.spec.clone();
+        let (scene, record) = write_drawn(sweep, &prepared, seed, index, &dir)?;
+        let mut file_spec = scene.spec;
         file_spec.model = spec.model.clone();
         let text = toml::to_string(&file_spec).map_err(|e| SceneError::Spec(e.to_string()))?;
         let name = out.join(format!("scene_{index:04}.toml"));
         crate::io::atomic::write(&name, text.as_bytes()).map_err(|e| io(&name, &e))?;
-        scene.model_path = sweep.model_path.clone();
-        let mut once = Some(rendered);
-        super::write_recording(
-            &scene,
-            model,
-            &dir,
-            |_| {
-                once.take()
-                    .ok_or_else(|| SceneError::Spec("one frame per scene".into()))
-            },
-            |_, _| {},
-        )?;
         records.push(record);
         let draws = out.join("draws.json");
         crate::recording::write_json(&draws, &records)?;

@@ -1,0 +1,116 @@
+//! One item's work: its recording (generated first for scenes and sweep scenes), sensed
+//! frame by frame as `softsense sense --json` senses it.
+
+use super::manifest::{Item, SenseOptions, Source};
+use crate::fem::model::Model;
+use crate::scene::sweep::{self, Prepared, Sweep};
+use crate::scene::{generate, Scene};
+use crate::segment::robot_color::RobotColorModel;
+use crate::sense::{compare, FrameReport, Recording, SenseParams, Sensor};
+use std::path::{Path, PathBuf};
+
+/// The recording folder of an item that generates one: `OUT/recordings/ID`.
+pub fn recording_dir(out: &Path, id: &str) -> PathBuf {
+    out.join("recordings").join(id)
+}
+
+/// Runs `item`: its frame reports (in frame order), or why it failed. `window` frames
+/// are sensed side by side; the reports do not depend on it.
+pub fn run_item(item: &Item, out: &Path, window: usize) -> Result<Vec<FrameReport>, String> {
+    let (dir, model) = match &item.source {
+        Source::Recording { path } => (path.clone(), None),
+        Source::Scene { spec } => {
+            let scene = Scene::load(spec).map_err(|e| e.to_string())?;
+            let dir = fresh_dir(out, &item.id)?;
+            generate(&scene, &dir, |_, _| {}).map_err(|e| format!("{}: {e}", spec.display()))?;
+            (dir, Some(scene.model_path))
+        }
+        Source::SweepScene { spec, seed, index } => {
+            let sweep = Sweep::load(spec).map_err(|e| e.to_string())?;
+            let prepared = Prepared::new(&sweep).map_err(|e| format!("{}: {e}", spec.display()))?;
+            let dir = fresh_dir(out, &item.id)?;
+            sweep::write_drawn(&sweep, &prepared, *seed, *index, &dir)
+                .map_err(|e| format!("{}: {e}", spec.display()))?;
+            (dir, Some(sweep.model_path))
+        }
+    };
+    sense_recording(&dir, &item.options, model.as_deref(), window)
+}
+
+/// An empty `OUT/recordings/ID`: what an interrupted run left there is removed.
+fn fresh_dir(out: &Path, id: &str) -> Result<PathBuf, String> {
+    let dir = recording_dir(out, id);
+    if dir.exists() {
+        std::fs::remove_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    }
+    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    Ok(dir)
+}
+
+/// Senses every frame of the recording `dir` with `options`, as `softsense sense` does
+/// (the same parameters, cable inputs and errors against `truth.json`). The model is
+/// `options.model`, else `default_model`, else the one the recording names.
+pub fn sense_recording(
+    dir: &Path,
+    options: &SenseOptions,
+    default_model: Option<&Path>,
+    window: usize,
+) -> Result<Vec<FrameReport>, String> {
+    let mut rec = Recording::open(dir).map_err(|e| e.to_string())?;
+    if let Some(pose) = &options.pose {
+        rec = rec.with_pose_file(pose).map_err(|e| e.to_string())?;
+    }
+    let Some(robot_from_camera) = rec.robot_from_camera else {
+        return Err(format!(
+            "{} has no camera pose (calibration.json or camera_pose.json): give `pose = \
+             \"POSE.json\"` in the manifest",
+            dir.display()
+        ));
+    };
+    let model_path = options
+        .model
+        .clone()
+        .or_else(|| default_model.map(Path::to_path_buf))
+        .or_else(|| rec.model_path())
+        .ok_or_else(|| {
+            format!(
+                "{} has no truth.json or calibration.json naming its model: give `model = \
+                 \"MODEL.toml\"` in the manifest",
+                dir.display()
+            )
+        })?;
+    let model = Model::load(&model_path, None).map_err(|e| e.to_string())?;
+    let mut params = SenseParams {
+        registration: options.registration.map(Into::into).unwrap_or_default(),
+        color: RobotColorModel::with_reference(options.robot_color.unwrap_or([40, 200, 60])),
+        ..SenseParams::default()
+    };
+    if let Some(n) = options.max_contacts {
+        params.max_contacts = n;
+    }
+    if let Some(n) = options.features {
+        params.features.count = n;
+    }
+    let mut sensor = Sensor::new(model, robot_from_camera, params);
+    // As `sense`: recorded actuator inputs win, else a calibration's, else the model's.
+    let recorded_actuators = matches!(
+        rec.recorded.as_ref().map(|r| r.kind),
+        Some(crate::recording::InputsFile::Actuators)
+    );
+    if let (false, Some(cal)) = (recorded_actuators, &rec.calibrated) {
+        sensor
+            .use_calibrated_inputs(cal)
+            .map_err(|e| e.to_string())?;
+    }
+    let mut reports = Vec::with_capacity(rec.frames.len());
+    sensor
+        .sense_frames(&rec, &rec.frames, window, |_, mut report| {
+            if let Some(t) = rec.truth_of(report.frame) {
+                report.errors = Some(compare(&report, t));
+            }
+            reports.push(report);
+            Ok::<(), String>(())
+        })
+        .map_err(|e| format!("{}: {e}", dir.display()))?;
+    Ok(reports)
+}
