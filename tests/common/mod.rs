@@ -3,6 +3,7 @@
 
 pub mod corpus;
 pub mod markers;
+pub mod markers_sensitivity;
 pub mod oracle;
 
 use std::path::PathBuf;
