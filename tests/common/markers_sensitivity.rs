@@ -14,6 +14,7 @@
 //! Columns are layouts of markers and candidates, as the thesis's s_2…s_7 and r_2…r_7: two
 //! with the same markers and different candidates, one with other markers.
 use super::markers::{grid, model, robot_tip_sensor, sensor, sheet_markers};
+use softsense::fem::material::Material;
 use softsense::fem::solve::{CableControl, PointLoad};
 use softsense::markers::{Directions, ForceCandidate, MarkerSensor};
 
@@ -160,7 +161,10 @@ pub fn study(layout: &Layout, sources: &[Source]) -> Column {
             .map(|level| match source {
                 Source::Young => {
                     let mut inv = s.clone();
-                    inv.problem.material.young *= level / 300.0;
+                    // Through `Material::new`: the solver reads the Lamé parameters.
+                    let m = inv.problem.material;
+                    inv.problem.material =
+                        Material::new(m.young * level / 300.0, m.poisson).expect("modulus");
                     cell(level, solve(&inv, &exact), None)
                 }
                 Source::MarkerZ => {
