@@ -15,6 +15,8 @@ mod explain_hidden;
 mod markers_layout;
 #[path = "acceptance/markers_locate.rs"]
 mod markers_locate;
+#[path = "acceptance/markers_sensitivity.rs"]
+mod markers_sensitivity;
 #[path = "acceptance/mutation_fuzz.rs"]
 mod mutation_fuzz;
 #[path = "acceptance/recording_folder.rs"]

@@ -16,6 +16,8 @@
 //!   surface, identities across frames; [`detect::detect_recording`]).
 //! - [`locate`]: candidates "found" by a stated threshold rule and the intensity-weighted
 //!   centre of each group of found candidates (4.11-4.13, Corollary 2).
+//! - [`refine`]: a located force moved to the nearby surface node where one force explains
+//!   the markers best ([`refine::refine_located`]).
 //!
 //! Everything is SI (m, N) and `f64` inside; the tracker frame is taken as the model frame.
 //!
@@ -33,11 +35,13 @@ pub mod bind;
 pub mod detect;
 pub mod layout;
 pub mod locate;
+pub mod refine;
 pub mod solve;
 pub mod tracks;
 
 pub use bind::{bind_markers, BoundMarker, Directions, ForceCandidate};
 pub use locate::{locate_forces, LocatedForce};
+pub use refine::refine_located;
 pub use solve::{MarkerFrame, MarkerSensor, MarkersStatus};
 pub use tracks::{MarkerTracks, TrackFrame};
 
@@ -124,6 +128,9 @@ pub struct MarkersParams {
     pub found_fraction: f64,
     /// Found candidates closer than this form one located force (m; default 0.03).
     pub group_radius: f64,
+    /// A located force is moved to the surface node within this distance of its candidates
+    /// where one force explains the markers best (m; default 0.03; 0 keeps the centre).
+    pub refine_radius: f64,
 }
 
 impl Default for MarkersParams {
@@ -138,6 +145,7 @@ impl Default for MarkersParams {
             found_sigmas: 5.0,
             found_fraction: 0.2,
             group_radius: 0.03,
+            refine_radius: 0.03,
         }
     }
 }
