@@ -34,7 +34,7 @@ impl Plant {
     ) -> ControlResult<Self> {
         let effector = effector_index(&model, effector)?;
         let m = model.problem.material;
-        model.problem.material = Material::new(m.young * spec.young_factor, m.poisson)?;
+        model.problem.material = Material::new(m.young() * spec.young_factor, m.poisson())?;
         Ok(Self {
             model,
             effector,

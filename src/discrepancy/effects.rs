@@ -149,12 +149,13 @@ pub fn apply_model(
             EffectKind::Gravity => problem.density *= (1.0 + get(0)).max(0.0),
             EffectKind::Young => {
                 let m = problem.material;
-                problem.material = Material::new(m.young / (1.0 + get(0)).max(0.05), m.poisson)?;
+                problem.material =
+                    Material::new(m.young() / (1.0 + get(0)).max(0.05), m.poisson())?;
             }
             EffectKind::Poisson => {
                 let m = problem.material;
-                let nu = (m.poisson + get(0)).clamp(-0.9, 0.499);
-                problem.material = Material::new(m.young, nu)?;
+                let nu = (m.poisson() + get(0)).clamp(-0.9, 0.499);
+                problem.material = Material::new(m.young(), nu)?;
             }
             EffectKind::LegStiffness { leg } => {
                 if problem.young_scale.len() != legs.len() {

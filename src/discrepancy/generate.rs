@@ -432,7 +432,7 @@ fn render_frames(
             let total: f64 = input.cables.iter().filter_map(|c| c.force).sum();
             let e = m.problem.material;
             m.problem.material =
-                crate::fem::material::Material::new(e.young * (1.0 + beta * total), e.poisson)?;
+                crate::fem::material::Material::new(e.young() * (1.0 + beta * total), e.poisson())?;
         }
         let r = render_frame(&scene, &m, i)?;
         let unit = spec.sensor.depth_unit;

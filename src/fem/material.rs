@@ -4,16 +4,16 @@ use super::{FemError, FemResult};
 use nalgebra::Matrix3;
 
 /// An isotropic Hookean material in SI units.
+///
+/// The fields are private because the element code reads only the Lamé pair: a Young's
+/// modulus changed in place would be silently ignored. Build a changed material with
+/// [`Material::new`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Material {
-    /// Young's modulus (Pa).
-    pub young: f64,
-    /// Poisson ratio (-1 < nu < 0.5).
-    pub poisson: f64,
-    /// First Lamé parameter lambda (Pa).
-    pub lambda: f64,
-    /// Shear modulus mu (Pa).
-    pub mu: f64,
+    young: f64,
+    poisson: f64,
+    lambda: f64,
+    mu: f64,
 }
 
 impl Material {
@@ -35,6 +35,26 @@ impl Material {
             lambda: e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)),
             mu: e / (2.0 * (1.0 + nu)),
         })
+    }
+
+    /// Young's modulus (Pa).
+    pub fn young(&self) -> f64 {
+        self.young
+    }
+
+    /// Poisson ratio (-1 < nu < 0.5).
+    pub fn poisson(&self) -> f64 {
+        self.poisson
+    }
+
+    /// First Lamé parameter lambda (Pa).
+    pub fn lambda(&self) -> f64 {
+        self.lambda
+    }
+
+    /// Shear modulus mu (Pa).
+    pub fn mu(&self) -> f64 {
+        self.mu
     }
 
     /// Cauchy stress of a (symmetric) small strain: lambda tr(eps) I + 2 mu eps.

@@ -71,9 +71,9 @@ impl TetRest {
                 let gab = ga.dot(gb);
                 for i in 0..3 {
                     for j in 0..3 {
-                        let mut v = m.lambda * ga[i] * gb[j] + m.mu * ga[j] * gb[i];
+                        let mut v = m.lambda() * ga[i] * gb[j] + m.mu() * ga[j] * gb[i];
                         if i == j {
-                            v += m.mu * gab;
+                            v += m.mu() * gab;
                         }
                         k[3 * a + i][3 * b + j] = self.volume * v;
                     }
@@ -158,8 +158,8 @@ impl TetRest {
                     .ok_or(FemError::InvertedElement { tet, volume: det })?;
                 let rt = r.transpose();
                 let p = self.grads.map(|g| {
-                    let ma =
-                        -(sigma * g - s * g * m.mu).cross_matrix() - s * g.cross_matrix() * m.mu;
+                    let ma = -(sigma * g - s * g * m.mu()).cross_matrix()
+                        - s * g.cross_matrix() * m.mu();
                     r * ma * self.volume
                 });
                 let q = self.grads.map(|g| a_inv * g.cross_matrix() * rt);
@@ -193,7 +193,7 @@ impl TetRest {
         blocks: u16,
         k: &mut Mat12,
     ) {
-        let (vl, vm) = (self.volume * m.lambda, self.volume * m.mu);
+        let (vl, vm) = (self.volume * m.lambda(), self.volume * m.mu());
         for a in 0..4 {
             for b in 0..4 {
                 if blocks & (1 << (4 * a + b)) == 0 {

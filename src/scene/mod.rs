@@ -207,7 +207,7 @@ impl Scene {
     pub fn model(&self) -> SceneResult<Model> {
         let mut model = Model::load(&self.model_path, None)?;
         if let Some(e) = self.spec.young {
-            model.problem.material = Material::new(e, model.problem.material.poisson)?;
+            model.problem.material = Material::new(e, model.problem.material.poisson())?;
         }
         Ok(model)
     }
@@ -655,7 +655,10 @@ pub(crate) fn write_recording(
             .unwrap_or_else(|| scene.model_path.clone())
             .display()
             .to_string(),
-        material: [model.problem.material.young, model.problem.material.poisson],
+        material: [
+            model.problem.material.young(),
+            model.problem.material.poisson(),
+        ],
         frames,
     };
     writer.write_json("truth.json", &truth)?;

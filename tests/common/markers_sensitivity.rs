@@ -164,7 +164,7 @@ pub fn study(layout: &Layout, sources: &[Source]) -> Column {
                     // Through `Material::new`: the solver reads the Lamé parameters.
                     let m = inv.problem.material;
                     inv.problem.material =
-                        Material::new(m.young * level / 300.0, m.poisson).expect("modulus");
+                        Material::new(m.young() * level / 300.0, m.poisson()).expect("modulus");
                     cell(level, solve(&inv, &exact), None)
                 }
                 Source::MarkerZ => {

@@ -36,7 +36,7 @@ fn skfem_displacements(
     let input = dir.path().join("problem.json");
     let problem = serde_json::json!({
         "nodes": p.mesh.nodes_in_rest, "tets": p.mesh.tets,
-        "young": p.material.young, "poisson": p.material.poisson,
+        "young": p.material.young(), "poisson": p.material.poisson(),
         "fixed": p.fixed,
         "prescribed": p.prescribed.iter().map(|(v, u)| vec![*v as f64, u[0], u[1], u[2]]).collect::<Vec<_>>(),
         "forces": forces.iter().map(|(v, f)| vec![*v as f64, f[0], f[1], f[2]]).collect::<Vec<_>>(),

@@ -76,7 +76,7 @@ fn errors_with_young_scaled(scale: f64) -> Vec<(f64, f64, f64, f64)> {
     let mut model = Model::load(&rec.model_path().unwrap(), None).unwrap();
     let m = model.problem.material;
     model.problem.material =
-        softsense::fem::material::Material::new(m.young * scale, m.poisson).unwrap();
+        softsense::fem::material::Material::new(m.young() * scale, m.poisson()).unwrap();
     let sensor = Sensor::new(
         model,
         rec.robot_from_camera.unwrap(),

@@ -110,7 +110,7 @@ fn corotational_force_is_zero_for_any_rigid_motion() {
             .corotational(0, &m, &x, Tangent::Consistent)
             .unwrap()
             .force;
-        let scale = m.young * e.volume;
+        let scale = m.young() * e.volume;
         assert!(f.iter().all(|c| c.abs() < 1e-10 * scale), "{f:?}");
     }
 }

@@ -12,7 +12,7 @@ fn mm_kg_s_model_is_converted_to_si() {
     )
     .unwrap();
     let p = &m.problem;
-    assert!((p.material.young - 180e3).abs() < 1e-9, "180 kPa");
+    assert!((p.material.young() - 180e3).abs() < 1e-9, "180 kPa");
     assert!((p.gravity[2] + 9.81).abs() < 1e-12, "9810 mm/s^2");
     let mass: f64 = p.lumped_masses().iter().sum();
     assert!((mass - 0.5).abs() < 1e-12, "total mass {mass} kg");

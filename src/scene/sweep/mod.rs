@@ -297,7 +297,7 @@ impl Prepared {
         let mut model = Model::load(&sweep.model_path, None)?;
         if let Some(e) = sweep.spec.young {
             model.problem.material =
-                crate::fem::material::Material::new(e, model.problem.material.poisson)?;
+                crate::fem::material::Material::new(e, model.problem.material.poisson())?;
         }
         let mesh = &model.problem.mesh;
         let x0 = &mesh.nodes_in_rest;
