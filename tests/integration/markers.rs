@@ -247,3 +247,62 @@ fn markers_layout_proposes_eight_robot_markers_and_writes_a_track_file() {
     assert!(!refused.status.success());
     assert!(String::from_utf8_lossy(&refused.stderr).contains("Corollary 1"));
 }
+
+/// A force between two of the sheet's 12 candidates spreads over both; `refine_located`
+/// moves it to the surface node that explains the markers best: within one 10 mm node
+/// spacing of the truth, and never further off than the weighted centre it starts from.
+#[test]
+fn a_force_between_candidates_is_refined_to_within_one_node_of_the_truth() {
+    use softsense::fem::solve::{MappedPoint, PointLoad};
+    use softsense::markers::{locate_forces, refine_located, MarkersParams};
+    let mut s = sheet_with_twelve_candidates();
+    s.params = MarkersParams {
+        group_radius: 0.06,
+        ..Default::default()
+    };
+    let (a, b) = (s.candidates[0].position, s.candidates[1].position);
+    let mesh = &s.problem.mesh;
+    let top: Vec<usize> = (mesh.surface().nodes.iter().copied())
+        .filter(|&v| mesh.nodes_in_rest[v][2] > 0.0039)
+        .collect();
+    let dist = |p: [f64; 3], q: [f64; 3]| ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)).sqrt();
+    // Halfway between the two candidates, and a quarter of the way.
+    for (case, t) in [0.5, 0.25].into_iter().enumerate() {
+        let goal = [0, 1, 2].map(|k| a[k] + t * (b[k] - a[k]));
+        let node = (top.iter().copied())
+            .min_by(|&u, &v| {
+                let d = |w: usize| dist(mesh.nodes_in_rest[w], goal);
+                d(u).total_cmp(&d(v))
+            })
+            .unwrap();
+        let loads = vec![PointLoad {
+            at: MappedPoint::node(node),
+            force: [0.0, 0.0, -0.45],
+        }];
+        let measured = measure_loads(&s, loads, 900 + case as u64);
+        let est = s.solve_frame(0, &measured, None).unwrap();
+        let grid = locate_forces(&est, &s.candidates, &s.params);
+        let refined = refine_located(&s, &est, &measured, &grid).unwrap();
+        let truth = mesh.nodes_in_rest[node];
+        assert_eq!(
+            (grid.len(), refined.len()),
+            (1, 1),
+            "case {case}: one force"
+        );
+        let (before, after) = (dist(grid[0].centre, truth), dist(refined[0].centre, truth));
+        eprintln!(
+            "case {case}: weighted centre {:.1} mm off, refined {:.1} mm",
+            1e3 * before,
+            1e3 * after
+        );
+        assert!(
+            after <= 0.0101,
+            "case {case}: refined {:.1} mm off",
+            1e3 * after
+        );
+        assert!(
+            after <= before + 1e-9,
+            "case {case}: refined {after} > centre {before}"
+        );
+    }
+}
