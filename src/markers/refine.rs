@@ -72,13 +72,7 @@ pub fn refine_located(
         offset.push(k);
         k += c.directions.len();
     }
-    let ext = MarkerSensor::new(
-        &sensor.problem,
-        sensor.newton.clone(),
-        sensor.markers.clone(),
-        all,
-        sensor.params.clone(),
-    )?;
+    let ext = sensor.with_candidates(all)?;
     let mut lambda = frame.intensities.clone();
     lambda.resize(ext.unknowns(), 0.0);
     let visible: Vec<usize> = (0..measured.len())

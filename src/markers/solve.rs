@@ -124,6 +124,18 @@ impl MarkerSensor {
         })
     }
 
+    /// The same body, markers, solver and parameters with other candidates (a cheap copy:
+    /// nothing is solved).
+    pub fn with_candidates(&self, candidates: Vec<ForceCandidate>) -> MarkersResult<Self> {
+        Self::new(
+            &self.problem,
+            self.newton.clone(),
+            self.markers.clone(),
+            candidates,
+            self.params.clone(),
+        )
+    }
+
     /// Number of force unknowns.
     pub fn unknowns(&self) -> usize {
         self.force_rows.len()

@@ -161,7 +161,6 @@ pub fn study(layout: &Layout, sources: &[Source]) -> Column {
             .map(|level| match source {
                 Source::Young => {
                     let mut inv = s.clone();
-                    // Through `Material::new`: the solver reads the Lamé parameters.
                     let m = inv.problem.material;
                     inv.problem.material =
                         Material::new(m.young() * level / 300.0, m.poisson()).expect("modulus");
@@ -256,14 +255,7 @@ pub fn robot_layouts() -> Vec<Layout> {
         .expect("robot.toml's top-east force point");
     let mut two = near.candidates.clone();
     two.push(ForceCandidate::from_force_point(top_east, &m.problem.mesh));
-    let with_two = MarkerSensor::new(
-        &near.problem,
-        near.newton.clone(),
-        near.markers.clone(),
-        two,
-        near.params.clone(),
-    )
-    .expect("robot sensor");
+    let with_two = near.with_candidates(two).expect("robot sensor");
     let hook = [0.0, 0.0, -0.4];
     vec![
         Layout {
