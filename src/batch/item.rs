@@ -93,15 +93,9 @@ pub fn sense_recording(
     }
     let mut sensor = Sensor::new(model, robot_from_camera, params);
     // As `sense`: recorded actuator inputs win, else a calibration's, else the model's.
-    let recorded_actuators = matches!(
-        rec.recorded.as_ref().map(|r| r.kind),
-        Some(crate::recording::InputsFile::Actuators)
-    );
-    if let (false, Some(cal)) = (recorded_actuators, &rec.calibrated) {
-        sensor
-            .use_calibrated_inputs(cal)
-            .map_err(|e| e.to_string())?;
-    }
+    sensor
+        .use_recording_inputs(&rec)
+        .map_err(|e| e.to_string())?;
     let mut reports = Vec::with_capacity(rec.frames.len());
     sensor
         .sense_frames(&rec, &rec.frames, window, |_, mut report| {

@@ -237,20 +237,20 @@ fn use_recorded_inputs(
 ) -> Result<String, CliError> {
     use softsense::recording::InputsFile;
     let recorded = rec.recorded.as_ref().map(|r| r.kind);
-    Ok(match (recorded, &rec.calibrated) {
+    let calibrated = sensor
+        .use_recording_inputs(rec)
+        .map_err(|e| CliError::Result(format!("{}: {e}", pose_file.display())))?;
+    Ok(match (recorded, calibrated) {
         (Some(InputsFile::Actuators), _) => "recorded (actuators.json)".to_string(),
-        (recorded, Some(cal)) => {
-            sensor
-                .use_calibrated_inputs(cal)
-                .map_err(|e| CliError::Result(format!("{}: {e}", pose_file.display())))?;
+        (recorded, true) => {
             let calibrated = format!("calibrated ({})", super::shown_path(pose_file).display());
             match recorded {
                 Some(_) => format!("recorded (inputs.json), else {calibrated}"),
                 None => calibrated,
             }
         }
-        (Some(InputsFile::Inputs), None) => "recorded (inputs.json)".to_string(),
-        (None, None) => "the model file's".to_string(),
+        (Some(InputsFile::Inputs), false) => "recorded (inputs.json)".to_string(),
+        (None, false) => "the model file's".to_string(),
     })
 }
 

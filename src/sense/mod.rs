@@ -238,6 +238,23 @@ impl Sensor {
         Ok(model)
     }
 
+    /// Takes the cable inputs `rec` provides for frames without recorded ones, as
+    /// `softsense sense` does: with `actuators.json` every frame has all its cables, so
+    /// nothing is taken; otherwise the calibration's inputs, when `rec` has a
+    /// `calibration.json` ([`Sensor::use_calibrated_inputs`]). Returns whether the
+    /// calibration's were taken.
+    pub fn use_recording_inputs(&mut self, rec: &Recording) -> SenseResult<bool> {
+        use crate::recording::InputsFile;
+        let all_recorded = rec
+            .recorded
+            .as_ref()
+            .is_some_and(|r| r.kind == InputsFile::Actuators);
+        match (&rec.calibrated, all_recorded) {
+            (Some(cal), false) => self.use_calibrated_inputs(cal).map(|()| true),
+            _ => Ok(false),
+        }
+    }
+
     /// Senses one frame. Never fails: problems are in the report's status.
     pub fn sense(
         &self,
