@@ -155,7 +155,7 @@ pub fn run(
                     let Some(item) = items.get(next.fetch_add(1, Ordering::Relaxed)) else {
                         break;
                     };
-                    let done = run_and_record(item, out, window);
+                    let done = run_one(item, out, window);
                     if done.is_err() {
                         stop.store(true, Ordering::Relaxed);
                     }
@@ -183,8 +183,10 @@ pub fn run(
     })
 }
 
-/// Runs one item and writes its result file.
-fn run_and_record(item: &Item, out: &Path, window: usize) -> BatchResult<ItemOutcome> {
+/// Runs one item and writes its result file, as [`run`] does for each item: the unit of
+/// work for running items elsewhere (the Python package's Ray example runs it as a task).
+/// `window` frames are sensed side by side; the result does not depend on it.
+pub fn run_one(item: &Item, out: &Path, window: usize) -> BatchResult<ItemOutcome> {
     let clock = std::time::Instant::now();
     // A bug in one item (a panic) fails that item, not the run.
     let ran =

@@ -1,0 +1,185 @@
+//! Recordings and sensing; a frame's report crosses as the JSON `softsense sense --json`
+//! prints for it.
+
+use crate::error;
+use crate::model::Model;
+use pyo3::prelude::*;
+use softsense::segment::robot_color::RobotColorModel;
+use softsense::sense::{
+    compare, FrameReport, FrameStatus, Recording as Rec, Registration, SenseParams, Sensor as Sen,
+};
+
+/// A recording folder (docs/recording-format.md).
+#[pyclass(module = "softsense._softsense", frozen)]
+pub struct Recording(pub Rec);
+
+#[pymethods]
+impl Recording {
+    /// Opens a recording folder; `pose` is a camera pose file used instead of the folder's.
+    #[staticmethod]
+    #[pyo3(signature = (path, pose=None))]
+    fn open(path: std::path::PathBuf, pose: Option<std::path::PathBuf>) -> PyResult<Self> {
+        let mut rec = Rec::open(&path).map_err(error)?;
+        if let Some(pose) = pose {
+            rec = rec.with_pose_file(&pose).map_err(error)?;
+        }
+        Ok(Recording(rec))
+    }
+
+    /// The folder.
+    #[getter]
+    fn path(&self) -> std::path::PathBuf {
+        self.0.dir.clone()
+    }
+
+    /// Frame numbers.
+    #[getter]
+    fn frames(&self) -> Vec<usize> {
+        self.0.frames.clone()
+    }
+
+    /// The camera pose, row-major 4x4 (p_robot = T p_camera), or None.
+    #[getter]
+    fn robot_from_camera(&self) -> Option<[[f64; 4]; 4]> {
+        self.0.robot_from_camera.as_ref().map(|p| p.to_matrix())
+    }
+
+    /// The model file the recording names (truth.json or calibration.json), or None.
+    #[getter]
+    fn model_path(&self) -> Option<std::path::PathBuf> {
+        self.0.model_path()
+    }
+
+    /// Warnings from opening the folder.
+    #[getter]
+    fn warnings(&self) -> Vec<String> {
+        self.0.warnings.clone()
+    }
+}
+
+/// The sensing chain of one model and one recording.
+#[pyclass(module = "softsense._softsense", frozen)]
+pub struct Sensor {
+    sensor: Sen,
+    rec: Rec,
+}
+
+/// A frame's report as `softsense sense --json` prints it, with the errors against the
+/// recording's truth when it has one.
+fn json_of(rec: &Rec, mut report: FrameReport) -> PyResult<String> {
+    if let Some(t) = rec.truth_of(report.frame) {
+        report.errors = Some(compare(&report, t));
+    }
+    serde_json::to_string(&report).map_err(error)
+}
+
+#[pymethods]
+impl Sensor {
+    /// A sensor for `recording` with `model`, with `softsense sense`'s options: `features`
+    /// (surface feature points), `registration` ("auto", "features" or "dense"),
+    /// `robot_color` (sRGB), `max_contacts`. The recording's cable inputs are used as the
+    /// command line uses them (recorded, else its calibration's, else the model's).
+    #[new]
+    #[pyo3(signature = (model, recording, features=None, registration="auto", robot_color=(40, 200, 60), max_contacts=None))]
+    fn new(
+        model: &Model,
+        recording: &Recording,
+        features: Option<usize>,
+        registration: &str,
+        robot_color: (u8, u8, u8),
+        max_contacts: Option<usize>,
+    ) -> PyResult<Self> {
+        let rec = recording.0.clone();
+        let robot_from_camera = rec.robot_from_camera.ok_or_else(|| {
+            error(format!(
+                "{} has no camera pose (calibration.json or camera_pose.json): open it with \
+                 pose=POSE.json, or find it with `softsense calibrate`",
+                rec.dir.display()
+            ))
+        })?;
+        let registration = match registration {
+            "auto" => Registration::Auto,
+            "features" => Registration::Features,
+            "dense" => Registration::Dense,
+            other => {
+                return Err(error(format!(
+                    "registration {other:?}: use \"auto\", \"features\" or \"dense\""
+                )))
+            }
+        };
+        let defaults = SenseParams::default();
+        let mut params = SenseParams {
+            registration,
+            color: RobotColorModel::with_reference([robot_color.0, robot_color.1, robot_color.2]),
+            max_contacts: max_contacts.unwrap_or(defaults.max_contacts),
+            ..defaults
+        };
+        if let Some(n) = features {
+            if n == 0 {
+                return Err(error("features: must be at least 1"));
+            }
+            params.features.count = n;
+        }
+        let mut sensor = Sen::new(model.0.clone(), robot_from_camera, params);
+        sensor.use_recording_inputs(&rec).map_err(error)?;
+        Ok(Sensor { sensor, rec })
+    }
+
+    /// Senses one frame; returns its report as JSON. Never raises for a bad frame: its
+    /// status says what went wrong. A frame the recording does not have raises.
+    fn sense(&self, py: Python<'_>, frame: usize) -> PyResult<String> {
+        if !self.rec.frames.contains(&frame) {
+            return Err(error(format!(
+                "no frame {frame} in the recording (frames {:?})",
+                self.rec.frames
+            )));
+        }
+        let report = py.detach(|| match self.sensor.observe(&self.rec, frame) {
+            Ok(obs) => self
+                .sensor
+                .sense(frame, &obs, self.rec.inputs_of(frame).as_ref()),
+            Err(e) => FrameReport::empty(frame, FrameStatus::Unreadable(e.to_string())),
+        });
+        json_of(&self.rec, report)
+    }
+
+    /// Senses `frames` (default: all), `window` of them side by side (default: the number
+    /// of threads); returns their reports as JSON, in frame order. Every frame's answer is
+    /// the same for any window.
+    #[pyo3(signature = (frames=None, window=None))]
+    fn sense_all(
+        &self,
+        py: Python<'_>,
+        frames: Option<Vec<usize>>,
+        window: Option<usize>,
+    ) -> PyResult<Vec<String>> {
+        let frames = frames.unwrap_or_else(|| self.rec.frames.clone());
+        if let Some(f) = frames.iter().find(|f| !self.rec.frames.contains(f)) {
+            return Err(error(format!("no frame {f} in the recording")));
+        }
+        let window = window
+            .unwrap_or_else(softsense::sense::default_window)
+            .max(1);
+        let mut reports = Vec::with_capacity(frames.len());
+        py.detach(|| {
+            self.sensor
+                .sense_frames(&self.rec, &frames, window, |_, report| {
+                    reports.push(report);
+                    Ok::<(), std::convert::Infallible>(())
+                })
+        })
+        .unwrap_or_else(|never| match never {});
+        reports.into_iter().map(|r| json_of(&self.rec, r)).collect()
+    }
+
+    /// Number of surface feature points.
+    #[getter]
+    fn features(&self) -> usize {
+        self.sensor.features.len()
+    }
+}
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<Recording>()?;
+    m.add_class::<Sensor>()
+}
