@@ -23,11 +23,11 @@ from typing import Any, Dict, Iterator, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from . import _softsense
+from . import _softsense, batch, scene
 from ._softsense import SoftsenseError, __version__
 
 __all__ = [
-    "Cloud", "Compliance", "Force", "FrameReport", "Model", "Recording", "Sensor",
+    "batch", "calibrate", "scene", "Cloud", "Compliance", "Force", "FrameReport", "Model", "Recording", "Sensor",
     "Solution", "SoftsenseError", "crop_box", "pass_through", "radius_outlier_removal",
     "read_cloud", "statistical_outlier_removal", "voxel_grid", "write_cloud",
 ]
@@ -354,3 +354,16 @@ class Sensor:
     def features(self) -> int:
         """Number of surface feature points."""
         return self._native.features
+
+
+def calibrate(recording: str, model: str, start: Optional[str] = None, frame: int = 0, robot_color: Sequence[int] = (40, 200, 60)) -> Dict[str, Any]:
+    """The camera pose and cable inputs from one frame of a recording (``softsense
+    calibrate``, thesis 3.3.2): ``robot_from_camera`` (4x4), the cables' tensions and
+    shortenings, the residual and the status. ``start`` is the rough pose file (default:
+    the recording's ``rough_pose.json``); calibrate on a frame where nothing touches the
+    robot. Nothing is written: ``softsense calibrate`` writes ``calibration.json``."""
+    rgb = tuple(int(v) for v in robot_color)
+    return json.loads(
+        _softsense.calibrate_recording(str(recording), str(model), None if start is None else str(start), int(frame), rgb)
+    )
+

@@ -8,6 +8,7 @@
 mod batch;
 mod cloud;
 mod model;
+mod scene;
 mod sense;
 
 use pyo3::prelude::*;
@@ -58,6 +59,7 @@ fn _softsense(m: &Bound<'_, PyModule>) -> PyResult<()> {
     batch::register(m)?;
     cloud::register(m)?;
     model::register(m)?;
+    scene::register(m)?;
     sense::register(m)?;
     Ok(())
 }
