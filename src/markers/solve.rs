@@ -88,7 +88,8 @@ impl MarkerFrame {
 /// The FE model, markers and candidates of a recording.
 #[derive(Debug, Clone)]
 pub struct MarkerSensor {
-    /// The FE problem without point loads; its cables carry the actuator inputs.
+    /// The FE problem; its cables carry the actuator inputs. [`MarkerSensor::new`] drops its
+    /// point loads; loads put back here are known loads, held in every frame and not solved.
     pub problem: Problem,
     /// Newton options of the FE updates.
     pub newton: NewtonParams,
@@ -124,16 +125,18 @@ impl MarkerSensor {
         })
     }
 
-    /// The same body, markers, solver and parameters with other candidates (a cheap copy:
-    /// nothing is solved).
+    /// The same body (known loads included), markers, solver and parameters with other
+    /// candidates (a cheap copy: nothing is solved).
     pub fn with_candidates(&self, candidates: Vec<ForceCandidate>) -> MarkersResult<Self> {
-        Self::new(
+        let mut s = Self::new(
             &self.problem,
             self.newton.clone(),
             self.markers.clone(),
             candidates,
             self.params.clone(),
-        )
+        )?;
+        s.problem.loads.clone_from(&self.problem.loads);
+        Ok(s)
     }
 
     /// Number of force unknowns.
@@ -158,7 +161,10 @@ impl MarkerSensor {
 
     /// The force vector of each candidate from the unknowns.
     fn force_vectors(&self, lambda: &[f64]) -> Vec<[f64; 3]> {
-        self.loaded(lambda).loads.iter().map(|l| l.force).collect()
+        let known = self.problem.loads.len();
+        (self.loaded(lambda).loads[known..].iter())
+            .map(|l| l.force)
+            .collect()
     }
 
     /// The FE equilibrium under `lambda` (warm-started from `start`) and W_ef of the markers

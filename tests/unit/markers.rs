@@ -290,3 +290,66 @@ fn candidate_files_snap_to_surface_nodes_and_name_bad_lines() {
         }
     }
 }
+
+/// The bar with 4 markers and 3 normal candidates on its top face, 30 mm apart.
+fn bar_with_three_candidates() -> MarkerSensor {
+    let p = bar(false);
+    let surface = p.mesh.surface();
+    let at = [
+        [0.035, 0.0, 0.01],
+        [0.055, 0.0, 0.01],
+        [0.085, 0.0, 0.01],
+        [0.1, 0.01, 0.01],
+    ];
+    let names: Vec<String> = (0..at.len()).map(|i| format!("m{i}")).collect();
+    let markers = bind_markers(&p.mesh.nodes_in_rest, &surface, &names, &at, 1e-3).unwrap();
+    let cand = [0.04, 0.07, 0.1]
+        .iter()
+        .map(|&x| {
+            let name = format!("x{}", 1e3 * x);
+            ForceCandidate::snapped(
+                &name,
+                &p.mesh,
+                &surface,
+                [x, 0.01, 0.02],
+                Directions::Normal,
+            )
+            .unwrap()
+        })
+        .collect();
+    let params = MarkersParams::default();
+    MarkerSensor::new(&p, NewtonParams::default(), markers, cand, params).unwrap()
+}
+
+#[test]
+fn known_loads_put_back_on_the_sensor_are_held_and_not_reported_as_candidate_forces() {
+    let mut s = bar_with_three_candidates();
+    // A known 20 mN push at the first marker's node, in every frame.
+    let known = PointLoad {
+        at: s.markers[0].at,
+        force: [0.0, 0.0, -0.02],
+    };
+    s.problem.loads.push(known);
+    let truth = 0.1;
+    let mut p = s.problem.clone();
+    let d = s.candidates[1].directions[0];
+    p.loads.push(PointLoad {
+        at: s.candidates[1].at,
+        force: d.map(|v| -truth * v),
+    });
+    let x = p.solve_static(&s.newton).unwrap().positions;
+    let measured: Vec<_> = (s.markers.iter())
+        .map(|m| Some(m.at.position(&x)))
+        .collect();
+    let est = s.solve_frame(0, &measured, None).unwrap();
+    assert_eq!(est.forces.len(), 3);
+    assert!(
+        (est.intensities[1] + truth).abs() < 1e-4,
+        "{:?}",
+        est.intensities
+    );
+    assert!(est.intensities[0].abs() < 1e-4 && est.intensities[2].abs() < 1e-4);
+    // The copy with other candidates keeps the known load.
+    let other = s.with_candidates(s.candidates[..1].to_vec()).unwrap();
+    assert_eq!(other.problem.loads.len(), 1);
+}
