@@ -215,7 +215,7 @@ fn markers_layout_proposes_eight_robot_markers_and_writes_a_track_file() {
         "--markers",
         "8",
         "--candidates",
-        "tests/fixtures/markers/robot_candidates.csv",
+        "meshes/models/robot_candidates.csv",
         "--json",
         "--csv",
         csv.to_str().unwrap(),
@@ -242,7 +242,7 @@ fn markers_layout_proposes_eight_robot_markers_and_writes_a_track_file() {
         "--markers",
         "2",
         "--candidates",
-        "tests/fixtures/markers/robot_candidates.csv",
+        "meshes/models/robot_candidates.csv",
     ]);
     assert!(!refused.status.success());
     assert!(String::from_utf8_lossy(&refused.stderr).contains("Corollary 1"));
