@@ -6,7 +6,8 @@ use softsense::fem::model::Model;
 use softsense::markers::bind::read_candidates;
 use softsense::markers::tracks::{flag_hidden, read_motive, read_tracks, MarkerTracks};
 use softsense::markers::{
-    bind_markers, locate_forces, ForceCandidate, MarkerSensor, MarkersParams,
+    bind_markers, locate_forces, refine_located, ForceCandidate, LocatedForce, MarkerFrame,
+    MarkerSensor, MarkersParams,
 };
 use std::path::PathBuf;
 
@@ -21,7 +22,13 @@ the surface taken in the model's free equilibrium (gravity and cable inputs, no 
 the first frame should show the body unloaded. Per frame, markers that are missing or moved \
 more than the hidden threshold since their last accepted position lose their 3 rows; the \
 forces are solved at all candidates together, and candidates whose force exceeds 5 sigma \
-and 20% of the largest are reported as found, neighbours merged at their weighted centre.\n\n\
+and 20% of the largest are reported as found, neighbours (--group-radius-mm) merged at their \
+weighted centre. A force found at several neighbouring candidates lies between them: it is \
+also reported refined to the surface node near them where one force explains the markers \
+best (`refined`; null for a force found at one candidate). With --accumulate N each frame is \
+solved with the rows of the last N frames stacked, as if they carried the same forces (the \
+thesis's accumulation over frames, Remark 2): for a load held still, N frames divide the \
+noise's share by sqrt(N); a load that changes within the window is smeared over it.\n\n\
 TRACKS is softsense's CSV `frame,marker,x,y,z` (metres, model frame; a hidden marker has \
 empty x,y,z) or an OptiTrack Motive CSV export (detected by its `Frame,Time` header; \
 millimetres unless its header says otherwise). The tracker frame is taken as the model \
@@ -57,6 +64,14 @@ pub struct MarkersArgs {
     /// A marker that jumps more than this between frames is hidden (mm).
     #[arg(long, default_value_t = 5.0)]
     hidden_jump_mm: f64,
+    /// Found candidates closer than this are one located force (mm); a force found at
+    /// several is refined to the surface node between them that explains the markers best.
+    #[arg(long, default_value_t = 30.0)]
+    group_radius_mm: f64,
+    /// Solve each frame with the rows of this many frames up to it stacked, taken to carry
+    /// the same forces (thesis Remark 2; 1: each frame alone).
+    #[arg(long, default_value_t = 1)]
+    accumulate: usize,
     /// Print one JSON document per frame on stdout.
     #[arg(long)]
     json: bool,
@@ -113,14 +128,21 @@ pub fn run(args: &MarkersArgs) -> CliResult {
     let (Some(tracks_path), Some(model_path)) = (&args.tracks, &args.model) else {
         return Err(CliError::Usage("give TRACKS and MODEL".into()));
     };
-    if !(args.sigma_mm > 0.0 && args.hidden_jump_mm > 0.0) {
+    if !(args.sigma_mm > 0.0 && args.hidden_jump_mm > 0.0 && args.group_radius_mm >= 0.0) {
         return Err(CliError::Usage(
-            "--sigma-mm and --hidden-jump-mm must be positive".into(),
+            "--sigma-mm and --hidden-jump-mm must be positive, --group-radius-mm not negative"
+                .into(),
+        ));
+    }
+    if args.accumulate == 0 {
+        return Err(CliError::Usage(
+            "--accumulate must be at least 1 frame".into(),
         ));
     }
     let params = MarkersParams {
         sigma: args.sigma_mm * 1e-3,
         hidden_jump: args.hidden_jump_mm * 1e-3,
+        group_radius: args.group_radius_mm * 1e-3,
         ..Default::default()
     };
     let tracks = read_any_tracks(tracks_path)?;
@@ -153,26 +175,70 @@ pub fn run(args: &MarkersArgs) -> CliResult {
     )
     .map_err(|e| CliError::Lib(e.into()))?;
     let hidden = flag_hidden(&tracks, &sensor.params);
+    let measured: Vec<Vec<Option<[f64; 3]>>> = (tracks.frames.iter().zip(&hidden))
+        .map(|(f, flags)| {
+            (f.positions.iter().zip(flags))
+                .map(|(p, h)| if *h { None } else { *p })
+                .collect()
+        })
+        .collect();
     let mut previous = None;
-    for (f, flags) in tracks.frames.iter().zip(&hidden) {
-        let measured: Vec<_> = (f.positions.iter().zip(flags))
-            .map(|(p, h)| if *h { None } else { *p })
+    for (i, f) in tracks.frames.iter().enumerate() {
+        let window: Vec<&[Option<[f64; 3]>]> = measured
+            [(i + 1).saturating_sub(args.accumulate)..=i]
+            .iter()
+            .map(Vec::as_slice)
             .collect();
         let est = sensor
-            .solve_frame(f.frame, &measured, previous.as_ref())
+            .solve_frames(f.frame, &window, previous.as_ref())
             .map_err(|e| CliError::Lib(e.into()))?;
         let located = locate_forces(&est, &sensor.candidates, &sensor.params);
-        print_frame(&sensor, &tracks, &est, &located, args.json)?;
+        let refined = refine_between(&sensor, &est, &measured[i], &located)?;
+        print_frame(
+            &sensor,
+            &tracks,
+            &est,
+            (&located[..], &refined[..]),
+            args.json,
+        )?;
         previous = Some(est);
     }
     Ok(())
 }
 
+/// The located forces spread over more than one found candidate (a force between
+/// candidates) moved by [`refine_located`] to the surface node that explains the markers
+/// best; a force found at one candidate alone is left there.
+fn refine_between(
+    sensor: &MarkerSensor,
+    est: &MarkerFrame,
+    measured: &[Option<[f64; 3]>],
+    located: &[LocatedForce],
+) -> Result<Vec<Option<LocatedForce>>, CliError> {
+    let between: Vec<LocatedForce> = (located.iter())
+        .filter(|l| l.candidates.len() > 1)
+        .cloned()
+        .collect();
+    let mut refined = refine_located(sensor, est, measured, &between)
+        .map_err(|e| CliError::Lib(e.into()))?
+        .into_iter();
+    Ok(located
+        .iter()
+        .map(|l| {
+            if l.candidates.len() > 1 {
+                refined.next()
+            } else {
+                None
+            }
+        })
+        .collect())
+}
+
 fn print_frame(
     sensor: &MarkerSensor,
     tracks: &MarkerTracks,
-    est: &softsense::markers::MarkerFrame,
-    located: &[softsense::markers::LocatedForce],
+    est: &MarkerFrame,
+    (located, refined): (&[LocatedForce], &[Option<LocatedForce>]),
     json: bool,
 ) -> CliResult {
     let hidden: Vec<&str> = est
@@ -185,7 +251,8 @@ fn print_frame(
             "frame": est.frame, "status": est.status, "forces_n": est.forces,
             "sigma_n": est.sigma, "i_w_n_per_m": est.i_w, "hidden": hidden,
             "rows": est.rows, "unknowns": est.unknowns, "updates": est.updates,
-            "residual_rms_m": est.residual_rms, "located": located, "warnings": est.warnings,
+            "residual_rms_m": est.residual_rms, "located": located, "refined": refined,
+            "warnings": est.warnings,
         });
         return print_json(&v);
     }
@@ -203,7 +270,7 @@ fn print_frame(
             f[2]
         )?;
     }
-    for l in located {
+    for (l, r) in located.iter().zip(refined) {
         let names: Vec<&str> = l
             .candidates
             .iter()
@@ -219,6 +286,17 @@ fn print_frame(
             l.force[0],
             l.force[1],
             l.force[2]
+        )?;
+        let Some(r) = r else { continue };
+        let c = r.centre.map(|v| 1e3 * v);
+        outln!(
+            "    between candidates, refined to ({:.1}, {:.1}, {:.1}) mm: F = ({:.4}, {:.4}, {:.4}) N",
+            c[0],
+            c[1],
+            c[2],
+            r.force[0],
+            r.force[1],
+            r.force[2]
         )?;
     }
     for w in &est.warnings {

@@ -22,7 +22,7 @@ model's [[force_points]].\n\n\
 the first frame `softsense markers` binds its markers from.",
     after_help = "Examples:\n  \
 softsense markers layout meshes/models/robot.toml --markers 8 \
---candidates tests/fixtures/markers/robot_candidates.csv --csv layout.csv"
+--candidates meshes/models/robot_candidates.csv --csv layout.csv"
 )]
 pub struct LayoutArgs {
     /// Model file (TOML).

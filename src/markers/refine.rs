@@ -5,10 +5,13 @@
 //!
 //! The search is linear about the frame's FE state: one FE solve and one compliance column
 //! per searched node, no solve per node. With the residual r of the markers at that state,
-//! W_G the compliance of the group's candidates and λ_G their intensities, a node v with
-//! compliance W_v explains the markers with the residual
-//! min_λ ‖r + W_G λ_G − W_v λ‖ (the group's forces replaced by one at v; the other
-//! candidates keep theirs). The node of the smallest residual wins.
+//! W_C the compliance of all candidates and λ_C their intensities, d = r + W_C λ_C is the
+//! markers' displacement the forces explain. A node v with compliance W_v explains it with
+//! the residual min ‖d − W_R λ_R − W_v λ_v‖ over λ_R and λ_v, R the candidates outside the
+//! group: the group's forces replaced by one at v, and the other candidates re-fitted with
+//! it (a share of the force left on a candidate just outside the group, below the found
+//! rule, would otherwise stay there and pull v off). The node of the smallest residual
+//! wins.
 
 use super::locate::LocatedForce;
 use super::solve::{MarkerFrame, MarkerSensor};
@@ -91,24 +94,33 @@ pub fn refine_located(
     );
     let mut out = Vec::with_capacity(located.len());
     let mut first = sensor.candidates.len();
+    // The markers' displacement from the unloaded linearised state: every candidate's
+    // share put back.
+    let n0 = sensor.unknowns();
+    let mut r_all = r0.clone();
+    for (j, l) in lambda.iter().enumerate().take(n0) {
+        r_all += w.column(j) * *l;
+    }
     for (l, nodes) in located.iter().zip(&groups) {
-        let mut r = r0.clone();
-        for &i in &l.candidates {
-            let (o, d) = (offset[i], sensor.candidates[i].directions.len());
-            for (j, l) in lambda.iter().enumerate().skip(o).take(d) {
-                r += w.column(j) * *l;
-            }
-        }
+        // The group replaced by one force at a node; the other candidates re-fitted with it,
+        // so a share of the force left on a candidate outside the group is not fixed there.
+        let rest: Vec<usize> = (0..sensor.candidates.len())
+            .filter(|i| !l.candidates.contains(i))
+            .flat_map(|i| offset[i]..offset[i] + sensor.candidates[i].directions.len())
+            .collect();
         let mut best: Option<(f64, usize, DVector<f64>)> = None;
         for (e, c) in nodes.iter().enumerate() {
-            let a = w.columns(offset[first + e], c.directions.len());
+            let d = c.directions.len();
+            let mut idx = rest.clone();
+            idx.extend(offset[first + e]..offset[first + e] + d);
+            let a = w.select_columns(&idx);
             let Some(chol) = a.tr_mul(&a).cholesky() else {
                 continue;
             };
-            let lam = chol.solve(&a.tr_mul(&r));
-            let res = (&r - a * &lam).norm();
+            let sol_e = chol.solve(&a.tr_mul(&r_all));
+            let res = (&r_all - &a * &sol_e).norm();
             if best.as_ref().is_none_or(|b| res < b.0) {
-                best = Some((res, e, lam));
+                best = Some((res, e, sol_e.rows(rest.len(), d).clone_owned()));
             }
         }
         first += nodes.len();

@@ -56,7 +56,8 @@ pub struct MarkerFrame {
     pub i_e: Option<f64>,
     /// Indices of the markers whose rows were left out (hidden).
     pub hidden: Vec<usize>,
-    /// Rows used (3 per visible marker).
+    /// Rows used (3 per visible marker, summed over the frames stacked by
+    /// [`MarkerSensor::solve_frames`]).
     pub rows: usize,
     /// Force unknowns.
     pub unknowns: usize,
@@ -88,7 +89,8 @@ impl MarkerFrame {
 /// The FE model, markers and candidates of a recording.
 #[derive(Debug, Clone)]
 pub struct MarkerSensor {
-    /// The FE problem without point loads; its cables carry the actuator inputs.
+    /// The FE problem; its cables carry the actuator inputs. [`MarkerSensor::new`] drops its
+    /// point loads; loads put back here are known loads, held in every frame and not solved.
     pub problem: Problem,
     /// Newton options of the FE updates.
     pub newton: NewtonParams,
@@ -124,16 +126,18 @@ impl MarkerSensor {
         })
     }
 
-    /// The same body, markers, solver and parameters with other candidates (a cheap copy:
-    /// nothing is solved).
+    /// The same body (known loads included), markers, solver and parameters with other
+    /// candidates (a cheap copy: nothing is solved).
     pub fn with_candidates(&self, candidates: Vec<ForceCandidate>) -> MarkersResult<Self> {
-        Self::new(
+        let mut s = Self::new(
             &self.problem,
             self.newton.clone(),
             self.markers.clone(),
             candidates,
             self.params.clone(),
-        )
+        )?;
+        s.problem.loads.clone_from(&self.problem.loads);
+        Ok(s)
     }
 
     /// Number of force unknowns.
@@ -158,7 +162,10 @@ impl MarkerSensor {
 
     /// The force vector of each candidate from the unknowns.
     fn force_vectors(&self, lambda: &[f64]) -> Vec<[f64; 3]> {
-        self.loaded(lambda).loads.iter().map(|l| l.force).collect()
+        let known = self.problem.loads.len();
+        (self.loaded(lambda).loads[known..].iter())
+            .map(|l| l.force)
+            .collect()
     }
 
     /// The FE equilibrium under `lambda` (warm-started from `start`) and W_ef of the markers
@@ -214,29 +221,54 @@ impl MarkerSensor {
         measured: &[Option<[f64; 3]>],
         previous: Option<&MarkerFrame>,
     ) -> MarkersResult<MarkerFrame> {
-        assert_eq!(measured.len(), self.markers.len(), "one entry per marker");
+        self.solve_frames(frame, &[measured], previous)
+    }
+
+    /// The forces of `frame` from the marker positions of several frames taken to carry the
+    /// same forces (thesis 4.4.2, Remark 2: results accumulated over frames), their rows
+    /// stacked in one least squares: with independent marker noise, k frames divide the
+    /// forces' σ by √k. `measured` holds one entry per marker for each frame, the last
+    /// being `frame`'s; the hidden markers reported are the last frame's. Corollary 1 is
+    /// checked on the distinct markers visible in any of them (a repeated row adds no rank).
+    pub fn solve_frames(
+        &self,
+        frame: u64,
+        measured: &[&[Option<[f64; 3]>]],
+        previous: Option<&MarkerFrame>,
+    ) -> MarkersResult<MarkerFrame> {
+        assert!(!measured.is_empty(), "at least one frame");
+        assert!(
+            measured.iter().all(|m| m.len() == self.markers.len()),
+            "one entry per marker"
+        );
         let n = self.unknowns();
-        let visible: Vec<usize> = (0..measured.len())
-            .filter(|&m| measured[m].is_some())
+        let last = measured[measured.len() - 1];
+        let visible: Vec<usize> = (0..self.markers.len())
+            .filter(|&m| measured.iter().any(|f| f[m].is_some()))
             .collect();
-        let hidden: Vec<usize> = (0..measured.len())
-            .filter(|&m| measured[m].is_none())
+        // Each stacked row: (index into `visible`, axis, measured coordinate).
+        let stacked: Vec<(usize, usize, f64)> = (measured.iter())
+            .flat_map(|f| {
+                visible.iter().enumerate().flat_map(move |(j, &m)| {
+                    f[m].into_iter()
+                        .flat_map(move |p| (0..3).map(move |a| (j, a, p[a])))
+                })
+            })
             .collect();
-        let target: Vec<f64> = visible
-            .iter()
-            .flat_map(|&m| measured[m].expect("visible"))
-            .collect();
-        let rows = target.len();
+        let rows = stacked.len();
         let mut out = MarkerFrame {
             frame,
-            status: MarkersStatus::NotIdentifiable { rows, unknowns: n },
+            status: MarkersStatus::NotIdentifiable {
+                rows: 3 * visible.len(),
+                unknowns: n,
+            },
             forces: Vec::new(),
             intensities: Vec::new(),
             sigma: Vec::new(),
             covariance: None,
             i_w: f64::INFINITY,
             i_e: None,
-            hidden,
+            hidden: (0..last.len()).filter(|&m| last[m].is_none()).collect(),
             rows,
             unknowns: n,
             updates: 0,
@@ -244,9 +276,10 @@ impl MarkerSensor {
             warnings: Vec::new(),
             solution: None,
         };
-        if rows < n || n == 0 {
+        if 3 * visible.len() < n || n == 0 {
             out.warnings.push(format!(
-                "{rows} marker rows for {n} unknowns: the forces are not identifiable (Corollary 1 needs rows >= unknowns)"
+                "{} marker rows for {n} unknowns: the forces are not identifiable (Corollary 1 needs rows >= unknowns)",
+                3 * visible.len()
             ));
             return Ok(out);
         }
@@ -258,11 +291,14 @@ impl MarkerSensor {
         let mut status = MarkersStatus::NotConverged;
         for update in 0..self.params.max_updates {
             let (sol, w) = self.linearise(&lambda, &visible, start.as_ref())?;
-            w_ef = w;
-            let model: Vec<f64> = (visible.iter())
-                .flat_map(|&m| self.markers[m].at.position(&sol.positions))
+            let model: Vec<[f64; 3]> = (visible.iter())
+                .map(|&m| self.markers[m].at.position(&sol.positions))
                 .collect();
-            let r = DVector::from_iterator(rows, target.iter().zip(&model).map(|(t, m)| t - m));
+            w_ef = DMatrix::from_fn(rows, n, |i, k| {
+                let (j, a, _) = stacked[i];
+                w[(3 * j + a, k)]
+            });
+            let r = DVector::from_iterator(rows, stacked.iter().map(|&(j, a, t)| t - model[j][a]));
             let rms = (r.norm_squared() / rows as f64).sqrt();
             out.updates = update + 1;
             out.residual_rms = rms;

@@ -1,17 +1,16 @@
 //! Table 4.1 (issue 36): I_w against I_e over marker layouts, for the sheet with its 12
-//! candidates and the robot with 8 (tests/fixtures/markers/robot_candidates.csv). Layouts:
+//! candidates and the robot with 8 (meshes/models/sheet_candidates.csv and
+//! robot_candidates.csv). Layouts:
 //! the proposed one (greedy, then exchanges), four random subsets of the pool and four
 //! random clusters (the pool nodes nearest a random one), 8 markers each. I_e is the mean
 //! over three seeded draws of two 0.3-0.6 N candidate forces, markers with 0.1 mm noise.
-use crate::common::markers::{grid, measure, model, uniform};
+use crate::common::markers::{bundled_candidates, measure, model, uniform};
 use softsense::fem::model::Model;
 use softsense::fem::solve::MappedPoint;
-use softsense::markers::bind::read_candidates;
 use softsense::markers::layout::{
     default_pool, layout_from_pool, layout_i_w, spearman, LayoutParams, PoolCompliance,
 };
-use softsense::markers::{BoundMarker, Directions, ForceCandidate, MarkerSensor, MarkersParams};
-use std::path::Path;
+use softsense::markers::{BoundMarker, ForceCandidate, MarkerSensor, MarkersParams};
 
 const MARKERS: usize = 8;
 const DRAWS: u64 = 3;
@@ -122,24 +121,13 @@ fn study(body: &str, m: &Model, candidates: &[ForceCandidate]) -> (Vec<(String, 
 
 fn sheet() -> (Model, Vec<ForceCandidate>) {
     let m = model("sheet.toml");
-    let mesh = &m.problem.mesh;
-    let surface = mesh.surface();
-    let cands = grid(&[-60.0, -20.0, 20.0, 60.0], &[-40.0, 0.0, 40.0], 4.0);
-    let candidates = (cands.iter().enumerate())
-        .map(|(i, p)| {
-            let at = p.map(|c| c * 1e-3);
-            ForceCandidate::snapped(&format!("c{i}"), mesh, &surface, at, Directions::Normal)
-                .unwrap()
-        })
-        .collect();
+    let candidates = bundled_candidates(&m, "sheet");
     (m, candidates)
 }
 
 fn robot() -> (Model, Vec<ForceCandidate>) {
     let m = model("robot.toml");
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let file = root.join("tests/fixtures/markers/robot_candidates.csv");
-    let candidates = read_candidates(&file, &m.problem.mesh).unwrap();
+    let candidates = bundled_candidates(&m, "robot");
     (m, candidates)
 }
 

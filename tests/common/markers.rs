@@ -113,11 +113,19 @@ pub fn uniform(seed: u64, k: u64) -> f64 {
     softsense::scene::sensor::uniform(seed, 7, k, 0)
 }
 
-/// The sheet with 25 markers and 12 normal candidates on a 40 mm grid (4 x 3).
+/// The bundled candidates of a body (thesis 4.7.4): `meshes/models/<body>_candidates.csv`,
+/// the sheet's 12 (a 4 x 3 grid, 40 mm apart, normal) or the robot's 8.
+pub fn bundled_candidates(m: &Model, body: &str) -> Vec<ForceCandidate> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let file = root.join(format!("meshes/models/{body}_candidates.csv"));
+    softsense::markers::bind::read_candidates(&file, &m.problem.mesh).unwrap()
+}
+
+/// The sheet with 25 markers and its 12 bundled normal candidates (a 40 mm grid, 4 x 3).
 pub fn sheet_with_twelve_candidates() -> MarkerSensor {
     let m = model("sheet.toml");
-    let cands = grid(&[-60.0, -20.0, 20.0, 60.0], &[-40.0, 0.0, 40.0], 4.0);
-    sensor(&m, &sheet_markers(), &cands, Directions::Normal)
+    let s = sensor(&m, &sheet_markers(), &[], Directions::Normal);
+    s.with_candidates(bundled_candidates(&m, "sheet")).unwrap()
 }
 
 /// Trial `t` of location among candidates: one or two distinct candidates (0.3-0.6 N each,

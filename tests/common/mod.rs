@@ -4,6 +4,7 @@
 pub mod batch;
 pub mod corpus;
 pub mod markers;
+pub mod markers_painted;
 pub mod markers_sensitivity;
 pub mod oracle;
 

@@ -160,8 +160,82 @@ fn the_markers_command_reads_a_track_file_and_prints_the_forces() {
     let dir = tempfile::tempdir().unwrap();
     let truth = [[0.0, 0.0, -0.459], [0.0, 0.0, -0.359]];
     // Frame 0: the sheet under gravity alone (where the command binds the markers);
-    // frame 1: the two weights hang.
-    let frames = [measure(&s, &[[0.0; 3]; 2], 120), measure(&s, &truth, 121)];
+    // frames 1 and 2: the two weights hang (independent noise).
+    let frames = [
+        measure(&s, &[[0.0; 3]; 2], 120),
+        measure(&s, &truth, 121),
+        measure(&s, &truth, 122),
+    ];
+    let (track_path, cand_path) = write_inputs(
+        &dir,
+        &s,
+        frames.to_vec(),
+        "left,-0.04,0,0.004,normal\nright,0.04,0,0.004,normal\n",
+    );
+    let (cand, track) = (cand_path.to_str().unwrap(), track_path.to_str().unwrap());
+    let model = "meshes/models/sheet.toml";
+    let out = crate::cli::softsense(&["markers", "--json", "--candidates", cand, track, model]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let lines = json_lines(&out.stdout);
+    assert_eq!(lines.len(), 3);
+    let forces = &lines[1]["forces_n"];
+    for (i, f) in truth.iter().enumerate() {
+        let z = forces[i][2].as_f64().unwrap();
+        let sigma = lines[1]["sigma_n"][i].as_f64().unwrap();
+        eprintln!(
+            "cli: force {i} {z:.4} N against {:.3} N (sigma {sigma:.4})",
+            f[2]
+        );
+        assert!((z - f[2]).abs() < 4.0 * sigma);
+    }
+    assert_eq!(lines[1]["located"].as_array().unwrap().len(), 2);
+    // Each force found at one candidate alone: nothing to refine.
+    assert_eq!(lines[1]["refined"], serde_json::json!([null, null]));
+    // Frame 2 with frame 1's rows stacked: twice the rows, σ divided by about √2.
+    let out = crate::cli::softsense(&[
+        "markers",
+        "--json",
+        "--accumulate",
+        "2",
+        "--candidates",
+        cand,
+        track,
+        model,
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let acc = json_lines(&out.stdout);
+    assert_eq!(acc[2]["rows"], 2 * lines[2]["rows"].as_u64().unwrap());
+    for (i, f) in truth.iter().enumerate() {
+        let sigma = acc[2]["sigma_n"][i].as_f64().unwrap();
+        let ratio = lines[2]["sigma_n"][i].as_f64().unwrap() / sigma;
+        let z = acc[2]["forces_n"][i][2].as_f64().unwrap();
+        eprintln!(
+            "cli --accumulate 2: force {i} {z:.4} N, sigma {sigma:.4} N (1 frame / 2: {ratio:.3})"
+        );
+        assert!((ratio - 2f64.sqrt()).abs() < 0.02, "σ ratio {ratio}");
+        assert!((z - f[2]).abs() < 4.0 * sigma);
+    }
+    let zero = crate::cli::softsense(&["markers", "--accumulate", "0", track, model]);
+    assert!(!zero.status.success());
+    assert!(String::from_utf8_lossy(&zero.stderr).contains("--accumulate"));
+}
+
+/// A track file of `frames` (frame numbers 0, 1, ...) of the markers of `s` and a candidate
+/// file of `candidate_lines` (CSV rows) in `dir`.
+fn write_inputs(
+    dir: &tempfile::TempDir,
+    s: &softsense::markers::MarkerSensor,
+    frames: Vec<Vec<Option<[f64; 3]>>>,
+    candidate_lines: &str,
+) -> (std::path::PathBuf, std::path::PathBuf) {
     let tracks = softsense::markers::MarkerTracks {
         names: s.markers.iter().map(|m| m.name.clone()).collect(),
         frames: (frames.into_iter().enumerate())
@@ -174,34 +248,80 @@ fn the_markers_command_reads_a_track_file_and_prints_the_forces() {
     let track_path = dir.path().join("tracks.csv");
     softsense::markers::tracks::write_tracks(&track_path, &tracks).unwrap();
     let cand_path = dir.path().join("candidates.csv");
-    std::fs::write(
-        &cand_path,
-        "name,x,y,z,directions\nleft,-0.04,0,0.004,normal\nright,0.04,0,0.004,normal\n",
-    )
-    .unwrap();
+    let text = format!("name,x,y,z,directions\n{candidate_lines}");
+    std::fs::write(&cand_path, text).unwrap();
+    (track_path, cand_path)
+}
+
+fn json_lines(stdout: &[u8]) -> Vec<serde_json::Value> {
+    (String::from_utf8_lossy(stdout).lines())
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect()
+}
+
+#[test]
+fn the_markers_command_refines_a_force_found_at_two_neighbouring_candidates() {
+    // Candidates 20 mm apart on the sheet's x axis, one 0.45 N weight at the node halfway
+    // between them: both carry part of it, one located force, refined near the truth.
+    let s = sheet_with_two_candidates();
+    let mesh = &s.problem.mesh;
+    let top = mesh.surface().nodes.into_iter().min_by(|&a, &b| {
+        let d = |v: usize| {
+            let p = mesh.nodes_in_rest[v];
+            p[0].powi(2) + p[1].powi(2) + (p[2] - 0.004).powi(2)
+        };
+        d(a).total_cmp(&d(b))
+    });
+    let node = top.unwrap();
+    let at = softsense::fem::solve::MappedPoint::node(node);
+    let loads = |w: f64| {
+        vec![softsense::fem::solve::PointLoad {
+            at,
+            force: [0.0, 0.0, -w],
+        }]
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let frames = vec![
+        measure_loads(&s, loads(0.0), 130),
+        measure_loads(&s, loads(0.45), 131),
+    ];
+    let (track_path, cand_path) = write_inputs(
+        &dir,
+        &s,
+        frames,
+        "left,-0.01,0,0.004,normal\nright,0.01,0,0.004,normal\n",
+    );
     let (cand, track) = (cand_path.to_str().unwrap(), track_path.to_str().unwrap());
-    let model = "meshes/models/sheet.toml";
-    let out = crate::cli::softsense(&["markers", "--json", "--candidates", cand, track, model]);
+    let out = crate::cli::softsense(&[
+        "markers",
+        "--json",
+        "--candidates",
+        cand,
+        track,
+        "meshes/models/sheet.toml",
+    ]);
     assert!(
         out.status.success(),
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let lines: Vec<serde_json::Value> = (String::from_utf8(out.stdout).unwrap().lines())
-        .map(|l| serde_json::from_str(l).unwrap())
+    let lines = json_lines(&out.stdout);
+    let located = lines[1]["located"].as_array().unwrap();
+    assert_eq!(located.len(), 1, "{located:?}");
+    assert_eq!(located[0]["candidates"].as_array().unwrap().len(), 2);
+    let refined = &lines[1]["refined"][0];
+    let c: Vec<f64> = (0..3)
+        .map(|a| refined["centre"][a].as_f64().unwrap())
         .collect();
-    assert_eq!(lines.len(), 2);
-    let forces = &lines[1]["forces_n"];
-    for (i, f) in truth.iter().enumerate() {
-        let z = forces[i][2].as_f64().unwrap();
-        let sigma = lines[1]["sigma_n"][i].as_f64().unwrap();
-        eprintln!(
-            "cli: force {i} {z:.4} N against {:.3} N (sigma {sigma:.4})",
-            f[2]
-        );
-        assert!((z - f[2]).abs() < 4.0 * sigma);
-    }
-    assert_eq!(lines[1]["located"].as_array().unwrap().len(), 2);
+    let p = mesh.nodes_in_rest[node];
+    let off = ((c[0] - p[0]).powi(2) + (c[1] - p[1]).powi(2)).sqrt();
+    let fz = refined["force"][2].as_f64().unwrap();
+    eprintln!(
+        "cli refined: {:.1} mm off the truth, force {fz:.4} N against -0.45 N",
+        1e3 * off
+    );
+    assert!(off <= 0.005, "refined {:.1} mm off", 1e3 * off);
+    assert!((fz + 0.45).abs() < 0.05 * 0.45, "force {fz}");
 }
 
 #[test]
@@ -215,7 +335,7 @@ fn markers_layout_proposes_eight_robot_markers_and_writes_a_track_file() {
         "--markers",
         "8",
         "--candidates",
-        "tests/fixtures/markers/robot_candidates.csv",
+        "meshes/models/robot_candidates.csv",
         "--json",
         "--csv",
         csv.to_str().unwrap(),
@@ -242,7 +362,7 @@ fn markers_layout_proposes_eight_robot_markers_and_writes_a_track_file() {
         "--markers",
         "2",
         "--candidates",
-        "tests/fixtures/markers/robot_candidates.csv",
+        "meshes/models/robot_candidates.csv",
     ]);
     assert!(!refused.status.success());
     assert!(String::from_utf8_lossy(&refused.stderr).contains("Corollary 1"));

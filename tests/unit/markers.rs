@@ -290,3 +290,133 @@ fn candidate_files_snap_to_surface_nodes_and_name_bad_lines() {
         }
     }
 }
+
+/// The bar with 4 markers and 3 normal candidates on its top face, 30 mm apart.
+fn bar_with_three_candidates() -> MarkerSensor {
+    let p = bar(false);
+    let surface = p.mesh.surface();
+    let at = [
+        [0.035, 0.0, 0.01],
+        [0.055, 0.0, 0.01],
+        [0.085, 0.0, 0.01],
+        [0.1, 0.01, 0.01],
+    ];
+    let names: Vec<String> = (0..at.len()).map(|i| format!("m{i}")).collect();
+    let markers = bind_markers(&p.mesh.nodes_in_rest, &surface, &names, &at, 1e-3).unwrap();
+    let cand = [0.04, 0.07, 0.1]
+        .iter()
+        .map(|&x| {
+            let name = format!("x{}", 1e3 * x);
+            ForceCandidate::snapped(
+                &name,
+                &p.mesh,
+                &surface,
+                [x, 0.01, 0.02],
+                Directions::Normal,
+            )
+            .unwrap()
+        })
+        .collect();
+    let params = MarkersParams::default();
+    MarkerSensor::new(&p, NewtonParams::default(), markers, cand, params).unwrap()
+}
+
+#[test]
+fn stacking_frames_of_the_same_forces_locates_weak_forces_more_often_than_one_frame() {
+    let s = bar_with_three_candidates();
+    let noise = s.params.sigma;
+    let free = s.problem.solve_static(&s.newton).unwrap();
+    let exact =
+        |x: &[[f64; 3]]| -> Vec<[f64; 3]> { s.markers.iter().map(|m| m.at.position(x)).collect() };
+    let unloaded: Vec<_> = exact(&free.positions).into_iter().map(Some).collect();
+    // One frame's σ of each candidate's force (the same at every small load: linear regime).
+    let sigma1 = s.solve_frame(0, &unloaded, None).unwrap().sigma;
+    const FRAMES: u64 = 4;
+    const TRIALS: u64 = 40;
+    let (mut single, mut stacked) = (0, 0);
+    for t in 0..TRIALS {
+        // One force at candidate t % 3 of 2-8 σ (one frame's), pressing into the bar. A
+        // candidate is found above 5 σ: one frame should find about half of them, four
+        // stacked frames (σ halved) about 90%.
+        let c = (t % 3) as usize;
+        let u = softsense::scene::sensor::uniform(t, 1, 0, 0);
+        let mag = sigma1[c] * (2.0 + 6.0 * u);
+        let d = s.candidates[c].directions[0];
+        let mut p = s.problem.clone();
+        p.loads.push(PointLoad {
+            at: s.candidates[c].at,
+            force: d.map(|v| -mag * v),
+        });
+        let x = exact(&p.solve_static(&s.newton).unwrap().positions);
+        let frames: Vec<Vec<Option<[f64; 3]>>> = (0..FRAMES)
+            .map(|f| {
+                (x.iter().enumerate())
+                    .map(|(m, q)| {
+                        Some([0, 1, 2].map(|k| {
+                            q[k] + noise
+                                * softsense::scene::sensor::normal(t, f, m as u64, k as u64)
+                        }))
+                    })
+                    .collect()
+            })
+            .collect();
+        let located = |est: &softsense::markers::MarkerFrame| {
+            let l = locate_forces(est, &s.candidates, &s.params);
+            l.len() == 1 && l[0].candidates == [c]
+        };
+        let last = s
+            .solve_frame(t, &frames[FRAMES as usize - 1], None)
+            .unwrap();
+        let views: Vec<&[Option<[f64; 3]>]> = frames.iter().map(Vec::as_slice).collect();
+        let all = s.solve_frames(t, &views, None).unwrap();
+        assert_eq!(all.rows, 4 * last.rows);
+        // The same frame k times: the same solution and linearisation, σ divided by √k.
+        let same = s
+            .solve_frames(t, &[&frames[3][..]; FRAMES as usize], None)
+            .unwrap();
+        let ratio = last.sigma[c] / same.sigma[c];
+        assert!((ratio - 2.0).abs() < 1e-6, "σ ratio {ratio}");
+        assert!((same.intensities[c] - last.intensities[c]).abs() < 1e-6 * last.sigma[c]);
+        single += located(&last) as usize;
+        stacked += located(&all) as usize;
+    }
+    eprintln!("located from one frame {single}/{TRIALS}, from {FRAMES} stacked {stacked}/{TRIALS}");
+    assert!(
+        stacked >= single + 8,
+        "one frame {single}, stacked {stacked}"
+    );
+    assert!(stacked >= 30, "stacked {stacked} of {TRIALS}");
+}
+
+#[test]
+fn known_loads_put_back_on_the_sensor_are_held_and_not_reported_as_candidate_forces() {
+    let mut s = bar_with_three_candidates();
+    // A known 20 mN push at the first marker's node, in every frame.
+    let known = PointLoad {
+        at: s.markers[0].at,
+        force: [0.0, 0.0, -0.02],
+    };
+    s.problem.loads.push(known);
+    let truth = 0.1;
+    let mut p = s.problem.clone();
+    let d = s.candidates[1].directions[0];
+    p.loads.push(PointLoad {
+        at: s.candidates[1].at,
+        force: d.map(|v| -truth * v),
+    });
+    let x = p.solve_static(&s.newton).unwrap().positions;
+    let measured: Vec<_> = (s.markers.iter())
+        .map(|m| Some(m.at.position(&x)))
+        .collect();
+    let est = s.solve_frame(0, &measured, None).unwrap();
+    assert_eq!(est.forces.len(), 3);
+    assert!(
+        (est.intensities[1] + truth).abs() < 1e-4,
+        "{:?}",
+        est.intensities
+    );
+    assert!(est.intensities[0].abs() < 1e-4 && est.intensities[2].abs() < 1e-4);
+    // The copy with other candidates keeps the known load.
+    let other = s.with_candidates(s.candidates[..1].to_vec()).unwrap();
+    assert_eq!(other.problem.loads.len(), 1);
+}
