@@ -128,6 +128,12 @@ the model's own) and the example frame:
   target = [0.0, 0.0, 0.06]
   up = [0.0, 0.0, 1.0]
 
+  # [[cameras]]           # instead of [camera], any number: each renders every
+  # name = \"side\"         # frame into OUT_DIR/NAME/ (images, intrinsics.json,
+  # eye = [0.433, 0.0, 0.31]  # camera_pose.json) with its own noise draw; the other
+                           # keys as in [camera], same defaults; truth.json and
+                           # actuators.json stay in OUT_DIR (clouds/scenes/two_cameras.toml)
+
   [sensor]
   enabled = true           # false: exact depth, still quantised to depth_unit
   depth_k = 0.002          # depth noise sigma = depth_k * z^2 (0.5 mm at 0.5 m)
@@ -190,8 +196,13 @@ pub fn run(args: SceneArgs) -> Result<(), Box<dyn std::error::Error>> {
                     f.pixels
                 );
             }
+            let cameras: Vec<String> = (scene.views().into_iter()).filter_map(|v| v.name).collect();
+            let into = match cameras.is_empty() {
+                true => String::new(),
+                false => format!(" of {} cameras ({})", cameras.len(), cameras.join(", ")),
+            };
             eprintln!(
-                "wrote {} frames to {}",
+                "wrote {} frames{into} to {}",
                 truth.frames.len(),
                 out_dir.display()
             );

@@ -92,7 +92,7 @@ fn a_sweeps_scene_depends_only_on_the_file_the_seed_and_its_index() {
     let text = |d: &softsense::scene::sweep::Drawn| toml::to_string(&d.scene.spec).unwrap();
     assert_eq!(text(&a), text(&b));
     assert_ne!(text(&a), text(&c));
-    assert_eq!(a.rendered.depth, b.rendered.depth);
+    assert_eq!(a.rendered.views[0].depth, b.rendered.views[0].depth);
 }
 
 #[test]

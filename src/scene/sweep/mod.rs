@@ -508,6 +508,7 @@ fn try_draw(sweep: &Sweep, prepared: &Prepared, r: &mut Draws) -> SceneResult<At
             colors: spec.colors.clone(),
             markers: None,
             camera: cam,
+            cameras: Vec::new(),
             sensor,
             frames: vec![FrameInput {
                 cables: Vec::new(),
