@@ -103,7 +103,7 @@ impl Default for Colors {
 }
 
 /// A scene file.
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SceneSpec {
     /// FE model file (relative to the scene file).
@@ -130,12 +130,12 @@ pub struct SceneSpec {
     /// Painted markers (`[markers]`; none by default).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub markers: Option<markers::MarkerPaint>,
-    /// Camera.
+    /// Camera (unused, and not written out, when `cameras` is given).
     #[serde(default)]
     pub camera: CameraSpec,
     /// Several cameras (`[[cameras]]`, instead of `[camera]`), each rendered into its own
     /// sub-folder; empty for one camera.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    #[serde(default)]
     pub cameras: Vec<NamedCameraSpec>,
     /// Sensor model.
     #[serde(default)]
@@ -146,6 +146,46 @@ pub struct SceneSpec {
 
 fn default_table() -> f64 {
     0.3
+}
+
+// By hand only to leave `camera` out when `cameras` is given: a spec written out (a
+// sweep's scene file, `truth.json`) must load again, and `[camera]` beside `[[cameras]]` is
+// refused. Field order and what is left out are the derived ones'.
+impl Serialize for SceneSpec {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        let mut out = s.serialize_struct("SceneSpec", 12)?;
+        out.serialize_field("model", &self.model)?;
+        out.serialize_field("young", &self.young)?;
+        out.serialize_field("seed", &self.seed)?;
+        out.serialize_field("table_half", &self.table_half)?;
+        match self.table_z.is_some() {
+            true => out.serialize_field("table_z", &self.table_z)?,
+            false => out.skip_field("table_z")?,
+        }
+        match self.occluders.is_empty() {
+            false => out.serialize_field("occluders", &self.occluders)?,
+            true => out.skip_field("occluders")?,
+        }
+        out.serialize_field("colors", &self.colors)?;
+        match self.markers.is_some() {
+            true => out.serialize_field("markers", &self.markers)?,
+            false => out.skip_field("markers")?,
+        }
+        match self.cameras.is_empty() {
+            true => {
+                out.serialize_field("camera", &self.camera)?;
+                out.skip_field("cameras")?;
+            }
+            false => {
+                out.skip_field("camera")?;
+                out.serialize_field("cameras", &self.cameras)?;
+            }
+        }
+        out.serialize_field("sensor", &self.sensor)?;
+        out.serialize_field("frames", &self.frames)?;
+        out.end()
+    }
 }
 
 /// A sphere that hides part of the scene from the camera (an arm, a cable, a tool).

@@ -8,9 +8,13 @@ const FRAME: &str = "[[frames]]\n";
 
 /// Loads a scene file whose body follows a model line (the model is not read by `load`).
 fn load(body: &str) -> Result<Scene, SceneError> {
+    load_file(&format!("model = \"robot.toml\"\nseed = 5\n{body}"))
+}
+
+fn load_file(text: &str) -> Result<Scene, SceneError> {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("scene.toml");
-    std::fs::write(&path, format!("model = \"robot.toml\"\nseed = 5\n{body}")).unwrap();
+    std::fs::write(&path, text).unwrap();
     Scene::load(&path)
 }
 
@@ -94,4 +98,22 @@ fn camera_seeds_differ_by_camera_and_by_scene_seed() {
         assert_ne!(camera_seed(8, i), seeds[i]);
         assert_ne!(seeds[i], 7);
     }
+}
+
+#[test]
+fn a_scene_with_cameras_written_out_loads_again_without_a_camera_table() {
+    let body = camera("front", "[0.0, -0.433, 0.31]") + &camera("side", "[0.433, 0.0, 0.31]");
+    let scene = load(&(body + FRAME)).unwrap();
+    let text = toml::to_string(&scene.spec).unwrap();
+    let table: toml::Table = toml::from_str(&text).unwrap();
+    assert!(!table.contains_key("camera"), "{text}");
+    let again = load_file(&text).unwrap();
+    assert_eq!(toml::to_string(&again.spec).unwrap(), text);
+    // One camera is written as [camera], as before.
+    let one = load(&format!("[camera]\nwidth = 320\n{FRAME}")).unwrap();
+    let text = toml::to_string(&one.spec).unwrap();
+    assert!(
+        text.contains("[camera]") && !text.contains("cameras"),
+        "{text}"
+    );
 }
