@@ -67,6 +67,9 @@ the other keys show their defaults:
   elevation_deg = [20.0, 45.0]   # looking down
   streams = [\"640x480\"]        # and/or \"1280x720\" (D415-like intrinsics)
   # target = [0.0, 0.0, 0.06]    # default: centre of the robot's bounding box
+  count = 1                      # cameras per scene (1-8); with more, each next one
+  azimuth_spacing_deg = 90.0     # this much further in azimuth, its own distance and
+                                 # elevation drawn; scene_NNNN/camK/ per camera
 
   [probes]
   count = [1, 1]           # probes per scene, inclusive
