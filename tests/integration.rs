@@ -29,6 +29,8 @@ mod markers;
 mod markers_detect;
 #[path = "integration/rgbd_sequence.rs"]
 mod rgbd_sequence;
+#[path = "integration/scene_cameras.rs"]
+mod scene_cameras;
 #[path = "integration/sense_probe.rs"]
 mod sense_probe;
 #[path = "integration/sense_tip_weight.rs"]

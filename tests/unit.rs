@@ -51,6 +51,8 @@ mod markers_layout;
 mod register;
 #[path = "unit/scene.rs"]
 mod scene;
+#[path = "unit/scene_cameras.rs"]
+mod scene_cameras;
 #[path = "unit/segment.rs"]
 mod segment;
 #[path = "unit/segment_geometric.rs"]
@@ -73,6 +75,8 @@ mod flann_order;
 
 #[path = "unit/recording.rs"]
 mod recording;
+#[path = "unit/recording_rig.rs"]
+mod recording_rig;
 
 #[path = "unit/score.rs"]
 mod score;

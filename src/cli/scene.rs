@@ -67,6 +67,9 @@ the other keys show their defaults:
   elevation_deg = [20.0, 45.0]   # looking down
   streams = [\"640x480\"]        # and/or \"1280x720\" (D415-like intrinsics)
   # target = [0.0, 0.0, 0.06]    # default: centre of the robot's bounding box
+  count = 1                      # cameras per scene (1-8); with more, each next one
+  azimuth_spacing_deg = 90.0     # this much further in azimuth, its own distance and
+                                 # elevation drawn; scene_NNNN/camK/ per camera
 
   [probes]
   count = [1, 1]           # probes per scene, inclusive
@@ -127,6 +130,12 @@ the model's own) and the example frame:
   eye = [0.0, -0.433, 0.31]
   target = [0.0, 0.0, 0.06]
   up = [0.0, 0.0, 1.0]
+
+  # [[cameras]]           # instead of [camera], any number: each renders every
+  # name = \"side\"         # frame into OUT_DIR/NAME/ (images, intrinsics.json,
+  # eye = [0.433, 0.0, 0.31]  # camera_pose.json) with its own noise draw; the other
+                           # keys as in [camera], same defaults; truth.json and
+                           # actuators.json stay in OUT_DIR (clouds/scenes/two_cameras.toml)
 
   [sensor]
   enabled = true           # false: exact depth, still quantised to depth_unit
@@ -190,8 +199,13 @@ pub fn run(args: SceneArgs) -> Result<(), Box<dyn std::error::Error>> {
                     f.pixels
                 );
             }
+            let cameras: Vec<String> = (scene.views().into_iter()).filter_map(|v| v.name).collect();
+            let into = match cameras.is_empty() {
+                true => String::new(),
+                false => format!(" of {} cameras ({})", cameras.len(), cameras.join(", ")),
+            };
             eprintln!(
-                "wrote {} frames to {}",
+                "wrote {} frames{into} to {}",
                 truth.frames.len(),
                 out_dir.display()
             );

@@ -420,6 +420,7 @@ fn render_frames(
             colors: Default::default(),
             markers: None,
             camera: w.camera.clone(),
+            cameras: Vec::new(),
             sensor: fine_sensor.clone(),
             frames: w.applied.clone(),
         },
@@ -435,8 +436,11 @@ fn render_frames(
                 crate::fem::material::Material::new(e.young() * (1.0 + beta * total), e.poisson())?;
         }
         let r = render_frame(&scene, &m, i)?;
+        let [view] = &r.views[..] else {
+            unreachable!("a scene without [[cameras]] renders one view")
+        };
         let unit = spec.sensor.depth_unit;
-        let d: Vec<u16> = r
+        let d: Vec<u16> = view
             .depth
             .iter()
             .map(|&v| {
@@ -447,7 +451,7 @@ fn render_frames(
                 (z / unit).round().clamp(0.0, 65535.0) as u16
             })
             .collect();
-        writer.write_frame(i, [w.camera.width, w.camera.height], d, &r.color)?;
+        writer.write_frame(i, [w.camera.width, w.camera.height], d, &view.color)?;
     }
     Ok(())
 }

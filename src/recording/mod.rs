@@ -10,6 +10,9 @@
 //!   `actuators.json` (per frame, each cable's [`ActuatorTruth`]): the recorded inputs;
 //! - `truth.json`: the generator's truth, for error reports only.
 //!
+//! A folder of several cameras keeps each camera's frames, camera file and pose in its own
+//! sub-folder and the other files at the top: [`Rig`].
+//!
 //! File names inside these files (the model) resolve against the folder, never the working
 //! directory. The format is in `docs/recording-format.md`.
 //!
@@ -23,11 +26,13 @@
 
 mod inputs;
 mod layout;
+mod rig;
 pub mod schema;
 mod write;
 
 pub use inputs::{InputsFile, RecordedInputs};
 pub use layout::{list_frames, FrameFiles, Layout};
+pub use rig::{Rig, RigCamera};
 pub use schema::{
     ActuatorCalibration, ActuatorTruth, CableInput, Calibration, FrameInput, FrameTruth, Truth,
 };
@@ -95,6 +100,38 @@ pub enum RecordingError {
         /// The other.
         second: PathBuf,
     },
+    /// A folder whose frames are in camera sub-folders, given where one camera's are read.
+    #[error(
+        "{path} is a {n}-camera recording (cameras {names}): this reads one-camera \
+         recordings only, a folder with frames of its own",
+        n = cameras.len(),
+        names = cameras.join(", ")
+    )]
+    SeveralCameras {
+        /// The folder.
+        path: PathBuf,
+        /// The cameras' names (sub-folder names).
+        cameras: Vec<String>,
+    },
+    /// A camera of a rig could not be read.
+    #[error("camera {name}: {source}")]
+    Camera {
+        /// The camera's name (its sub-folder).
+        name: String,
+        /// What went wrong.
+        source: Box<RecordingError>,
+    },
+    /// A pose at the top of a rig's folder, where it would not say which camera it is.
+    #[error(
+        "{path}: robot_from_camera at the top of a {cameras}-camera recording: each \
+         camera's pose goes in its own folder (NAME/calibration.json or NAME/camera_pose.json)"
+    )]
+    RigPose {
+        /// The file.
+        path: PathBuf,
+        /// How many cameras the rig has.
+        cameras: usize,
+    },
     /// A frame number the recording does not have.
     #[error("no frame {frame} in the recording (frames {first}..={last})")]
     NoSuchFrame {
@@ -140,6 +177,10 @@ pub struct Recording {
     /// What was wrong with optional files that were then left out (an unreadable
     /// `truth.json`: the frames are sensed unscored).
     pub warnings: Vec<String>,
+    /// The file `calibrated` and `calibration_model` came from.
+    calibration_file: Option<PathBuf>,
+    /// Where the shared files (`truth.json`, inputs) are: `dir`, or a rig's top folder.
+    shared_dir: PathBuf,
 }
 
 pub(crate) fn file_err(path: &Path, e: impl std::fmt::Display) -> RecordingError {
@@ -183,12 +224,43 @@ fn read_pose_file(path: &Path) -> RecordingResult<(Pose, PoseFile)> {
     Ok((pose, file))
 }
 
-impl Recording {
-    /// Opens a recording folder: finds its frames and camera files, and reads the pose
-    /// (`calibration.json` if present, else `camera_pose.json`, else none) and the optional
-    /// `inputs.json`, `actuators.json` and `truth.json`.
-    pub fn open(dir: &Path) -> RecordingResult<Self> {
-        let (layout, mut files) = list_frames(dir)?;
+/// One camera's folder: its frames, camera files and pose.
+struct CameraFolder {
+    layout: Layout,
+    files: Vec<FrameFiles>,
+    cameras: Vec<CameraModel>,
+    robot_from_camera: Option<Pose>,
+    pose_file: Option<PathBuf>,
+    calibration: Option<CalibrationFrom>,
+}
+
+/// What a calibration file adds beside a pose: the calibrated cable inputs and the model,
+/// with the file it came from (a model named there resolves against its folder).
+#[derive(Clone, Debug)]
+struct CalibrationFrom {
+    file: PathBuf,
+    actuators: Option<Vec<ActuatorCalibration>>,
+    model: Option<String>,
+}
+
+/// The files every camera of a recording shares (a one-camera folder's own; the top of a
+/// rig's folder): recorded inputs and truth.
+#[derive(Clone, Debug)]
+struct Shared {
+    dir: PathBuf,
+    recorded: Option<RecordedInputs>,
+    truth: Option<Truth>,
+    warnings: Vec<String>,
+}
+
+fn existing(dir: &Path, name: &str) -> Option<PathBuf> {
+    Some(dir.join(name)).filter(|p| p.exists())
+}
+
+impl CameraFolder {
+    /// Reads the camera files of `files` (listed in `dir`) and the folder's pose
+    /// (`calibration.json` if present, else `camera_pose.json`, else none).
+    fn read(dir: &Path, layout: Layout, mut files: Vec<FrameFiles>) -> RecordingResult<Self> {
         files.sort_by_key(|f| f.number);
         let mut cameras: Vec<CameraModel> = Vec::with_capacity(files.len());
         for (i, f) in files.iter().enumerate() {
@@ -199,47 +271,122 @@ impl Recording {
             };
             cameras.push(camera);
         }
-        let opt = |name: &str| Some(dir.join(name)).filter(|p| p.exists());
-        let pose_file = opt("calibration.json").or_else(|| opt("camera_pose.json"));
-        let (robot_from_camera, pose) = match &pose_file {
+        let pose_file =
+            existing(dir, "calibration.json").or_else(|| existing(dir, "camera_pose.json"));
+        let (robot_from_camera, calibration) = match &pose_file {
             Some(p) => {
                 let (pose, file) = read_pose_file(p)?;
-                (Some(pose), Some(file))
+                let calibration = CalibrationFrom {
+                    file: p.clone(),
+                    actuators: file.actuators,
+                    model: file.model,
+                };
+                (Some(pose), Some(calibration))
             }
             None => (None, None),
         };
-        let (calibrated, calibration_model) = pose.map_or((None, None), |p| (p.actuators, p.model));
+        Ok(Self {
+            layout,
+            files,
+            cameras,
+            robot_from_camera,
+            pose_file,
+            calibration,
+        })
+    }
+}
+
+impl Shared {
+    /// Reads the optional `inputs.json`, `actuators.json` and `truth.json` of `dir`.
+    fn read(dir: &Path) -> RecordingResult<Self> {
         let mut warnings = Vec::new();
         // The truth only scores the estimates: a broken one costs the scores, not the run.
-        let truth = match opt("truth.json").map(|p| read_json(&p)).transpose() {
+        let truth = match existing(dir, "truth.json")
+            .map(|p| read_json(&p))
+            .transpose()
+        {
             Ok(t) => t,
             Err(e) => {
                 warnings.push(format!("{e}: left out, the frames are not scored"));
                 None
             }
         };
-        let recorded = match (opt("inputs.json"), opt("actuators.json")) {
+        let recorded = match (
+            existing(dir, "inputs.json"),
+            existing(dir, "actuators.json"),
+        ) {
             (Some(p), _) => Some(RecordedInputs::read(&p, InputsFile::Inputs)?),
             (None, Some(p)) => Some(RecordedInputs::read(&p, InputsFile::Actuators)?),
             (None, None) => None,
         };
-        let frames: Vec<usize> = files.iter().map(|f| f.number).collect();
-        warnings.extend(recorded.as_ref().and_then(|r| r.coverage_warning(&frames)));
         Ok(Self {
             dir: dir.to_path_buf(),
-            layout,
-            camera: cameras[0],
-            robot_from_camera,
-            pose_file,
-            frames,
-            files,
-            cameras,
             recorded,
-            calibrated,
-            calibration_model,
             truth,
             warnings,
         })
+    }
+}
+
+impl Recording {
+    /// Opens a one-camera recording folder: finds its frames and camera files, and reads
+    /// the pose (`calibration.json` if present, else `camera_pose.json`, else none) and the
+    /// optional `inputs.json`, `actuators.json` and `truth.json`. A folder whose frames are
+    /// in camera sub-folders is refused ([`RecordingError::SeveralCameras`]): open it with
+    /// [`Rig::open`].
+    pub fn open(dir: &Path) -> RecordingResult<Self> {
+        let (layout, files) = match list_frames(dir) {
+            Err(RecordingError::NoFrames { path }) => {
+                let cameras = rig::camera_folders(dir)?;
+                return Err(match cameras.is_empty() {
+                    true => RecordingError::NoFrames { path },
+                    false => RecordingError::SeveralCameras {
+                        path,
+                        cameras: cameras.into_iter().map(|(name, _)| name).collect(),
+                    },
+                });
+            }
+            listed => listed?,
+        };
+        let folder = CameraFolder::read(dir, layout, files)?;
+        let mut shared = Shared::read(dir)?;
+        let frames: Vec<usize> = folder.files.iter().map(|f| f.number).collect();
+        let coverage = shared.recorded.as_ref();
+        let coverage = coverage.and_then(|r| r.coverage_warning(&frames));
+        shared.warnings.extend(coverage);
+        let calibration = folder.calibration.clone();
+        Ok(Self::assemble(dir, folder, shared, calibration))
+    }
+
+    /// The recording of the camera folder `dir` with the shared files `shared` and the
+    /// calibration `calibration` (cable inputs and model).
+    fn assemble(
+        dir: &Path,
+        folder: CameraFolder,
+        shared: Shared,
+        calibration: Option<CalibrationFrom>,
+    ) -> Self {
+        let frames: Vec<usize> = folder.files.iter().map(|f| f.number).collect();
+        let (calibrated, calibration_model) = calibration
+            .as_ref()
+            .map_or((None, None), |c| (c.actuators.clone(), c.model.clone()));
+        Self {
+            dir: dir.to_path_buf(),
+            layout: folder.layout,
+            camera: folder.cameras[0],
+            robot_from_camera: folder.robot_from_camera,
+            pose_file: folder.pose_file,
+            frames,
+            files: folder.files,
+            cameras: folder.cameras,
+            recorded: shared.recorded,
+            calibrated,
+            calibration_model,
+            calibration_file: calibration.map(|c| c.file),
+            shared_dir: shared.dir,
+            truth: shared.truth,
+            warnings: shared.warnings,
+        }
     }
 
     /// The recording with the camera pose read from `path` (a `--pose` file) instead of
@@ -276,6 +423,11 @@ impl Recording {
             })
     }
 
+    /// Whether the folder has frame `frame` (whether or not [`Recording::select`] kept it).
+    pub fn has_frame(&self, frame: usize) -> bool {
+        self.index_of(frame).is_ok()
+    }
+
     /// The files of `frame`.
     pub fn files_of(&self, frame: usize) -> RecordingResult<&FrameFiles> {
         Ok(&self.files[self.index_of(frame)?])
@@ -299,8 +451,8 @@ impl Recording {
     }
 
     /// The model file named by the truth (generated scenes), else by the calibration, if
-    /// any (see [`Recording::model_named_by`]). A relative path is taken from the
-    /// recording's folder; if nothing is there, as it is (older recordings name it from the
+    /// any (see [`Recording::model_named_by`]). A relative path is taken from the folder
+    /// of the file that names it; if nothing is there, as it is (older recordings name it from the
     /// directory `scene generate` ran in).
     pub fn model_path(&self) -> Option<PathBuf> {
         self.model_source().map(|(path, _)| path)
@@ -316,22 +468,23 @@ impl Recording {
     // copied away from the repository keeps a truth.json naming a path that no longer
     // resolves, while `softsense calibrate` names the model it was given.
     fn model_source(&self) -> Option<(PathBuf, PathBuf)> {
-        let resolve = |named: &str| {
+        let resolve = |named: &str, dir: &Path| {
             let named = PathBuf::from(named);
-            let in_dir = self.dir.join(&named);
+            let in_dir = dir.join(&named);
             if named.is_relative() && in_dir.exists() {
                 in_dir
             } else {
                 named
             }
         };
-        let truth = self.truth.as_ref().map(|t| resolve(&t.model_path));
-        let calibration = self.calibration_model.as_deref().map(resolve);
-        let pose_file = || self.pose_file.clone().unwrap_or_default();
+        let truth = (self.truth.as_ref()).map(|t| resolve(&t.model_path, &self.shared_dir));
+        let calibration_file = self.calibration_file.clone().unwrap_or_default();
+        let calibration_dir = calibration_file.parent().unwrap_or(&self.dir);
+        let calibration = (self.calibration_model.as_deref()).map(|m| resolve(m, calibration_dir));
         match (truth, calibration) {
-            (Some(t), Some(c)) if !t.exists() && c.exists() => Some((c, pose_file())),
-            (Some(t), _) => Some((t, self.dir.join("truth.json"))),
-            (None, Some(c)) => Some((c, pose_file())),
+            (Some(t), Some(c)) if !t.exists() && c.exists() => Some((c, calibration_file)),
+            (Some(t), _) => Some((t, self.shared_dir.join("truth.json"))),
+            (None, Some(c)) => Some((c, calibration_file)),
             (None, None) => None,
         }
     }

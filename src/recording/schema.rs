@@ -123,6 +123,22 @@ pub struct FrameTruth {
     /// Pixels where an occluder hides the robot (not counted in `pixels`).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub occluded: usize,
+    /// Per camera of a scene with several (`[[cameras]]`), in the scene's order; `pixels`
+    /// and `occluded` are then the sums over the cameras. Empty for one camera.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub views: Vec<ViewTruth>,
+}
+
+/// What one camera of several saw in a frame.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct ViewTruth {
+    /// The camera's name.
+    pub camera: String,
+    /// Pixels that hit the robot / probe / table (before holes).
+    pub pixels: [usize; 3],
+    /// Pixels where an occluder hides the robot (not counted in `pixels`).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub occluded: usize,
 }
 
 fn is_zero(n: &usize) -> bool {

@@ -149,3 +149,50 @@ impl CameraSpec {
         Camera::look_at(self.intrinsics(), self.eye, self.target, self.up)
     }
 }
+
+/// One camera of a scene with several (`[[cameras]]`): a name, which is also the folder
+/// its frames are written to, and the fields of `[camera]` with the same defaults.
+#[derive(Clone, Debug, Serialize)]
+pub struct NamedCameraSpec {
+    /// The camera's name: letters, digits, `-` and `_` (its sub-folder in the recording).
+    pub name: String,
+    /// Its intrinsics and pose.
+    #[serde(flatten)]
+    pub camera: CameraSpec,
+}
+
+// By hand: serde's `flatten` would let a misspelt camera field through silently.
+impl<'de> Deserialize<'de> for NamedCameraSpec {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error;
+        let mut table = toml::Table::deserialize(d)?;
+        let name = match table.remove("name") {
+            Some(toml::Value::String(name)) => name,
+            Some(other) => {
+                return Err(D::Error::custom(format!(
+                    "cameras: name must be a string, got {}",
+                    other.type_str()
+                )))
+            }
+            None => return Err(D::Error::custom("cameras: every camera needs a name")),
+        };
+        let camera = toml::Value::Table(table)
+            .try_into::<CameraSpec>()
+            .map_err(|e| D::Error::custom(format!("camera {name}: {}", e.message())))?;
+        Ok(Self { name, camera })
+    }
+}
+
+impl NamedCameraSpec {
+    /// Which fault keeps the name from being a folder name, in words; `Ok` when it can be.
+    pub fn check_name(&self) -> Result<(), String> {
+        let ok = |c: char| c.is_ascii_alphanumeric() || c == '-' || c == '_';
+        if self.name.is_empty() || !self.name.chars().all(ok) {
+            return Err(format!(
+                "camera name {:?} must be letters, digits, '-' and '_' (it names the camera's folder)",
+                self.name
+            ));
+        }
+        Ok(())
+    }
+}

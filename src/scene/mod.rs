@@ -1,7 +1,9 @@
 //! Synthetic truth, the direct model (design section 5, thesis 4.6): a scene file says which
 //! FE model, which loads and actuator inputs per frame, where the camera is and how noisy
 //! it is; [`generate`] solves the FE model per frame and ray-casts the deformed robot, the
-//! probe and the table into RGB-D frames, with a `truth.json` of everything used.
+//! probe and the table into RGB-D frames, with a `truth.json` of everything used. A scene
+//! with several cameras (`[[cameras]]`) renders each solved frame from every camera, into
+//! one sub-folder per camera ([`render`]).
 //!
 //! ```
 //! use softsense::scene::camera::CameraSpec;
@@ -15,11 +17,13 @@
 
 pub mod camera;
 pub mod markers;
+pub mod render;
 pub mod sweep;
 pub use crate::geometry::raycast;
+pub use render::{render_frame, Rendered, RenderedView, SceneView};
 pub mod sensor;
 pub use crate::recording::schema::{
-    ActuatorTruth, CableInput, FrameInput, FrameTruth, LoadInput, LoadKind, LoadTruth,
+    ActuatorTruth, CableInput, FrameInput, FrameTruth, LoadInput, LoadKind, LoadTruth, ViewTruth,
 };
 /// `truth.json` as `scene generate` writes it.
 pub type Truth = crate::recording::schema::Truth<SceneSpec>;
@@ -29,10 +33,9 @@ use crate::fem::material::Material;
 use crate::fem::mesh::Surface;
 use crate::fem::model::Model;
 use crate::fem::solve::apply_cable_inputs;
-use crate::fem::solve::{CableControl, MappedPoint, PointLoad, Problem};
+use crate::fem::solve::{MappedPoint, PointLoad, Problem};
 use crate::recording::RecordingWriter;
-use camera::CameraSpec;
-use raycast::Bvh;
+use camera::{CameraSpec, NamedCameraSpec};
 use sensor::SensorModel;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -100,7 +103,7 @@ impl Default for Colors {
 }
 
 /// A scene file.
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SceneSpec {
     /// FE model file (relative to the scene file).
@@ -127,9 +130,13 @@ pub struct SceneSpec {
     /// Painted markers (`[markers]`; none by default).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub markers: Option<markers::MarkerPaint>,
-    /// Camera.
+    /// Camera (unused, and not written out, when `cameras` is given).
     #[serde(default)]
     pub camera: CameraSpec,
+    /// Several cameras (`[[cameras]]`, instead of `[camera]`), each rendered into its own
+    /// sub-folder; empty for one camera.
+    #[serde(default)]
+    pub cameras: Vec<NamedCameraSpec>,
     /// Sensor model.
     #[serde(default)]
     pub sensor: SensorModel,
@@ -139,6 +146,46 @@ pub struct SceneSpec {
 
 fn default_table() -> f64 {
     0.3
+}
+
+// By hand only to leave `camera` out when `cameras` is given: a spec written out (a
+// sweep's scene file, `truth.json`) must load again, and `[camera]` beside `[[cameras]]` is
+// refused. Field order and what is left out are the derived ones'.
+impl Serialize for SceneSpec {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        let mut out = s.serialize_struct("SceneSpec", 12)?;
+        out.serialize_field("model", &self.model)?;
+        out.serialize_field("young", &self.young)?;
+        out.serialize_field("seed", &self.seed)?;
+        out.serialize_field("table_half", &self.table_half)?;
+        match self.table_z.is_some() {
+            true => out.serialize_field("table_z", &self.table_z)?,
+            false => out.skip_field("table_z")?,
+        }
+        match self.occluders.is_empty() {
+            false => out.serialize_field("occluders", &self.occluders)?,
+            true => out.skip_field("occluders")?,
+        }
+        out.serialize_field("colors", &self.colors)?;
+        match self.markers.is_some() {
+            true => out.serialize_field("markers", &self.markers)?,
+            false => out.skip_field("markers")?,
+        }
+        match self.cameras.is_empty() {
+            true => {
+                out.serialize_field("camera", &self.camera)?;
+                out.skip_field("cameras")?;
+            }
+            false => {
+                out.skip_field("camera")?;
+                out.serialize_field("cameras", &self.cameras)?;
+            }
+        }
+        out.serialize_field("sensor", &self.sensor)?;
+        out.serialize_field("frames", &self.frames)?;
+        out.end()
+    }
 }
 
 /// A sphere that hides part of the scene from the camera (an arm, a cable, a tool).
@@ -179,19 +226,10 @@ impl Scene {
         })?;
         let spec: SceneSpec = toml::from_str(&text)
             .map_err(|e| SceneError::Spec(format!("{}: {e}", path.display())))?;
-        let c = &spec.camera;
-        if c.width > MAX_SIDE || c.height > MAX_SIDE {
-            return Err(SceneError::Spec(format!(
-                "{}: image larger than {MAX_SIDE} pixels",
-                path.display()
-            )));
-        }
-        spec.sensor
-            .validate()
-            .map_err(|e| SceneError::Spec(format!("{}: {e}", path.display())))?;
-        spec.camera
-            .check()
-            .map_err(|e| SceneError::Spec(format!("{}: {e}", path.display())))?;
+        let in_file = |e: String| SceneError::Spec(format!("{}: {e}", path.display()));
+        let keys: toml::Table = toml::from_str(&text).map_err(|e| in_file(e.to_string()))?;
+        check_cameras(&spec, keys.contains_key("camera")).map_err(in_file)?;
+        spec.sensor.validate().map_err(in_file)?;
         if spec.frames.is_empty() || spec.frames.len() > MAX_FRAMES {
             return Err(SceneError::Spec(format!(
                 "{}: needs 1..={MAX_FRAMES} frames, has {}",
@@ -201,6 +239,11 @@ impl Scene {
         }
         let model_path = beside(path, &spec.model);
         Ok(Self { spec, model_path })
+    }
+
+    /// The scene's cameras ([`SceneSpec::views`]).
+    pub fn views(&self) -> Vec<SceneView> {
+        self.spec.views()
     }
 
     /// Loads the FE model with the scene's material override.
@@ -213,19 +256,34 @@ impl Scene {
     }
 }
 
-/// One rendered frame.
-#[derive(Clone, Debug)]
-pub struct Rendered {
-    /// Depth in sensor units, row-major (0 = hole).
-    pub depth: Vec<u16>,
-    /// RGB, row-major.
-    pub color: Vec<[u8; 3]>,
-    /// The frame's truth.
-    pub truth: FrameTruth,
-    /// The deformed node positions (m).
-    pub positions: Vec<[f64; 3]>,
-    /// The painted markers' positions on the deformed surface (m; empty without markers).
-    pub markers: Vec<[f64; 3]>,
+/// Refuses `[camera]` beside `[[cameras]]` (`has_camera`: the file has a `[camera]`
+/// table), camera names that are not folder names or not unique, and any camera that
+/// [`CameraSpec::check`] or [`MAX_SIDE`] refuses.
+fn check_cameras(spec: &SceneSpec, has_camera: bool) -> Result<(), String> {
+    if has_camera && !spec.cameras.is_empty() {
+        return Err(
+            "both [camera] and [[cameras]]: give one camera as [camera], or every \
+                    camera (with a name) as [[cameras]]"
+                .into(),
+        );
+    }
+    for (i, c) in spec.cameras.iter().enumerate() {
+        c.check_name()?;
+        if spec.cameras[..i].iter().any(|o| o.name == c.name) {
+            return Err(format!(
+                "two cameras are named {}: names must differ",
+                c.name
+            ));
+        }
+    }
+    for view in spec.views() {
+        let c = &view.camera;
+        if c.width > MAX_SIDE || c.height > MAX_SIDE {
+            return Err(view.named(format!("image larger than {MAX_SIDE} pixels")));
+        }
+        c.check().map_err(|e| view.named(e))?;
+    }
+    Ok(())
 }
 
 /// The nearest surface node to `p` in the rest mesh.
@@ -254,7 +312,7 @@ pub const MAX_LOAD_OFFSET: f64 = 0.02;
 /// each load's surface node and point of application; every input checked, nothing solved.
 /// `surface` is the model mesh's (the same for every frame: cables and loads do not change
 /// the mesh).
-fn frame_problem(
+pub(crate) fn frame_problem(
     model: &Model,
     surface: &Surface,
     spec: &SceneSpec,
@@ -306,7 +364,7 @@ fn frame_problem(
 
 /// Each load's truth from its surface node and point of application (`x`: the solved
 /// node positions).
-fn load_truths(
+pub(crate) fn load_truths(
     frame: &FrameInput,
     nodes_of_loads: &[(usize, MappedPoint)],
     rest: &[[f64; 3]],
@@ -340,195 +398,9 @@ pub fn table_height(spec: &SceneSpec, rest: &[[f64; 3]]) -> f64 {
         .unwrap_or_else(|| rest.iter().map(|p| p[2]).fold(f64::INFINITY, f64::min))
 }
 
-/// One pixel's ray: the nearest hit's depth, cosine of incidence and object (0 robot, 1
-/// probe, 2 table, 3 occluder; `(0, 1, NONE)` for none), and whether an occluder hides
-/// the robot there.
-type PixelHit = (f64, f64, usize, bool);
-const NONE: usize = 4;
-
-/// Per pixel, row-major: [`PixelHit`].
-fn cast_pixels(
-    spec: &SceneSpec,
-    camera: &Camera,
-    bvh: &Bvh,
-    probes: &[([f64; 3], f64)],
-    table_z: f64,
-) -> Vec<PixelHit> {
-    let (w, h) = (
-        camera.intrinsics.width as usize,
-        camera.intrinsics.height as usize,
-    );
-    let o = camera.eye();
-    let cast = |i: usize| -> PixelHit {
-        let (u, v) = ((i % w) as f64, (i / w) as f64);
-        let d = camera.ray(u, v);
-        let dn = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-        let mut best: Option<(raycast::Hit, usize)> = None;
-        let mut consider = |hit: Option<raycast::Hit>, obj: usize| {
-            if let Some(hh) = hit {
-                if best.as_ref().is_none_or(|b| hh.t < b.0.t) {
-                    best = Some((hh, obj));
-                }
-            }
-        };
-        let robot = bvh.cast(o, d);
-        let robot_t = robot.as_ref().map(|h| h.t);
-        consider(robot, 0);
-        for &(c, r) in probes {
-            consider(raycast::ray_sphere(o, d, c, r), 1);
-        }
-        if spec.table_half > 0.0 {
-            let plane = raycast::ray_plane(o, d, [0.0, 0.0, 1.0], table_z, spec.table_half);
-            consider(plane, 2);
-        }
-        let mut hidden = false;
-        for oc in &spec.occluders {
-            let hit = raycast::ray_sphere(o, d, oc.center, oc.radius);
-            hidden |= matches!((&hit, robot_t), (Some(h), Some(t)) if h.t < t);
-            consider(hit, 3);
-        }
-        match best {
-            Some((hit, obj)) => {
-                let c =
-                    (hit.normal[0] * d[0] + hit.normal[1] * d[1] + hit.normal[2] * d[2]).abs() / dn;
-                (hit.t, c, obj, hidden)
-            }
-            None => (0.0, 1.0, NONE, hidden),
-        }
-    };
-    #[cfg(feature = "parallel")]
-    {
-        use rayon::prelude::*;
-        (0..w * h).into_par_iter().map(cast).collect()
-    }
-    #[cfg(not(feature = "parallel"))]
-    {
-        (0..w * h).map(cast).collect()
-    }
-}
-
-/// Solves and renders frame `index` of the scene.
-pub fn render_frame(scene: &Scene, model: &Model, index: usize) -> SceneResult<Rendered> {
-    let spec = &scene.spec;
-    let frame = spec
-        .frames
-        .get(index)
-        .ok_or_else(|| SceneError::Spec(format!("no frame {index}")))?;
-    let surface = model.problem.mesh.surface();
-    let (problem, nodes_of_loads) = frame_problem(model, &surface, spec, index)?;
-    let rest = &problem.mesh.nodes_in_rest;
-    let sol = problem.solve_static(&model.newton)?;
-    if !sol.converged {
-        return Err(SceneError::NotConverged { frame: index });
-    }
-    let loads = load_truths(frame, &nodes_of_loads, rest, &sol.positions);
-    let actuators = problem
-        .cables
-        .iter()
-        .enumerate()
-        .map(|(i, c)| ActuatorTruth {
-            name: c.name.clone(),
-            displacement_controlled: matches!(c.control, CableControl::Displacement(_)),
-            shortening: sol.cable_shortening.get(i).copied().unwrap_or(f64::NAN),
-            tension: sol.cable_tension.get(i).copied().unwrap_or(f64::NAN),
-        })
-        .collect();
-    let camera = spec
-        .camera
-        .camera()
-        .ok_or_else(|| SceneError::Spec(camera_fault(&spec.camera)))?;
-    let bvh = Bvh::new(&sol.positions, &surface.triangles);
-    let w = spec.camera.width as usize;
-    let probes: Vec<([f64; 3], f64)> = loads
-        .iter()
-        .filter_map(|l| l.probe_center.map(|c| (c, l.radius)))
-        .collect();
-    let table_z = table_height(spec, rest);
-    let hits = cast_pixels(spec, &camera, &bvh, &probes, table_z);
-    let z: Vec<f64> = hits.iter().map(|h| h.0).collect();
-    let cosi: Vec<f64> = hits.iter().map(|h| h.1).collect();
-    let depth = spec.sensor.depth(&z, &cosi, w, spec.seed, index as u64);
-    let cols = [
-        spec.colors.robot,
-        spec.colors.probe,
-        spec.colors.table,
-        spec.colors.occluder,
-    ];
-    let (markers, painted) = paint_markers(spec, &camera, &hits, rest, &surface, &sol.positions)?;
-    let color = hits
-        .iter()
-        .enumerate()
-        .map(|(i, &(_, c, obj, _))| {
-            let base = match (&spec.markers, painted.get(i)) {
-                (Some(m), Some(true)) => m.colour,
-                _ if obj < NONE => cols[obj],
-                _ => [0, 0, 0],
-            };
-            let shade = 0.4 + 0.6 * c;
-            spec.sensor.color(
-                base.map(|b| b as f64 * shade),
-                spec.seed,
-                index as u64,
-                i as u64,
-            )
-        })
-        .collect();
-    let mut pixels = [0usize; 3];
-    for hh in &hits {
-        if hh.2 < 3 {
-            pixels[hh.2] += 1;
-        }
-    }
-    let occluded = hits.iter().filter(|h| h.3).count();
-    Ok(Rendered {
-        depth,
-        color,
-        truth: FrameTruth {
-            frame: index,
-            loads,
-            actuators,
-            newton_iterations: sol.iterations,
-            pixels,
-            occluded,
-        },
-        positions: sol.positions,
-        markers,
-    })
-}
-
-/// The painted markers' deformed positions and, per pixel, whether its ray hit the body
-/// within a marker's radius (both empty for a scene without markers).
-fn paint_markers(
-    spec: &SceneSpec,
-    camera: &Camera,
-    hits: &[PixelHit],
-    rest: &[[f64; 3]],
-    surface: &Surface,
-    x: &[[f64; 3]],
-) -> SceneResult<(Vec<[f64; 3]>, Vec<bool>)> {
-    let Some(paint) = &spec.markers else {
-        return Ok((Vec::new(), Vec::new()));
-    };
-    let painted = markers::PaintedMarkers::bind(paint, rest, surface, camera)?;
-    let positions = painted.positions(x);
-    let w = camera.intrinsics.width as usize;
-    let points: Vec<Option<[f64; 3]>> = (hits.iter().enumerate())
-        .map(|(i, h)| (h.2 == 0).then(|| camera.backproject((i % w) as f64, (i / w) as f64, h.0)))
-        .collect();
-    let mask = painted.painted(&points, &positions);
-    Ok((positions, mask))
-}
-
-/// Why the scene's camera spec makes no camera, in words.
-fn camera_fault(spec: &camera::CameraSpec) -> String {
-    spec.check()
-        .err()
-        .unwrap_or_else(|| "camera: no camera can be made from the spec".into())
-}
-
 /// Refuses a depth unit with which the robot's depths (at rest) would not fit the 16
 /// bits of a depth PNG, or would round to zero: either way the images came out all zero.
-fn check_depth_unit(unit: f64, camera: &Camera, nodes: &[[f64; 3]]) -> SceneResult<()> {
+fn check_depth_unit(unit: f64, camera: &Camera, nodes: &[[f64; 3]]) -> Result<(), String> {
     let (mut near, mut far) = (f64::INFINITY, 0.0f64);
     for &p in nodes {
         let z = camera.depth_of(p);
@@ -543,10 +415,10 @@ fn check_depth_unit(unit: f64, camera: &Camera, nodes: &[[f64; 3]]) -> SceneResu
     // The farthest depth must fit in 65535 units and the nearest be at least one unit.
     let (lo, hi) = (far / 65535.0, near);
     if !(lo..=hi).contains(&unit) {
-        return Err(SceneError::Spec(format!(
+        return Err(format!(
             "sensor.depth_unit {unit} m cannot encode the robot's depths ({near:.3} to \
              {far:.3} m) in a 16-bit image; use {lo:.2e} to {hi:.2e} m (0.001 is millimetres)"
-        )));
+        ));
     }
     Ok(())
 }
@@ -581,7 +453,9 @@ pub const MARKERS_TRUTH: &str = "markers_truth.csv";
 
 /// Generates every frame into `out`: `depth_NNNN.png` (16-bit), `color_NNNN.png`,
 /// `intrinsics.json`, `camera_pose.json`, `actuators.json` and `truth.json`, and with
-/// `[markers]` the markers' true positions per frame ([`MARKERS_TRUTH`]).
+/// `[markers]` the markers' true positions per frame ([`MARKERS_TRUTH`]). With
+/// `[[cameras]]`, each camera's images, `intrinsics.json` and `camera_pose.json` go in
+/// `out/NAME/`, the rest stays in `out` once.
 /// `progress` is called after each frame with (done, total).
 pub fn generate(
     scene: &Scene,
@@ -608,17 +482,20 @@ pub(crate) fn write_recording(
 ) -> SceneResult<Truth> {
     let writer = RecordingWriter::create(out)?;
     let spec = &scene.spec;
-    let camera = spec
-        .camera
-        .camera()
-        .ok_or_else(|| SceneError::Spec(camera_fault(&spec.camera)))?;
-    check_depth_unit(
-        spec.sensor.depth_unit,
-        &camera,
-        &model.problem.mesh.nodes_in_rest,
-    )?;
-    writer.write_camera(&camera, spec.sensor.depth_unit)?;
-    let (w, h) = (spec.camera.width, spec.camera.height);
+    let rest = &model.problem.mesh.nodes_in_rest;
+    let views = spec.views();
+    let mut cameras = Vec::with_capacity(views.len());
+    for view in &views {
+        let camera = view.make_camera()?;
+        check_depth_unit(spec.sensor.depth_unit, &camera, rest)
+            .map_err(|e| SceneError::Spec(view.named(e)))?;
+        let folder = match &view.name {
+            Some(name) => RecordingWriter::create(&out.join(name))?,
+            None => writer.clone(),
+        };
+        folder.write_camera(&camera, spec.sensor.depth_unit)?;
+        cameras.push((camera, folder, [view.camera.width, view.camera.height]));
+    }
     let total = spec.frames.len();
     // Every frame's inputs are checked before any is solved: a slip in the last frame
     // should not cost the minutes of the ones before it.
@@ -626,15 +503,17 @@ pub(crate) fn write_recording(
     for i in 0..total {
         frame_problem(model, &surface, spec, i)?;
     }
-    let rest = &model.problem.mesh.nodes_in_rest;
     let painted = (spec.markers.as_ref())
-        .map(|paint| markers::PaintedMarkers::bind(paint, rest, &surface, &camera))
+        .map(|paint| markers::PaintedMarkers::bind(paint, rest, &surface, &cameras[0].0))
         .transpose()?;
     let mut frames = Vec::new();
     let mut marker_positions = Vec::new();
     for i in 0..total {
         let r = render(i)?;
-        writer.write_frame(i, [w, h], r.depth, &r.color)?;
+        assert_eq!(r.views.len(), cameras.len(), "one rendered view per camera");
+        for (view, (_, folder, size)) in r.views.into_iter().zip(&cameras) {
+            folder.write_frame(i, *size, view.depth, &view.color)?;
+        }
         frames.push(r.truth);
         marker_positions.push(r.markers);
         progress(i + 1, total);

@@ -49,6 +49,13 @@ fn mix(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// The noise seed of camera `index` of a scene with several cameras and seed `seed`: each
+/// camera its own draw, depending only on the two (never on threads or on the other
+/// cameras).
+pub fn camera_seed(seed: u64, index: usize) -> u64 {
+    mix(mix(seed) ^ mix(index as u64 + 1))
+}
+
 /// A uniform number in (0, 1) from the key (seed, frame, pixel, stream).
 pub fn uniform(seed: u64, frame: u64, pixel: u64, stream: u64) -> f64 {
     let h = mix(mix(mix(mix(seed) ^ frame) ^ pixel) ^ stream);

@@ -92,7 +92,7 @@ fn a_sweeps_scene_depends_only_on_the_file_the_seed_and_its_index() {
     let text = |d: &softsense::scene::sweep::Drawn| toml::to_string(&d.scene.spec).unwrap();
     assert_eq!(text(&a), text(&b));
     assert_ne!(text(&a), text(&c));
-    assert_eq!(a.rendered.depth, b.rendered.depth);
+    assert_eq!(a.rendered.views[0].depth, b.rendered.views[0].depth);
 }
 
 #[test]
@@ -231,4 +231,39 @@ fn a_load_that_inverts_an_element_is_redrawn_not_the_end_of_the_sweep() {
         err.contains("the FE solve failed (inverted tetrahedron"),
         "{err}"
     );
+}
+
+#[test]
+fn a_sweep_with_two_cameras_draws_a_rig_spaced_in_azimuth_and_writes_a_folder_per_camera() {
+    let dir = tempfile::tempdir().unwrap();
+    let body = "[camera]\ncount = 2\nazimuth_spacing_deg = 90.0\n\
+                distance = [0.45, 0.55]\nelevation_deg = [25.0, 40.0]\n";
+    let sweep = sweep_file(dir.path(), body);
+    let prepared = Prepared::new(&sweep).unwrap();
+    let out = dir.path().join("scene_0000");
+    let (scene, record) =
+        softsense::scene::sweep::write_drawn(&sweep, &prepared, 3, 0, &out).unwrap();
+    let [more] = &record.more_cameras[..] else {
+        panic!("one more camera expected: {record:?}");
+    };
+    assert_eq!(more.azimuth_deg, record.azimuth_deg + 90.0);
+    assert!((0.45..=0.55).contains(&more.distance), "{more:?}");
+    assert!((25.0..=40.0).contains(&more.elevation_deg), "{more:?}");
+    let cams = &scene.spec.cameras;
+    assert_eq!(cams.len(), 2);
+    let eye_dist = norm(sub(cams[1].camera.eye, cams[1].camera.target));
+    assert!((eye_dist - more.distance).abs() < 1e-9);
+    let rig = softsense::recording::Rig::open(&out).unwrap();
+    let names: Vec<&str> = rig.cameras.iter().map(|c| c.name.as_str()).collect();
+    assert_eq!(names, ["cam0", "cam1"]);
+    assert!(rig.cameras.iter().all(|c| c.has_frame(0)));
+    // Adding a camera keeps the first camera and the probes of the one-camera sweep.
+    let one = sweep_file(dir.path(), &body.replace("count = 2\n", ""));
+    let d = draw(&one, &prepared, 3, 0).unwrap();
+    assert_eq!(d.record.azimuth_deg, record.azimuth_deg);
+    assert_eq!(d.record.distance, record.distance);
+    assert_eq!(d.record.attempts, record.attempts);
+    let at = |s: &softsense::scene::Scene| s.spec.frames[0].loads[0].at;
+    assert_eq!(at(&d.scene), at(&scene));
+    assert!(d.record.more_cameras.is_empty() && d.scene.spec.cameras.is_empty());
 }

@@ -7,7 +7,7 @@
 //! Scene `index` depends only on (sweep file, seed, index): a longer sweep with the same
 //! seed starts with the same scenes.
 
-use super::camera::CameraSpec;
+use super::camera::{CameraSpec, NamedCameraSpec};
 use super::sensor::uniform;
 use super::{render_frame, Occluder, Rendered, Scene, SceneError};
 use super::{SceneResult, SceneSpec};
@@ -45,6 +45,20 @@ pub struct DrawRecord {
     pub stream: String,
     /// Share of the robot's pixels the occluder hides (0 without one).
     pub occluded: f64,
+    /// The second and later cameras of a scene with several (`camera.count`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub more_cameras: Vec<CameraDraw>,
+}
+
+/// Where one more camera of a scene was drawn (it has the first camera's stream).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct CameraDraw {
+    /// Distance from the target (m).
+    pub distance: f64,
+    /// Azimuth (degrees): the first camera's plus a multiple of the spacing.
+    pub azimuth_deg: f64,
+    /// Elevation (degrees).
+    pub elevation_deg: f64,
 }
 
 /// One drawn, solved and checked scene.
@@ -251,8 +265,11 @@ fn physical_fault(
             }
         }
     }
-    if r.truth.pixels[1] < MIN_PROBE_PIXELS * r.truth.loads.len() {
-        return Some(format!("the probes show {} pixels", r.truth.pixels[1]));
+    // The probes are drawn where the first camera sees them: counted in its view.
+    let t = &r.truth;
+    let probe_pixels = t.views.first().map_or(t.pixels[1], |v| v.pixels[1]);
+    if probe_pixels < MIN_PROBE_PIXELS * t.loads.len() {
+        return Some(format!("the probes show {probe_pixels} pixels"));
     }
     let probes: Vec<_> = r
         .truth
@@ -388,17 +405,41 @@ fn draw_camera(r: &mut Draws, c: &CameraRanges) -> SceneResult<DrawRecord> {
         elevation_deg: el,
         stream: stream_name,
         occluded: 0.0,
+        more_cameras: Vec::new(),
     })
+}
+
+/// The second and later cameras (`c.count` - 1), the first at azimuth `first_azimuth_deg`.
+/// Drawn after everything else of an attempt, so that adding cameras to a sweep keeps each
+/// attempt's first camera, probes and occluder.
+fn draw_more_cameras(r: &mut Draws, c: &CameraRanges, first_azimuth_deg: f64) -> Vec<CameraDraw> {
+    (1..c.count)
+        .map(|k| CameraDraw {
+            distance: r.within(c.distance),
+            azimuth_deg: first_azimuth_deg + k as f64 * c.azimuth_spacing_deg,
+            elevation_deg: r.within(c.elevation_deg),
+        })
+        .collect()
 }
 
 /// The camera spec of a drawn record, looking at `target`.
 fn camera_of(rec: &DrawRecord, target: [f64; 3]) -> SceneResult<CameraSpec> {
-    let mut cam = stream(&rec.stream)
-        .ok_or_else(|| SceneError::Spec(format!("unknown stream {}", rec.stream)))?;
+    let first = CameraDraw {
+        distance: rec.distance,
+        azimuth_deg: rec.azimuth_deg,
+        elevation_deg: rec.elevation_deg,
+    };
+    place_camera(&rec.stream, &first, target)
+}
+
+/// The camera of stream `stream_name` placed as `at` says, looking at `target`.
+fn place_camera(stream_name: &str, at: &CameraDraw, target: [f64; 3]) -> SceneResult<CameraSpec> {
+    let mut cam = stream(stream_name)
+        .ok_or_else(|| SceneError::Spec(format!("unknown stream {stream_name}")))?;
     let (a, e, dist) = (
-        rec.azimuth_deg.to_radians(),
-        rec.elevation_deg.to_radians(),
-        rec.distance,
+        at.azimuth_deg.to_radians(),
+        at.elevation_deg.to_radians(),
+        at.distance,
     );
     cam.target = target;
     cam.eye = [
@@ -408,6 +449,29 @@ fn camera_of(rec: &DrawRecord, target: [f64; 3]) -> SceneResult<CameraSpec> {
     ];
     cam.up = [0.0, 0.0, 1.0];
     Ok(cam)
+}
+
+/// The cameras of a scene with several (`cam0` = `first`, then `record.more_cameras`);
+/// empty for one camera.
+fn rig_cameras(
+    record: &DrawRecord,
+    first: &CameraSpec,
+    target: [f64; 3],
+) -> SceneResult<Vec<NamedCameraSpec>> {
+    if record.more_cameras.is_empty() {
+        return Ok(Vec::new());
+    }
+    let mut cameras = vec![NamedCameraSpec {
+        name: "cam0".into(),
+        camera: first.clone(),
+    }];
+    for (k, at) in record.more_cameras.iter().enumerate() {
+        cameras.push(NamedCameraSpec {
+            name: format!("cam{}", k + 1),
+            camera: place_camera(&record.stream, at, target)?,
+        });
+    }
+    Ok(cameras)
 }
 
 /// The probes' nodes and loads among `candidates`, or why none could be placed.
@@ -495,8 +559,10 @@ fn try_draw(sweep: &Sweep, prepared: &Prepared, r: &mut Draws) -> SceneResult<At
             }
         }
     }
+    record.more_cameras = draw_more_cameras(r, &spec.camera, record.azimuth_deg);
     let mut sensor = spec.sensor.clone();
     sensor.depth_k *= CameraSpec::default().fx / cam.fx;
+    let cameras = rig_cameras(&record, &cam, *target)?;
     let scene = Scene {
         spec: SceneSpec {
             model: sweep.model_path.display().to_string(),
@@ -508,6 +574,7 @@ fn try_draw(sweep: &Sweep, prepared: &Prepared, r: &mut Draws) -> SceneResult<At
             colors: spec.colors.clone(),
             markers: None,
             camera: cam,
+            cameras,
             sensor,
             frames: vec![FrameInput {
                 cables: Vec::new(),
@@ -534,8 +601,11 @@ fn try_draw(sweep: &Sweep, prepared: &Prepared, r: &mut Draws) -> SceneResult<At
     if let Some(fault) = physical_fault(prepared, &scene.spec, &rendered, ratio) {
         return Ok(Err(fault));
     }
+    // The occluder is placed in the first camera's view.
     let t = &rendered.truth;
-    record.occluded = t.occluded as f64 / (t.pixels[0] + t.occluded).max(1) as f64;
+    let (robot, occluded) =
+        (t.views.first()).map_or((t.pixels[0], t.occluded), |v| (v.pixels[0], v.occluded));
+    record.occluded = occluded as f64 / (robot + occluded).max(1) as f64;
     Ok(Ok((scene, rendered, record)))
 }
 

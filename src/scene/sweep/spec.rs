@@ -60,6 +60,23 @@ pub struct CameraRanges {
     /// Point looked at (m); default the centre of the robot's bounding box at rest.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub target: Option<[f64; 3]>,
+    /// Cameras per scene (1): the first drawn as above, each next one `azimuth_spacing_deg`
+    /// further in azimuth, with its own distance and elevation from the same ranges.
+    /// Written out only when not 1, so one-camera sweep files stay as they were.
+    #[serde(skip_serializing_if = "is_one")]
+    pub count: usize,
+    /// Azimuth from one camera of a scene to the next (degrees, 90); written out only with
+    /// several cameras.
+    #[serde(skip_serializing_if = "is_default_spacing")]
+    pub azimuth_spacing_deg: f64,
+}
+
+fn is_one(n: &usize) -> bool {
+    *n == 1
+}
+
+fn is_default_spacing(deg: &f64) -> bool {
+    *deg == CameraRanges::default().azimuth_spacing_deg
 }
 
 impl Default for CameraRanges {
@@ -70,6 +87,8 @@ impl Default for CameraRanges {
             elevation_deg: [20.0, 45.0],
             streams: vec!["640x480".into()],
             target: None,
+            count: 1,
+            azimuth_spacing_deg: 90.0,
         }
     }
 }
@@ -173,7 +192,7 @@ impl SweepSpec {
     /// Checks every range; the error names the first bad field.
     pub fn check(&self) -> Result<(), String> {
         let (c, p) = (&self.camera, &self.probes);
-        let checks: [(bool, &str); 13] = [
+        let checks: [(bool, &str); 14] = [
             (
                 range_ok(c.distance, 0.05, 20.0),
                 "camera.distance: [lo, hi] within 0.05-20 m",
@@ -193,6 +212,10 @@ impl SweepSpec {
             (
                 c.target.is_none_or(|t| t.iter().all(|v| v.is_finite())),
                 "camera.target: finite",
+            ),
+            (
+                (1..=8).contains(&c.count) && (-360.0..=360.0).contains(&c.azimuth_spacing_deg),
+                "camera: count within 1-8, azimuth_spacing_deg within -360..360",
             ),
             (
                 p.count[0] >= 1 && p.count[0] <= p.count[1] && p.count[1] <= 4,
