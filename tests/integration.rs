@@ -25,6 +25,8 @@ mod fem_skfem;
 mod malformed_corpus;
 #[path = "integration/markers.rs"]
 mod markers;
+#[path = "integration/markers_bundled.rs"]
+mod markers_bundled;
 #[path = "integration/markers_detect.rs"]
 mod markers_detect;
 #[path = "integration/rgbd_sequence.rs"]
