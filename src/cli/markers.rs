@@ -58,6 +58,16 @@ pub struct MarkersArgs {
     /// Candidate force locations (CSV name,x,y,z,directions in m); default: the model's force points.
     #[arg(long)]
     candidates: Option<PathBuf>,
+    /// Only these of the model's force points are candidates (comma-separated names): a
+    /// force at a known point is solved alone, as the thesis's known-location experiments
+    /// do, instead of sharing the markers' rows with points that carry nothing.
+    #[arg(
+        long,
+        value_name = "NAME,...",
+        value_delimiter = ',',
+        conflicts_with = "candidates"
+    )]
+    force_points: Vec<String>,
     /// One sigma of a marker coordinate (mm).
     #[arg(long, default_value_t = 0.1)]
     sigma_mm: f64,
@@ -86,15 +96,28 @@ pub enum MarkersCommand {
     Detect(super::markers_detect::DetectArgs),
 }
 
-/// The candidates of `--candidates` or else the model's force points.
+/// The candidates of `--candidates`, else the model's force points (those named in
+/// `names` when it is not empty).
 pub(crate) fn load_candidates(
     model: &Model,
     path: Option<&std::path::Path>,
+    names: &[String],
 ) -> Result<Vec<ForceCandidate>, CliError> {
     let mesh = &model.problem.mesh;
+    if let Some(missing) = names
+        .iter()
+        .find(|n| !model.force_points.iter().any(|e| &e.name == *n))
+    {
+        let known: Vec<&str> = model.force_points.iter().map(|e| e.name.as_str()).collect();
+        return Err(CliError::Usage(format!(
+            "--force-points: the model has no force point {missing:?} (its force points: {})",
+            known.join(", ")
+        )));
+    }
     let candidates: Vec<ForceCandidate> = match path {
         Some(p) => read_candidates(p, mesh).map_err(|e| CliError::Lib(e.into()))?,
         None => (model.force_points.iter())
+            .filter(|e| names.is_empty() || names.contains(&e.name))
             .map(|e| ForceCandidate::from_force_point(e, mesh))
             .collect(),
     };
@@ -148,7 +171,7 @@ pub fn run(args: &MarkersArgs) -> CliResult {
     let tracks = read_any_tracks(tracks_path)?;
     let model = Model::load(model_path, None).map_err(|e| CliError::Lib(e.into()))?;
     let mesh = &model.problem.mesh;
-    let candidates = load_candidates(&model, args.candidates.as_deref())?;
+    let candidates = load_candidates(&model, args.candidates.as_deref(), &args.force_points)?;
     let first: Vec<[f64; 3]> = (0..tracks.names.len())
         .map(|m| tracks.frames.iter().find_map(|f| f.positions[m]))
         .collect::<Option<_>>()
