@@ -5,8 +5,8 @@ use pyo3::prelude::*;
 use pyo3::types::PyBytes;
 use softsense::filter::{
     crop_box, pass_through, radius_outlier_removal, statistical_outlier_removal, voxel_grid,
-    CropBoxParams, FilterOutput, PassThroughParams, RadiusOutlierParams, StatisticalOutlierParams,
-    VoxelGridParams,
+    CropBoxParams, FilterError, FilterOutput, PassThroughParams, RadiusOutlierParams,
+    StatisticalOutlierParams, VoxelGridParams,
 };
 use softsense::io::Encoding;
 use softsense::PointCloud;
@@ -157,27 +157,30 @@ fn filter<'py>(
     params: Option<&str>,
 ) -> PyResult<(NativeCloud, Bound<'py, PyBytes>)> {
     let input = &cloud.0;
-    let out: FilterOutput = match name {
-        "voxel_grid" => {
-            let p = crate::params::<VoxelGridParams>(params, name)?;
-            py.detach(|| voxel_grid(input, &p))
-        }
+    // Each filter's parameters from the JSON, then the filter with the GIL released.
+    fn run<P>(
+        py: Python<'_>,
+        input: &PointCloud,
+        name: &str,
+        params: Option<&str>,
+        f: impl Fn(&PointCloud, &P) -> Result<FilterOutput, FilterError> + Sync,
+    ) -> PyResult<Result<FilterOutput, FilterError>>
+    where
+        P: Default + serde::Serialize + serde::de::DeserializeOwned + Sync,
+    {
+        let p = crate::params::<P>(params, name)?;
+        Ok(py.detach(|| f(input, &p)))
+    }
+    let out = match name {
+        "voxel_grid" => run::<VoxelGridParams>(py, input, name, params, voxel_grid)?,
         "statistical_outlier_removal" => {
-            let p = crate::params::<StatisticalOutlierParams>(params, name)?;
-            py.detach(|| statistical_outlier_removal(input, &p))
+            run::<StatisticalOutlierParams>(py, input, name, params, statistical_outlier_removal)?
         }
         "radius_outlier_removal" => {
-            let p = crate::params::<RadiusOutlierParams>(params, name)?;
-            py.detach(|| radius_outlier_removal(input, &p))
+            run::<RadiusOutlierParams>(py, input, name, params, radius_outlier_removal)?
         }
-        "crop_box" => {
-            let p = crate::params::<CropBoxParams>(params, name)?;
-            py.detach(|| crop_box(input, &p))
-        }
-        "pass_through" => {
-            let p = crate::params::<PassThroughParams>(params, name)?;
-            py.detach(|| pass_through(input, &p))
-        }
+        "crop_box" => run::<CropBoxParams>(py, input, name, params, crop_box)?,
+        "pass_through" => run::<PassThroughParams>(py, input, name, params, pass_through)?,
         other => return Err(error(format!("no filter named {other:?}"))),
     }
     .map_err(error)?;

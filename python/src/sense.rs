@@ -6,7 +6,7 @@ use crate::model::Model;
 use pyo3::prelude::*;
 use softsense::segment::robot_color::RobotColorModel;
 use softsense::sense::{
-    compare, FrameReport, FrameStatus, Recording as Rec, Registration, SenseParams, Sensor as Sen,
+    compare, FrameReport, Recording as Rec, Registration, SenseParams, Sensor as Sen,
 };
 
 /// A recording folder (docs/recording-format.md).
@@ -134,12 +134,17 @@ impl Sensor {
                 self.rec.frames
             )));
         }
-        let report = py.detach(|| match self.sensor.observe(&self.rec, frame) {
-            Ok(obs) => self
-                .sensor
-                .sense(frame, &obs, self.rec.inputs_of(frame).as_ref()),
-            Err(e) => FrameReport::empty(frame, FrameStatus::Unreadable(e.to_string())),
-        });
+        // One frame through the stream, so it is read and sensed exactly as in `sense_all`
+        // and `softsense sense` (an unreadable frame gets its status).
+        let mut report = None;
+        py.detach(|| {
+            self.sensor.sense_frames(&self.rec, &[frame], 1, |_, r| {
+                report = Some(r);
+                Ok::<(), std::convert::Infallible>(())
+            })
+        })
+        .unwrap_or_else(|never| match never {});
+        let report = report.ok_or_else(|| error(format!("frame {frame} gave no report")))?;
         json_of(&self.rec, report)
     }
 
