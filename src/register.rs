@@ -501,10 +501,10 @@ pub struct FeatureParams {
     pub flat_radius: f64,
     /// Largest angle between two triangles' normals still called coplanar (rad).
     pub coplanar_angle: f64,
-    /// The camera centre in the robot frame (m): keep only features the camera sees at the
-    /// rest shape (facing it, not occluded). `None`: the whole surface.
-    pub eye: Option<[f64; 3]>,
-    /// With `eye`: the smallest cosine between the normal and the direction to the camera
+    /// The camera centres in the robot frame (m): keep only features some camera sees at
+    /// the rest shape (facing it, not occluded). Empty: the whole surface.
+    pub eyes: Vec<[f64; 3]>,
+    /// With `eyes`: the smallest cosine between the normal and the direction to the camera
     /// (rejects grazing views, where depth sensors leave holes).
     pub min_view_cos: f64,
 }
@@ -515,7 +515,7 @@ impl Default for FeatureParams {
             count: 51,
             flat_radius: 0.002,
             coplanar_angle: 1f64.to_radians(),
-            eye: None,
+            eyes: Vec::new(),
             min_view_cos: 0.2,
         }
     }
@@ -525,7 +525,8 @@ impl Default for FeatureParams {
 /// at node positions `x` (usually the rest shape). Candidates are triangle centroids and the
 /// midpoints of edges between coplanar triangles (the centres of split quads); a candidate is
 /// kept when every surface triangle within `flat_radius` of it is coplanar with its own, and,
-/// with `eye`, when it faces the camera and the first surface hit of the ray towards it is it.
+/// with `eyes`, when it faces a camera and the first surface hit of the ray from that camera
+/// is it.
 /// Deterministic; fewer than `count` when fewer candidates qualify.
 pub fn surface_features(
     x: &[[f64; 3]],
@@ -584,7 +585,7 @@ pub fn surface_features(
             (lo, hi)
         })
         .collect();
-    let bvh = params.eye.map(|_| Bvh::new(x, &tris));
+    let bvh = (!params.eyes.is_empty()).then(|| Bvh::new(x, &tris));
     let r = params.flat_radius.max(0.0);
     let flat_and_seen = |&(t, bary): &(usize, [f64; 3])| -> Option<(SurfaceFeature, [f64; 3])> {
         let f = SurfaceFeature {
@@ -609,15 +610,17 @@ pub fn surface_features(
                 return None;
             }
         }
-        if let (Some(eye), Some(bvh)) = (params.eye, &bvh) {
-            let d = sub(p, eye);
-            let dist = norm(d);
-            if dist == 0.0 || -dot(d, n) / dist < params.min_view_cos {
+        if let Some(bvh) = &bvh {
+            let seen = |&eye: &[f64; 3]| {
+                let d = sub(p, eye);
+                let dist = norm(d);
+                if dist == 0.0 || -dot(d, n) / dist < params.min_view_cos {
+                    return false;
+                }
+                matches!(bvh.cast(eye, d), Some(hit) if (hit.t - 1.0).abs() * dist <= 1e-6 + 1e-3 * r)
+            };
+            if !params.eyes.iter().any(seen) {
                 return None;
-            }
-            match bvh.cast(eye, d) {
-                Some(hit) if (hit.t - 1.0).abs() * dist <= 1e-6 + 1e-3 * r => {}
-                _ => return None,
             }
         }
         Some((f, p))

@@ -33,6 +33,8 @@ mod markers_detect;
 mod rgbd_sequence;
 #[path = "integration/scene_cameras.rs"]
 mod scene_cameras;
+#[path = "integration/sense_cameras.rs"]
+mod sense_cameras;
 #[path = "integration/sense_probe.rs"]
 mod sense_probe;
 #[path = "integration/sense_tip_weight.rs"]

@@ -43,7 +43,9 @@ Rules:
 
 Every silent miss is listed with its recording and frame. Recordings of a sweep (its
 draws.json beside them) are also scored by how far the camera's azimuth is from the
-bundled scenes' direction: 0-30, 30-90 and 90-180 degrees. Exit code 1 when a recording
+bundled scenes' direction (its first camera's): 0-30, 30-90 and 90-180 degrees. Frames of
+recordings of several cameras are also scored by how many cameras each was sensed from
+(a camera without the frame, or with an unreadable one, does not count). Exit code 1 when a recording
 has no truth.json or its sense output lacks frames the truth has.
 
 Examples:
@@ -138,6 +140,7 @@ pub fn run(args: &ScoreArgs) -> CliResult {
     }
     let s = score(&recordings);
     let by_azimuth = azimuth_groups(&dirs, &recordings);
+    let by_cameras = camera_groups(&recordings);
     if args.json {
         let mut v = serde_json::to_value(&s).map_err(|e| CliError::Result(e.to_string()))?;
         let groups: Vec<serde_json::Value> = by_azimuth
@@ -145,9 +148,19 @@ pub fn run(args: &ScoreArgs) -> CliResult {
             .map(|(name, g)| serde_json::json!({"azimuth": name, "summary": g}))
             .collect();
         v["by_azimuth"] = serde_json::Value::Array(groups);
+        let groups: Vec<serde_json::Value> = (by_cameras.iter())
+            .map(|(n, g)| serde_json::json!({"cameras": n, "summary": g}))
+            .collect();
+        v["by_cameras"] = serde_json::Value::Array(groups);
         return super::print_json(&v);
     }
     print_text(&s, dirs.len())?;
+    for (n, g) in &by_cameras {
+        outln!("frames sensed from {n} camera(s):")?;
+        for l in summary_lines(g) {
+            outln!("  {l}")?;
+        }
+    }
     for (name, g) in &by_azimuth {
         outln!("camera {name} from the bundled direction:")?;
         for l in summary_lines(g) {
@@ -193,6 +206,31 @@ fn azimuth_groups(
                 .map(|(r, _)| r.clone())
                 .collect();
             (!group.is_empty()).then(|| (name, score(&group).all))
+        })
+        .collect()
+}
+
+/// Scores per number of cameras a frame was sensed from, when some recording has several
+/// cameras (else none).
+fn camera_groups(recordings: &[(String, Vec<SensedFrame>)]) -> Vec<(usize, Summary)> {
+    let frames = recordings.iter().flat_map(|(_, f)| f);
+    if frames.clone().all(|f| f.cameras.is_empty()) {
+        return Vec::new();
+    }
+    let mut counts: Vec<usize> = frames.map(|f| f.cameras_seen()).collect();
+    counts.sort_unstable();
+    counts.dedup();
+    counts
+        .into_iter()
+        .map(|n| {
+            let group: Vec<(String, Vec<SensedFrame>)> = (recordings.iter())
+                .map(|(name, f)| {
+                    let kept = f.iter().filter(|f| f.cameras_seen() == n).cloned();
+                    (name.clone(), kept.collect())
+                })
+                .filter(|(_, f): &(String, Vec<SensedFrame>)| !f.is_empty())
+                .collect();
+            (n, score(&group).all)
         })
         .collect()
 }

@@ -6,7 +6,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use softsense::fem::model::Model;
 use softsense::sense::{
     compare, default_window, median_timings, FrameReport, FrameStatus, LoadError, Observation,
-    Recording, SenseParams, SenseResult, Sensor, StageTimings,
+    Recording, Rig, SenseParams, SenseResult, Sensor, SensorCamera, StageTimings, View,
 };
 use std::path::PathBuf;
 
@@ -30,6 +30,13 @@ use std::path::PathBuf;
 /// scenes), the errors against it are printed too;
 /// truth.json is never used for the estimate.
 ///
+/// A folder of several cameras (one sub-folder each with its frames, camera files and
+/// pose; the inputs and truth at the top, as `scene generate` writes a scene with
+/// [[cameras]]) is sensed as one: all cameras' robot points in the robot frame are
+/// registered together, each with its own camera's depth noise, and the contacts come
+/// from all of them. A camera without a frame, or whose frame cannot be read, is left out
+/// of that frame and named in its report ("cameras"); the others are sensed.
+///
 /// Where no contact is seen (a weight hanging by a string), the model's force points
 /// ([[force_points]] in the model file) are the candidate locations. Where one is seen,
 /// the data choose the touched node among the surface nodes near it: first at the
@@ -46,7 +53,8 @@ use std::path::PathBuf;
 softsense sense clouds/scenes/tip_weight\n  \
 softsense sense clouds/scenes/probe_side --json > forces.jsonl\n  \
 softsense sense clouds/scenes/two_probes --render /tmp/pictures\n  \
-softsense sense my_grabber_folder --pose camera_pose.json --model meshes/models/robot.toml\n\n\
+softsense sense my_grabber_folder --pose camera_pose.json --model meshes/models/robot.toml\n  \
+softsense sense /tmp/two_cameras --cameras front   # one camera of a two-camera folder\n\n\
 Generate a scene first with `softsense scene generate SCENE.toml OUT_DIR`."
 )]
 pub struct SenseArgs {
@@ -109,27 +117,20 @@ pub struct SenseArgs {
     /// 85 ms per frame; docs/dense-registration.md has the sweeps behind the rule.
     #[arg(long, value_enum, default_value_t = RegistrationArg::Auto)]
     pub registration: RegistrationArg,
+    /// In a folder of several cameras (one sub-folder each), sense with these cameras only
+    /// (their folder names), e.g. to compare one camera against all on the same frames.
+    #[arg(long, value_name = "NAME,...", value_delimiter = ',')]
+    pub cameras: Option<Vec<String>>,
 }
 
 pub fn run(args: &SenseArgs) -> CliResult {
-    let mut rec = Recording::open(&args.scene_dir).map_err(|e| CliError::Lib(e.into()))?;
-    if let Some(pose) = &args.pose {
-        rec = rec
-            .with_pose_file(pose)
-            .map_err(|e| CliError::Lib(e.into()))?;
-    }
-    let (Some(robot_from_camera), Some(pose_file)) = (rec.robot_from_camera, rec.pose_file.clone())
-    else {
-        return Err(CliError::Usage(format!(
-            "{} has no camera pose (calibration.json or camera_pose.json): give --pose POSE.json, \
-             or find it with `softsense calibrate`",
-            args.scene_dir.display()
-        )));
-    };
-    for w in &rec.warnings {
+    let rig = open_rig(args)?;
+    let cameras = sensor_cameras(args, &rig)?;
+    let rec = rig.shared();
+    for w in &rig.warnings {
         eprintln!("warning: {w}");
     }
-    let model_path = model_path(args, &rec)?;
+    let model_path = model_path(args, rec)?;
     let model = Model::load(&model_path, None).map_err(|e| CliError::Lib(e.into()))?;
     let base = SenseParams {
         registration: args.registration.into(),
@@ -141,21 +142,25 @@ pub fn run(args: &SenseArgs) -> CliResult {
         ..base
     };
     params.features.count = args.features;
-    let mut sensor = Sensor::new(model, robot_from_camera, params);
-    let inputs = use_recorded_inputs(&rec, &mut sensor, &pose_file)?;
+    let mut sensor = Sensor::with_cameras(model, cameras, params);
+    let inputs = use_recorded_inputs(rec, &mut sensor)?;
+    let poses: Vec<String> = (rig.cameras.iter())
+        .filter_map(|c| c.recording.pose_file.as_deref())
+        .map(|p| super::shown_path(p).display().to_string())
+        .collect();
     eprintln!(
         "{}: {} frames, model {}, pose from {}, cable inputs {inputs}, {} feature points",
         args.scene_dir.display(),
-        rec.frames.len(),
+        rig.frames.len(),
         super::shown_path(&model_path).display(),
-        super::shown_path(&pose_file).display(),
+        poses.join(", "),
         sensor.features.len()
     );
     if let Some(dir) = &args.render {
         std::fs::create_dir_all(dir)
             .map_err(|e| CliError::Result(format!("{}: {e}", dir.display())))?;
     }
-    let bar = ProgressBar::new(rec.frames.len() as u64);
+    let bar = ProgressBar::new(rig.frames.len() as u64);
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} frames {elapsed} {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
@@ -173,10 +178,17 @@ pub fn run(args: &SenseArgs) -> CliResult {
             report.errors = Some(compare(&report, t));
         }
         if let (Some(dir), Ok(obs)) = (&args.render, obs) {
-            let path = dir.join(format!("frame_{frame:04}.png"));
-            picture(&rec, &sensor, obs, &report, &path)
-                .map_err(|e| CliError::Result(format!("{}: {e}", path.display())))
-                .map_err(Halt::Failed)?;
+            for view in &obs.views {
+                let name = match rig.is_one_folder() {
+                    true => format!("frame_{frame:04}.png"),
+                    false => format!("frame_{frame:04}_{}.png", rig.cameras[view.camera].name),
+                };
+                let path = dir.join(name);
+                let camera = &rig.cameras[view.camera].recording;
+                picture(camera, &sensor, obs, view, &report, &path)
+                    .map_err(|e| CliError::Result(format!("{}: {e}", path.display())))
+                    .map_err(Halt::Failed)?;
+            }
         }
         bar.suspend(|| -> CliResult {
             if args.json {
@@ -199,16 +211,16 @@ pub fn run(args: &SenseArgs) -> CliResult {
         Ok(())
     };
     let streamed = if args.track {
-        sensor.track_frames(&rec, &rec.frames, each)
+        sensor.track_frames(&rig, &rig.frames, each)
     } else {
-        sensor.sense_frames(&rec, &rec.frames, window, each)
+        sensor.sense_frames(&rig, &rig.frames, window, each)
     };
     match streamed {
         Ok(()) => {}
         Err(Halt::ReaderGone) => eprintln!(
             "stdout was closed: stopped after {} of {} frames",
             reports.len(),
-            rec.frames.len()
+            rig.frames.len()
         ),
         Err(Halt::Failed(e)) => return Err(e),
     }
@@ -227,23 +239,73 @@ pub fn run(args: &SenseArgs) -> CliResult {
     Ok(())
 }
 
-/// The model file: `--model`, else the one the recording names.
+/// The recording folder: one camera (with `--pose` applied) or several.
+fn open_rig(args: &SenseArgs) -> Result<Rig, CliError> {
+    let mut rig = Rig::open(&args.scene_dir).map_err(|e| CliError::Lib(e.into()))?;
+    if let Some(pose) = &args.pose {
+        if !rig.is_one_folder() {
+            return Err(CliError::Usage(format!(
+                "--pose is for a one-camera folder; {} has cameras {}, each with its own pose \
+                 (camera_pose.json or calibration.json in its folder)",
+                args.scene_dir.display(),
+                camera_names(&rig)
+            )));
+        }
+        let camera = &mut rig.cameras[0];
+        camera.recording = (camera.recording.clone())
+            .with_pose_file(pose)
+            .map_err(|e| CliError::Lib(e.into()))?;
+    }
+    match &args.cameras {
+        Some(names) if rig.is_one_folder() => Err(CliError::Usage(format!(
+            "--cameras {} is for a folder of several cameras; {} is one camera's",
+            names.join(","),
+            args.scene_dir.display()
+        ))),
+        Some(names) => rig
+            .keep_cameras(names)
+            .map_err(|e| CliError::Usage(e.to_string())),
+        None => Ok(rig),
+    }
+}
+
+fn camera_names(rig: &Rig) -> String {
+    let names: Vec<&str> = rig.cameras.iter().map(|c| c.name.as_str()).collect();
+    names.join(", ")
+}
+
+/// Every camera of `rig` with its pose; a camera without one is a usage error naming it.
+fn sensor_cameras(args: &SenseArgs, rig: &Rig) -> Result<Vec<SensorCamera>, CliError> {
+    let mut cameras = Vec::with_capacity(rig.cameras.len());
+    for c in &rig.cameras {
+        let Some(pose) = c.recording.robot_from_camera else {
+            let whose = match rig.is_one_folder() {
+                true => args.scene_dir.display().to_string(),
+                false => format!("camera {} ({})", c.name, c.recording.dir.display()),
+            };
+            return Err(CliError::Usage(format!(
+                "{whose} has no camera pose (calibration.json or camera_pose.json): give \
+                 --pose POSE.json, or find it with `softsense calibrate`"
+            )));
+        };
+        cameras.push(SensorCamera::new(&c.name, pose));
+    }
+    Ok(cameras)
+}
+
 /// Which cable inputs `sensor` senses with, in words: the recorded ones, else the
 /// calibration's (set on `sensor`), else the model file's.
-fn use_recorded_inputs(
-    rec: &Recording,
-    sensor: &mut Sensor,
-    pose_file: &std::path::Path,
-) -> Result<String, CliError> {
+fn use_recorded_inputs(rec: &Recording, sensor: &mut Sensor) -> Result<String, CliError> {
     use softsense::recording::InputsFile;
     let recorded = rec.recorded.as_ref().map(|r| r.kind);
+    let file = rec.calibration_file().unwrap_or(&rec.dir).to_path_buf();
     let calibrated = sensor
         .use_recording_inputs(rec)
-        .map_err(|e| CliError::Result(format!("{}: {e}", pose_file.display())))?;
+        .map_err(|e| CliError::Result(format!("{}: {e}", file.display())))?;
     Ok(match (recorded, calibrated) {
         (Some(InputsFile::Actuators), _) => "recorded (actuators.json)".to_string(),
         (recorded, true) => {
-            let calibrated = format!("calibrated ({})", super::shown_path(pose_file).display());
+            let calibrated = format!("calibrated ({})", super::shown_path(&file).display());
             match recorded {
                 Some(_) => format!("recorded (inputs.json), else {calibrated}"),
                 None => calibrated,
@@ -254,6 +316,7 @@ fn use_recorded_inputs(
     })
 }
 
+/// The model file: `--model`, else the one the recording names.
 fn model_path(args: &SenseArgs, rec: &Recording) -> Result<PathBuf, CliError> {
     match (&args.model, rec.model_path()) {
         (Some(m), _) => Ok(m.clone()),
@@ -319,6 +382,10 @@ fn print_human(r: &FrameReport) -> CliResult {
         r.updates,
         r.ms
     )?;
+    if !r.cameras.is_empty() {
+        let each: Vec<String> = r.cameras.iter().map(|c| c.to_string()).collect();
+        outln!("  cameras: {}", each.join("; "))?;
+    }
     for (i, f) in r.forces.iter().enumerate() {
         outln!(
             "  force {i} ({}{}): at ({:.1}, {:.1}, {:.1}) mm, F = ({:.3}, {:.3}, {:.3}) N, |F| = {:.3} ± {:.4} N (3-D ± {:.4} N)",
@@ -468,11 +535,13 @@ fn truth_summary(errors: &[&LoadError]) -> String {
     )
 }
 
-/// The frame with the robot tinted, features, contacts and force arrows.
+/// The frame of `view`'s camera (`rec`) with its robot points tinted, the features, the
+/// contacts and the force arrows.
 fn picture(
     rec: &Recording,
     sensor: &Sensor,
     obs: &Observation,
+    view: &View,
     report: &FrameReport,
     path: &std::path::Path,
 ) -> Result<(), Box<dyn std::error::Error>> {
@@ -481,9 +550,10 @@ fn picture(
         mask_from_indices, project_with, sense_overlay, Canvas, ContactMark, FeatureMark,
         ForceArrow, OverlayParams, SenseOverlay,
     };
-    let frame = Canvas::from_rgb(obs.width, obs.height, obs.color.clone())?;
-    let mask = mask_from_indices(obs.width, obs.height, &obs.robot_pixels);
-    let cam = sensor.robot_from_camera.inverse();
+    let frame = Canvas::from_rgb(view.width, view.height, view.color.clone())?;
+    let mask = mask_from_indices(view.width, view.height, &view.robot_pixels);
+    let camera = &sensor.cameras[view.camera];
+    let (cam, eye) = (camera.robot_from_camera.inverse(), camera.eye);
     let k = rec.camera.intrinsics;
     let px = |p: [f64; 3]| project_with(&k, cam.apply(p));
     let x = if report.positions.is_empty() {
@@ -498,6 +568,11 @@ fn picture(
         .iter()
         .filter_map(|f| {
             let (p, n) = (f.position(x), f.normal(x));
+            // Another camera's features on faces this one sees from behind are left out.
+            let to_eye: [f64; 3] = std::array::from_fn(|i| eye[i] - p[i]);
+            if (0..3).map(|i| to_eye[i] * n[i]).sum::<f64>() <= 0.0 {
+                return None;
+            }
             let m = registrar.match_feature(p, n, rp);
             Some(FeatureMark {
                 pixel: px(p)?,
@@ -535,8 +610,12 @@ fn picture(
             )
         })
         .collect();
+    let seen_by = match sensor.cameras.len() {
+        1 => String::new(),
+        _ => format!(" ({} of {} cameras)", camera.name, sensor.cameras.len()),
+    };
     let title = format!(
-        "frame {}: {} force(s), {}/{} features, residual {:.2} mm",
+        "frame {}{seen_by}: {} force(s), {}/{} features, residual {:.2} mm",
         report.frame,
         report.forces.len(),
         report.features_visible,

@@ -55,16 +55,23 @@ impl DenseParams {
     }
 }
 
-/// What the dense rows need: the frame's (subsampled) robot points, the camera centre and
-/// the model's surface.
-#[derive(Clone, Copy, Debug)]
-pub struct DenseInputs<'a> {
-    /// Robot points (robot frame, m), already subsampled ([`subsample`]).
-    pub points: &'a [[f64; 3]],
+/// One camera's part of the dense rows: its (subsampled) robot points and where it looks
+/// from.
+#[derive(Clone, Debug)]
+pub struct DenseView {
+    /// Robot points this camera saw (robot frame, m), already subsampled ([`subsample`]).
+    pub points: Vec<[f64; 3]>,
     /// Camera centre (robot frame, m).
     pub eye: [f64; 3],
     /// The camera's optical axis (robot frame, unit): a point's depth is along it.
     pub axis: [f64; 3],
+}
+
+/// What the dense rows need: each camera's robot points and pose, and the model's surface.
+#[derive(Clone, Copy, Debug)]
+pub struct DenseInputs<'a> {
+    /// The cameras' points, one view per camera that saw the frame.
+    pub views: &'a [DenseView],
     /// Surface triangles (volume node indices, oriented outward).
     pub triangles: &'a [[usize; 3]],
     /// Tunables.
@@ -82,22 +89,26 @@ pub fn subsample(points: &[[f64; 3]], max: usize) -> Vec<[f64; 3]> {
     finite.into_iter().step_by(k).collect()
 }
 
-/// The dense rows at node positions `x`: for each point q, the ray from the eye through q
-/// meets the surface (the first hit, facing the camera) at p on triangle t; the row
-/// measures p (t's barycentric point) along t's outward normal n, and its measured value
-/// is the row's value plus n·(q − p). Returns the rows, their measured values and their
-/// noise: expected ([`DenseParams::row_noise`]) and patch (t).
+/// The dense rows at node positions `x`: for each point q of a view, the ray from that
+/// view's eye through q meets the surface (the first hit, facing the camera) at p on
+/// triangle t; the row measures p (t's barycentric point) along t's outward normal n, and
+/// its measured value is the row's value plus n·(q − p). Each row's noise is its own
+/// camera's at its own depth. Returns the rows, their measured values and their noise:
+/// expected ([`DenseParams::row_noise`]) and patch (t).
 pub(crate) fn dense_rows(
     dense: &DenseInputs<'_>,
     x: &[[f64; 3]],
 ) -> FemResult<(Vec<ConstraintRow>, Vec<f64>, RowNoise)> {
     let bvh = Bvh::new(x, dense.triangles);
     let params = dense.params;
-    let found = super::par_map(dense.points, |&q| {
-        let to = sub(q, dense.eye);
+    let rays: Vec<(&DenseView, [f64; 3])> = (dense.views.iter())
+        .flat_map(|v| v.points.iter().map(move |&q| (v, q)))
+        .collect();
+    let found = super::par_map(&rays, |&(view, q)| {
+        let to = sub(q, view.eye);
         let range = dot(to, to).sqrt();
         let d = unit(to);
-        let (hit, k) = bvh.cast_triangle(dense.eye, d)?;
+        let (hit, k) = bvh.cast_triangle(view.eye, d)?;
         let cos = dot(hit.normal, d);
         if cos > -params.min_view_cos {
             return None;
@@ -107,13 +118,13 @@ pub(crate) fn dense_rows(
             return None;
         }
         let tri = dense.triangles[k];
-        let p = [0, 1, 2].map(|c| dense.eye[c] + hit.t * d[c]);
+        let p = [0, 1, 2].map(|c| view.eye[c] + hit.t * d[c]);
         let (_, w) = closest_point_on_triangle_weights(p, x[tri[0]], x[tri[1]], x[tri[2]]);
         let at = MappedPoint {
             nodes: [tri[0], tri[1], tri[2], tri[0]],
             weights: [w[0], w[1], w[2], 0.0],
         };
-        let noise = params.row_noise(dot(to, dense.axis), cos);
+        let noise = params.row_noise(dot(to, view.axis), cos);
         Some((at, hit.normal, offset, noise, k))
     });
     let mut rows = Vec::new();

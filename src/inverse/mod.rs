@@ -24,7 +24,7 @@ pub mod qp;
 pub mod sensing;
 pub mod uncertainty;
 
-pub use dense::{DenseInputs, DenseParams};
+pub use dense::{DenseInputs, DenseParams, DenseView};
 pub use linearise::{Candidate, LinearisationPoint};
 pub use locations::{choose_locations, Alternative, LocationChoice};
 pub use sensing::{estimate, FrameEstimate, FrameInputs, FrameParams, LoopTimings, Start};

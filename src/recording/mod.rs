@@ -142,6 +142,14 @@ pub enum RecordingError {
         /// Last frame.
         last: usize,
     },
+    /// A camera name the rig does not have.
+    #[error("no camera {name:?} in the recording (its cameras: {cameras})")]
+    NoSuchCamera {
+        /// The name asked for.
+        name: String,
+        /// The rig's camera names.
+        cameras: String,
+    },
 }
 
 /// `Result` of reading a recording.
@@ -387,6 +395,11 @@ impl Recording {
             truth: shared.truth,
             warnings: shared.warnings,
         }
+    }
+
+    /// The file the calibrated cable inputs and model came from, if any.
+    pub fn calibration_file(&self) -> Option<&Path> {
+        self.calibration_file.as_deref()
     }
 
     /// The recording with the camera pose read from `path` (a `--pose` file) instead of

@@ -204,6 +204,25 @@ impl Rig {
         Ok(self)
     }
 
+    /// The rig with only the cameras named in `names`, in the rig's order; the frames are
+    /// those any of them has. An unknown name is [`RecordingError::NoSuchCamera`].
+    pub fn keep_cameras(mut self, names: &[String]) -> RecordingResult<Self> {
+        if let Some(name) = names.iter().find(|n| self.camera(n).is_none()) {
+            let all: Vec<&str> = self.cameras.iter().map(|c| c.name.as_str()).collect();
+            return Err(RecordingError::NoSuchCamera {
+                name: name.clone(),
+                cameras: all.join(", "),
+            });
+        }
+        self.cameras.retain(|c| names.contains(&c.name));
+        self.frames = (self.cameras.iter())
+            .flat_map(|c| c.recording.frames.iter().copied())
+            .collect();
+        self.frames.sort_unstable();
+        self.frames.dedup();
+        Ok(self)
+    }
+
     /// The shared files' view of the rig (recorded inputs, truth, model): the first
     /// camera's recording, which holds them like every other camera's.
     pub fn shared(&self) -> &Recording {

@@ -8,8 +8,9 @@ use super::track::{force_point_ends, leave, Track};
 use super::{FrameReport, FrameStatus, ModelInputs, Observation, Sensor};
 use crate::contact::Contact;
 use crate::fem::solve::CableControl;
+use crate::inverse::dense::subsample;
 use crate::inverse::{
-    estimate, par_map, Candidate, DenseInputs, FrameEstimate, FrameInputs, FrameParams,
+    estimate, par_map, Candidate, DenseInputs, DenseView, FrameEstimate, FrameInputs, FrameParams,
     InverseResult, Start,
 };
 use crate::math::{dot, sub};
@@ -85,6 +86,12 @@ impl Sensor {
         let mut report = FrameReport::empty(frame, FrameStatus::Sensed);
         report.robot_points = obs.robot.len();
         report.object_points = obs.objects.len();
+        report.cameras = obs.cameras.clone();
+        for c in obs.cameras.iter().filter(|c| !c.is_seen()) {
+            report
+                .warnings
+                .push(format!("camera {c}: sensed from the other cameras alone"));
+        }
         report.features = self.features.len();
         if inputs.is_none() {
             report.warnings.push(match self.model_inputs {
@@ -141,15 +148,23 @@ impl Sensor {
         let clock = std::time::Instant::now();
         let registrar = Registrar::new(&obs.robot);
         let dense_on = self.params.registration.is_dense(contacts.len());
-        let dense_points = if dense_on {
-            crate::inverse::dense::subsample(&obs.robot, self.params.dense_rows.max_points)
+        let views: Vec<DenseView> = if dense_on {
+            (obs.views.iter())
+                .map(|v| {
+                    let points = &obs.robot[v.robot.clone()];
+                    let camera = &self.cameras[v.camera];
+                    DenseView {
+                        points: subsample(points, self.params.dense_rows.max_points),
+                        eye: camera.eye,
+                        axis: camera.robot_from_camera.axis(2),
+                    }
+                })
+                .collect()
         } else {
             Vec::new()
         };
         let dense = DenseInputs {
-            points: &dense_points,
-            eye: self.eye,
-            axis: self.robot_from_camera.axis(2),
+            views: &views,
             triangles: &self.surface.triangles,
             params: self.params.dense_rows,
         };

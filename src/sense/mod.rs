@@ -31,6 +31,7 @@
 //! }
 //! ```
 
+mod cameras;
 mod estimate;
 mod free;
 mod locate;
@@ -41,9 +42,10 @@ pub mod score;
 mod stream;
 mod track;
 
-pub use crate::recording::Recording;
+pub use crate::recording::{Recording, Rig};
+pub use cameras::{CameraFrames, CameraReport, CameraState, SensorCamera};
 pub use free::SAME_INPUT;
-pub use observe::Observation;
+pub use observe::{Observation, View};
 pub use params::{Registration, SenseParams};
 pub use report::{
     compare, largest_sigma, median_timings, ForceEstimate, FrameReport, FrameStatus, LoadError,
@@ -87,6 +89,17 @@ pub enum SenseError {
     /// Calibrated cable inputs that do not fit the model.
     #[error("calibrated cable inputs: {0}")]
     Calibration(String),
+    /// The recording's cameras are not the sensor's.
+    #[error("the sensor has cameras [{sensor}], the recording [{recording}]")]
+    Cameras {
+        /// The sensor's camera names.
+        sensor: String,
+        /// The recording's camera names.
+        recording: String,
+    },
+    /// No camera could read the frame (each camera's reason).
+    #[error("no camera could read the frame: {0}")]
+    NoCamera(String),
 }
 
 /// `Result` of the sensing stage.
@@ -103,10 +116,8 @@ pub struct Sensor {
     /// A dense pool of features (same rules), from which those near a seen contact join
     /// the frame's features.
     pub local_pool: Vec<SurfaceFeature>,
-    /// The camera's pose in the robot frame.
-    pub robot_from_camera: Pose,
-    /// The camera centre in the robot frame (m).
-    pub eye: [f64; 3],
+    /// The cameras, in the order of the recordings sensed (one for a [`Recording`]).
+    pub cameras: Vec<SensorCamera>,
     /// Crop box in the robot frame (m).
     pub bounds: [[f64; 3]; 2],
     /// The model's surface (triangles and nodes), computed once.
@@ -130,10 +141,20 @@ pub enum ModelInputs {
 }
 
 impl Sensor {
-    /// Prepares the features (flat patches the camera at `robot_from_camera` sees).
-    pub fn new(model: Model, robot_from_camera: Pose, mut params: SenseParams) -> Self {
-        let eye = robot_from_camera.origin();
-        params.features.eye = Some(eye);
+    /// Prepares the features (flat patches the camera at `robot_from_camera` sees) for a
+    /// one-camera [`Recording`].
+    pub fn new(model: Model, robot_from_camera: Pose, params: SenseParams) -> Self {
+        Self::with_cameras(
+            model,
+            vec![SensorCamera::new("camera", robot_from_camera)],
+            params,
+        )
+    }
+
+    /// Prepares the features (flat patches any of `cameras` sees) for frames of these
+    /// cameras, in this order ([`Rig`]: [`SensorCamera`]s named as its cameras).
+    pub fn with_cameras(model: Model, cameras: Vec<SensorCamera>, mut params: SenseParams) -> Self {
+        params.features.eyes = cameras.iter().map(|c| c.eye).collect();
         let surface = model.problem.mesh.surface();
         let features = surface_features(
             &model.problem.mesh.nodes_in_rest,
@@ -167,8 +188,7 @@ impl Sensor {
             features,
             params,
             local_pool,
-            robot_from_camera,
-            eye,
+            cameras,
             bounds,
             surface,
             free: FreeSolves::default(),

@@ -222,6 +222,9 @@ pub struct FrameReport {
     pub robot_points: usize,
     /// Object points inside the crop.
     pub object_points: usize,
+    /// Each camera's part, for a recording of several cameras (empty for one).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub cameras: Vec<super::CameraReport>,
     /// Estimated forces.
     pub forces: Vec<ForceEstimate>,
     /// Actuator forces (N), one per cable, by name.
@@ -280,6 +283,7 @@ impl FrameReport {
             status,
             robot_points: 0,
             object_points: 0,
+            cameras: Vec::new(),
             forces: Vec::new(),
             actuators: Vec::new(),
             features_visible: 0,

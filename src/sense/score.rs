@@ -44,6 +44,26 @@ pub struct SensedFrame {
     /// Time of the frame (ms).
     #[serde(default)]
     pub ms: f64,
+    /// Each camera's part, for a recording of several cameras (absent for one).
+    #[serde(default)]
+    pub cameras: Vec<SensedCamera>,
+}
+
+/// One camera's part in a frame as `sense --json` prints it.
+#[derive(Clone, Debug, Deserialize)]
+pub struct SensedCamera {
+    /// `seen`, `missing` or `unreadable`.
+    pub status: String,
+}
+
+impl SensedFrame {
+    /// How many cameras the frame was sensed from (1 for a one-camera recording).
+    pub fn cameras_seen(&self) -> usize {
+        match self.cameras.len() {
+            0 => 1,
+            _ => self.cameras.iter().filter(|c| c.status == "seen").count(),
+        }
+    }
 }
 
 /// One estimated force as `sense --json` prints it.

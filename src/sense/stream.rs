@@ -1,7 +1,7 @@
 //! Frames sensed side by side ([`Sensor::sense_frames`]): each worker thread takes the next
 //! frame as soon as it is free, and the reports are handed on in frame order.
 
-use super::{FrameReport, FrameStatus, Observation, Recording, SenseResult, Sensor};
+use super::{CameraFrames, FrameReport, FrameStatus, Observation, SenseResult, Sensor};
 #[cfg(feature = "parallel")]
 use std::collections::BTreeMap;
 #[cfg(feature = "parallel")]
@@ -55,7 +55,7 @@ impl Sensor {
     /// ```
     pub fn sense_frames<E>(
         &self,
-        rec: &Recording,
+        rec: &impl CameraFrames,
         frames: &[usize],
         window: usize,
         mut emit: impl FnMut(&SenseResult<Observation>, FrameReport) -> Result<(), E>,

@@ -3,7 +3,7 @@
 
 use super::free::same_inputs;
 use super::report::Group;
-use super::{FrameReport, FrameStatus, Observation, Recording, SenseResult, Sensor};
+use super::{CameraFrames, FrameReport, FrameStatus, Observation, SenseResult, Sensor};
 use crate::fem::solve::CableControl;
 use crate::inverse::{Candidate, FrameEstimate};
 use crate::math::{dot, sub};
@@ -68,7 +68,7 @@ impl Sensor {
     /// ```
     pub fn track_frames<E>(
         &self,
-        rec: &Recording,
+        rec: &impl CameraFrames,
         frames: &[usize],
         mut emit: impl FnMut(&SenseResult<Observation>, FrameReport) -> Result<(), E>,
     ) -> Result<(), E> {

@@ -212,7 +212,7 @@ fn surface_features_seen_from_a_camera_face_it() {
         &rest,
         &s,
         &FeatureParams {
-            eye: Some(eye),
+            eyes: vec![eye],
             count: 20,
             ..Default::default()
         },
@@ -228,6 +228,39 @@ fn surface_features_seen_from_a_camera_face_it() {
         let w: f64 = f.weights.iter().sum();
         assert!((w - 1.0).abs() < 1e-12);
         assert!((f.mapped().position(&rest)[0] - p[0]).abs() < 1e-15);
+    }
+}
+
+#[test]
+fn surface_features_seen_by_two_cameras_lie_on_the_faces_either_one_sees() {
+    let m = TetMesh::structured_box([0.0, 0.0, 0.0], [0.1, 0.04, 0.02], [10, 4, 2]).unwrap();
+    let s = m.surface();
+    let rest = m.nodes_in_rest.clone();
+    // One camera above the top face, one beyond the end face x = 0.1.
+    let (above, beside) = ([0.05, 0.02, 0.5], [0.6, 0.02, 0.01]);
+    let with = |eyes: Vec<[f64; 3]>| {
+        surface_features(
+            &rest,
+            &s,
+            &FeatureParams {
+                eyes,
+                count: 1000,
+                ..Default::default()
+            },
+        )
+    };
+    let (top, end, both) = (
+        with(vec![above]),
+        with(vec![beside]),
+        with(vec![above, beside]),
+    );
+    assert!(!top.is_empty() && !end.is_empty());
+    assert_eq!(both.len(), top.len() + end.len());
+    for f in &both {
+        let (p, n) = (f.position(&rest), f.normal(&rest));
+        let on_top = (p[2] - 0.02).abs() < 1e-12 && n[2] > 0.999;
+        let on_end = (p[0] - 0.1).abs() < 1e-12 && n[0] > 0.999;
+        assert!(on_top || on_end, "{p:?} {n:?}");
     }
 }
 

@@ -1,0 +1,144 @@
+//! The cameras a [`Sensor`] looks through, and what each saw of a frame: one camera for a
+//! [`Recording`], any number for a [`Rig`] ([`CameraFrames`]). All cameras' robot points,
+//! in the robot frame, are registered together, each dense row with its own camera's ray
+//! and depth noise; contacts come from the union of their points (so two cameras seeing one
+//! contact give one contact); a camera without the frame, or whose frame cannot be read,
+//! is left out of that frame ([`CameraReport`]) while the others are sensed.
+
+use super::{Recording, SenseError, SenseResult, Sensor};
+use crate::math::pose::Pose;
+use crate::recording::{FrameInput, Rig};
+use serde::Serialize;
+
+/// One camera of a [`Sensor`].
+#[derive(Clone, Debug)]
+pub struct SensorCamera {
+    /// The camera's name (its folder's in a rig; `camera` for a one-camera recording).
+    pub name: String,
+    /// The camera's pose in the robot frame.
+    pub robot_from_camera: Pose,
+    /// The camera centre in the robot frame (m).
+    pub eye: [f64; 3],
+}
+
+impl SensorCamera {
+    /// The camera `name` at `robot_from_camera`.
+    pub fn new(name: &str, robot_from_camera: Pose) -> Self {
+        Self {
+            name: name.to_string(),
+            eye: robot_from_camera.origin(),
+            robot_from_camera,
+        }
+    }
+}
+
+/// Frames seen by one or more cameras, in the sensor's camera order: a [`Recording`] (one
+/// camera) or a [`Rig`].
+pub trait CameraFrames: Sync {
+    /// How many cameras.
+    fn camera_count(&self) -> usize;
+    /// Camera `k`'s recording (its frames, camera files and pose, and the shared inputs).
+    fn camera_recording(&self, k: usize) -> &Recording;
+    /// Camera `k`'s name.
+    fn camera_name(&self, k: usize) -> &str;
+    /// The recorded cable inputs of `frame` (shared by all cameras).
+    fn inputs_of(&self, frame: usize) -> Option<FrameInput> {
+        self.camera_recording(0).inputs_of(frame)
+    }
+}
+
+impl CameraFrames for Recording {
+    fn camera_count(&self) -> usize {
+        1
+    }
+    fn camera_recording(&self, _: usize) -> &Recording {
+        self
+    }
+    fn camera_name(&self, _: usize) -> &str {
+        "camera"
+    }
+}
+
+impl CameraFrames for Rig {
+    fn camera_count(&self) -> usize {
+        self.cameras.len()
+    }
+    fn camera_recording(&self, k: usize) -> &Recording {
+        &self.cameras[k].recording
+    }
+    fn camera_name(&self, k: usize) -> &str {
+        &self.cameras[k].name
+    }
+}
+
+/// What one camera gave a frame.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "status", rename_all = "snake_case")]
+pub enum CameraState {
+    /// Read and used.
+    Seen {
+        /// Its robot points in the crop.
+        robot_points: usize,
+        /// Its object points in the crop.
+        object_points: usize,
+    },
+    /// The camera has no such frame.
+    Missing,
+    /// The frame's files could not be read (the message says why).
+    Unreadable {
+        /// What went wrong.
+        message: String,
+    },
+}
+
+/// One camera's part in a frame of a several-camera recording.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CameraReport {
+    /// The camera's name.
+    pub name: String,
+    /// What it gave the frame.
+    #[serde(flatten)]
+    pub state: CameraState,
+}
+
+impl CameraReport {
+    /// Whether the camera's frame was read and used.
+    pub fn is_seen(&self) -> bool {
+        matches!(self.state, CameraState::Seen { .. })
+    }
+}
+
+impl std::fmt::Display for CameraReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match &self.state {
+            CameraState::Seen {
+                robot_points,
+                object_points,
+            } => write!(
+                f,
+                "{}: robot {robot_points} pts, objects {object_points} pts",
+                self.name
+            ),
+            CameraState::Missing => write!(f, "{}: no such frame", self.name),
+            CameraState::Unreadable { message } => write!(f, "{}: {message}", self.name),
+        }
+    }
+}
+
+impl Sensor {
+    /// Checks that `source` has the sensor's cameras, by count and name.
+    pub fn check_cameras(&self, source: &impl CameraFrames) -> SenseResult<()> {
+        let names: Vec<&str> = (0..source.camera_count())
+            .map(|k| source.camera_name(k))
+            .collect();
+        let mine: Vec<&str> = self.cameras.iter().map(|c| c.name.as_str()).collect();
+        // A one-camera sensor reads any one-camera recording, whatever its name.
+        if names.len() == mine.len() && (mine.len() == 1 || names == mine) {
+            return Ok(());
+        }
+        Err(SenseError::Cameras {
+            sensor: mine.join(", "),
+            recording: names.join(", "),
+        })
+    }
+}
