@@ -7,6 +7,8 @@ mod common;
 mod batch;
 #[path = "acceptance/calibrate.rs"]
 mod calibrate;
+#[path = "acceptance/cameras.rs"]
+mod cameras;
 #[path = "acceptance/control.rs"]
 mod control;
 #[path = "acceptance/explain_hidden.rs"]

@@ -5,6 +5,8 @@ mod common;
 mod batch;
 #[path = "integration/calibrate.rs"]
 mod calibrate;
+#[path = "integration/calibrate_cameras.rs"]
+mod calibrate_cameras;
 #[path = "integration/calibrate_pso.rs"]
 mod calibrate_pso;
 #[path = "integration/cli.rs"]

@@ -40,6 +40,7 @@
 //! assert!(back.rotation.angle_to(&truth.rotation) < 1e-12);
 //! ```
 
+pub mod agreement;
 pub mod feature;
 mod icp;
 pub mod observe;
@@ -51,6 +52,7 @@ pub mod schema;
 pub mod solve;
 pub mod surface;
 
+pub use agreement::{camera_agreement, Agreement};
 pub use feature::{
     calibrate_sequential, observe_features, surface_features, FeatureCalibration, FeatureStatus,
     ROBOT_MARKERS,

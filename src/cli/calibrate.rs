@@ -4,12 +4,12 @@
 use super::{print_json, CliError, CliResult};
 use clap::Args;
 use softsense::calibrate::{
-    calibrate, read_pose, recording_robot_points, CalibrateParams, Calibration, CalibrationStatus,
-    IterationReport,
+    calibrate, camera_agreement, read_pose, recording_robot_points, CalibrateParams, Calibration,
+    CalibrationStatus, IterationReport,
 };
 use softsense::fem::model::Model;
 use softsense::math::Iso3;
-use softsense::recording::Recording;
+use softsense::recording::{Recording, Rig};
 use std::path::{Path, PathBuf};
 
 /// Calibrate the camera-to-robot transform and the cable inputs from a frame.
@@ -28,9 +28,16 @@ within about 10 degrees and 30 mm. Writes calibration.json (robot_from_camera, t
 cable tensions and shortenings, and the model file's path) into SCENE_DIR or --out. \
 `softsense sense` on that folder then takes its pose, its model, and its cable inputs for \
 frames without recorded ones (actuators.json); calibrate on a frame where nothing \
-touches the robot.",
-    after_help = "Example:\n  softsense calibrate clouds/scenes/calib meshes/models/robot.toml \
---start clouds/scenes/calib/rough_pose.json"
+touches the robot.\n\n\
+A folder of several cameras (one sub-folder each, as `sense` reads it) is calibrated camera \
+by camera: each from its own NAME/rough_pose.json, each written to NAME/calibration.json, \
+on the same frame number; then every pair of cameras is checked against each other on the \
+robot's surface (each camera's robot points against a plane through the other's nearest \
+points, where both see the robot): the median, RMS and 95th percentile distance. A few \
+tenths of a millimetre is noise; more says one pose is off.",
+    after_help = "Examples:\n  softsense calibrate clouds/scenes/calib meshes/models/robot.toml \
+--start clouds/scenes/calib/rough_pose.json\n  \
+softsense calibrate my_two_cameras meshes/models/robot.toml   # front/ and side/, each with rough_pose.json"
 )]
 pub struct CalibrateArgs {
     /// Recording folder (any layout `sense` reads).
@@ -61,27 +68,89 @@ pub fn run(args: &CalibrateArgs) -> CliResult {
         color: softsense::segment::robot_color::RobotColorModel::with_reference(args.robot_color),
         ..Default::default()
     };
-    let start = start_pose(args)?;
     let model = Model::load(&args.model, None).map_err(softsense::Error::from)?;
-    let rec = Recording::open(&args.scene_dir).map_err(softsense::Error::from)?;
-    let points =
-        recording_robot_points(&rec, args.frame, &params).map_err(softsense::Error::from)?;
+    let rig = Rig::open(&args.scene_dir).map_err(softsense::Error::from)?;
+    if rig.is_one_folder() {
+        let start = start_pose(args.start.as_deref(), &args.scene_dir)?;
+        let out = (args.out.clone()).unwrap_or_else(|| args.scene_dir.join("calibration.json"));
+        let rec = &rig.cameras[0].recording;
+        let (cal, written, _) = calibrate_camera(args, rec, &model, &params, &start, &out)?;
+        return finish(args, &cal, &written);
+    }
+    if args.out.is_some() || args.start.is_some() {
+        return Err(CliError::Usage(format!(
+            "{} has cameras {}: each camera's rough pose is read from its folder \
+             (NAME/rough_pose.json) and its calibration written there (NAME/calibration.json), \
+             so --start and --out do not apply",
+            args.scene_dir.display(),
+            camera_names(&rig)
+        )));
+    }
+    let mut seen = Vec::new();
+    for camera in &rig.cameras {
+        let dir = &camera.recording.dir;
+        eprintln!("camera {}:", camera.name);
+        let start = start_pose(None, dir)?;
+        let out = dir.join("calibration.json");
+        let (cal, written, points) =
+            calibrate_camera(args, &camera.recording, &model, &params, &start, &out)
+                .map_err(|e| CliError::Result(format!("camera {}: {e}", camera.name)))?;
+        if !args.json {
+            outln!("camera {}:", camera.name)?;
+            print_summary(&cal)?;
+        }
+        seen.push((camera.name.clone(), cal, written, points));
+    }
+    report_agreement(&seen, args.json)?;
+    let poor: Vec<&str> = (seen.iter())
+        .filter(|(_, cal, _, _)| cal.status == CalibrationStatus::PoorFit)
+        .map(|(name, _, _, _)| name.as_str())
+        .collect();
+    if !poor.is_empty() {
+        return Err(CliError::Result(format!(
+            "the fit did not match the frame of camera(s) {}: start pose too far off or wrong model",
+            poor.join(", ")
+        )));
+    }
+    Ok(())
+}
+
+fn camera_names(rig: &Rig) -> String {
+    let names: Vec<&str> = rig.cameras.iter().map(|c| c.name.as_str()).collect();
+    names.join(", ")
+}
+
+/// Calibrates one camera of `rec` from `start`, writes `out` and checks for a touch;
+/// returns the calibration, what was written, and its robot points in the robot frame.
+fn calibrate_camera(
+    args: &CalibrateArgs,
+    rec: &Recording,
+    model: &Model,
+    params: &CalibrateParams,
+    start: &Iso3,
+    out: &Path,
+) -> Result<(Calibration, serde_json::Value, Vec<[f64; 3]>), CliError> {
+    let points = recording_robot_points(rec, args.frame, params).map_err(softsense::Error::from)?;
     eprintln!("{} robot points in frame {}", points.len(), args.frame);
-    let cal = calibrate(&model, &points, &start, &params, print_progress)
-        .map_err(softsense::Error::from)?;
-    let out = args
-        .out
-        .clone()
-        .unwrap_or_else(|| args.scene_dir.join("calibration.json"));
-    let result = write_result(args, &cal, &out)?;
+    let cal =
+        calibrate(model, &points, start, params, print_progress).map_err(softsense::Error::from)?;
+    let written = write_result(args, &cal, out)?;
     eprintln!("wrote {}", out.display());
     if cal.status != CalibrationStatus::PoorFit {
-        touch_check(&rec, args.frame, &model, &params, &cal)?;
+        touch_check(rec, args.frame, model, params, &cal)?;
     }
+    let pose = softsense::math::pose::Pose::from_matrix(&cal.robot_from_camera)
+        .map_err(|e| CliError::Result(e.to_string()))?;
+    let in_robot = points.iter().map(|&p| pose.apply(p)).collect();
+    Ok((cal, written, in_robot))
+}
+
+/// Prints one camera's result and fails on a poor fit.
+fn finish(args: &CalibrateArgs, cal: &Calibration, written: &serde_json::Value) -> CliResult {
     if args.json {
-        print_json(&result)?;
+        print_json(written)?;
     } else {
-        print_summary(&cal)?;
+        print_summary(cal)?;
     }
     if cal.status == CalibrationStatus::PoorFit {
         return Err(CliError::Result(format!(
@@ -93,12 +162,49 @@ pub fn run(args: &CalibrateArgs) -> CliResult {
     Ok(())
 }
 
-/// The rough start pose: --start or SCENE_DIR/rough_pose.json.
-fn start_pose(args: &CalibrateArgs) -> Result<Iso3, CliError> {
-    let start_path = args
-        .start
-        .clone()
-        .unwrap_or_else(|| args.scene_dir.join("rough_pose.json"));
+/// How well each pair of calibrated cameras agrees on the robot's surface (their robot
+/// points in the robot frame), printed; with `json`, every camera's calibration and the
+/// pairs as one JSON object.
+fn report_agreement(seen: &[Calibrated], json: bool) -> CliResult {
+    let mut pairs = Vec::new();
+    for (i, (a, _, _, pa)) in seen.iter().enumerate() {
+        for (b, _, _, pb) in &seen[i + 1..] {
+            let agreement = camera_agreement(pa, pb, AGREEMENT_RADIUS, 4);
+            if !json {
+                match &agreement {
+                    Some(g) => outln!(
+                        "cameras {a} and {b} agree on the robot's surface over {} points: \
+                         median {:.3} mm, RMS {:.3} mm, 95% within {:.3} mm",
+                        g.overlap_points,
+                        g.median * 1e3,
+                        g.rms * 1e3,
+                        g.p95 * 1e3
+                    )?,
+                    None => outln!("cameras {a} and {b} see no part of the robot in common")?,
+                }
+            }
+            pairs.push(serde_json::json!({"cameras": [a, b], "agreement": agreement}));
+        }
+    }
+    if json {
+        let cameras: serde_json::Map<String, serde_json::Value> = (seen.iter())
+            .map(|(name, _, written, _)| (name.clone(), written.clone()))
+            .collect();
+        print_json(&serde_json::json!({"cameras": cameras, "agreement": pairs}))?;
+    }
+    Ok(())
+}
+
+/// A camera's name, calibration, what was written, and its robot points (robot frame).
+type Calibrated = (String, Calibration, serde_json::Value, Vec<[f64; 3]>);
+
+/// Two cameras see the same surface where the other's 10 nearest points are within this
+/// (m): a few point spacings at 0.5 m.
+const AGREEMENT_RADIUS: f64 = 0.004;
+
+/// The rough start pose: `start`, else DIR/rough_pose.json.
+fn start_pose(start: Option<&Path>, dir: &Path) -> Result<Iso3, CliError> {
+    let start_path = start.map_or_else(|| dir.join("rough_pose.json"), Path::to_path_buf);
     if !start_path.exists() {
         return Err(CliError::Usage(format!(
             "no rough start pose: {} does not exist (give --start POSE.json with \

@@ -32,6 +32,7 @@
 
 mod normals;
 
+pub(crate) use normals::pca_normal;
 pub use normals::{estimate_normals, Neighbourhood, NormalMode, NormalParams, Normals};
 
 use thiserror::Error;

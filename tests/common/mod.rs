@@ -78,6 +78,25 @@ pub fn project_root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
+/// The bundled two-camera scene (`clouds/scenes/two_cameras.toml`) with its cameras at
+/// 640x480 divided by `shrink` (the same field of view).
+#[allow(dead_code)]
+pub fn two_camera_scene(shrink: u32) -> softsense::scene::Scene {
+    let path = project_root().join("clouds/scenes/two_cameras.toml");
+    let mut scene = softsense::scene::Scene::load(&path).unwrap();
+    let k = f64::from(shrink);
+    for c in &mut scene.spec.cameras {
+        let s = &mut c.camera;
+        (s.width, s.height) = (640 / shrink, 480 / shrink);
+        (s.fx, s.fy) = (s.fx / k, s.fy / k);
+        (s.cx, s.cy) = (
+            f64::from(s.width) / 2.0 - 0.5,
+            f64::from(s.height) / 2.0 - 0.5,
+        );
+    }
+    scene
+}
+
 /// Copies files of the bundled scene `clouds/scenes/<scene>` into `dir`, each pair
 /// `(name there, name in dir)`: a recording made of chosen frames, or of frames mixed
 /// from two scenes.

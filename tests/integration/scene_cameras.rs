@@ -1,20 +1,15 @@
 //! `scene generate` with several cameras: one FE solve per frame, one folder per camera,
 //! the shared files once at the top, read back as a rig.
 
-use crate::common::project_root;
+use crate::common::two_camera_scene;
 use softsense::recording::{Recording, RecordingError, Rig};
 use softsense::scene::{generate, Scene};
 
 /// The bundled two-camera scene cut to its first two frames at a quarter of the
 /// resolution (the same field of view).
 fn small_two_camera_scene() -> Scene {
-    let mut scene = Scene::load(&project_root().join("clouds/scenes/two_cameras.toml")).unwrap();
+    let mut scene = two_camera_scene(4);
     scene.spec.frames.truncate(2);
-    for c in &mut scene.spec.cameras {
-        let s = &mut c.camera;
-        (s.width, s.height) = (160, 120);
-        (s.fx, s.fy, s.cx, s.cy) = (s.fx / 4.0, s.fy / 4.0, 79.5, 59.5);
-    }
     scene
 }
 

@@ -2,24 +2,19 @@
 //! frame (or with an unreadable one) left out of that frame with its status, and the
 //! errors a user meets.
 
-use crate::common::project_root;
+use crate::common::two_camera_scene;
 use softsense::fem::model::Model;
 use softsense::recording::Rig;
-use softsense::scene::{generate, Scene};
+use softsense::scene::generate;
 use softsense::sense::{CameraState, SenseError, SenseParams, Sensor, SensorCamera};
 use std::path::Path;
 
 /// The bundled two-camera scene cut to frames 0 and 6 (0.35 and 0.50 N) at half the
 /// resolution (the same field of view).
 fn two_camera_recording(out: &Path) {
-    let mut scene = Scene::load(&project_root().join("clouds/scenes/two_cameras.toml")).unwrap();
+    let mut scene = two_camera_scene(2);
     let frames = &mut scene.spec.frames;
     *frames = vec![frames[0].clone(), frames[6].clone()];
-    for c in &mut scene.spec.cameras {
-        let s = &mut c.camera;
-        (s.width, s.height) = (320, 240);
-        (s.fx, s.fy, s.cx, s.cy) = (s.fx / 2.0, s.fy / 2.0, 159.5, 119.5);
-    }
     generate(&scene, out, |_, _| {}).unwrap();
 }
 

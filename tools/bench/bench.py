@@ -8,6 +8,7 @@ import json
 import os
 import statistics
 import subprocess
+import shutil
 import sys
 import tempfile
 
@@ -34,11 +35,45 @@ def run_softsense(binary, spec, path, repeat):
     return (r["timings_ms"], None) if r["ok"] else (None, r["error"])
 
 
+def scene_folder(a, rel):
+    """A stage's scene: a committed folder, or a scene file (.toml) generated once into
+    --generated (its frames are not committed)."""
+    path = os.path.join(ROOT, rel)
+    if not rel.endswith(".toml"):
+        return path
+    out = os.path.join(a.generated, os.path.splitext(os.path.basename(rel))[0])
+    if not os.path.exists(os.path.join(out, "truth.json")):
+        if not a.cli:
+            sys.exit(f"{rel}: a scene file needs --cli (the softsense binary) to generate it")
+        shutil.rmtree(out, ignore_errors=True)
+        os.makedirs(a.generated, exist_ok=True)
+        subprocess.run([a.cli, "scene", "generate", path, out], check=True,
+                       stdout=subprocess.DEVNULL)
+    return out
+
+
+def print_cameras_table():
+    """A several-camera scene's frame against its first camera's alone (alternated frame by
+    frame in one process)."""
+    rows = [(p, st) for p, st in STAGE_MS.items() if st.get("first_camera_total")]
+    if not rows:
+        return
+    print("\nseveral cameras: ms per frame with every camera against the first camera alone, "
+          "frame by frame in alternation, one frame at a time\n")
+    print("| scene | cameras | ms, all cameras | ms, first camera | ratio |")
+    print("| --- | ---: | ---: | ---: | ---: |")
+    for path, st in rows:
+        all_ms, one_ms = st["total"], st["first_camera_total"]
+        print(f"| {os.path.basename(path)} | {st.get('cameras', '?'):.0f} | {all_ms:.0f}"
+              f" | {one_ms:.0f} | {all_ms / one_ms:.2f}x |")
+
+
 def print_stage_table():
     """Per-stage medians of the whole-chain (`sense`) inputs, with frames per second."""
     if not STAGE_MS:
         return
-    extra = ("stream", "stream_one_thread", "track", "track_steady")
+    extra = ("stream", "stream_one_thread", "track", "track_steady", "first_camera_total",
+             "cameras")
     names = [n for n in next(iter(STAGE_MS.values())).keys() if n not in extra]
     print(f"\nsoftsense whole chain per frame (`sense`), median ms per stage; {THESIS}\n")
     print("frames/s: one frame at a time (1000 / total); stream frames/s: `sense_frames` with as "
@@ -106,6 +141,10 @@ def main():
                          "--repeat repetitions, and pool the timings: a slow minute then hits every "
                          "library, not just one (this machine drifts by 20-40%%); with more than one "
                          "round the table also shows the range of the per-round speed-ups")
+    ap.add_argument("--cli", help="path of the softsense binary: generates the scenes given as "
+                    "scene files (.toml) in a stage's \"scenes\" into --generated")
+    ap.add_argument("--generated", default=os.path.join(ROOT, "target", "bench-scenes"),
+                    help="where generated scenes are kept between runs")
     ap.add_argument("--stages", default=os.path.join(HERE, "stages.json"))
     ap.add_argument("--only", action="append",
                     help="a stage name as in stages.json (exact; names may contain commas); repeatable")
@@ -129,7 +168,7 @@ def main():
         if only and st["name"] not in only:
             continue
         # A stage may name its own inputs ("scenes": folders relative to the repository).
-        inputs = ([os.path.join(ROOT, rel) for rel in st["scenes"]] if "scenes" in st
+        inputs = ([scene_folder(a, rel) for rel in st["scenes"]] if "scenes" in st
                   else [os.path.join(a.data, rel) for rel in cfg["files"]])
         for path in inputs:
             rel = os.path.relpath(path, ROOT) if "scenes" in st else os.path.relpath(path, a.data)
@@ -185,6 +224,7 @@ def main():
             line += (f" {min(spread):.2f}-{max(spread):.2f}x |" if spread else " n/a |")
         print(line)
     print_stage_table()
+    print_cameras_table()
     if notes:
         print("\nNot measured:")
         for n in notes:

@@ -12,9 +12,10 @@ data="$(realpath "${SOFTSENSE_DATA:-$root/../shared/data}")"
 target="${CARGO_TARGET_DIR:-$root/target}"
 
 echo "run.sh: building bench_stages (release) and the PCL oracle" >&2
-cargo build --release --quiet --example bench_stages
+cargo build --release --quiet --example bench_stages --bin softsense
 pcl_bin="$(tools/oracle/build.sh)"
 
 exec "${PYTHON:-python3}" tools/bench/bench.py --data "$data" \
     --softsense "$target/release/examples/bench_stages" --pcl "$pcl_bin" \
+    --cli "$target/release/softsense" --generated "$target/bench-scenes" \
     --python "${PYTHON:-python3}" "$@"
