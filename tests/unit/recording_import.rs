@@ -519,3 +519,62 @@ fn a_missing_depth_topic_is_an_error_listing_the_topics_present() {
         "{text}"
     );
 }
+
+#[test]
+fn float_depth_of_another_camera_is_rounded_and_reprojected_into_the_colour_camera() {
+    let dir = tempfile::tempdir().unwrap();
+    let w = Wire::Cdr;
+    // Colour has twice the depth camera's focal length and size: each depth pixel covers
+    // a 2x2 block of colour pixels (identity extrinsic, so independent of depth).
+    let depth_k = [100.0, 0.0, 0.5, 0.0, 100.0, 0.5, 0.0, 0.0, 1.0];
+    let colour_k = [200.0, 0.0, 1.5, 0.0, 200.0, 1.5, 0.0, 0.0, 1.0];
+    let metres: Vec<u8> = [0.5f32, f32::NAN, 1.0, 0.25]
+        .iter()
+        .flat_map(|z| z.to_le_bytes())
+        .collect();
+    let messages = [
+        (
+            "/cam/depth/camera_info",
+            "sensor_msgs/msg/CameraInfo",
+            info_msg(w, [2, 2], depth_k),
+        ),
+        (
+            "/cam/color/camera_info",
+            "sensor_msgs/msg/CameraInfo",
+            info_msg(w, [4, 4], colour_k),
+        ),
+        (
+            "/cam/depth/image",
+            "sensor_msgs/msg/Image",
+            image_msg(w, 0, [2, 2], "32FC1", &metres),
+        ),
+        (
+            "/cam/color/image",
+            "sensor_msgs/msg/Image",
+            image_msg(w, 0, [4, 4], "bgr8", &[7; 48]),
+        ),
+    ];
+    let bag = dir.path().join("b.mcap");
+    std::fs::write(&bag, mcap(&messages, "")).unwrap();
+    let out = dir.path().join("rec");
+    let summary = import(&bag, &out, &ImportParams::default(), &mut |_, _| {}).unwrap();
+    assert!(summary.aligned && summary.warnings[0].contains("identity extrinsic"));
+    assert_eq!(summary.depth_unit, 1e-4);
+    let png = image::open(out.join("depth_0000.png"))
+        .unwrap()
+        .into_luma16();
+    let row = |v: u32| (0..4).map(|u| png.get_pixel(u, v).0[0]).collect::<Vec<_>>();
+    assert_eq!(
+        [row(0), row(1)],
+        [[5000, 5000, 0, 0], [5000, 5000, 0, 0]].map(Vec::from)
+    );
+    assert_eq!(
+        [row(2), row(3)],
+        [[10000, 10000, 2500, 2500], [10000, 10000, 2500, 2500]].map(Vec::from)
+    );
+    let rec = Recording::open(&out).unwrap();
+    assert_eq!(
+        (rec.camera.params.depth_scale, rec.camera.intrinsics.fx),
+        (10000.0, 200.0)
+    );
+}
