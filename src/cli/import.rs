@@ -18,7 +18,8 @@ BAG is a RealSense .bag (rosbag v1, as the RealSense Viewer records it), a ROS 2
 Topics: depth is the one sensor_msgs/Image topic with encoding 16UC1, mono16 or 32FC1, \
 colour the one with rgb8, bgr8, rgba8, bgra8 or mono8 (RealSense: /device_0/sensor_0/Depth_0/image/data \
 and /device_0/sensor_1/Color_0/image/data); each camera's sensor_msgs/CameraInfo is the one \
-whose topic shares the longest prefix with the image topic. The --*-topic options choose when \
+whose topic shares the longest prefix with the image topic. Of several candidates, mono8 \
+loses to colour encodings, then the one whose name says depth (color, colour, rgb) wins. The --*-topic options choose when \
 the guess is wrong or ambiguous; a missing topic is an error listing the bag's topics.\n\n\
 Pairing: each depth frame takes the colour frame nearest in header stamp within \
 --pair-tolerance (default half the median depth frame period); a colour frame goes to one \

@@ -465,6 +465,19 @@ fn a_realsense_layout_bag_imports_exactly_with_a_dropped_colour_frame_left_out()
             ));
         }
     }
+    // Infrared streams beside them do not make the choice ambiguous.
+    let ir8 = image_msg(w, 0, [4, 3], "mono8", &[9; 12]);
+    let ir16 = image_msg(w, 0, [4, 3], "mono16", &[9; 24]);
+    messages.push((
+        "/device_0/sensor_0/Infrared_1/image/data",
+        "sensor_msgs/Image",
+        ir8,
+    ));
+    messages.push((
+        "/device_0/sensor_0/Infrared_2/image/data",
+        "sensor_msgs/Image",
+        ir16,
+    ));
     let bag = dir.path().join("walk.bag");
     std::fs::write(&bag, rosbag1(&messages, "none")).unwrap();
     let out = dir.path().join("rec");
@@ -472,6 +485,7 @@ fn a_realsense_layout_bag_imports_exactly_with_a_dropped_colour_frame_left_out()
     assert_eq!((summary.frames_written, summary.paired), (2, 2));
     assert_eq!(summary.dropped_depth, [1]);
     assert!(!summary.aligned);
+    assert_eq!(summary.depth_topic, "/device_0/sensor_0/Depth_0/image/data");
     let rec = Recording::open(&out).unwrap();
     assert_eq!(rec.frames, [0, 2]);
     assert_eq!(rec.camera.params.depth_scale, 1000.0);
@@ -482,7 +496,7 @@ fn a_realsense_layout_bag_imports_exactly_with_a_dropped_colour_frame_left_out()
     let c = image::open(out.join("color_0000.png")).unwrap().into_rgb8();
     assert_eq!(c.as_raw(), &rgb);
     // The same bag without colour: every depth frame, depth only, with a warning.
-    messages.retain(|m| !m.0.contains("Color_0/image"));
+    messages.retain(|m| !m.0.contains("Color_0/image") && !m.0.contains("Infrared"));
     std::fs::write(&bag, rosbag1(&messages, "none")).unwrap();
     let out = dir.path().join("depth_only");
     let summary = import(&bag, &out, &ImportParams::default(), &mut |_, _| {}).unwrap();

@@ -125,11 +125,14 @@ impl Scan {
         }
     }
 
-    /// The image topic `given`, else the one whose encoding is in `encodings`.
+    /// The image topic `given`, else the one whose encoding is in `encodings`; of several,
+    /// those not `mono8`, then the one whose name holds one of `hints`. (A RealSense bag
+    /// may hold infrared streams, `mono8` or `mono16`, beside colour and depth.)
     fn image_topic(
         &self,
         given: Option<&str>,
         encodings: &str,
+        hints: &[&str],
         kind: &str,
         option: &str,
     ) -> Result<Option<String>, ImportError> {
@@ -144,6 +147,15 @@ impl Scan {
             .map(|(t, _)| t)
             .collect();
         found.sort();
+        let narrow = |found: &mut Vec<&String>, keep: &dyn Fn(&str) -> bool, alone: bool| {
+            let kept: Vec<&String> = found.iter().copied().filter(|t| keep(t)).collect();
+            if found.len() > 1 && !kept.is_empty() && (!alone || kept.len() == 1) {
+                *found = kept;
+            }
+        };
+        narrow(&mut found, &|t| self.encodings[t] != "mono8", false);
+        let named = |t: &str| hints.iter().any(|h| t.to_ascii_lowercase().contains(h));
+        narrow(&mut found, &named, true);
         match found[..] {
             [] => Ok(None),
             [one] => Ok(Some(one.clone())),
@@ -408,6 +420,7 @@ fn plan(s: &Scan, p: &ImportParams, summary: &mut ImportSummary) -> Result<Plan,
     let depth_topic = s.image_topic(
         p.depth_topic.as_deref(),
         DEPTH_ENCODINGS,
+        &["depth"],
         "depth",
         "--depth-topic",
     )?;
@@ -419,6 +432,7 @@ fn plan(s: &Scan, p: &ImportParams, summary: &mut ImportSummary) -> Result<Plan,
     let colour_topic = s.image_topic(
         p.colour_topic.as_deref(),
         COLOUR_ENCODINGS,
+        &["color", "colour", "rgb"],
         "colour",
         "--colour-topic",
     )?;
