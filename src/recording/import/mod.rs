@@ -1,7 +1,8 @@
 //! Camera recordings into a recording folder (`softsense import`): a RealSense `.bag`
 //! (rosbag v1, as the RealSense Viewer records it) or a ROS 2 bag (a folder with MCAP
 //! files, or one `.mcap`) with `sensor_msgs/Image` depth and colour and
-//! `sensor_msgs/CameraInfo`, written in the softsense layout by [`RecordingWriter`].
+//! `sensor_msgs/CameraInfo`, written in the softsense layout by
+//! [`RecordingWriter`](super::RecordingWriter).
 //!
 //! The rules (also in `docs/recording-format.md`):
 //! - **Pairing.** Each depth frame takes the colour frame nearest in header stamp, within
