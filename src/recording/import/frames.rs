@@ -65,6 +65,8 @@ pub struct ImportSummary {
 struct Scan {
     topics: BTreeMap<String, String>,
     encodings: HashMap<String, String>,
+    /// Each image topic's first image size.
+    sizes: HashMap<String, [usize; 2]>,
     stamps: HashMap<String, Vec<i64>>,
     infos: HashMap<String, CameraInfo>,
     realsense_depth_unit: Option<f32>,
@@ -79,6 +81,8 @@ fn scan(bag: &Bag) -> Result<Scan, ImportError> {
         match ty.as_str() {
             "sensor_msgs/Image" => {
                 let im = msg::image(m.data, wire).map_err(|e| in_topic(m.topic, e))?;
+                let size = [im.width as usize, im.height as usize];
+                s.sizes.entry(m.topic.into()).or_insert(size);
                 s.encodings.entry(m.topic.into()).or_insert(im.encoding);
                 s.stamps
                     .entry(m.topic.into())
@@ -481,13 +485,18 @@ fn plan(s: &Scan, p: &ImportParams, summary: &mut ImportSummary) -> Result<Plan,
             "depth unit {written_unit} m: must be positive"
         )));
     }
-    let size = |i: &CameraInfo| [i.width as usize, i.height as usize];
-    let depth_camera = (size(depth_info), focal(depth_info));
+    // A camera info of size 0x0 (some drivers leave it unset) takes its image's size.
+    let size = |i: &CameraInfo, topic: &str| match [i.width as usize, i.height as usize] {
+        [0, 0] => s.sizes[topic],
+        size => size,
+    };
+    let depth_camera = (size(depth_info, &depth_topic), focal(depth_info));
     let mut align_to = None;
     if let Some(c) = &colour_topic {
         let colour_info = s.info_topic(p.colour_info_topic.as_deref(), c, "--colour-info-topic")?;
-        if (size(colour_info), focal(colour_info)) != depth_camera {
-            align_to = Some((size(colour_info), focal(colour_info)));
+        let colour_camera = (size(colour_info, c), focal(colour_info));
+        if colour_camera != depth_camera {
+            align_to = Some(colour_camera);
         }
     }
     Ok(Plan {
