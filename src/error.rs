@@ -44,6 +44,9 @@ pub enum Error {
     /// Reading a recording folder.
     #[error(transparent)]
     Recording(#[from] crate::recording::RecordingError),
+    /// Importing a camera recording (rosbag v1, MCAP).
+    #[error(transparent)]
+    Import(#[from] crate::recording::import::ImportError),
     /// Force sensing.
     #[error(transparent)]
     Sense(#[from] crate::sense::SenseError),

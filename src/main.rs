@@ -41,6 +41,7 @@ enum Command {
     // Each variant's about/long_about lives on its Args struct, beside the options.
     Info(cli::info::InfoArgs),
     Convert(cli::convert::ConvertArgs),
+    Import(cli::import::ImportArgs),
     Fem(cli::fem::FemArgs),
     Filter(cli::filter::FilterArgs),
     Scene(cli::scene::SceneArgs),
@@ -66,6 +67,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Info(args) => cli::info::run(&args),
         Command::Convert(args) => cli::convert::run(&args),
+        Command::Import(args) => cli::import::run(&args),
         // A usage error inside `fem` or `scene` keeps its own exit code (2).
         Command::Fem(args) => cli::fem::run(args).map_err(usage_or_other),
         Command::Filter(args) => cli::filter::run(&args),

@@ -75,6 +75,8 @@ mod flann_order;
 
 #[path = "unit/recording.rs"]
 mod recording;
+#[path = "unit/recording_import.rs"]
+mod recording_import;
 #[path = "unit/recording_rig.rs"]
 mod recording_rig;
 

@@ -19,6 +19,7 @@ pub mod convert;
 pub mod explain;
 pub mod fem;
 pub mod filter;
+pub mod import;
 pub mod info;
 pub mod markers;
 pub mod markers_detect;

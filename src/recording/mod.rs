@@ -24,6 +24,7 @@
 //! assert_eq!(rec.inputs_of(rec.frames[0]).unwrap().cables.len(), 4);
 //! ```
 
+pub mod import;
 mod inputs;
 mod layout;
 mod rig;

@@ -52,27 +52,57 @@ impl RecordingWriter {
         )
     }
 
+    /// Writes `intrinsics.json` alone (Open3D format) for a `width x height` camera with
+    /// focal lengths and principal point `[fx, fy, cx, cy]` in pixels, and depth images in
+    /// units of `depth_unit` metres.
+    pub fn write_intrinsics(
+        &self,
+        [width, height]: [u32; 2],
+        [fx, fy, cx, cy]: [f64; 4],
+        depth_unit: f64,
+    ) -> RecordingResult<()> {
+        let intrinsics = serde_json::json!({
+            "width": width,
+            "height": height,
+            "intrinsic_matrix": [fx, 0.0, 0.0, 0.0, fy, 0.0, cx, cy, 1.0],
+            "depth_scale": 1.0 / depth_unit,
+        });
+        self.write_json("intrinsics.json", &intrinsics)
+    }
+
     /// Writes frame `i`: `depth_NNNN.png` (16-bit, row-major `width x height`) and
     /// `color_NNNN.png` (8-bit RGB).
     pub fn write_frame(
         &self,
         i: usize,
-        [width, height]: [u32; 2],
+        size: [u32; 2],
         depth: Vec<u16>,
         color: &[[u8; 3]],
+    ) -> RecordingResult<()> {
+        self.write_depth(i, size, depth)?;
+        use crate::io::atomic::write_png;
+        let [width, height] = size;
+        let cp = self.dir.join(format!("color_{i:04}.png"));
+        let flat: Vec<u8> = color.iter().flatten().copied().collect();
+        let color = image::RgbImage::from_raw(width, height, flat)
+            .ok_or_else(|| write_err(&cp, "colour buffer size"))?;
+        write_png(&cp, &image::DynamicImage::ImageRgb8(color))
+            .map_err(|e| write_err(&cp, e.reason()))
+    }
+
+    /// Writes `depth_NNNN.png` of frame `i` alone (a depth-only recording).
+    pub fn write_depth(
+        &self,
+        i: usize,
+        [width, height]: [u32; 2],
+        depth: Vec<u16>,
     ) -> RecordingResult<()> {
         use crate::io::atomic::write_png;
         use image::DynamicImage;
         let dp = self.dir.join(format!("depth_{i:04}.png"));
         let depth = image::ImageBuffer::<image::Luma<u16>, _>::from_raw(width, height, depth)
             .ok_or_else(|| write_err(&dp, "depth buffer size"))?;
-        write_png(&dp, &DynamicImage::ImageLuma16(depth))
-            .map_err(|e| write_err(&dp, e.reason()))?;
-        let cp = self.dir.join(format!("color_{i:04}.png"));
-        let flat: Vec<u8> = color.iter().flatten().copied().collect();
-        let color = image::RgbImage::from_raw(width, height, flat)
-            .ok_or_else(|| write_err(&cp, "colour buffer size"))?;
-        write_png(&cp, &DynamicImage::ImageRgb8(color)).map_err(|e| write_err(&cp, e.reason()))
+        write_png(&dp, &DynamicImage::ImageLuma16(depth)).map_err(|e| write_err(&dp, e.reason()))
     }
 
     /// Writes `name` in the folder as pretty JSON.
