@@ -21,6 +21,7 @@ pub mod fem;
 pub mod filter;
 pub mod info;
 pub mod markers;
+pub mod markers_calib;
 pub mod markers_detect;
 pub mod markers_layout;
 pub mod scene;
