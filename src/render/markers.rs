@@ -101,7 +101,7 @@ fn panel(
     pic: &MarkerPicture,
     view: &View,
     gains: (f64, f64),
-    label: &str,
+    labels: [&str; 2],
 ) -> Result<Canvas, RenderError> {
     let mut c = Canvas::new(view.size[0] as u32, view.size[1] as u32, WHITE)?;
     for t in pic.triangles {
@@ -135,7 +135,8 @@ fn panel(
         let text = format!("{:.3} N", norm(*f));
         c.label(to[0] as i64 + 4, to[1] as i64 + 4, &text, FORCE, WHITE, 2);
     }
-    c.label(6, 6, label, BLACK, WHITE, 1);
+    c.label(6, 6, labels[0], BLACK, WHITE, 1);
+    c.label(6, view.size[1] as i64 - 14, labels[1], BLACK, WHITE, 1);
     Ok(c)
 }
 
@@ -164,10 +165,18 @@ pub fn marker_picture(pic: &MarkerPicture, width: u32, height: u32) -> Result<Ca
         0.0
     };
     let gains = (magnify * px, per_newton);
-    let scale = format!(
-        "displacements x{magnify:.0}; o rest, * now, x hidden, squares: candidates, red: forces"
-    );
-    let a = panel(pic, &top, gains, &format!("top (x, y); {scale}"))?;
-    let b = panel(pic, &side, gains, "side (x, z)")?;
+    let scale = format!("top (x, y), displacements x{magnify:.0}");
+    let a = panel(
+        pic,
+        &top,
+        gains,
+        [&scale, "blue: o rest, * now; orange x: hidden"],
+    )?;
+    let b = panel(
+        pic,
+        &side,
+        gains,
+        ["side (x, z)", "green: candidates; red: forces"],
+    )?;
     side_by_side(&[(pic.title, &a), ("", &b)], WHITE)
 }
