@@ -111,11 +111,10 @@ pub struct MarkersArgs {
 /// Subcommands of `softsense markers`.
 #[derive(Subcommand, Debug)]
 pub enum MarkersCommand {
-    /// Propose a marker layout minimising I_w (thesis 4.6.1).
+    // No doc comments on the variants: they would replace each command's long help with
+    // its one-line summary; the summaries are the Args structs' doc comments.
     Layout(super::markers_layout::LayoutArgs),
-    /// Find coloured markers in an RGB-D recording and write their tracks.
     Detect(super::markers_detect::DetectArgs),
-    /// Fit the tracker-to-robot transform to the markers at rest (thesis 3.3).
     Calibrate(super::markers_calib::CalibrateArgs),
 }
 

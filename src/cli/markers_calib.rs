@@ -8,7 +8,7 @@ use softsense::markers::bind_markers;
 use softsense::markers::calib::{fit_robot_from_tracker, write_calibration};
 use std::path::PathBuf;
 
-/// Fits the tracker-to-robot transform to the markers' rest positions.
+/// Fit the tracker-to-robot transform to the markers' rest positions (thesis 3.3).
 #[derive(Args, Debug)]
 #[command(
     long_about = "Fits robot_from_tracker, the rigid transform from the tracker's frame to \
