@@ -4,7 +4,7 @@ use super::{print_json, CliError, CliResult};
 use clap::{Args, Subcommand};
 use softsense::fem::model::Model;
 use softsense::markers::bind::read_candidates;
-use softsense::markers::calib::read_calibration;
+use softsense::markers::calib::{read_calibration, rigid_fit_covariance, MarkerCalibration};
 use softsense::markers::tracks::{flag_hidden, read_motive, read_tracks, MarkerTracks};
 use softsense::markers::{
     bind_markers, locate_forces, refine_located, ForceCandidate, LocatedForce, MarkerFrame,
@@ -196,17 +196,7 @@ pub fn run(args: &MarkersArgs) -> CliResult {
         group_radius: args.group_radius_mm * 1e-3,
         ..Default::default()
     };
-    let mut tracks = read_any_tracks(tracks_path)?;
-    if let Some(path) = &args.calibration {
-        let c = read_calibration(path).map_err(|e| CliError::Lib(e.into()))?;
-        for p in tracks
-            .frames
-            .iter_mut()
-            .flat_map(|f| f.positions.iter_mut().flatten())
-        {
-            *p = c.robot_from_tracker.apply(*p);
-        }
-    }
+    let (tracks, calibration) = tracks_in_model_frame(tracks_path, args.calibration.as_deref())?;
     let model = Model::load(model_path, None).map_err(|e| CliError::Lib(e.into()))?;
     let mesh = &model.problem.mesh;
     let candidates = load_candidates(&model, args.candidates.as_deref(), &args.force_points)?;
@@ -224,7 +214,7 @@ pub fn run(args: &MarkersArgs) -> CliResult {
         params.max_bind_distance,
     )
     .map_err(|e| CliError::Lib(e.into()))?;
-    let sensor = MarkerSensor::new(
+    let mut sensor = MarkerSensor::new(
         &model.problem,
         model.newton.clone(),
         markers,
@@ -233,6 +223,14 @@ pub fn run(args: &MarkersArgs) -> CliResult {
     )
     .map_err(|e| CliError::Lib(e.into()))?
     .with_reference_frames(&counts);
+    // The calibration's error is one rigid offset in every frame: its share is in σ, taken
+    // as independent of the reference's (an upper bound when both come from the same frames).
+    sensor.calibration_covariance = calibration.map(|c| {
+        let rest: Vec<[f64; 3]> = (sensor.markers.iter())
+            .map(|m| m.at.position(&free.positions))
+            .collect();
+        rigid_fit_covariance(&c.model_positions_m, &rest, c.reference_frames)
+    });
     let hidden = flag_hidden(&tracks, &sensor.params);
     let measured: Vec<Vec<Option<[f64; 3]>>> = (tracks.frames.iter().zip(&hidden))
         .map(|(f, flags)| {
@@ -318,6 +316,26 @@ fn render_frame(
     };
     let canvas = marker_picture(&pic, 480, 400).map_err(|e| fail(&e))?;
     canvas.save_png(&path).map_err(|e| fail(&e))
+}
+
+/// The tracks, mapped into the model frame by the calibration at `calibration` when given.
+fn tracks_in_model_frame(
+    path: &std::path::Path,
+    calibration: Option<&std::path::Path>,
+) -> Result<(MarkerTracks, Option<MarkerCalibration>), CliError> {
+    let mut tracks = read_any_tracks(path)?;
+    let Some(file) = calibration else {
+        return Ok((tracks, None));
+    };
+    let c = read_calibration(file).map_err(|e| CliError::Lib(e.into()))?;
+    for p in tracks
+        .frames
+        .iter_mut()
+        .flat_map(|f| f.positions.iter_mut().flatten())
+    {
+        *p = c.robot_from_tracker.apply(*p);
+    }
+    Ok((tracks, Some(c)))
 }
 
 /// Where each marker is bound (m, model frame) and how many measured frames that

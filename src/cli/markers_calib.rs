@@ -78,7 +78,8 @@ pub fn run(args: &CalibrateArgs) -> CliResult {
         .iter()
         .map(|b| b.at.position(&free.positions))
         .collect();
-    let calibration = fit_robot_from_tracker(&names, &tracked, &on_model).map_err(lib)?;
+    let mut calibration = fit_robot_from_tracker(&names, &tracked, &on_model).map_err(lib)?;
+    calibration.reference_frames = head.len();
     if let Some(out) = &args.out {
         write_calibration(out, &calibration).map_err(lib)?;
     }

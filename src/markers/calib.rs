@@ -6,6 +6,7 @@
 use super::{MarkersError, MarkersResult};
 use crate::math::pose::Pose;
 use crate::math::{Mat3, Vec3};
+use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -24,6 +25,10 @@ pub struct MarkerCalibration {
     pub residuals_m: Vec<f64>,
     /// The markers fitted.
     pub markers: Vec<String>,
+    /// Their model positions the fit matched (m, robot frame), in `markers` order.
+    pub model_positions_m: Vec<[f64; 3]>,
+    /// How many frames each tracked position averaged (the fit's noise is 1/N of a frame's).
+    pub reference_frames: usize,
 }
 
 /// Fits `robot_from_tracker` to the pairs (tracker-frame position, model position), both
@@ -63,7 +68,42 @@ pub fn fit_robot_from_tracker(
         residual_rms_m: rms,
         residuals_m: residuals,
         markers: names.to_vec(),
+        model_positions_m: model.to_vec(),
+        reference_frames: 1,
     })
+}
+
+/// The covariance, in units of σ² (the tracker's noise per coordinate), of the offset a
+/// rigid fit on `fitted` (each the mean of `frames` frames) leaves at the points `at`:
+/// B_at (B_fᵀB_f)⁻¹ B_atᵀ / frames, B the small rigid motions [I | −[p − c]×] about the
+/// fitted points' centroid c. The fit's error is one rigid motion, the same in every frame
+/// mapped by it, so its share of the forces' σ does not average out over frames.
+pub fn rigid_fit_covariance(fitted: &[[f64; 3]], at: &[[f64; 3]], frames: usize) -> DMatrix<f64> {
+    let n = fitted.len().max(1) as f64;
+    let c = fitted.iter().fold(Vec3::zeros(), |a, p| a + Vec3::from(*p)) / n;
+    let basis = |ps: &[[f64; 3]]| {
+        let mut b = DMatrix::zeros(3 * ps.len(), 6);
+        for (j, p) in ps.iter().enumerate() {
+            let d = Vec3::from(*p) - c;
+            for a in 0..3 {
+                b[(3 * j + a, a)] = 1.0;
+            }
+            // (ω × d) = −[d]× ω
+            let cross = -d.cross_matrix();
+            for a in 0..3 {
+                for k in 0..3 {
+                    b[(3 * j + a, 3 + k)] = cross[(a, k)];
+                }
+            }
+        }
+        b
+    };
+    let (bf, ba) = (basis(fitted), basis(at));
+    let gram = bf.tr_mul(&bf);
+    match gram.try_inverse() {
+        Some(inv) => &ba * inv * ba.transpose() / frames.max(1) as f64,
+        None => DMatrix::from_element(3 * at.len(), 3 * at.len(), f64::INFINITY),
+    }
 }
 
 /// The RMS distance of `points` from their best-fitting line: the square root of the

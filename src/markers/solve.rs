@@ -106,6 +106,10 @@ pub struct MarkerSensor {
     /// bound position is exact. It enters the forces' covariance
     /// ([`MarkerSensor::with_reference_frames`]).
     pub reference_variance: Vec<f64>,
+    /// The covariance, in units of σ² (3 rows per marker, marker order), of the offset a
+    /// tracker-to-robot calibration adds alike to every frame's marker positions
+    /// ([`crate::markers::calib::rigid_fit_covariance`]); `None` without one.
+    pub calibration_covariance: Option<DMatrix<f64>>,
     force_rows: Vec<ConstraintRow>,
 }
 
@@ -126,6 +130,7 @@ impl MarkerSensor {
             problem: problem.without_loads(),
             newton,
             reference_variance: vec![0.0; markers.len()],
+            calibration_covariance: None,
             markers,
             candidates,
             params,
@@ -156,6 +161,8 @@ impl MarkerSensor {
         )?;
         s.problem.loads.clone_from(&self.problem.loads);
         s.reference_variance.clone_from(&self.reference_variance);
+        s.calibration_covariance
+            .clone_from(&self.calibration_covariance);
         Ok(s)
     }
 
@@ -357,9 +364,10 @@ impl MarkerSensor {
 
     /// The covariance of the stacked residual rows (m²): σ² on the diagonal for each
     /// measurement, plus the reference's share σ² v_m (I − n nᵀ) between all rows of
-    /// marker m, in any stacked frame (the same reference enters them all). Only the
-    /// reference's tangential noise stays: binding projects the measured reference on the
-    /// surface (normal n at the FE state `sol`), which removes its normal part.
+    /// marker m, in any stacked frame (the same reference enters them all), plus the
+    /// calibration's offset when given. Only the reference's tangential noise stays:
+    /// binding projects the measured reference on the surface (normal n at the FE state
+    /// `sol`), which removes its normal part.
     fn noise_covariance(
         &self,
         stacked: &[(usize, usize, f64)],
@@ -380,7 +388,9 @@ impl MarkerSensor {
             let ((ji, ai, _), (jk, ak, _)) = (stacked[i], stacked[k]);
             let own = if i == k { 1.0 } else { 0.0 };
             let reference = if ji == jk { tangent[ji][ai][ak] } else { 0.0 };
-            s2 * (own + reference)
+            let calibration = (self.calibration_covariance.as_ref())
+                .map_or(0.0, |c| c[(3 * visible[ji] + ai, 3 * visible[jk] + ak)]);
+            s2 * (own + reference + calibration)
         })
     }
 
