@@ -10,6 +10,13 @@
 //!   nearest the tip beyond 8 mm as markers; frame 0 unloaded, frames 1-4 the tip weights
 //!   of thesis Table 4.5 (259-859 mN) at the model's `hook` force point.
 //!
+//! Each folder also gets `markers_truth.csv`: the same frames without noise (the exact
+//! marker positions, as `scene generate` writes for painted markers).
+//!
+//! Options, to measure on other noise draws without touching the bundled files:
+//! `--seed S` (default 36), `--unloaded N` unloaded frames before the loaded ones (default
+//! 1; each its own noise draw), `--out DIR` (default `clouds/markers`).
+//!
 //! The sheet's `candidates.csv` lists its two loaded candidates alone (the known-location
 //! case of Table 4.4). Marker positions are the FE solve's plus 0.1 mm Gaussian noise from a fixed seed, written
 //! to 1 µm. The model files' own `[[loads]]` are not applied: the weights are the only load.
@@ -17,6 +24,7 @@
 //!
 //! ```text
 //! cargo run --example make_marker_recordings
+//! cargo run --example make_marker_recordings -- --seed 7 --unloaded 10 --out /tmp/rec7
 //! ```
 
 use softsense::fem::model::Model;
@@ -30,8 +38,37 @@ use std::path::Path;
 
 /// One sigma of a marker coordinate (m).
 const SIGMA: f64 = 1e-4;
-/// The noise generator's seed.
+/// The noise generator's seed of the bundled recordings.
 const SEED: u64 = 36;
+
+/// Command-line options (see the module docs).
+struct Options {
+    seed: u64,
+    unloaded: usize,
+    out: std::path::PathBuf,
+}
+
+fn options(root: &Path) -> Result<Options, Box<dyn Error>> {
+    let mut o = Options {
+        seed: SEED,
+        unloaded: 1,
+        out: root.join("clouds/markers"),
+    };
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    for pair in args.chunks(2) {
+        let value = pair.get(1).ok_or("each option takes a value")?;
+        match pair[0].as_str() {
+            "--seed" => o.seed = value.parse()?,
+            "--unloaded" => o.unloaded = value.parse()?,
+            "--out" => o.out = value.into(),
+            other => return Err(format!("unknown option {other}").into()),
+        }
+    }
+    if o.unloaded == 0 {
+        return Err("--unloaded must be at least 1".into());
+    }
+    Ok(o)
+}
 
 /// The sheet's two loaded candidates (of `meshes/models/sheet_candidates.csv`).
 const SHEET_LOADED: [&str; 2] = ["c1", "c10"];
@@ -42,6 +79,8 @@ type FrameLoads = Vec<(&'static str, [f64; 3])>;
 fn main() -> Result<(), Box<dyn Error>> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let models = root.join("meshes/models");
+    let opts = options(root)?;
+    let unloaded = || std::iter::repeat_n(vec![], opts.unloaded);
 
     let sheet = Model::load(&models.join("sheet.toml"), None)?;
     let candidates = read_candidates(&models.join("sheet_candidates.csv"), &sheet.problem.mesh)?;
@@ -62,7 +101,7 @@ fn main() -> Result<(), Box<dyn Error>> {
         (0.559, 0.459),
         (0.559, 0.559),
     ];
-    let frames: Vec<FrameLoads> = std::iter::once(vec![])
+    let frames: Vec<FrameLoads> = unloaded()
         .chain(pairs.map(|(a, b)| vec![(SHEET_LOADED[0], w(a)), (SHEET_LOADED[1], w(b))]))
         .collect();
     record(
@@ -70,7 +109,8 @@ fn main() -> Result<(), Box<dyn Error>> {
         &candidates,
         &nodes,
         &frames,
-        &root.join("clouds/markers/sheet"),
+        opts.seed,
+        &opts.out.join("sheet"),
     )?;
     let mut loaded = String::from("name,x,y,z,directions\n");
     for c in candidates
@@ -80,7 +120,7 @@ fn main() -> Result<(), Box<dyn Error>> {
         let [x, y, z] = c.position;
         loaded.push_str(&format!("{},{x:.3},{y:.3},{z:.3},normal\n", c.name));
     }
-    std::fs::write(root.join("clouds/markers/sheet/candidates.csv"), loaded)?;
+    std::fs::write(opts.out.join("sheet/candidates.csv"), loaded)?;
 
     let robot = Model::load(&models.join("robot.toml"), None)?;
     let mesh = &robot.problem.mesh;
@@ -95,7 +135,7 @@ fn main() -> Result<(), Box<dyn Error>> {
         dist(mesh.nodes_in_rest[a], tip).total_cmp(&dist(mesh.nodes_in_rest[b], tip))
     });
     near.truncate(16);
-    let frames: Vec<FrameLoads> = std::iter::once(vec![])
+    let frames: Vec<FrameLoads> = unloaded()
         .chain([0.259, 0.459, 0.659, 0.859].map(|f| vec![("hook", w(f))]))
         .collect();
     record(
@@ -103,7 +143,8 @@ fn main() -> Result<(), Box<dyn Error>> {
         &candidates,
         &near,
         &frames,
-        &root.join("clouds/markers/robot"),
+        opts.seed,
+        &opts.out.join("robot"),
     )?;
     Ok(())
 }
@@ -121,18 +162,21 @@ fn nearest_node(model: &Model, p: [f64; 3]) -> usize {
 }
 
 /// Solves `model` under each frame's loads and writes the markers at `nodes` (named m0, m1,
-/// ...) with noise as `dir/tracks.csv`, the loads as `dir/truth.json`.
+/// ...) with noise as `dir/tracks.csv`, without as `dir/markers_truth.csv`, the loads as
+/// `dir/truth.json`.
 fn record(
     model: &Model,
     candidates: &[ForceCandidate],
     nodes: &[usize],
     frames: &[FrameLoads],
+    seed: u64,
     dir: &Path,
 ) -> Result<(), Box<dyn Error>> {
     let mut tracks = MarkerTracks {
         names: (0..nodes.len()).map(|i| format!("m{i}")).collect(),
         frames: Vec::new(),
     };
+    let mut exact = tracks.clone();
     let mut truth = Vec::new();
     for (k, loads) in frames.iter().enumerate() {
         let mut problem = model.problem.without_loads();
@@ -145,17 +189,22 @@ fn record(
             });
         }
         let sol = problem.solve_static(&model.newton)?;
+        let at = |v: usize| MappedPoint::node(v).position(&sol.positions);
         let positions = (nodes.iter().enumerate())
             .map(|(m, &v)| {
-                let q = MappedPoint::node(v).position(&sol.positions);
+                let q = at(v);
                 let noisy =
-                    [0, 1, 2].map(|a| q[a] + SIGMA * normal(SEED, k as u64, m as u64, a as u64));
+                    [0, 1, 2].map(|a| q[a] + SIGMA * normal(seed, k as u64, m as u64, a as u64));
                 Some(noisy.map(|c| (c * 1e6).round() / 1e6))
             })
             .collect();
         tracks.frames.push(TrackFrame {
             frame: k as u64,
             positions,
+        });
+        exact.frames.push(TrackFrame {
+            frame: k as u64,
+            positions: nodes.iter().map(|&v| Some(at(v))).collect(),
         });
         let forces: Vec<_> = (loads.iter())
             .map(|(name, f)| serde_json::json!({ "candidate": name, "force_n": f }))
@@ -164,11 +213,12 @@ fn record(
     }
     std::fs::create_dir_all(dir)?;
     write_tracks(&dir.join("tracks.csv"), &tracks)?;
+    write_tracks(&dir.join("markers_truth.csv"), &exact)?;
     let doc = serde_json::json!({
         "about": "forces applied by the direct FE model per frame (N, model frame); \
                   made by `cargo run --example make_marker_recordings`",
         "sigma_m": SIGMA,
-        "seed": SEED,
+        "seed": seed,
         "frames": truth,
     });
     std::fs::write(

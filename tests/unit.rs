@@ -43,6 +43,8 @@ mod filter_golden;
 mod inverse;
 #[path = "unit/markers.rs"]
 mod markers;
+#[path = "unit/markers_calib.rs"]
+mod markers_calib;
 #[path = "unit/markers_detect.rs"]
 mod markers_detect;
 #[path = "unit/markers_layout.rs"]

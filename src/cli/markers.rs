@@ -4,6 +4,7 @@ use super::{print_json, CliError, CliResult};
 use clap::{Args, Subcommand};
 use softsense::fem::model::Model;
 use softsense::markers::bind::read_candidates;
+use softsense::markers::calib::{read_calibration, rigid_fit_covariance, MarkerCalibration};
 use softsense::markers::tracks::{flag_hidden, read_motive, read_tracks, MarkerTracks};
 use softsense::markers::{
     bind_markers, locate_forces, refine_located, ForceCandidate, LocatedForce, MarkerFrame,
@@ -17,9 +18,12 @@ use std::path::PathBuf;
     long_about = "Forces at candidate locations from tracked markers and an FE model \
 (thesis 4.4: the analytic least squares 4.9 iterated with the FE model, actuators held at \
 the model file's cable inputs).\n\n\
-Each marker is bound to the model's surface at the position of its first visible entry, \
-the surface taken in the model's free equilibrium (gravity and cable inputs, no loads): \
-the first frame should show the body unloaded. Per frame, markers that are missing or moved \
+Each marker is bound to the model's surface at the mean of its entries in the first \
+--reference-frames frames (1 by default; else at its first visible entry), the surface \
+taken in the model's free equilibrium (gravity and cable inputs, no loads): those frames \
+should show the body unloaded. The reference's noise is common to every later frame and is \
+included in sigma (its share is 1/N of a frame's); --reference binds at exact positions \
+instead. Per frame, markers that are missing or moved \
 more than the hidden threshold since their last accepted position lose their 3 rows; the \
 forces are solved at all candidates together, and candidates whose force exceeds 5 sigma \
 and 20% of the largest are reported as found, neighbours (--group-radius-mm) merged at their \
@@ -32,7 +36,7 @@ noise's share by sqrt(N); a load that changes within the window is smeared over 
 TRACKS is softsense's CSV `frame,marker,x,y,z` (metres, model frame; a hidden marker has \
 empty x,y,z) or an OptiTrack Motive CSV export (detected by its `Frame,Time` header; \
 millimetres unless its header says otherwise). The tracker frame is taken as the model \
-frame. Candidates come from --candidates (CSV `name,x,y,z,directions`, metres, directions \
+frame, unless --calibration maps it (`softsense markers calibrate`). Candidates come from --candidates (CSV `name,x,y,z,directions`, metres, directions \
 `normal` or `3d`, each snapped to the nearest surface node) or else the model's \
 [[force_points]].",
     after_help = "Examples:\n  \
@@ -46,7 +50,7 @@ softsense markers detect /tmp/painted --colour 30,60,230 --out tracks.csv",
 )]
 pub struct MarkersArgs {
     /// `layout`: propose where to put the markers; `detect`: find coloured markers in a
-    /// recording.
+    /// recording; `calibrate`: fit the tracker-to-robot transform.
     #[command(subcommand)]
     command: Option<MarkersCommand>,
     /// Marker tracks: softsense CSV or OptiTrack Motive CSV export.
@@ -82,6 +86,23 @@ pub struct MarkersArgs {
     /// the same forces (thesis Remark 2; 1: each frame alone).
     #[arg(long, default_value_t = 1)]
     accumulate: usize,
+    /// The first N frames show the body unloaded: each marker is bound at the mean of its
+    /// entries there, and that reference's noise (1/N of a frame's) is in the forces' sigma.
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    reference_frames: usize,
+    /// Bind the markers at this track file's first frame instead, taken as exact (model
+    /// frame, unloaded; e.g. `markers layout --csv` or a generator's `markers_truth.csv`).
+    #[arg(long, value_name = "TRACKS", conflicts_with = "reference_frames")]
+    reference: Option<PathBuf>,
+    /// The tracks are in the tracker's frame: map them into the model's with this
+    /// calibration (from `softsense markers calibrate --out`).
+    #[arg(long, value_name = "FILE")]
+    calibration: Option<PathBuf>,
+    /// Write a picture per frame into this folder (frame_NNNN.png): top and side views with
+    /// the markers at rest and now (displacements magnified), hidden markers, candidates and
+    /// the located forces with their values.
+    #[arg(long, value_name = "DIR")]
+    render: Option<PathBuf>,
     /// Print one JSON document per frame on stdout.
     #[arg(long)]
     json: bool,
@@ -90,10 +111,11 @@ pub struct MarkersArgs {
 /// Subcommands of `softsense markers`.
 #[derive(Subcommand, Debug)]
 pub enum MarkersCommand {
-    /// Propose a marker layout minimising I_w (thesis 4.6.1).
+    // No doc comments on the variants: they would replace each command's long help with
+    // its one-line summary; the summaries are the Args structs' doc comments.
     Layout(super::markers_layout::LayoutArgs),
-    /// Find coloured markers in an RGB-D recording and write their tracks.
     Detect(super::markers_detect::DetectArgs),
+    Calibrate(super::markers_calib::CalibrateArgs),
 }
 
 /// The candidates of `--candidates`, else the model's force points (those named in
@@ -129,7 +151,7 @@ pub(crate) fn load_candidates(
     Ok(candidates)
 }
 
-fn read_any_tracks(path: &std::path::Path) -> Result<MarkerTracks, CliError> {
+pub(crate) fn read_any_tracks(path: &std::path::Path) -> Result<MarkerTracks, CliError> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| CliError::Result(format!("{}: {e}", path.display())))?;
     let motive = text.lines().any(|l| l.trim_start().starts_with("Frame,"));
@@ -146,6 +168,7 @@ pub fn run(args: &MarkersArgs) -> CliResult {
     match &args.command {
         Some(MarkersCommand::Layout(a)) => return super::markers_layout::run(a),
         Some(MarkersCommand::Detect(a)) => return super::markers_detect::run(a),
+        Some(MarkersCommand::Calibrate(a)) => return super::markers_calib::run(a),
         None => {}
     }
     let (Some(tracks_path), Some(model_path)) = (&args.tracks, &args.model) else {
@@ -155,6 +178,11 @@ pub fn run(args: &MarkersArgs) -> CliResult {
         return Err(CliError::Usage(
             "--sigma-mm and --hidden-jump-mm must be positive, --group-radius-mm not negative"
                 .into(),
+        ));
+    }
+    if args.reference_frames == 0 {
+        return Err(CliError::Usage(
+            "--reference-frames must be at least 1 frame".into(),
         ));
     }
     if args.accumulate == 0 {
@@ -168,14 +196,11 @@ pub fn run(args: &MarkersArgs) -> CliResult {
         group_radius: args.group_radius_mm * 1e-3,
         ..Default::default()
     };
-    let tracks = read_any_tracks(tracks_path)?;
+    let (tracks, calibration) = tracks_in_model_frame(tracks_path, args.calibration.as_deref())?;
     let model = Model::load(model_path, None).map_err(|e| CliError::Lib(e.into()))?;
     let mesh = &model.problem.mesh;
     let candidates = load_candidates(&model, args.candidates.as_deref(), &args.force_points)?;
-    let first: Vec<[f64; 3]> = (0..tracks.names.len())
-        .map(|m| tracks.frames.iter().find_map(|f| f.positions[m]))
-        .collect::<Option<_>>()
-        .ok_or_else(|| CliError::Result("a marker is never visible: it cannot be bound".into()))?;
+    let (first, counts) = reference_positions(&tracks, args)?;
     let surface = mesh.surface();
     // The first frame shows the body unloaded: the model's free equilibrium, not its rest.
     let free = (model.problem.without_loads())
@@ -189,14 +214,23 @@ pub fn run(args: &MarkersArgs) -> CliResult {
         params.max_bind_distance,
     )
     .map_err(|e| CliError::Lib(e.into()))?;
-    let sensor = MarkerSensor::new(
+    let mut sensor = MarkerSensor::new(
         &model.problem,
         model.newton.clone(),
         markers,
         candidates,
         params,
     )
-    .map_err(|e| CliError::Lib(e.into()))?;
+    .map_err(|e| CliError::Lib(e.into()))?
+    .with_reference_frames(&counts);
+    // The calibration's error is one rigid offset in every frame: its share is in σ, taken
+    // as independent of the reference's (an upper bound when both come from the same frames).
+    sensor.calibration_covariance = calibration.map(|c| {
+        let rest: Vec<[f64; 3]> = (sensor.markers.iter())
+            .map(|m| m.at.position(&free.positions))
+            .collect();
+        rigid_fit_covariance(&c.model_positions_m, &rest, c.reference_frames)
+    });
     let hidden = flag_hidden(&tracks, &sensor.params);
     let measured: Vec<Vec<Option<[f64; 3]>>> = (tracks.frames.iter().zip(&hidden))
         .map(|(f, flags)| {
@@ -205,6 +239,10 @@ pub fn run(args: &MarkersArgs) -> CliResult {
                 .collect()
         })
         .collect();
+    if let Some(dir) = &args.render {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| CliError::Result(format!("{}: {e}", dir.display())))?;
+    }
     let mut previous = None;
     for (i, f) in tracks.frames.iter().enumerate() {
         let window: Vec<&[Option<[f64; 3]>]> = measured
@@ -224,9 +262,129 @@ pub fn run(args: &MarkersArgs) -> CliResult {
             (&located[..], &refined[..]),
             args.json,
         )?;
+        if let Some(dir) = &args.render {
+            let rest = (sensor.markers.iter())
+                .map(|m| m.at.position(&free.positions))
+                .collect::<Vec<_>>();
+            render_frame(
+                dir,
+                &sensor,
+                &est,
+                (&rest, &measured[i]),
+                &located,
+                &surface,
+            )?;
+        }
         previous = Some(est);
     }
     Ok(())
+}
+
+/// Writes `dir/frame_NNNN.png` for `est`: the markers at `rest` and as `measured`.
+fn render_frame(
+    dir: &std::path::Path,
+    sensor: &MarkerSensor,
+    est: &MarkerFrame,
+    (rest, measured): (&[[f64; 3]], &[Option<[f64; 3]>]),
+    located: &[LocatedForce],
+    surface: &softsense::fem::mesh::Surface,
+) -> CliResult {
+    use softsense::render::markers::{marker_picture, MarkerMark, MarkerPicture};
+    let path = dir.join(format!("frame_{:04}.png", est.frame));
+    let fail = |e: &dyn std::fmt::Display| CliError::Result(format!("{}: {e}", path.display()));
+    let markers: Vec<MarkerMark> = (rest.iter().zip(measured).enumerate())
+        .map(|(m, (r, now))| MarkerMark {
+            rest: *r,
+            current: *now,
+            hidden: est.hidden.contains(&m),
+        })
+        .collect();
+    let candidates: Vec<[f64; 3]> = sensor.candidates.iter().map(|c| c.position).collect();
+    let forces: Vec<([f64; 3], [f64; 3])> = located.iter().map(|l| (l.centre, l.force)).collect();
+    let positions = match &est.solution {
+        Some(s) => &s.positions,
+        None => &sensor.problem.mesh.nodes_in_rest,
+    };
+    let title = format!("frame {}: {:?}", est.frame, est.status);
+    let pic = MarkerPicture {
+        title: &title,
+        triangles: &surface.triangles,
+        positions,
+        markers: &markers,
+        candidates: &candidates,
+        forces: &forces,
+    };
+    let canvas = marker_picture(&pic, 480, 400).map_err(|e| fail(&e))?;
+    canvas.save_png(&path).map_err(|e| fail(&e))
+}
+
+/// The tracks, mapped into the model frame by the calibration at `calibration` when given.
+fn tracks_in_model_frame(
+    path: &std::path::Path,
+    calibration: Option<&std::path::Path>,
+) -> Result<(MarkerTracks, Option<MarkerCalibration>), CliError> {
+    let mut tracks = read_any_tracks(path)?;
+    let Some(file) = calibration else {
+        return Ok((tracks, None));
+    };
+    let c = read_calibration(file).map_err(|e| CliError::Lib(e.into()))?;
+    for p in tracks
+        .frames
+        .iter_mut()
+        .flat_map(|f| f.positions.iter_mut().flatten())
+    {
+        *p = c.robot_from_tracker.apply(*p);
+    }
+    Ok((tracks, Some(c)))
+}
+
+/// Where each marker is bound (m, model frame) and how many measured frames that
+/// position averages (0: exact, from `--reference`): the mean of its visible entries in
+/// the first `--reference-frames` frames, else its first visible entry.
+fn reference_positions(
+    tracks: &MarkerTracks,
+    args: &MarkersArgs,
+) -> Result<(Vec<[f64; 3]>, Vec<usize>), CliError> {
+    if let Some(path) = &args.reference {
+        let reference = read_any_tracks(path)?;
+        let first = reference.frames.first();
+        let positions = (tracks.names.iter())
+            .map(|name| {
+                let m = reference.names.iter().position(|n| n == name);
+                m.and_then(|m| first.and_then(|f| f.positions[m]))
+                    .ok_or_else(|| {
+                        CliError::Result(format!(
+                            "{}: no position of marker {name} in its first frame",
+                            path.display()
+                        ))
+                    })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        return Ok((positions, vec![0; tracks.names.len()]));
+    }
+    let head = &tracks.frames[..args.reference_frames.min(tracks.frames.len())];
+    let mut positions = Vec::with_capacity(tracks.names.len());
+    let mut counts = Vec::with_capacity(tracks.names.len());
+    for (m, name) in tracks.names.iter().enumerate() {
+        let seen: Vec<[f64; 3]> = head.iter().filter_map(|f| f.positions[m]).collect();
+        let (p, n) = if seen.is_empty() {
+            let p = (tracks.frames.iter())
+                .find_map(|f| f.positions[m])
+                .ok_or_else(|| {
+                    CliError::Result(format!(
+                        "marker {name} is never visible: it cannot be bound"
+                    ))
+                })?;
+            (p, 1)
+        } else {
+            let mean =
+                [0, 1, 2].map(|a| seen.iter().map(|p| p[a]).sum::<f64>() / seen.len() as f64);
+            (mean, seen.len())
+        };
+        positions.push(p);
+        counts.push(n);
+    }
+    Ok((positions, counts))
 }
 
 /// The located forces spread over more than one found candidate (a force between

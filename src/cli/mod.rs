@@ -22,6 +22,7 @@ pub mod filter;
 pub mod import;
 pub mod info;
 pub mod markers;
+pub mod markers_calib;
 pub mod markers_detect;
 pub mod markers_layout;
 pub mod scene;

@@ -16,10 +16,13 @@
 //!   surface, identities across frames; [`detect::detect_recording`]).
 //! - [`locate`]: candidates "found" by a stated threshold rule and the intensity-weighted
 //!   centre of each group of found candidates (4.11-4.13, Corollary 2).
+//! - [`calib`]: the tracker-to-robot transform fitted to the markers' rest positions
+//!   ([`calib::fit_robot_from_tracker`]).
 //! - [`refine`]: a located force moved to the nearby surface node where one force explains
 //!   the markers best ([`refine::refine_located`]).
 //!
-//! Everything is SI (m, N) and `f64` inside; the tracker frame is taken as the model frame.
+//! Everything is SI (m, N) and `f64` inside; tracks are in the model frame, or mapped into it
+//! by a [`calib::MarkerCalibration`].
 //!
 //! ```
 //! use softsense::markers::tracks::{read_tracks_str, write_tracks_string};
@@ -32,6 +35,7 @@
 //! ```
 
 pub mod bind;
+pub mod calib;
 pub mod detect;
 pub mod layout;
 pub mod locate;
@@ -82,6 +86,10 @@ pub enum MarkersError {
     /// A marker or candidate too far from the model's surface, or a model without one.
     #[error("{0}")]
     Binding(String),
+    /// A tracker-to-robot calibration that cannot be fitted or read (too few markers, all on
+    /// one line, a bad file).
+    #[error("marker calibration: {0}")]
+    Calibration(String),
     /// A layout that cannot be proposed (Corollary 1, a pool smaller than the markers).
     #[error("{0}")]
     Layout(String),

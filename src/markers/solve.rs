@@ -14,6 +14,7 @@ use super::{MarkersParams, MarkersResult};
 use crate::fem::constraint::ConstraintRow;
 use crate::fem::solve::{CableControl, NewtonParams, PointLoad, Problem, Solution};
 use crate::inverse::intensity::{IntensityParams, IntensityProblem};
+use crate::math::Vec3;
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
@@ -100,6 +101,15 @@ pub struct MarkerSensor {
     pub candidates: Vec<ForceCandidate>,
     /// Options.
     pub params: MarkersParams,
+    /// Per marker, the variance of its bound (reference) position in units of σ²: 1/N when
+    /// it was bound at the mean of N measured unloaded frames, 0 (the default) when the
+    /// bound position is exact. It enters the forces' covariance
+    /// ([`MarkerSensor::with_reference_frames`]).
+    pub reference_variance: Vec<f64>,
+    /// The covariance, in units of σ² (3 rows per marker, marker order), of the offset a
+    /// tracker-to-robot calibration adds alike to every frame's marker positions
+    /// ([`crate::markers::calib::rigid_fit_covariance`]); `None` without one.
+    pub calibration_covariance: Option<DMatrix<f64>>,
     force_rows: Vec<ConstraintRow>,
 }
 
@@ -119,11 +129,24 @@ impl MarkerSensor {
         Ok(Self {
             problem: problem.without_loads(),
             newton,
+            reference_variance: vec![0.0; markers.len()],
+            calibration_covariance: None,
             markers,
             candidates,
             params,
             force_rows,
         })
+    }
+
+    /// The same sensor with each marker's bound position the mean of `counts[m]` measured
+    /// frames (0: exact): the reference's noise is then common to every frame measured
+    /// against it, and the forces' covariance includes it.
+    pub fn with_reference_frames(mut self, counts: &[usize]) -> Self {
+        assert_eq!(counts.len(), self.markers.len(), "one count per marker");
+        self.reference_variance = (counts.iter())
+            .map(|&n| if n == 0 { 0.0 } else { 1.0 / n as f64 })
+            .collect();
+        self
     }
 
     /// The same body (known loads included), markers, solver and parameters with other
@@ -137,6 +160,9 @@ impl MarkerSensor {
             self.params.clone(),
         )?;
         s.problem.loads.clone_from(&self.problem.loads);
+        s.reference_variance.clone_from(&self.reference_variance);
+        s.calibration_covariance
+            .clone_from(&self.calibration_covariance);
         Ok(s)
     }
 
@@ -330,16 +356,51 @@ impl MarkerSensor {
                 self.params.max_updates
             ));
         }
-        self.finish(&mut out, &w_ef, lambda, status);
+        let noise = (start.as_ref()).map(|sol| self.noise_covariance(&stacked, &visible, sol));
+        self.finish(&mut out, &w_ef, noise, lambda, status);
         out.solution = start;
         Ok(out)
     }
 
-    /// Fills in the forces, their covariance and I_w from the last linearisation.
+    /// The covariance of the stacked residual rows (m²): σ² on the diagonal for each
+    /// measurement, plus the reference's share σ² v_m (I − n nᵀ) between all rows of
+    /// marker m, in any stacked frame (the same reference enters them all), plus the
+    /// calibration's offset when given. Only the reference's tangential noise stays:
+    /// binding projects the measured reference on the surface (normal n at the FE state
+    /// `sol`), which removes its normal part.
+    fn noise_covariance(
+        &self,
+        stacked: &[(usize, usize, f64)],
+        visible: &[usize],
+        sol: &Solution,
+    ) -> DMatrix<f64> {
+        let s2 = self.params.sigma * self.params.sigma;
+        let tangent: Vec<[[f64; 3]; 3]> = (visible.iter())
+            .map(|&m| {
+                let [a, b, c, _] = (self.markers[m].at.nodes).map(|v| Vec3::from(sol.positions[v]));
+                let n = (b - a).cross(&(c - a)).normalize();
+                let v = self.reference_variance[m];
+                [0, 1, 2].map(|i| [0, 1, 2].map(|k| v * (f64::from(i == k) - n[i] * n[k])))
+            })
+            .collect();
+        let rows = stacked.len();
+        DMatrix::from_fn(rows, rows, |i, k| {
+            let ((ji, ai, _), (jk, ak, _)) = (stacked[i], stacked[k]);
+            let own = if i == k { 1.0 } else { 0.0 };
+            let reference = if ji == jk { tangent[ji][ai][ak] } else { 0.0 };
+            let calibration = (self.calibration_covariance.as_ref())
+                .map_or(0.0, |c| c[(3 * visible[ji] + ai, 3 * visible[jk] + ak)]);
+            s2 * (own + reference + calibration)
+        })
+    }
+
+    /// Fills in the forces, their covariance and I_w from the last linearisation; `noise`
+    /// is the rows' covariance (σ² I when not given).
     fn finish(
         &self,
         out: &mut MarkerFrame,
         w_ef: &DMatrix<f64>,
+        noise: Option<DMatrix<f64>>,
         lambda: Vec<f64>,
         status: MarkersStatus,
     ) {
@@ -359,8 +420,14 @@ impl MarkerSensor {
         let ident = problem.identifiability(&IntensityParams::default());
         out.i_w = ident.i_w;
         let s2 = self.params.sigma * self.params.sigma;
-        out.covariance = problem.force_covariance_with(|a| Some(a * a.transpose() * s2));
-        out.sigma = problem.force_sigma(self.params.sigma);
+        out.covariance = problem.force_covariance_with(|a| match &noise {
+            Some(c) => Some(a * c * a.transpose()),
+            None => Some(a * a.transpose() * s2),
+        });
+        out.sigma = match &out.covariance {
+            Some(c) => (0..n).map(|k| c[(k, k)].max(0.0).sqrt()).collect(),
+            None => problem.force_sigma(self.params.sigma),
+        };
         out.warnings.extend(ident.warning);
         out.forces = self.force_vectors(&lambda);
         out.intensities = lambda;

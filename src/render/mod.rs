@@ -15,6 +15,8 @@
 //! - [`sense_overlay`]: the robot segment, feature points, contacts and force arrows over
 //!   a colour frame; [`side_by_side`] puts before/after panels together.
 //! - [`discrepancy`]: the pictures of an `explain` report.
+//! - [`markers::marker_picture`]: one frame of `softsense markers --render` (markers, their
+//!   displacements, candidates and located forces, top and side views).
 //!
 //! Pixel centres are at integer coordinates, as in the pinhole model. Drawing never panics:
 //! shapes are clipped to the canvas, and NaN or infinite coordinates draw nothing.
@@ -40,6 +42,7 @@ mod colormap;
 pub mod discrepancy;
 mod font;
 mod lines;
+pub mod markers;
 mod overlay;
 mod project;
 mod surface;

@@ -195,33 +195,36 @@ fn the_markers_command_reads_a_track_file_and_prints_the_forces() {
     assert_eq!(lines[1]["located"].as_array().unwrap().len(), 2);
     // Each force found at one candidate alone: nothing to refine.
     assert_eq!(lines[1]["refined"], serde_json::json!([null, null]));
-    // Frame 2 with frame 1's rows stacked: twice the rows, σ divided by about √2.
-    let out = crate::cli::softsense(&[
-        "markers",
-        "--json",
-        "--accumulate",
-        "2",
-        "--candidates",
-        cand,
-        track,
-        model,
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let acc = json_lines(&out.stdout);
+    // Frame 2 with frame 1's rows stacked: twice the rows. The frames' own noise share of σ
+    // is divided by about √2; the reference's (frame 0, where the markers are bound) is
+    // common to both frames and stays. `--reference` on the track file itself binds at the
+    // same frame 0 taken as exact: σ is then the frames' share alone.
+    let run = |extra: &[&str]| {
+        let mut args = vec!["markers", "--json", "--candidates", cand, track, model];
+        args.extend_from_slice(extra);
+        let out = crate::cli::softsense(&args);
+        assert!(out.status.success(), "{}", crate::cli::stderr(&out));
+        json_lines(&out.stdout)
+    };
+    let acc = run(&["--accumulate", "2"]);
+    let own = run(&["--reference", track]);
+    let own_acc = run(&["--reference", track, "--accumulate", "2"]);
     assert_eq!(acc[2]["rows"], 2 * lines[2]["rows"].as_u64().unwrap());
+    let sigma = |v: &[serde_json::Value], i: usize| v[2]["sigma_n"][i].as_f64().unwrap();
     for (i, f) in truth.iter().enumerate() {
-        let sigma = acc[2]["sigma_n"][i].as_f64().unwrap();
-        let ratio = lines[2]["sigma_n"][i].as_f64().unwrap() / sigma;
+        let ratio = sigma(&own, i) / sigma(&own_acc, i);
+        let reference = sigma(&lines, i).powi(2) - sigma(&own, i).powi(2);
+        let reference_acc = sigma(&acc, i).powi(2) - sigma(&own_acc, i).powi(2);
         let z = acc[2]["forces_n"][i][2].as_f64().unwrap();
         eprintln!(
-            "cli --accumulate 2: force {i} {z:.4} N, sigma {sigma:.4} N (1 frame / 2: {ratio:.3})"
+            "cli --accumulate 2: force {i} {z:.4} N, sigma {:.4} N (own noise 1 frame / 2: {ratio:.3}; reference share {:.4} / {:.4} N)",
+            sigma(&acc, i),
+            reference.sqrt(),
+            reference_acc.sqrt()
         );
         assert!((ratio - 2f64.sqrt()).abs() < 0.02, "σ ratio {ratio}");
-        assert!((z - f[2]).abs() < 4.0 * sigma);
+        assert!(reference > 0.0 && (reference_acc / reference - 1.0).abs() < 0.05);
+        assert!((z - f[2]).abs() < 4.0 * sigma(&acc, i));
     }
     let zero = crate::cli::softsense(&["markers", "--accumulate", "0", track, model]);
     assert!(!zero.status.success());
