@@ -4,7 +4,6 @@
 use crate::error;
 use crate::model::Model;
 use pyo3::prelude::*;
-use softsense::segment::robot_color::RobotColorModel;
 use softsense::sense::{
     compare, FrameReport, Recording as Rec, Registration, SenseParams, Sensor as Sen,
 };
@@ -107,19 +106,11 @@ impl Sensor {
                 )))
             }
         };
-        let defaults = SenseParams::default();
-        let mut params = SenseParams {
-            registration,
-            color: RobotColorModel::with_reference([robot_color.0, robot_color.1, robot_color.2]),
-            max_contacts: max_contacts.unwrap_or(defaults.max_contacts),
-            ..defaults
-        };
-        if let Some(n) = features {
-            if n == 0 {
-                return Err(error("features: must be at least 1"));
-            }
-            params.features.count = n;
+        if features == Some(0) {
+            return Err(error("features: must be at least 1"));
         }
+        let colour = [robot_color.0, robot_color.1, robot_color.2];
+        let params = SenseParams::with_options(registration, colour, max_contacts, features);
         let mut sensor = Sen::new(model.0.clone(), robot_from_camera, params);
         sensor.use_recording_inputs(&rec).map_err(error)?;
         Ok(Sensor { sensor, rec })

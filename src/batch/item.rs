@@ -5,7 +5,6 @@ use super::manifest::{Item, SenseOptions, Source};
 use crate::fem::model::Model;
 use crate::scene::sweep::{self, Prepared, Sweep};
 use crate::scene::{generate, Scene};
-use crate::segment::robot_color::RobotColorModel;
 use crate::sense::{compare, FrameReport, Recording, SenseParams, Sensor};
 use std::path::{Path, PathBuf};
 
@@ -80,17 +79,12 @@ pub fn sense_recording(
             )
         })?;
     let model = Model::load(&model_path, None).map_err(|e| e.to_string())?;
-    let mut params = SenseParams {
-        registration: options.registration.map(Into::into).unwrap_or_default(),
-        color: RobotColorModel::with_reference(options.robot_color.unwrap_or([40, 200, 60])),
-        ..SenseParams::default()
-    };
-    if let Some(n) = options.max_contacts {
-        params.max_contacts = n;
-    }
-    if let Some(n) = options.features {
-        params.features.count = n;
-    }
+    let params = SenseParams::with_options(
+        options.registration.map(Into::into).unwrap_or_default(),
+        options.robot_color.unwrap_or([40, 200, 60]),
+        options.max_contacts,
+        options.features,
+    );
     let mut sensor = Sensor::new(model, robot_from_camera, params);
     // As `sense`: recorded actuator inputs win, else a calibration's, else the model's.
     sensor

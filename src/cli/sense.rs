@@ -132,16 +132,12 @@ pub fn run(args: &SenseArgs) -> CliResult {
     }
     let model_path = model_path(args, rec)?;
     let model = Model::load(&model_path, None).map_err(|e| CliError::Lib(e.into()))?;
-    let base = SenseParams {
-        registration: args.registration.into(),
-        ..SenseParams::default()
-    };
-    let mut params = SenseParams {
-        color: softsense::segment::robot_color::RobotColorModel::with_reference(args.robot_color),
-        max_contacts: args.max_contacts,
-        ..base
-    };
-    params.features.count = args.features;
+    let params = SenseParams::with_options(
+        args.registration.into(),
+        args.robot_color,
+        Some(args.max_contacts),
+        Some(args.features),
+    );
     let mut sensor = Sensor::with_cameras(model, cameras, params);
     let inputs = use_recorded_inputs(rec, &mut sensor)?;
     let poses: Vec<String> = (rig.cameras.iter())

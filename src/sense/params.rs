@@ -126,6 +126,29 @@ impl Default for SenseParams {
 }
 
 impl SenseParams {
+    /// The defaults with the options `softsense sense` (and `batch`, and the Python
+    /// `Sensor`) expose: the registration, the robot's colour, and where given the most
+    /// contacts a frame may have and the number of feature points.
+    pub fn with_options(
+        registration: Registration,
+        robot_color: [u8; 3],
+        max_contacts: Option<usize>,
+        features: Option<usize>,
+    ) -> Self {
+        let mut params = Self {
+            registration,
+            color: RobotColorModel::with_reference(robot_color),
+            ..Self::default()
+        };
+        if let Some(n) = max_contacts {
+            params.max_contacts = n;
+        }
+        if let Some(n) = features {
+            params.features.count = n;
+        }
+        params
+    }
+
     /// The defaults with dense registration for every frame ([`Registration::Dense`]).
     pub fn dense() -> Self {
         Self {
