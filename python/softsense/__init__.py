@@ -289,8 +289,10 @@ class Force:
 class FrameReport:
     """What sensing found in one frame: its ``status`` ("sensed", "no_robot",
     "no_features", "unreadable", "not_solved", "too_many_contacts") with ``detail``, the
-    forces, the warnings, the registration residual (m) and, for generated recordings,
-    the errors against the truth."""
+    forces, the warnings, the registration residual (m), for a recording of several
+    cameras each camera's part (``cameras``: name and status "seen", "missing" or
+    "unreadable"; empty for one camera) and, for generated recordings, the errors against
+    the truth."""
 
     frame: int
     status: str
@@ -300,6 +302,7 @@ class FrameReport:
     residual_rms: Optional[float]
     reliable: bool
     errors: Optional[List[Dict[str, Any]]]
+    cameras: List[Dict[str, Any]] = field(default_factory=list)
     raw: Dict[str, Any] = field(repr=False, default_factory=dict)
 
     @classmethod
@@ -314,6 +317,7 @@ class FrameReport:
             residual_rms=d["residual_rms"],
             reliable=d["reliable"],
             errors=d["errors"],
+            cameras=list(d.get("cameras", [])),
             raw=d,
         )
 

@@ -5,24 +5,38 @@ use crate::error;
 use crate::model::Model;
 use pyo3::prelude::*;
 use softsense::sense::{
-    compare, FrameReport, Recording as Rec, Registration, SenseParams, Sensor as Sen,
+    compare, FrameReport, Registration, Rig, SenseParams, Sensor as Sen, SensorCamera,
 };
 
-/// A recording folder (docs/recording-format.md).
+/// A recording folder of one camera, or of several (one sub-folder each), as `softsense
+/// sense` reads it (docs/recording-format.md).
 #[pyclass(module = "softsense._softsense", frozen)]
-pub struct Recording(pub Rec);
+pub struct Recording(pub Rig);
 
 #[pymethods]
 impl Recording {
-    /// Opens a recording folder; `pose` is a camera pose file used instead of the folder's.
+    /// Opens a recording folder; `pose` is a camera pose file used instead of the folder's
+    /// (a one-camera folder only).
     #[staticmethod]
     #[pyo3(signature = (path, pose=None))]
     fn open(path: std::path::PathBuf, pose: Option<std::path::PathBuf>) -> PyResult<Self> {
-        let mut rec = Rec::open(&path).map_err(error)?;
+        let mut rig = Rig::open(&path).map_err(error)?;
         if let Some(pose) = pose {
-            rec = rec.with_pose_file(&pose).map_err(error)?;
+            if !rig.is_one_folder() {
+                return Err(error(format!(
+                    "pose= is for a one-camera folder; {} has cameras {:?}, each with its own pose",
+                    path.display(),
+                    camera_names(&rig)
+                )));
+            }
+            let camera = &mut rig.cameras[0];
+            camera.recording = camera
+                .recording
+                .clone()
+                .with_pose_file(&pose)
+                .map_err(error)?;
         }
-        Ok(Recording(rec))
+        Ok(Recording(rig))
     }
 
     /// The folder.
@@ -31,22 +45,49 @@ impl Recording {
         self.0.dir.clone()
     }
 
-    /// Frame numbers.
+    /// Frame numbers (of any camera).
     #[getter]
     fn frames(&self) -> Vec<usize> {
         self.0.frames.clone()
     }
 
-    /// The camera pose, row-major 4x4 (p_robot = T p_camera), or None.
+    /// The cameras' names (`["camera"]` for a one-camera folder).
+    #[getter]
+    fn cameras(&self) -> Vec<String> {
+        camera_names(&self.0)
+    }
+
+    /// The camera pose of a one-camera folder, row-major 4x4 (p_robot = T p_camera), or
+    /// None (no pose, or several cameras: see `camera_poses`).
     #[getter]
     fn robot_from_camera(&self) -> Option<[[f64; 4]; 4]> {
-        self.0.robot_from_camera.as_ref().map(|p| p.to_matrix())
+        match self.0.cameras.as_slice() {
+            [one] => one
+                .recording
+                .robot_from_camera
+                .as_ref()
+                .map(|p| p.to_matrix()),
+            _ => None,
+        }
+    }
+
+    /// Every camera's pose (None where it has none), in camera order.
+    #[getter]
+    fn camera_poses(&self) -> Vec<Option<[[f64; 4]; 4]>> {
+        (self.0.cameras.iter())
+            .map(|c| {
+                c.recording
+                    .robot_from_camera
+                    .as_ref()
+                    .map(|p| p.to_matrix())
+            })
+            .collect()
     }
 
     /// The model file the recording names (truth.json or calibration.json), or None.
     #[getter]
     fn model_path(&self) -> Option<std::path::PathBuf> {
-        self.0.model_path()
+        self.0.shared().model_path()
     }
 
     /// Warnings from opening the folder.
@@ -56,17 +97,21 @@ impl Recording {
     }
 }
 
-/// The sensing chain of one model and one recording.
+fn camera_names(rig: &Rig) -> Vec<String> {
+    rig.cameras.iter().map(|c| c.name.clone()).collect()
+}
+
+/// The sensing chain of one model and one recording (all its cameras fused).
 #[pyclass(module = "softsense._softsense", frozen)]
 pub struct Sensor {
     sensor: Sen,
-    rec: Rec,
+    rec: Rig,
 }
 
 /// A frame's report as `softsense sense --json` prints it, with the errors against the
 /// recording's truth when it has one.
-fn json_of(rec: &Rec, mut report: FrameReport) -> PyResult<String> {
-    if let Some(t) = rec.truth_of(report.frame) {
+fn json_of(rec: &Rig, mut report: FrameReport) -> PyResult<String> {
+    if let Some(t) = rec.shared().truth_of(report.frame) {
         report.errors = Some(compare(&report, t));
     }
     serde_json::to_string(&report).map_err(error)
@@ -89,13 +134,17 @@ impl Sensor {
         max_contacts: Option<usize>,
     ) -> PyResult<Self> {
         let rec = recording.0.clone();
-        let robot_from_camera = rec.robot_from_camera.ok_or_else(|| {
-            error(format!(
-                "{} has no camera pose (calibration.json or camera_pose.json): open it with \
-                 pose=POSE.json, or find it with `softsense calibrate`",
-                rec.dir.display()
-            ))
-        })?;
+        let mut cameras = Vec::with_capacity(rec.cameras.len());
+        for c in &rec.cameras {
+            let pose = c.recording.robot_from_camera.ok_or_else(|| {
+                error(format!(
+                    "{} has no camera pose (calibration.json or camera_pose.json): open it \
+                     with pose=POSE.json, or find it with `softsense calibrate`",
+                    c.recording.dir.display()
+                ))
+            })?;
+            cameras.push(SensorCamera::new(&c.name, pose));
+        }
         let registration = match registration {
             "auto" => Registration::Auto,
             "features" => Registration::Features,
@@ -111,8 +160,8 @@ impl Sensor {
         }
         let colour = [robot_color.0, robot_color.1, robot_color.2];
         let params = SenseParams::with_options(registration, colour, max_contacts, features);
-        let mut sensor = Sen::new(model.0.clone(), robot_from_camera, params);
-        sensor.use_recording_inputs(&rec).map_err(error)?;
+        let mut sensor = Sen::with_cameras(model.0.clone(), cameras, params);
+        sensor.use_recording_inputs(rec.shared()).map_err(error)?;
         Ok(Sensor { sensor, rec })
     }
 

@@ -69,3 +69,25 @@ def test_errors_are_exceptions_with_the_command_lines_messages(root, tmp_path):
         softsense.Sensor(model, rec).sense(999)
     with pytest.raises(softsense.SoftsenseError, match="nodes"):
         model.solve([(10**9, (0.0, 0.0, 1.0))])
+
+
+def test_a_two_camera_recording_senses_as_the_command_line_fuses_it(root, cli, tmp_path):
+    out = tmp_path / "rig"
+    run_cli(cli, "scene", "generate", str(root / "clouds" / "scenes" / "two_cameras.toml"), str(out))
+    for name in ("depth_0003.png", "color_0003.png"):
+        (out / "side" / name).unlink()
+    rec = softsense.Recording.open(out)
+    assert rec.cameras == ["front", "side"]
+    assert rec.robot_from_camera is None and all(p is not None for p in rec.camera_poses)
+    with pytest.raises(softsense.SoftsenseError, match="one-camera folder"):
+        softsense.Recording.open(out, pose=out / "front" / "camera_pose.json")
+    ours = softsense.Sensor(softsense.Model.load(rec.model_path), rec).sense_all([2, 3])
+    lines = run_cli(cli, "sense", str(out), "--json").stdout.splitlines()
+    theirs = {t["frame"]: t for t in map(json.loads, lines)}
+    for r in ours:
+        d, t = r.to_dict(), theirs[r.frame]
+        for timing in ("ms", "timings"):
+            d.pop(timing), t.pop(timing)
+        assert d == t
+    assert [c["status"] for c in ours[0].cameras] == ["seen", "seen"]
+    assert [c["status"] for c in ours[1].cameras] == ["seen", "missing"]
