@@ -27,7 +27,7 @@ from . import _softsense, batch, scene
 from ._softsense import SoftsenseError, __version__
 
 __all__ = [
-    "batch", "calibrate", "scene", "Cloud", "Compliance", "Force", "FrameReport", "Model", "Recording", "Sensor",
+    "batch", "calibrate", "explain", "hidden", "scene", "Cloud", "Compliance", "Force", "FrameReport", "Model", "Recording", "Sensor",
     "Solution", "SoftsenseError", "crop_box", "pass_through", "radius_outlier_removal",
     "read_cloud", "statistical_outlier_removal", "voxel_grid", "write_cloud",
 ]
@@ -358,6 +358,24 @@ class Sensor:
     def features(self) -> int:
         """Number of surface feature points."""
         return self._native.features
+
+
+def explain(model: str, frames: str, robot_color: Sequence[int] = (40, 200, 60), holdout: float = 0.25) -> Dict[str, Any]:
+    """Where the model and the frames in ``frames`` disagree, which missing effect explains
+    it, and the residual before and after (``softsense explain MODEL FRAMES --json``).
+    ``holdout`` is the share of frames held out to confirm the explanation. Nothing is
+    written: ``softsense explain --out`` writes the report and its pictures."""
+    rgb = tuple(int(v) for v in robot_color)
+    return json.loads(_softsense.explain_frames(str(model), str(frames), rgb, float(holdout)))
+
+
+def hidden(out: str, model: str, effects: Sequence[str], magnitude: float = 0.5, seed: int = 1, frames: int = 8) -> Dict[str, Any]:
+    """Writes frames of ``model`` with hidden ``effects`` into ``out/frames`` and their truth
+    into ``out/truth_hidden.json`` (``softsense hidden``), to test :func:`explain` on;
+    returns the truth."""
+    return json.loads(
+        _softsense.hidden_dataset(str(out), str(model), [str(e) for e in effects], float(magnitude), int(seed), int(frames))
+    )
 
 
 def calibrate(recording: str, model: str, start: Optional[str] = None, frame: int = 0, robot_color: Sequence[int] = (40, 200, 60)) -> Dict[str, Any]:

@@ -7,6 +7,7 @@
 
 mod batch;
 mod cloud;
+mod explain;
 mod model;
 mod scene;
 mod sense;
@@ -58,6 +59,7 @@ fn _softsense(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     batch::register(m)?;
     cloud::register(m)?;
+    explain::register(m)?;
     model::register(m)?;
     scene::register(m)?;
     sense::register(m)?;

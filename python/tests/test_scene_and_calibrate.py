@@ -3,6 +3,7 @@
 import json
 
 import numpy as np
+import pytest
 
 import softsense
 from conftest import run_cli
@@ -33,3 +34,20 @@ def test_calibration_from_python_finds_the_command_lines_pose(root, tmp_path, cl
     theirs = json.loads(run_cli(cli, "calibrate", str(scene), str(model), "--out", str(tmp_path / "c.json"), "--json").stdout)
     np.testing.assert_array_equal(np.array(ours["robot_from_camera"]), np.array(theirs["robot_from_camera"]))
     assert ours["status"] == theirs["status"] and ours["actuators"] == theirs["actuators"]
+
+
+def test_hidden_and_explain_give_the_command_lines_dataset_and_explanation(root, cli, tmp_path):
+    model = root / "meshes" / "models" / "robot.toml"
+    truth = softsense.hidden(tmp_path / "ours", model, ["young"], seed=3, frames=4)
+    run_cli(cli, "hidden", str(tmp_path / "theirs"), "--model", str(model), "--effects", "young",
+            "--seed", "3", "--frames", "4")
+    theirs_truth = json.loads((tmp_path / "theirs" / "truth_hidden.json").read_text())
+    assert truth == theirs_truth
+    for name in sorted(p.name for p in (tmp_path / "theirs" / "frames").iterdir()):
+        ours_file = tmp_path / "ours" / "frames" / name
+        assert ours_file.read_bytes() == (tmp_path / "theirs" / "frames" / name).read_bytes(), name
+    ours = softsense.explain(model, tmp_path / "ours" / "frames")
+    theirs = json.loads(run_cli(cli, "explain", str(model), str(tmp_path / "theirs" / "frames"), "--json").stdout)
+    assert ours == theirs
+    with pytest.raises(softsense.SoftsenseError, match="use one of"):
+        softsense.hidden(tmp_path / "bad", model, ["gravity-well"])
