@@ -4,9 +4,7 @@
 use crate::error;
 use crate::model::Model;
 use pyo3::prelude::*;
-use softsense::sense::{
-    compare, FrameReport, Registration, Rig, SenseParams, Sensor as Sen, SensorCamera,
-};
+use softsense::sense::{compare, FrameReport, Registration, Rig, SenseParams, Sensor as Sen};
 
 /// A recording folder of one camera, or of several (one sub-folder each), as `softsense
 /// sense` reads it (docs/recording-format.md).
@@ -22,19 +20,7 @@ impl Recording {
     fn open(path: std::path::PathBuf, pose: Option<std::path::PathBuf>) -> PyResult<Self> {
         let mut rig = Rig::open(&path).map_err(error)?;
         if let Some(pose) = pose {
-            if !rig.is_one_folder() {
-                return Err(error(format!(
-                    "pose= is for a one-camera folder; {} has cameras {:?}, each with its own pose",
-                    path.display(),
-                    camera_names(&rig)
-                )));
-            }
-            let camera = &mut rig.cameras[0];
-            camera.recording = camera
-                .recording
-                .clone()
-                .with_pose_file(&pose)
-                .map_err(error)?;
+            rig = rig.with_pose_file(&pose).map_err(error)?;
         }
         Ok(Recording(rig))
     }
@@ -54,7 +40,7 @@ impl Recording {
     /// The cameras' names (`["camera"]` for a one-camera folder).
     #[getter]
     fn cameras(&self) -> Vec<String> {
-        camera_names(&self.0)
+        self.0.camera_names()
     }
 
     /// The camera pose of a one-camera folder, row-major 4x4 (p_robot = T p_camera), or
@@ -97,10 +83,6 @@ impl Recording {
     }
 }
 
-fn camera_names(rig: &Rig) -> Vec<String> {
-    rig.cameras.iter().map(|c| c.name.clone()).collect()
-}
-
 /// The sensing chain of one model and one recording (all its cameras fused).
 #[pyclass(module = "softsense._softsense", frozen)]
 pub struct Sensor {
@@ -134,17 +116,6 @@ impl Sensor {
         max_contacts: Option<usize>,
     ) -> PyResult<Self> {
         let rec = recording.0.clone();
-        let mut cameras = Vec::with_capacity(rec.cameras.len());
-        for c in &rec.cameras {
-            let pose = c.recording.robot_from_camera.ok_or_else(|| {
-                error(format!(
-                    "{} has no camera pose (calibration.json or camera_pose.json): open it \
-                     with pose=POSE.json, or find it with `softsense calibrate`",
-                    c.recording.dir.display()
-                ))
-            })?;
-            cameras.push(SensorCamera::new(&c.name, pose));
-        }
         let registration = match registration {
             "auto" => Registration::Auto,
             "features" => Registration::Features,
@@ -160,7 +131,11 @@ impl Sensor {
         }
         let colour = [robot_color.0, robot_color.1, robot_color.2];
         let params = SenseParams::with_options(registration, colour, max_contacts, features);
-        let mut sensor = Sen::with_cameras(model.0.clone(), cameras, params);
+        let mut sensor = Sen::for_rig(model.0.clone(), &rec, params).map_err(|e| {
+            error(format!(
+                "{e}: open it with pose=POSE.json, or find it with `softsense calibrate`"
+            ))
+        })?;
         sensor.use_recording_inputs(rec.shared()).map_err(error)?;
         Ok(Sensor { sensor, rec })
     }

@@ -79,7 +79,7 @@ def test_a_two_camera_recording_senses_as_the_command_line_fuses_it(root, cli, t
     rec = softsense.Recording.open(out)
     assert rec.cameras == ["front", "side"]
     assert rec.robot_from_camera is None and all(p is not None for p in rec.camera_poses)
-    with pytest.raises(softsense.SoftsenseError, match="one-camera folder"):
+    with pytest.raises(softsense.SoftsenseError, match="pose file is for a one-camera folder"):
         softsense.Recording.open(out, pose=out / "front" / "camera_pose.json")
     ours = softsense.Sensor(softsense.Model.load(rec.model_path), rec).sense_all([2, 3])
     lines = run_cli(cli, "sense", str(out), "--json").stdout.splitlines()

@@ -5,7 +5,7 @@ use super::manifest::{Item, SenseOptions, Source};
 use crate::fem::model::Model;
 use crate::scene::sweep::{self, Prepared, Sweep};
 use crate::scene::{generate, Scene};
-use crate::sense::{compare, FrameReport, Recording, SenseParams, Sensor};
+use crate::sense::{compare, FrameReport, Rig, SenseParams, Sensor};
 use std::path::{Path, PathBuf};
 
 /// The recording folder of an item that generates one: `OUT/recordings/ID`.
@@ -55,22 +55,15 @@ pub fn sense_recording(
     default_model: Option<&Path>,
     window: usize,
 ) -> Result<Vec<FrameReport>, String> {
-    let mut rec = Recording::open(dir).map_err(|e| e.to_string())?;
+    let mut rec = Rig::open(dir).map_err(|e| e.to_string())?;
     if let Some(pose) = &options.pose {
         rec = rec.with_pose_file(pose).map_err(|e| e.to_string())?;
     }
-    let Some(robot_from_camera) = rec.robot_from_camera else {
-        return Err(format!(
-            "{} has no camera pose (calibration.json or camera_pose.json): give `pose = \
-             \"POSE.json\"` in the manifest",
-            dir.display()
-        ));
-    };
     let model_path = options
         .model
         .clone()
         .or_else(|| default_model.map(Path::to_path_buf))
-        .or_else(|| rec.model_path())
+        .or_else(|| rec.shared().model_path())
         .ok_or_else(|| {
             format!(
                 "{} has no truth.json or calibration.json naming its model: give `model = \
@@ -85,15 +78,16 @@ pub fn sense_recording(
         options.max_contacts,
         options.features,
     );
-    let mut sensor = Sensor::new(model, robot_from_camera, params);
+    let mut sensor = Sensor::for_rig(model, &rec, params)
+        .map_err(|e| format!("{e}: give `pose = \"POSE.json\"` in the manifest"))?;
     // As `sense`: recorded actuator inputs win, else a calibration's, else the model's.
     sensor
-        .use_recording_inputs(&rec)
+        .use_recording_inputs(rec.shared())
         .map_err(|e| e.to_string())?;
     let mut reports = Vec::with_capacity(rec.frames.len());
     sensor
         .sense_frames(&rec, &rec.frames, window, |_, mut report| {
-            if let Some(t) = rec.truth_of(report.frame) {
+            if let Some(t) = rec.shared().truth_of(report.frame) {
                 report.errors = Some(compare(&report, t));
             }
             reports.push(report);

@@ -4,9 +4,10 @@ use super::{stdout_closed, CliError, CliResult};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use softsense::fem::model::Model;
+use softsense::recording::RecordingError;
 use softsense::sense::{
     compare, default_window, median_timings, FrameReport, FrameStatus, LoadError, Observation,
-    Recording, Rig, SenseParams, SenseResult, Sensor, SensorCamera, StageTimings, View,
+    Recording, Rig, SenseError, SenseParams, SenseResult, Sensor, StageTimings, View,
 };
 use std::path::PathBuf;
 
@@ -125,7 +126,6 @@ pub struct SenseArgs {
 
 pub fn run(args: &SenseArgs) -> CliResult {
     let rig = open_rig(args)?;
-    let cameras = sensor_cameras(args, &rig)?;
     let rec = rig.shared();
     for w in &rig.warnings {
         eprintln!("warning: {w}");
@@ -138,7 +138,12 @@ pub fn run(args: &SenseArgs) -> CliResult {
         Some(args.max_contacts),
         Some(args.features),
     );
-    let mut sensor = Sensor::with_cameras(model, cameras, params);
+    let mut sensor = Sensor::for_rig(model, &rig, params).map_err(|e| match e {
+        SenseError::NoPose { .. } => CliError::Usage(format!(
+            "{e}: give --pose POSE.json, or find it with `softsense calibrate`"
+        )),
+        e => CliError::Lib(e.into()),
+    })?;
     let inputs = use_recorded_inputs(rec, &mut sensor)?;
     let poses: Vec<String> = (rig.cameras.iter())
         .filter_map(|c| c.recording.pose_file.as_deref())
@@ -239,18 +244,10 @@ pub fn run(args: &SenseArgs) -> CliResult {
 fn open_rig(args: &SenseArgs) -> Result<Rig, CliError> {
     let mut rig = Rig::open(&args.scene_dir).map_err(|e| CliError::Lib(e.into()))?;
     if let Some(pose) = &args.pose {
-        if !rig.is_one_folder() {
-            return Err(CliError::Usage(format!(
-                "--pose is for a one-camera folder; {} has cameras {}, each with its own pose \
-                 (camera_pose.json or calibration.json in its folder)",
-                args.scene_dir.display(),
-                camera_names(&rig)
-            )));
-        }
-        let camera = &mut rig.cameras[0];
-        camera.recording = (camera.recording.clone())
-            .with_pose_file(pose)
-            .map_err(|e| CliError::Lib(e.into()))?;
+        rig = rig.with_pose_file(pose).map_err(|e| match e {
+            RecordingError::PoseForRig { .. } => CliError::Usage(format!("--pose: {e}")),
+            e => CliError::Lib(e.into()),
+        })?;
     }
     match &args.cameras {
         Some(names) if rig.is_one_folder() => Err(CliError::Usage(format!(
@@ -263,30 +260,6 @@ fn open_rig(args: &SenseArgs) -> Result<Rig, CliError> {
             .map_err(|e| CliError::Usage(e.to_string())),
         None => Ok(rig),
     }
-}
-
-fn camera_names(rig: &Rig) -> String {
-    let names: Vec<&str> = rig.cameras.iter().map(|c| c.name.as_str()).collect();
-    names.join(", ")
-}
-
-/// Every camera of `rig` with its pose; a camera without one is a usage error naming it.
-fn sensor_cameras(args: &SenseArgs, rig: &Rig) -> Result<Vec<SensorCamera>, CliError> {
-    let mut cameras = Vec::with_capacity(rig.cameras.len());
-    for c in &rig.cameras {
-        let Some(pose) = c.recording.robot_from_camera else {
-            let whose = match rig.is_one_folder() {
-                true => args.scene_dir.display().to_string(),
-                false => format!("camera {} ({})", c.name, c.recording.dir.display()),
-            };
-            return Err(CliError::Usage(format!(
-                "{whose} has no camera pose (calibration.json or camera_pose.json): give \
-                 --pose POSE.json, or find it with `softsense calibrate`"
-            )));
-        };
-        cameras.push(SensorCamera::new(&c.name, pose));
-    }
-    Ok(cameras)
 }
 
 /// Which cable inputs `sensor` senses with, in words: the recorded ones, else the

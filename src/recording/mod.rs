@@ -143,6 +143,17 @@ pub enum RecordingError {
         /// Last frame.
         last: usize,
     },
+    /// A pose file given for a folder of several cameras.
+    #[error(
+        "a pose file is for a one-camera folder; {path} has cameras {cameras}, each with its \
+         own pose (camera_pose.json or calibration.json in its folder)"
+    )]
+    PoseForRig {
+        /// The rig's folder.
+        path: PathBuf,
+        /// The rig's camera names.
+        cameras: String,
+    },
     /// A camera name the rig does not have.
     #[error("no camera {name:?} in the recording (its cameras: {cameras})")]
     NoSuchCamera {

@@ -204,14 +204,33 @@ impl Rig {
         Ok(self)
     }
 
+    /// The one-camera rig with its camera's pose read from `path` (a `--pose` file)
+    /// instead of the folder's; a rig of several cameras is
+    /// [`RecordingError::PoseForRig`].
+    pub fn with_pose_file(mut self, path: &Path) -> RecordingResult<Self> {
+        if !self.is_one_folder() {
+            return Err(RecordingError::PoseForRig {
+                path: self.dir.clone(),
+                cameras: self.camera_names().join(", "),
+            });
+        }
+        let camera = &mut self.cameras[0];
+        camera.recording = camera.recording.clone().with_pose_file(path)?;
+        Ok(self)
+    }
+
+    /// The cameras' names, in order.
+    pub fn camera_names(&self) -> Vec<String> {
+        self.cameras.iter().map(|c| c.name.clone()).collect()
+    }
+
     /// The rig with only the cameras named in `names`, in the rig's order; the frames are
     /// those any of them has. An unknown name is [`RecordingError::NoSuchCamera`].
     pub fn keep_cameras(mut self, names: &[String]) -> RecordingResult<Self> {
         if let Some(name) = names.iter().find(|n| self.camera(n).is_none()) {
-            let all: Vec<&str> = self.cameras.iter().map(|c| c.name.as_str()).collect();
             return Err(RecordingError::NoSuchCamera {
                 name: name.clone(),
-                cameras: all.join(", "),
+                cameras: self.camera_names().join(", "),
             });
         }
         self.cameras.retain(|c| names.contains(&c.name));

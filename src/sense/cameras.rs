@@ -126,6 +126,26 @@ impl std::fmt::Display for CameraReport {
 }
 
 impl Sensor {
+    /// A sensor for every camera of `rig`, each at its folder's pose
+    /// ([`Sensor::with_cameras`]); a camera without one is [`SenseError::NoPose`].
+    pub fn for_rig(
+        model: crate::fem::model::Model,
+        rig: &Rig,
+        params: super::SenseParams,
+    ) -> SenseResult<Self> {
+        let mut cameras = Vec::with_capacity(rig.cameras.len());
+        for c in &rig.cameras {
+            let pose = c
+                .recording
+                .robot_from_camera
+                .ok_or_else(|| SenseError::NoPose {
+                    dir: c.recording.dir.display().to_string(),
+                })?;
+            cameras.push(SensorCamera::new(&c.name, pose));
+        }
+        Ok(Self::with_cameras(model, cameras, params))
+    }
+
     /// Checks that `source` has the sensor's cameras, by count and name.
     pub fn check_cameras(&self, source: &impl CameraFrames) -> SenseResult<()> {
         let names: Vec<&str> = (0..source.camera_count())

@@ -97,6 +97,13 @@ pub enum SenseError {
         /// The recording's camera names.
         recording: String,
     },
+    /// A camera without a pose (the folder has neither calibration.json nor
+    /// camera_pose.json).
+    #[error("{dir} has no camera pose (calibration.json or camera_pose.json)")]
+    NoPose {
+        /// The camera's folder.
+        dir: String,
+    },
     /// No camera could read the frame (each camera's reason).
     #[error("no camera could read the frame: {0}")]
     NoCamera(String),

@@ -140,7 +140,7 @@ fn sense_on_a_rig_refuses_pose_and_unknown_cameras_with_usage_errors() {
     };
     let (code, err) = run(&["--pose", "x.json"]);
     assert_eq!(code, Some(2), "{err}");
-    assert!(err.contains("--pose is for a one-camera folder") && err.contains("front, side"));
+    assert!(err.contains("pose file is for a one-camera folder") && err.contains("front, side"));
     let (code, err) = run(&["--cameras", "front,back"]);
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("no camera \"back\""), "{err}");
@@ -180,4 +180,43 @@ fn score_counts_frames_by_the_cameras_they_were_sensed_from() {
         })
         .collect();
     assert_eq!(groups, [(1, 1), (2, 1)]);
+}
+
+#[test]
+fn batch_senses_a_rig_recording_as_sense_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("rig");
+    two_camera_recording(&out);
+    let manifest = dir.path().join("m.toml");
+    let text = format!("[[recording]]\npath = {:?}\n", out.display().to_string());
+    std::fs::write(&manifest, text).unwrap();
+    let bin = env!("CARGO_BIN_EXE_softsense");
+    let results = dir.path().join("results");
+    let run = std::process::Command::new(bin)
+        .arg("batch")
+        .arg(&manifest)
+        .arg("--out")
+        .arg(&results)
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let batch = crate::common::batch::results(&results);
+    let sensed = std::process::Command::new(bin)
+        .args(["sense", "--json"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let lines: Vec<serde_json::Value> = (String::from_utf8_lossy(&sensed.stdout).lines())
+        .map(|l| crate::common::batch::without_times(serde_json::from_str(l).unwrap()))
+        .collect();
+    assert_eq!(batch.len(), 1);
+    assert_eq!(serde_json::Value::Array(lines), batch[0].1["frames"]);
+    assert_eq!(
+        batch[0].1["frames"][0]["cameras"].as_array().unwrap().len(),
+        2
+    );
 }
