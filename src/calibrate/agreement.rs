@@ -25,7 +25,7 @@ pub struct Agreement {
 
 /// Distances from the robot points `a` of one camera to the surface the robot points `b`
 /// of another saw (both in the robot frame, m): for each point of `a` whose
-/// [`PLANE_POINTS`] nearest points of `b` lie within `overlap_radius` (m), its distance
+/// 10 nearest points of `b` lie within `overlap_radius` (m), its distance
 /// to the plane fitted to them. Every `stride`-th point of `a` is used. `None` when no
 /// point of `a` is over `b`'s surface.
 pub fn camera_agreement(
