@@ -209,26 +209,13 @@ fn run_stage(
 /// first frame pays the free FE solve). One timing per frame and pass, plus the median
 /// milliseconds of each stage over them (`stage_ms`, `[name, ms]` pairs in chain order).
 fn run_sense(dir: &Path, repeat: usize) -> Result<(Vec<f64>, Value, usize), String> {
-    use softsense::sense::{
-        median_timings, CameraFrames, FrameStatus, Rig, SenseParams, Sensor, SensorCamera,
-    };
+    use softsense::sense::{median_timings, CameraFrames, FrameStatus, Rig, SenseParams, Sensor};
     let rec = Rig::open(dir).map_err(|e| e.to_string())?;
     let model_path = (rec.shared().model_path())
         .ok_or_else(|| format!("{}: no truth.json naming the model", dir.display()))?;
     let model = softsense::fem::model::Model::load(&model_path, None).map_err(|e| e.to_string())?;
-    let sensor_of = |rig: &Rig| -> Result<Sensor, String> {
-        let cameras = (rig.cameras.iter())
-            .map(|c| {
-                let pose = c.recording.robot_from_camera;
-                let pose = pose.ok_or_else(|| format!("camera {}: no pose", c.name))?;
-                Ok(SensorCamera::new(&c.name, pose))
-            })
-            .collect::<Result<Vec<_>, String>>()?;
-        Ok(Sensor::with_cameras(
-            model.clone(),
-            cameras,
-            SenseParams::default(),
-        ))
+    let sensor_of = |rig: &Rig| {
+        Sensor::for_rig(model.clone(), rig, SenseParams::default()).map_err(|e| e.to_string())
     };
     let sensor = sensor_of(&rec)?;
     // With several cameras, the first camera alone on the same frames, alternated frame by

@@ -83,7 +83,7 @@ pub fn run(args: &CalibrateArgs) -> CliResult {
              (NAME/rough_pose.json) and its calibration written there (NAME/calibration.json), \
              so --start and --out do not apply",
             args.scene_dir.display(),
-            camera_names(&rig)
+            rig.camera_names().join(", ")
         )));
     }
     let mut seen = Vec::new();
@@ -113,11 +113,6 @@ pub fn run(args: &CalibrateArgs) -> CliResult {
         )));
     }
     Ok(())
-}
-
-fn camera_names(rig: &Rig) -> String {
-    let names: Vec<&str> = rig.cameras.iter().map(|c| c.name.as_str()).collect();
-    names.join(", ")
 }
 
 /// Calibrates one camera of `rec` from `start`, writes `out` and checks for a touch;
