@@ -33,6 +33,8 @@ mod markers_bundled;
 mod markers_detect;
 #[path = "integration/rgbd_sequence.rs"]
 mod rgbd_sequence;
+#[path = "integration/scene3d.rs"]
+mod scene3d;
 #[path = "integration/scene_cameras.rs"]
 mod scene_cameras;
 #[path = "integration/sense_cameras.rs"]

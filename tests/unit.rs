@@ -90,3 +90,5 @@ mod control;
 
 #[path = "unit/batch.rs"]
 mod batch;
+#[path = "unit/scene3d.rs"]
+mod scene3d;

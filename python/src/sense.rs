@@ -4,7 +4,10 @@
 use crate::error;
 use crate::model::Model;
 use pyo3::prelude::*;
-use softsense::sense::{compare, FrameReport, Registration, Rig, SenseParams, Sensor as Sen};
+use softsense::render::scene3d::{self, SceneParams};
+use softsense::sense::{
+    compare, FrameReport, Observation, Registration, Rig, SenseParams, SenseResult, Sensor as Sen,
+};
 
 /// A recording folder of one camera, or of several (one sub-folder each), as `softsense
 /// sense` reads it (docs/recording-format.md).
@@ -151,16 +154,9 @@ impl Sensor {
         }
         // One frame through the stream, so it is read and sensed exactly as in `sense_all`
         // and `softsense sense` (an unreadable frame gets its status).
-        let mut report = None;
-        py.detach(|| {
-            self.sensor.sense_frames(&self.rec, &[frame], 1, |_, r| {
-                report = Some(r);
-                Ok::<(), std::convert::Infallible>(())
-            })
-        })
-        .unwrap_or_else(|never| match never {});
-        let report = report.ok_or_else(|| error(format!("frame {frame} gave no report")))?;
-        json_of(&self.rec, report)
+        let mut out = self.stream(py, Some(vec![frame]), Some(1), |_, r| json_of(&self.rec, r))?;
+        out.pop()
+            .ok_or_else(|| error(format!("frame {frame} gave no report")))?
     }
 
     /// Senses `frames` (default: all), `window` of them side by side (default: the number
@@ -173,6 +169,58 @@ impl Sensor {
         frames: Option<Vec<usize>>,
         window: Option<usize>,
     ) -> PyResult<Vec<String>> {
+        let out = self.stream(py, frames, window, |_, r| json_of(&self.rec, r))?;
+        out.into_iter().collect()
+    }
+
+    /// What holds for every frame in 3-D (the axes, each camera's pose and pinhole), as a
+    /// JSON list of entities (`softsense::render::scene3d`): what `softsense.rerun` logs
+    /// as static.
+    fn scene_static(&self) -> PyResult<String> {
+        let cameras: Vec<_> = self.rec.cameras.iter().map(|c| &c.recording).collect();
+        serde_json::to_string(&scene3d::static_entities(&self.sensor, &cameras)).map_err(error)
+    }
+
+    /// Senses `frames` as `sense_all` does; returns per frame its report and its 3-D
+    /// entities (both JSON): exactly what `softsense sense --rerun` logs for the frame.
+    /// `images`: include each camera's colour frame.
+    #[pyo3(signature = (frames=None, window=None, images=true))]
+    fn sense_scenes(
+        &self,
+        py: Python<'_>,
+        frames: Option<Vec<usize>>,
+        window: Option<usize>,
+        images: bool,
+    ) -> PyResult<Vec<(String, String)>> {
+        let params = SceneParams {
+            images,
+            ..SceneParams::default()
+        };
+        let out = self.stream(py, frames, window, |obs, r| {
+            let entities = scene3d::frame_entities(&self.sensor, obs.as_ref().ok(), &r, &params);
+            let entities = serde_json::to_string(&entities).map_err(error)?;
+            Ok((json_of(&self.rec, r)?, entities))
+        })?;
+        out.into_iter().collect()
+    }
+
+    /// Number of surface feature points.
+    #[getter]
+    fn features(&self) -> usize {
+        self.sensor.features.len()
+    }
+}
+
+impl Sensor {
+    /// Senses `frames` (default: all; each must be in the recording), `window` at a time,
+    /// and maps each frame's observation and report with `each`, in frame order.
+    fn stream<T: Send>(
+        &self,
+        py: Python<'_>,
+        frames: Option<Vec<usize>>,
+        window: Option<usize>,
+        each: impl Fn(&SenseResult<Observation>, FrameReport) -> T + Sync,
+    ) -> PyResult<Vec<T>> {
         let frames = frames.unwrap_or_else(|| self.rec.frames.clone());
         if let Some(f) = frames.iter().find(|f| !self.rec.frames.contains(f)) {
             return Err(error(format!("no frame {f} in the recording")));
@@ -180,22 +228,16 @@ impl Sensor {
         let window = window
             .unwrap_or_else(softsense::sense::default_window)
             .max(1);
-        let mut reports = Vec::with_capacity(frames.len());
+        let mut out = Vec::with_capacity(frames.len());
         py.detach(|| {
             self.sensor
-                .sense_frames(&self.rec, &frames, window, |_, report| {
-                    reports.push(report);
+                .sense_frames(&self.rec, &frames, window, |obs, report| {
+                    out.push(each(obs, report));
                     Ok::<(), std::convert::Infallible>(())
                 })
         })
         .unwrap_or_else(|never| match never {});
-        reports.into_iter().map(|r| json_of(&self.rec, r)).collect()
-    }
-
-    /// Number of surface feature points.
-    #[getter]
-    fn features(&self) -> usize {
-        self.sensor.features.len()
+        Ok(out)
     }
 }
 

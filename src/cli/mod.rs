@@ -25,6 +25,7 @@ pub mod markers;
 pub mod markers_calib;
 pub mod markers_detect;
 pub mod markers_layout;
+pub mod rerun_out;
 pub mod scene;
 pub mod score;
 pub mod segment;

@@ -54,6 +54,7 @@ use std::path::PathBuf;
 softsense sense clouds/scenes/tip_weight\n  \
 softsense sense clouds/scenes/probe_side --json > forces.jsonl\n  \
 softsense sense clouds/scenes/two_probes --render /tmp/pictures\n  \
+softsense sense clouds/scenes/two_probes --rerun /tmp/two_probes.rrd   # built with --features rerun\n  \
 softsense sense my_grabber_folder --pose camera_pose.json --model meshes/models/robot.toml\n  \
 softsense sense /tmp/two_cameras --cameras front   # one camera of a two-camera folder\n\n\
 Generate a scene first with `softsense scene generate SCENE.toml OUT_DIR`."
@@ -93,6 +94,14 @@ pub struct SenseArgs {
     /// contacts and the estimated force arrows with their magnitudes.
     #[arg(long, value_name = "OUT_DIR")]
     pub render: Option<PathBuf>,
+    /// Write a rerun recording (.rrd) of every frame, to step through in the rerun viewer
+    /// (`rerun OUT.rrd`): each camera's pose, pinhole and colour frame, the robot and
+    /// object points, the deformed FE surface, the feature points and their registration
+    /// lines, the contacts, force arrows with their one-sigma ellipsoids, the status and
+    /// warnings, and the forces plotted over frames (docs/rerun.md). Needs a softsense
+    /// built with `--features rerun`.
+    #[arg(long, value_name = "OUT.rrd")]
+    pub rerun: Option<PathBuf>,
     /// Frames sensed at the same time (default: the number of threads, from
     /// RAYON_NUM_THREADS or the cores); each next frame goes to the first that is done.
     /// Output stays in frame order and every frame's answer is the same for any value;
@@ -161,6 +170,10 @@ pub fn run(args: &SenseArgs) -> CliResult {
         std::fs::create_dir_all(dir)
             .map_err(|e| CliError::Result(format!("{}: {e}", dir.display())))?;
     }
+    let mut rerun = match &args.rerun {
+        Some(path) => Some(super::rerun_out::RerunOut::create(path, &sensor, &rig)?),
+        None => None,
+    };
     let bar = ProgressBar::new(rig.frames.len() as u64);
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} frames {elapsed} {msg}")
@@ -191,6 +204,9 @@ pub fn run(args: &SenseArgs) -> CliResult {
                     .map_err(Halt::Failed)?;
             }
         }
+        if let Some(out) = &mut rerun {
+            out.frame(&sensor, obs, &report).map_err(Halt::Failed)?;
+        }
         bar.suspend(|| -> CliResult {
             if args.json {
                 let line =
@@ -204,9 +220,9 @@ pub fn run(args: &SenseArgs) -> CliResult {
         .map_err(Halt::Failed)?;
         bar.inc(1);
         reports.push(report);
-        // Nobody reads stdout any more (`| head`) and no pictures are being written: the
-        // remaining frames would produce nothing.
-        if stdout_closed() && args.render.is_none() {
+        // Nobody reads stdout any more (`| head`) and no pictures or recording are being
+        // written: the remaining frames would produce nothing.
+        if stdout_closed() && args.render.is_none() && args.rerun.is_none() {
             return Err(Halt::ReaderGone);
         }
         Ok(())
@@ -227,6 +243,14 @@ pub fn run(args: &SenseArgs) -> CliResult {
     }
     let wall_ms = clock.elapsed().as_secs_f64() * 1e3;
     bar.finish_and_clear();
+    if let (Some(out), Some(path)) = (rerun, &args.rerun) {
+        let frames = out.finish()?;
+        eprintln!(
+            "wrote {} ({frames} frames); open it with `rerun {}`",
+            path.display(),
+            path.display()
+        );
+    }
     summary(&reports, wall_ms, window, args.track);
     if reports
         .iter()

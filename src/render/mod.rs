@@ -17,6 +17,9 @@
 //! - [`discrepancy`]: the pictures of an `explain` report.
 //! - [`markers::marker_picture`]: one frame of `softsense markers --render` (markers, their
 //!   displacements, candidates and located forces, top and side views).
+//! - [`scene3d`]: a sensed frame in 3-D as plain data (points, FE surface, features,
+//!   forces with their uncertainty, cameras, status), and [`rrd`] (feature `rerun`) that
+//!   writes it as a rerun recording (`softsense sense --rerun`).
 //!
 //! Pixel centres are at integer coordinates, as in the pinhole model. Drawing never panics:
 //! shapes are clipped to the canvas, and NaN or infinite coordinates draw nothing.
@@ -45,6 +48,9 @@ mod lines;
 pub mod markers;
 mod overlay;
 mod project;
+#[cfg(feature = "rerun")]
+pub mod rrd;
+pub mod scene3d;
 mod surface;
 
 pub use canvas::{Canvas, Rgb, BLACK, GREY, MAX_PIXELS, MAX_SIDE, WHITE};

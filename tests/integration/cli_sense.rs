@@ -106,6 +106,18 @@ fn sense_refuses_zero_feature_points_as_a_usage_error() {
     assert!(err.contains("--features"), "{err}");
 }
 
+#[cfg(not(feature = "rerun"))]
+#[test]
+fn sense_rerun_without_the_rerun_feature_is_a_usage_error_that_says_how_to_get_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let rrd = dir.path().join("out.rrd");
+    let out = sense(&["clouds/scenes/tip_weight", "--rerun", rrd.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--features rerun"), "{err}");
+    assert!(!rrd.exists());
+}
+
 #[test]
 fn sense_on_a_missing_or_empty_folder_fails_with_a_message() {
     let out = sense(&["no/such/folder"]);
