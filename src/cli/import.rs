@@ -9,12 +9,12 @@ use std::path::PathBuf;
 /// Arguments of `softsense import`.
 #[derive(Debug, Args)]
 #[command(
-    about = "Import a RealSense .bag or a ROS 2 bag (MCAP) into a recording folder",
+    about = "Import a RealSense .bag or a ROS 2 bag (MCAP or sqlite3) into a recording folder",
     long_about = "Import a camera recording into a recording folder (softsense layout: \
 depth_NNNN.png, color_NNNN.png, intrinsics.json) that `sense`, `calibrate` and `explain` read.\n\n\
 BAG is a RealSense .bag (rosbag v1, as the RealSense Viewer records it), a ROS 2 bag folder \
-(metadata.yaml + .mcap files) or one .mcap file. Chunks may be uncompressed or lz4; sqlite3 \
-(.db3) bags are refused: convert them to MCAP first.\n\n\
+(metadata.yaml + .mcap or .db3 files) or one .mcap or .db3 file. Chunks may be uncompressed \
+or lz4; sqlite3 bags are opened read-only.\n\n\
 Topics: depth is the one sensor_msgs/Image topic with encoding 16UC1, mono16 or 32FC1, \
 colour the one with rgb8, bgr8, rgba8, bgra8 or mono8 (RealSense: /device_0/sensor_0/Depth_0/image/data \
 and /device_0/sensor_1/Color_0/image/data); each camera's sensor_msgs/CameraInfo is the one \
@@ -41,7 +41,7 @@ softsense import rosbag2_2026_01_01 /tmp/run --depth-topic /camera/aligned_depth
 softsense import walk.bag /tmp/walk --json"
 )]
 pub struct ImportArgs {
-    /// The bag: a .bag file, a ROS 2 bag folder or an .mcap file.
+    /// The bag: a .bag file, a ROS 2 bag folder, or an .mcap or .db3 file.
     #[arg(value_name = "BAG")]
     pub bag: PathBuf,
     /// The recording folder to write (new or empty).

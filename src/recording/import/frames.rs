@@ -612,7 +612,13 @@ pub fn import(
     }
     let s = scan(&bag)?;
     let mut summary = ImportSummary::default();
-    let plan = plan(&s, params, &mut summary)?;
+    let plan = plan(&s, params, &mut summary).map_err(|e| match e {
+        ImportError::Topic { problem, present } => ImportError::Topic {
+            problem: format!("{}: {problem}", bag_path.display()),
+            present,
+        },
+        e => e,
+    })?;
     let writer = RecordingWriter::create(out)?;
     let (size, k) = plan.align_to.unwrap_or(plan.depth_camera);
     writer.write_intrinsics(size.map(|x| x as u32), k, plan.written_unit)?;
