@@ -29,9 +29,11 @@ a gap. A bag without colour gives a depth-only recording: `sense` finds the robo
 colour, so it reports such frames no_robot.\n\n\
 Depth: 16-bit values are kept as they are, in metres per unit from --depth-unit, else the \
 RealSense `Depth Units` option, else 0.001; 32FC1 metres are rounded to --float-depth-unit. \
-When the colour camera's intrinsics or size differ from the depth camera's, depth is \
-reprojected into the colour camera (identity extrinsic: the bag's depth-to-colour transform \
-is not read).\n\n\
+When the colour camera's intrinsics or size differ from the depth camera's, or the bag's \
+depth-to-colour extrinsic is not the identity, depth is reprojected into the colour camera. \
+The extrinsic is a RealSense bag's <stream>/tf/<reference> transforms \
+(/device_0/sensor_0/Depth_0/tf/0, /device_0/sensor_1/Color_0/tf/0); without them it is the \
+identity, with a warning.\n\n\
 The bag carries no robot pose, model or cable inputs: add camera_pose.json (or calibrate), \
 and inputs.json or actuators.json, as for any recording (docs/recording-format.md).",
     after_help = "Examples:\n  \

@@ -16,8 +16,10 @@
 //!   [`ImportParams::depth_unit`], else the RealSense `Depth Units` option, else 1 mm
 //!   (REP 118). `32FC1` (metres) is rounded to [`ImportParams::float_depth_unit`].
 //! - **Alignment.** When the colour camera's intrinsics or size differ from the depth
-//!   camera's, depth is reprojected into the colour image (identity extrinsic: the bag's
-//!   depth-to-colour transform is not read), nearest surface wins.
+//!   camera's, or the bag's depth-to-colour extrinsic is not the identity, depth is
+//!   reprojected into the colour image, nearest surface wins. The extrinsic is the
+//!   RealSense streams' `<stream>/tf/<reference>` transforms; a bag without them is
+//!   reprojected with the identity, and the summary warns.
 //!
 //! ```no_run
 //! use softsense::recording::import::{import, ImportParams};
@@ -26,6 +28,7 @@
 //! # Ok::<(), softsense::recording::import::ImportError>(())
 //! ```
 
+mod align;
 mod frames;
 pub mod mcap;
 pub mod msg;
