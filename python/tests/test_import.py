@@ -1,5 +1,5 @@
 """`softsense import`: bags written by the rosbags package in the RealSense layout (rosbag
-v1) and as a ROS 2 MCAP bag, from the depth and colour PNGs and intrinsics of a bundled
+v1) and as ROS 2 MCAP and sqlite3 bags, from the depth and colour PNGs and intrinsics of a bundled
 recording, import to recordings that sense to the same forces as the original."""
 
 import json
@@ -130,9 +130,9 @@ def write_realsense_bag(path, drop_colour, compression=None):
             w.write(conns[topic], t, m.serialize(msg))
 
 
-def write_ros2_bag(path, drop_colour, colour=True):
+def write_ros2_bag(path, drop_colour, colour=True, storage=StoragePlugin.MCAP):
     m = Msgs(Stores.ROS2_HUMBLE)
-    with Writer2(path, version=9, storage_plugin=StoragePlugin.MCAP) as w:
+    with Writer2(path, version=9, storage_plugin=storage) as w:
         conns = {}
         for topic, t, msg in bag_messages(m, ROS2, drop_colour, colour):
             if topic not in conns:
@@ -183,6 +183,19 @@ def test_a_realsense_bag_senses_to_the_original_forces_with_its_dropped_frame_le
 def test_a_ros2_mcap_bag_senses_to_the_original_forces_with_its_dropped_frame_left_out(tmp_path, cli, original):
     bag = tmp_path / "rosbag2"
     write_ros2_bag(bag, drop_colour=1)
+    summary = imported(cli, bag, tmp_path / "rec")
+    assert summary["dropped_depth"] == [1]
+    assert summary["colour_topic"] == ROS2["colour"]
+    got = sensed(cli, tmp_path / "rec")
+    assert sorted(got) == [0, 2, 3]
+    for frame, result in got.items():
+        assert result == original[frame], frame
+
+
+def test_a_ros2_sqlite3_bag_senses_to_the_original_forces_with_its_dropped_frame_left_out(tmp_path, cli, original):
+    bag = tmp_path / "rosbag2"
+    write_ros2_bag(bag, drop_colour=1, storage=StoragePlugin.SQLITE3)
+    assert [p.suffix for p in bag.glob("*.db3")] == [".db3"]
     summary = imported(cli, bag, tmp_path / "rec")
     assert summary["dropped_depth"] == [1]
     assert summary["colour_topic"] == ROS2["colour"]

@@ -9,12 +9,12 @@ use std::path::PathBuf;
 /// Arguments of `softsense import`.
 #[derive(Debug, Args)]
 #[command(
-    about = "Import a RealSense .bag or a ROS 2 bag (MCAP) into a recording folder",
+    about = "Import a RealSense .bag or a ROS 2 bag (MCAP or sqlite3) into a recording folder",
     long_about = "Import a camera recording into a recording folder (softsense layout: \
 depth_NNNN.png, color_NNNN.png, intrinsics.json) that `sense`, `calibrate` and `explain` read.\n\n\
 BAG is a RealSense .bag (rosbag v1, as the RealSense Viewer records it), a ROS 2 bag folder \
-(metadata.yaml + .mcap files) or one .mcap file. Chunks may be uncompressed or lz4; sqlite3 \
-(.db3) bags are refused: convert them to MCAP first.\n\n\
+(metadata.yaml + .mcap or .db3 files) or one .mcap or .db3 file. Chunks may be uncompressed \
+or lz4; sqlite3 bags are opened read-only.\n\n\
 Topics: depth is the one sensor_msgs/Image topic with encoding 16UC1, mono16 or 32FC1, \
 colour the one with rgb8, bgr8, rgba8, bgra8 or mono8 (RealSense: /device_0/sensor_0/Depth_0/image/data \
 and /device_0/sensor_1/Color_0/image/data); each camera's sensor_msgs/CameraInfo is the one \
@@ -29,9 +29,11 @@ a gap. A bag without colour gives a depth-only recording: `sense` finds the robo
 colour, so it reports such frames no_robot.\n\n\
 Depth: 16-bit values are kept as they are, in metres per unit from --depth-unit, else the \
 RealSense `Depth Units` option, else 0.001; 32FC1 metres are rounded to --float-depth-unit. \
-When the colour camera's intrinsics or size differ from the depth camera's, depth is \
-reprojected into the colour camera (identity extrinsic: the bag's depth-to-colour transform \
-is not read).\n\n\
+When the colour camera's intrinsics or size differ from the depth camera's, or the bag's \
+depth-to-colour extrinsic is not the identity, depth is reprojected into the colour camera. \
+The extrinsic is a RealSense bag's <stream>/tf/<reference> transforms \
+(/device_0/sensor_0/Depth_0/tf/0, /device_0/sensor_1/Color_0/tf/0); without them it is the \
+identity, with a warning.\n\n\
 The bag carries no robot pose, model or cable inputs: add camera_pose.json (or calibrate), \
 and inputs.json or actuators.json, as for any recording (docs/recording-format.md).",
     after_help = "Examples:\n  \
@@ -41,7 +43,7 @@ softsense import rosbag2_2026_01_01 /tmp/run --depth-topic /camera/aligned_depth
 softsense import walk.bag /tmp/walk --json"
 )]
 pub struct ImportArgs {
-    /// The bag: a .bag file, a ROS 2 bag folder or an .mcap file.
+    /// The bag: a .bag file, a ROS 2 bag folder, or an .mcap or .db3 file.
     #[arg(value_name = "BAG")]
     pub bag: PathBuf,
     /// The recording folder to write (new or empty).

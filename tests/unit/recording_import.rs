@@ -592,3 +592,7 @@ fn float_depth_of_another_camera_is_rounded_and_reprojected_into_the_colour_came
         (10000.0, 200.0)
     );
 }
+
+// The ROS 2 sqlite3 reader and the RealSense extrinsic, with the helpers above.
+#[path = "recording_import_db3_tf.rs"]
+mod db3_tf;

@@ -1,6 +1,7 @@
 //! From a bag's messages to frames: choosing the topics, pairing depth with colour,
 //! converting pixels and writing the recording (the rules are in the module docs above).
 
+use super::align::{self, Camera};
 use super::msg::{self, CameraInfo};
 use super::{Bag, BagMessage, ImportError};
 use crate::recording::RecordingWriter;
@@ -70,6 +71,8 @@ struct Scan {
     stamps: HashMap<String, Vec<i64>>,
     infos: HashMap<String, CameraInfo>,
     realsense_depth_unit: Option<f32>,
+    /// RealSense stream extrinsics (`<stream>/tf/<reference>`), by topic.
+    tfs: HashMap<String, msg::Transform>,
 }
 
 fn scan(bag: &Bag) -> Result<Scan, ImportError> {
@@ -96,6 +99,10 @@ fn scan(bag: &Bag) -> Result<Scan, ImportError> {
             // RealSense: /device_0/sensor_0/option/Depth Units/value, metres per unit.
             "std_msgs/Float32" if m.topic.ends_with("/Depth Units/value") => {
                 s.realsense_depth_unit = Some(msg::float32(m.data, wire)?);
+            }
+            "geometry_msgs/Transform" if m.topic.contains("/tf/") => {
+                let t = msg::transform(m.data, wire).map_err(|e| in_topic(m.topic, e))?;
+                s.tfs.entry(m.topic.into()).or_insert(t);
             }
             _ => {}
         }
@@ -372,48 +379,16 @@ fn colour_pixels(im: &msg::Image<'_>, topic: &str) -> Result<Vec<[u8; 3]>, Impor
     Ok(out)
 }
 
-/// Depth of the depth camera `from` reprojected into the colour camera `to` (identity
-/// extrinsic, so a pixel's position does not depend on its depth). Each depth pixel covers
-/// the colour pixels its footprint maps onto; where two land, the nearer surface wins.
-fn align(depth: &[u16], from: ([usize; 2], [f64; 4]), to: ([usize; 2], [f64; 4])) -> Vec<u16> {
-    let ([wd, hd], [fxd, fyd, cxd, cyd]) = from;
-    let ([wc, hc], [fxc, fyc, cxc, cyc]) = to;
-    let map_u = |u: f64| fxc * (u - cxd) / fxd + cxc;
-    let map_v = |v: f64| fyc * (v - cyd) / fyd + cyc;
-    let range = |a: f64, b: f64, n: usize| {
-        let lo = (a + 0.5).round().max(0.0) as usize;
-        let hi = ((b + 0.5).round().max(0.0) as usize).min(n);
-        lo..hi.max(lo)
-    };
-    let mut out = vec![0u16; wc * hc];
-    for v in 0..hd {
-        for u in 0..wd {
-            let z = depth[v * wd + u];
-            if z == 0 {
-                continue;
-            }
-            let (u, v) = (u as f64, v as f64);
-            for vc in range(map_v(v - 0.5), map_v(v + 0.5), hc) {
-                for uc in range(map_u(u - 0.5), map_u(u + 0.5), wc) {
-                    let o = &mut out[vc * wc + uc];
-                    if *o == 0 || z < *o {
-                        *o = z;
-                    }
-                }
-            }
-        }
-    }
-    out
-}
-
 /// The camera the recording is written in, and how depth gets there.
 struct Plan {
     depth_topic: String,
     colour_topic: Option<String>,
     /// Size and `[fx, fy, cx, cy]` of the depth camera, and of the colour one when depth
     /// is reprojected into it.
-    depth_camera: ([usize; 2], [f64; 4]),
-    align_to: Option<([usize; 2], [f64; 4])>,
+    depth_camera: Camera,
+    align_to: Option<Camera>,
+    /// The bag's depth-to-colour extrinsic [identity when it has none].
+    colour_from_depth: Option<nalgebra::Isometry3<f64>>,
     /// Depth message (file order) → (frame number, colour message).
     frames: Vec<(usize, Option<usize>)>,
     raw_unit: f64,
@@ -491,11 +466,13 @@ fn plan(s: &Scan, p: &ImportParams, summary: &mut ImportSummary) -> Result<Plan,
         size => size,
     };
     let depth_camera = (size(depth_info, &depth_topic), focal(depth_info));
-    let mut align_to = None;
+    let (mut align_to, mut colour_from_depth) = (None, None);
     if let Some(c) = &colour_topic {
         let colour_info = s.info_topic(p.colour_info_topic.as_deref(), c, "--colour-info-topic")?;
         let colour_camera = (size(colour_info, c), focal(colour_info));
-        if colour_camera != depth_camera {
+        colour_from_depth = align::realsense_colour_from_depth(&s.tfs, &depth_topic, c);
+        let moved = colour_from_depth.is_some_and(|x| !align::is_identity(&x));
+        if colour_camera != depth_camera || moved {
             align_to = Some(colour_camera);
         }
     }
@@ -504,6 +481,7 @@ fn plan(s: &Scan, p: &ImportParams, summary: &mut ImportSummary) -> Result<Plan,
         colour_topic,
         depth_camera,
         align_to,
+        colour_from_depth,
         frames,
         raw_unit,
         written_unit,
@@ -556,7 +534,11 @@ impl FrameWriter<'_> {
         check_size(im, topic, size)?;
         let mut depth = depth_pixels(im, topic, self.plan.written_unit / self.plan.raw_unit)?;
         if let Some(to) = self.plan.align_to {
-            depth = align(&depth, (size, k), to);
+            let x = self
+                .plan
+                .colour_from_depth
+                .unwrap_or_else(nalgebra::Isometry3::identity);
+            depth = align::align(&depth, self.plan.written_unit, (size, k), to, &x);
         }
         let (number, colour) = self.plan.frames[i];
         match (colour, &self.plan.colour_topic) {
@@ -612,7 +594,13 @@ pub fn import(
     }
     let s = scan(&bag)?;
     let mut summary = ImportSummary::default();
-    let plan = plan(&s, params, &mut summary)?;
+    let plan = plan(&s, params, &mut summary).map_err(|e| match e {
+        ImportError::Topic { problem, present } => ImportError::Topic {
+            problem: format!("{}: {problem}", bag_path.display()),
+            present,
+        },
+        e => e,
+    })?;
     let writer = RecordingWriter::create(out)?;
     let (size, k) = plan.align_to.unwrap_or(plan.depth_camera);
     writer.write_intrinsics(size.map(|x| x as u32), k, plan.written_unit)?;
@@ -657,7 +645,7 @@ pub fn import(
                 .into(),
         );
     }
-    if summary.aligned {
+    if summary.aligned && plan.colour_from_depth.is_none() {
         summary.warnings.push(
             "depth and colour cameras differ: depth was reprojected into the colour camera \
              with an identity extrinsic (the bag's depth-to-colour transform is not read)"

@@ -1,6 +1,6 @@
 //! Camera recordings into a recording folder (`softsense import`): a RealSense `.bag`
-//! (rosbag v1, as the RealSense Viewer records it) or a ROS 2 bag (a folder with MCAP
-//! files, or one `.mcap`) with `sensor_msgs/Image` depth and colour and
+//! (rosbag v1, as the RealSense Viewer records it) or a ROS 2 bag (a folder with MCAP or
+//! sqlite3 files, or one `.mcap` or `.db3`) with `sensor_msgs/Image` depth and colour and
 //! `sensor_msgs/CameraInfo`, written in the softsense layout by
 //! [`RecordingWriter`](super::RecordingWriter).
 //!
@@ -16,8 +16,10 @@
 //!   [`ImportParams::depth_unit`], else the RealSense `Depth Units` option, else 1 mm
 //!   (REP 118). `32FC1` (metres) is rounded to [`ImportParams::float_depth_unit`].
 //! - **Alignment.** When the colour camera's intrinsics or size differ from the depth
-//!   camera's, depth is reprojected into the colour image (identity extrinsic: the bag's
-//!   depth-to-colour transform is not read), nearest surface wins.
+//!   camera's, or the bag's depth-to-colour extrinsic is not the identity, depth is
+//!   reprojected into the colour image, nearest surface wins. The extrinsic is the
+//!   RealSense streams' `<stream>/tf/<reference>` transforms; a bag without them is
+//!   reprojected with the identity, and the summary warns.
 //!
 //! ```no_run
 //! use softsense::recording::import::{import, ImportParams};
@@ -26,10 +28,12 @@
 //! # Ok::<(), softsense::recording::import::ImportError>(())
 //! ```
 
+mod align;
 mod frames;
 pub mod mcap;
 pub mod msg;
 pub mod rosbag1;
+pub mod sqlite;
 
 pub use frames::{import, pair, ImportParams, ImportSummary};
 
@@ -42,23 +46,24 @@ use thiserror::Error;
 /// Errors of importing a bag.
 #[derive(Debug, Error)]
 pub enum ImportError {
-    /// The file is neither a rosbag v1 nor an MCAP file, nor a folder holding MCAP files.
+    /// The file is neither a rosbag v1, an MCAP nor an SQLite file, nor a folder holding
+    /// MCAP or sqlite3 files.
     #[error(
         "{path}: not a bag (a rosbag v1 file starts with `#ROSBAG V2.0`, an MCAP file with \
-         `\\x89MCAP0`; a ROS 2 bag folder holds .mcap files)"
+         `\\x89MCAP0`, a sqlite3 bag with `SQLite format 3`; a ROS 2 bag folder holds .mcap \
+         or .db3 files)"
     )]
     NotABag {
         /// The path given.
         path: PathBuf,
     },
-    /// A ROS 2 bag in sqlite3 storage.
-    #[error(
-        "{path}: a ROS 2 sqlite3 bag (.db3) is not read; convert it to MCAP \
-         (`ros2 bag convert`, or rosbags-convert) and import that"
-    )]
+    /// A ROS 2 sqlite3 bag file that SQLite cannot read, or without a bag's tables.
+    #[error("{path}: not a readable ROS 2 sqlite3 bag: {reason}")]
     Sqlite {
         /// The `.db3` file.
         path: PathBuf,
+        /// What SQLite said, or which table is missing.
+        reason: String,
     },
     /// The file ends inside a record.
     #[error("truncated: the file ends inside the record at byte {offset}")]
@@ -158,11 +163,19 @@ impl BagMessage<'_> {
     }
 }
 
+/// How a bag's files store their messages.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Storage {
+    Rosbag1,
+    Mcap,
+    Sqlite,
+}
+
 /// A bag on disk: its files and their format.
 #[derive(Clone, Debug)]
 pub struct Bag {
     files: Vec<PathBuf>,
-    wire: Wire,
+    storage: Storage,
 }
 
 fn os(path: &Path) -> impl FnOnce(std::io::Error) -> ImportError + '_ {
@@ -180,41 +193,38 @@ fn magic_of(path: &Path) -> Result<Vec<u8>, ImportError> {
 }
 
 impl Bag {
-    /// Opens `path`: a rosbag v1 file, an MCAP file, or a ROS 2 bag folder (its `.mcap`
-    /// files in name order).
+    /// Opens `path`: a rosbag v1 file, an MCAP file, a ROS 2 sqlite3 (`.db3`) file, or a
+    /// ROS 2 bag folder (its `.mcap` files in name order, else its `.db3` files).
     pub fn open(path: &Path) -> Result<Self, ImportError> {
         if path.is_dir() {
-            let mut files = Vec::new();
-            let mut db3 = None;
+            let (mut mcaps, mut db3s) = (Vec::new(), Vec::new());
             for e in std::fs::read_dir(path).map_err(os(path))?.flatten() {
                 let p = e.path();
                 match p.extension().and_then(|x| x.to_str()) {
-                    Some("mcap") => files.push(p),
-                    Some("db3") => db3 = Some(p),
+                    Some("mcap") => mcaps.push(p),
+                    Some("db3") => db3s.push(p),
                     _ => {}
                 }
             }
-            files.sort();
-            return match (files.is_empty(), db3) {
-                (false, _) => Ok(Self {
-                    files,
-                    wire: Wire::Cdr,
-                }),
-                (true, Some(p)) => Err(ImportError::Sqlite { path: p }),
-                (true, None) => Err(ImportError::NotABag {
-                    path: path.to_path_buf(),
-                }),
+            let (mut files, storage) = match (mcaps.is_empty(), db3s.is_empty()) {
+                (false, _) => (mcaps, Storage::Mcap),
+                (true, false) => (db3s, Storage::Sqlite),
+                (true, true) => {
+                    return Err(ImportError::NotABag {
+                        path: path.to_path_buf(),
+                    })
+                }
             };
+            files.sort();
+            return Ok(Self { files, storage });
         }
         let head = magic_of(path)?;
-        let wire = if head.starts_with(rosbag1::MAGIC) {
-            Wire::Ros1
+        let storage = if head.starts_with(rosbag1::MAGIC) {
+            Storage::Rosbag1
         } else if head.starts_with(mcap::MAGIC) {
-            Wire::Cdr
-        } else if head.starts_with(b"SQLite format 3\0") {
-            return Err(ImportError::Sqlite {
-                path: path.to_path_buf(),
-            });
+            Storage::Mcap
+        } else if head.starts_with(sqlite::MAGIC) {
+            Storage::Sqlite
         } else {
             return Err(ImportError::NotABag {
                 path: path.to_path_buf(),
@@ -222,13 +232,16 @@ impl Bag {
         };
         Ok(Self {
             files: vec![path.to_path_buf()],
-            wire,
+            storage,
         })
     }
 
     /// How the bag's messages are serialised.
     pub fn wire(&self) -> Wire {
-        self.wire
+        match self.storage {
+            Storage::Rosbag1 => Wire::Ros1,
+            Storage::Mcap | Storage::Sqlite => Wire::Cdr,
+        }
     }
 
     /// Hands every message of the bag to `on_message`, in file order.
@@ -237,17 +250,21 @@ impl Bag {
         on_message: &mut dyn FnMut(BagMessage<'_>) -> Result<(), ImportError>,
     ) -> Result<(), ImportError> {
         for path in &self.files {
+            if self.storage == Storage::Sqlite {
+                sqlite::read(path, on_message)?;
+                continue;
+            }
             let file = std::fs::File::open(path).map_err(os(path))?;
             let mut r = std::io::BufReader::with_capacity(1 << 20, file);
-            let magic = match self.wire {
-                Wire::Ros1 => rosbag1::MAGIC,
-                Wire::Cdr => mcap::MAGIC,
+            let magic = match self.storage {
+                Storage::Rosbag1 => rosbag1::MAGIC,
+                _ => mcap::MAGIC,
             };
             let mut head = vec![0u8; magic.len()];
             r.read_exact(&mut head).map_err(os(path))?;
-            let read = match self.wire {
-                Wire::Ros1 => rosbag1::read(&mut r, on_message),
-                Wire::Cdr => mcap::read(&mut r, on_message),
+            let read = match self.storage {
+                Storage::Rosbag1 => rosbag1::read(&mut r, on_message),
+                _ => mcap::read(&mut r, on_message),
             };
             read.map_err(|e| match e {
                 ImportError::Read(m) => ImportError::Read(format!("{}: {m}", path.display())),

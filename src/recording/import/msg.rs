@@ -225,3 +225,29 @@ pub fn camera_info(buf: &[u8], wire: Wire) -> Result<CameraInfo, ImportError> {
 pub fn float32(buf: &[u8], wire: Wire) -> Result<f32, ImportError> {
     Cursor::new(buf, wire, "std_msgs/Float32")?.f32()
 }
+
+/// `geometry_msgs/Transform`: `p_child = R(rotation) p_parent + translation`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Transform {
+    /// Translation, metres.
+    pub translation: [f64; 3],
+    /// Rotation quaternion `[x, y, z, w]`.
+    pub rotation: [f64; 4],
+}
+
+/// Decodes a `geometry_msgs/Transform`.
+pub fn transform(buf: &[u8], wire: Wire) -> Result<Transform, ImportError> {
+    let mut c = Cursor::new(buf, wire, "geometry_msgs/Transform")?;
+    let mut translation = [0.0; 3];
+    for v in &mut translation {
+        *v = c.f64()?;
+    }
+    let mut rotation = [0.0; 4];
+    for v in &mut rotation {
+        *v = c.f64()?;
+    }
+    Ok(Transform {
+        translation,
+        rotation,
+    })
+}

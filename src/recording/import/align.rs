@@ -1,0 +1,121 @@
+//! Depth reprojected into the colour camera, and the depth-to-colour extrinsic a RealSense
+//! bag records.
+//!
+//! The RealSense Viewer writes each stream's extrinsic once, as a `geometry_msgs/Transform`
+//! on `<stream>/tf/<reference>` (e.g. `/device_0/sensor_1/Color_0/tf/0`): the pose of the
+//! reference stream in the stream's frame, `p_stream = R p_reference + t` (librealsense's
+//! `rs2_extrinsics` from the reference to the stream, metres). With both streams' transforms
+//! to the same reference, `colour_from_depth = colour_from_reference * depth_from_reference⁻¹`.
+
+use super::msg::Transform;
+use nalgebra::{Isometry3, Point3, Quaternion, Translation3, UnitQuaternion};
+use std::collections::HashMap;
+
+/// A camera's size and `[fx, fy, cx, cy]`.
+pub type Camera = ([usize; 2], [f64; 4]);
+
+fn isometry(t: &Transform) -> Option<Isometry3<f64>> {
+    let [x, y, z, w] = t.rotation;
+    let q = Quaternion::new(w, x, y, z);
+    // A zero or non-finite quaternion is no rotation: refuse it rather than guess.
+    if !(q.norm() > 1e-9 && q.coords.iter().chain(&t.translation).all(|v| v.is_finite())) {
+        return None;
+    }
+    let [tx, ty, tz] = t.translation;
+    Some(Isometry3::from_parts(
+        Translation3::new(tx, ty, tz),
+        UnitQuaternion::from_quaternion(q),
+    ))
+}
+
+/// The stream a RealSense image topic belongs to (`/device_0/sensor_0/Depth_0`).
+fn stream_of(image_topic: &str) -> &str {
+    image_topic
+        .strip_suffix("/image/data")
+        .unwrap_or(image_topic)
+}
+
+/// `colour_from_depth` from the RealSense `tf` topics `tfs` (topic → transform), when both
+/// image topics' streams have one to the same reference; `None` otherwise.
+pub fn realsense_colour_from_depth(
+    tfs: &HashMap<String, Transform>,
+    depth_topic: &str,
+    colour_topic: &str,
+) -> Option<Isometry3<f64>> {
+    let to_reference = |image_topic: &str| -> HashMap<&str, &Transform> {
+        let stream = stream_of(image_topic);
+        tfs.iter()
+            .filter_map(|(topic, t)| {
+                let (s, reference) = topic.rsplit_once("/tf/")?;
+                (s == stream).then_some((reference, t))
+            })
+            .collect()
+    };
+    let (depth, colour) = (to_reference(depth_topic), to_reference(colour_topic));
+    let mut shared: Vec<&&str> = depth.keys().filter(|r| colour.contains_key(**r)).collect();
+    shared.sort();
+    let reference = shared.first()?;
+    let depth_from_reference = isometry(depth[**reference])?;
+    let colour_from_reference = isometry(colour[**reference])?;
+    Some(colour_from_reference * depth_from_reference.inverse())
+}
+
+/// Whether `x` moves points by less than a micrometre (or a microradian).
+pub fn is_identity(x: &Isometry3<f64>) -> bool {
+    x.translation.vector.norm() < 1e-6 && x.rotation.angle() < 1e-6
+}
+
+/// Depth of the depth camera `from` reprojected into the colour camera `to` through
+/// `colour_from_depth` (metres; `unit` is metres per depth unit). Each depth pixel covers
+/// the colour pixels its footprint's corners map onto (their bounding box); its value is
+/// the point's depth in the colour camera; where two land, the nearer surface wins.
+pub fn align(
+    depth: &[u16],
+    unit: f64,
+    from: Camera,
+    to: Camera,
+    colour_from_depth: &Isometry3<f64>,
+) -> Vec<u16> {
+    let ([wd, hd], [fxd, fyd, cxd, cyd]) = from;
+    let ([wc, hc], [fxc, fyc, cxc, cyc]) = to;
+    let range = |a: f64, b: f64, n: usize| {
+        let lo = (a + 0.5).round().max(0.0) as usize;
+        let hi = ((b + 0.5).round().max(0.0) as usize).min(n);
+        lo..hi.max(lo)
+    };
+    let mut out = vec![0u16; wc * hc];
+    for v in 0..hd {
+        for u in 0..wd {
+            let raw = depth[v * wd + u];
+            if raw == 0 {
+                continue;
+            }
+            let z = f64::from(raw) * unit;
+            let to_colour = |du: f64, dv: f64| {
+                let (x, y) = ((u as f64 + du - cxd) / fxd, (v as f64 + dv - cyd) / fyd);
+                colour_from_depth * Point3::new(x * z, y * z, z)
+            };
+            let centre = to_colour(0.0, 0.0);
+            if centre.z <= 0.0 {
+                continue;
+            }
+            let value = (centre.z / unit).round().clamp(1.0, f64::from(u16::MAX)) as u16;
+            let (mut umin, mut umax, mut vmin, mut vmax) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+            for (du, dv) in [(-0.5, -0.5), (0.5, -0.5), (-0.5, 0.5), (0.5, 0.5)] {
+                let p = to_colour(du, dv);
+                let (uc, vc) = (fxc * p.x / p.z + cxc, fyc * p.y / p.z + cyc);
+                (umin, umax) = (umin.min(uc), umax.max(uc));
+                (vmin, vmax) = (vmin.min(vc), vmax.max(vc));
+            }
+            for vc in range(vmin, vmax, hc) {
+                for uc in range(umin, umax, wc) {
+                    let o = &mut out[vc * wc + uc];
+                    if *o == 0 || value < *o {
+                        *o = value;
+                    }
+                }
+            }
+        }
+    }
+    out
+}
