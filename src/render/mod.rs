@@ -18,7 +18,7 @@
 //! - [`markers::marker_picture`]: one frame of `softsense markers --render` (markers, their
 //!   displacements, candidates and located forces, top and side views).
 //! - [`scene3d`]: a sensed frame in 3-D as plain data (points, FE surface, features,
-//!   forces with their uncertainty, cameras, status), and [`rrd`] (feature `rerun`) that
+//!   forces with their uncertainty, cameras, status), and `rrd` (feature `rerun`) that
 //!   writes it as a rerun recording (`softsense sense --rerun`).
 //!
 //! Pixel centres are at integer coordinates, as in the pinhole model. Drawing never panics:

@@ -2,7 +2,7 @@
 //! meshes, arrows, ellipsoids, images, camera models, text, scalars) in the robot frame.
 //!
 //! Defined once here, and written out by two thin translators: the `.rrd` writer behind
-//! the `rerun` feature ([`super::rrd`], `softsense sense --rerun`) and the Python package's
+//! the `rerun` feature (`render::rrd`, `softsense sense --rerun`) and the Python package's
 //! `softsense.rerun` (through `rerun-sdk`). The entity paths are docs/rerun.md's table.
 
 use crate::math::Mat3;
