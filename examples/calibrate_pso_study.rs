@@ -16,8 +16,8 @@ use softsense::calibrate::{
 };
 use softsense::fem::model::Model;
 use softsense::fem::solve::MappedPoint;
+use softsense::math::rand::{normal, uniform};
 use softsense::math::{median, Iso3, Vec3};
-use softsense::scene::sensor::{normal, uniform};
 use std::path::Path;
 use std::time::Instant;
 

@@ -32,7 +32,7 @@ use softsense::fem::solve::{MappedPoint, PointLoad};
 use softsense::markers::bind::read_candidates;
 use softsense::markers::tracks::write_tracks;
 use softsense::markers::{ForceCandidate, MarkerTracks, TrackFrame};
-use softsense::scene::sensor::normal;
+use softsense::math::rand::normal;
 use std::error::Error;
 use std::path::Path;
 

@@ -12,11 +12,12 @@
 //!
 //! Run from the repository root: `cargo run --example render_demo [OUT_DIR]`.
 
+use softsense::camera::Camera;
 use softsense::fem::meshio::read_mesh;
 use softsense::render::{
     bar_chart, project_with, sense_overlay, side_by_side, surface_map, Canvas, ColorMap,
     ContactMark, FeatureMark, ForceArrow, OverlayParams, SenseOverlay, SurfaceMapParams,
-    SurfaceMesh, SurfaceValues, View, BLACK, WHITE,
+    SurfaceMesh, SurfaceValues, BLACK, WHITE,
 };
 use std::path::{Path, PathBuf};
 
@@ -42,7 +43,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     // 1. Height on the surface.
     let height_mm: Vec<f64> = vertices.iter().map(|p| p[2] * 1e3).collect();
-    let view = View::orbit(vertices, -60.0, 30.0, 640, 480).ok_or("no view")?;
+    let view = Camera::orbit(vertices, -60.0, 30.0, 640, 480).ok_or("no view")?;
     let start = std::time::Instant::now();
     let picture = surface_map(
         &SurfaceMesh {
@@ -144,7 +145,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let m: [[f64; 4]; 4] = serde_json::from_value(pose["robot_from_camera"].clone())?;
     let camera = softsense::io::intrinsics::read_camera_model(scene.join("intrinsics.json"))?;
     let k = camera.intrinsics;
-    let cam = *View::from_matrix(k, &m)?.camera_from_robot();
+    let cam = *Camera::from_matrix(k, &m)?.camera_from_robot();
     let mask: Vec<bool> = frame
         .pixels()
         .iter()

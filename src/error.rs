@@ -44,6 +44,9 @@ pub enum Error {
     /// Reading a recording folder.
     #[error(transparent)]
     Recording(#[from] crate::recording::RecordingError),
+    /// A marker track file.
+    #[error(transparent)]
+    Tracks(#[from] crate::recording::tracks::TracksError),
     /// Importing a camera recording (rosbag v1, MCAP).
     #[error(transparent)]
     Import(#[from] crate::recording::import::ImportError),

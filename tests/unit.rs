@@ -87,6 +87,8 @@ mod score;
 
 #[path = "unit/control.rs"]
 mod control;
+#[path = "unit/layers.rs"]
+mod layers;
 
 #[path = "unit/batch.rs"]
 mod batch;

@@ -7,13 +7,13 @@ use super::params::check_params;
 use super::pose::pose_difference;
 use super::solve::{solve_scaled, split_solution};
 use super::{kabsch, CalibrateError, CalibrateParams, CalibrateResult};
+use crate::fem::bind::bind_markers;
 use crate::fem::constraint::{ConstraintRow, RowKind};
 use crate::fem::mesh::TetMesh;
 use crate::fem::model::Model;
 use crate::fem::solve::{CableControl, MappedPoint, Problem, Solution};
-use crate::markers::bind_markers;
+use crate::math::rand::normal;
 use crate::math::{Iso3, Point3, Vec3};
-use crate::scene::sensor::normal;
 use nalgebra::DMatrix;
 use serde::Serialize;
 
@@ -80,7 +80,7 @@ impl FeatureCalibration {
 
 /// Feature points on the FE surface: each point of `near` (model frame, m, rest shape)
 /// bound to the nearest point of the surface, as tracked markers are
-/// ([`crate::markers::bind_markers`]); a point farther than `max_distance` (m) is an error.
+/// ([`crate::fem::bind::bind_markers`]); a point farther than `max_distance` (m) is an error.
 pub fn surface_features(
     mesh: &TetMesh,
     near: &[[f64; 3]],

@@ -1,9 +1,9 @@
 //! Matching measured points to the FE surface and rigid ICP against it: the fine fit
 //! (trimmed, point-to-plane) and the coarse alignment from a rough start.
 
-use super::rigid::{kabsch, point_to_plane_step};
 use super::surface::{SurfaceIndex, SurfaceMatch};
 use super::{CalibrateError, CalibrateParams, CalibrateResult};
+use crate::geometry::rigid::{kabsch, point_to_plane_step};
 use crate::math::{Iso3, Point3, Vec3};
 use nalgebra::{Translation3, UnitQuaternion};
 

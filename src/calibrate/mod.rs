@@ -47,11 +47,11 @@ pub mod observe;
 pub mod params;
 pub mod pose;
 pub mod pso;
-pub mod rigid;
 pub mod schema;
 pub mod solve;
 pub mod surface;
 
+pub use crate::geometry::rigid::{kabsch, point_to_plane_step};
 pub use agreement::{camera_agreement, Agreement};
 pub use feature::{
     calibrate_sequential, observe_features, surface_features, FeatureCalibration, FeatureStatus,
@@ -61,7 +61,6 @@ pub use observe::{read_scene_robot_points, recording_robot_points, robot_points}
 pub use params::CalibrateParams;
 pub use pose::{pose_difference, pose_from_matrix, pose_to_matrix, read_pose};
 pub use pso::{calibrate_pso, PsoParams};
-pub use rigid::{kabsch, point_to_plane_step};
 pub use schema::{ActuatorCalibration, Calibration, CalibrationStatus, IterationReport};
 pub use solve::calibrate;
 pub use surface::{SurfaceIndex, SurfaceMatch};
@@ -114,9 +113,6 @@ pub enum CalibrateError {
     /// The FE model failed (load, solve, factorization).
     #[error(transparent)]
     Fem(#[from] FemError),
-    /// Feature points could not be bound to the FE surface.
-    #[error(transparent)]
-    Markers(#[from] crate::markers::MarkersError),
     /// The actuator QP failed.
     #[error(transparent)]
     Inverse(#[from] InverseError),

@@ -24,8 +24,8 @@ use super::feature::{
 use super::{CalibrateError, CalibrateResult};
 use crate::fem::model::Model;
 use crate::fem::solve::MappedPoint;
+use crate::math::rand::uniform;
 use crate::math::{Iso3, Point3, Vec3};
-use crate::scene::sensor::uniform;
 use nalgebra::{Rotation3, Translation3, UnitQuaternion};
 
 /// Options of the simultaneous (PSO) calibration.

@@ -7,6 +7,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use softsense::control::output::write_run;
 use softsense::control::run::{run, RunStatus};
 use softsense::control::scenario::Scenario;
+use softsense::render::control::write_pictures;
 use std::io::IsTerminal;
 use std::path::PathBuf;
 
@@ -69,6 +70,7 @@ pub fn run_control(args: &ControlArgs) -> CliResult {
     let r = result.map_err(|e| CliError::Result(format!("{}: {e}", args.scenario.display())))?;
     if let Some(out) = &args.out {
         write_run(&r, out).map_err(|e| CliError::Result(e.to_string()))?;
+        write_pictures(&r, out).map_err(|e| CliError::Result(e.to_string()))?;
     }
     if args.json {
         let value = serde_json::to_value(&r)

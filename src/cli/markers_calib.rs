@@ -73,7 +73,8 @@ pub fn run(args: &CalibrateArgs) -> CliResult {
         names.push(name.clone());
     }
     let surface = model.problem.mesh.surface();
-    let bound = bind_markers(&free.positions, &surface, &names, &placed, 0.005).map_err(lib)?;
+    let bound = bind_markers(&free.positions, &surface, &names, &placed, 0.005)
+        .map_err(|e| CliError::Lib(e.into()))?;
     let on_model: Vec<[f64; 3]> = bound
         .iter()
         .map(|b| b.at.position(&free.positions))

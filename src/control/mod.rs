@@ -9,7 +9,7 @@
 //! The package: [`scenario`] (the scenario file), [`task`] (targets along time),
 //! [`predictor`] (the model's kinematics and the bounded input allocation), [`plant`] (the
 //! simulated robot and sensor), [`law`] (one step of each law, Theorem 2), [`run`] (the
-//! loop and its summary), [`output`] (CSV, JSON and pictures).
+//! loop and its summary), [`output`] (CSV and JSON; the pictures are [`crate::render::control`]).
 //!
 //! ```no_run
 //! use softsense::control::{run::run, scenario::Scenario};
@@ -60,9 +60,12 @@ pub enum ControlError {
         /// The last residual (N).
         residual: f64,
     },
-    /// A picture could not be drawn.
-    #[error("picture: {0}")]
-    Render(#[from] crate::render::RenderError),
+    /// An output file could not be written.
+    #[error(transparent)]
+    Write(#[from] crate::io::atomic::AtomicError),
+    /// The run could not be turned into JSON.
+    #[error("the run as JSON: {0}")]
+    Json(#[source] serde_json::Error),
 }
 
 /// `Result` with [`ControlError`].

@@ -152,8 +152,7 @@ impl Sensor {
         let of_step = step.checked_sub(self.spec.latency)?;
         let p = self.history.get(of_step)?;
         let s = 1e-3 * self.spec.noise_mm;
-        let noise =
-            |axis: u64| s * crate::scene::sensor::normal(self.spec.seed, step as u64, axis, 7);
+        let noise = |axis: u64| s * crate::math::rand::normal(self.spec.seed, step as u64, axis, 7);
         Some(Measurement {
             position: [p[0] + noise(0), p[1] + noise(1), p[2] + noise(2)],
             of_step,

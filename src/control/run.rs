@@ -8,6 +8,7 @@ use super::scenario::{LawKind, Scenario};
 use super::task::Task;
 use super::{ControlError, ControlResult};
 use crate::fem::model::Model;
+use crate::math::{dist, sub};
 use serde::Serialize;
 
 /// One step of a run. Positions in m, inputs in SI.
@@ -209,16 +210,6 @@ pub fn run(scenario: &Scenario, progress: &mut dyn FnMut(usize, usize)) -> Contr
         steps: records,
         scenario: scenario.clone(),
     })
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-/// Distance between two points.
-pub(crate) fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
-    let d = sub(a, b);
-    (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
 }
 
 fn mean_mm(v: impl Iterator<Item = f64>) -> Option<f64> {

@@ -2,6 +2,7 @@
 //! controller does not know in advance (thesis 3.8.3-3.8.5).
 
 use super::scenario::TaskSpec;
+use crate::math::{cross, dot, unit};
 
 /// A task bound to the effector's start position, in SI (m).
 #[derive(Debug, Clone)]
@@ -72,26 +73,20 @@ impl Task {
 
 /// Two unit vectors spanning the plane normal to `n`, u as close to +x as possible.
 fn plane_axes(n: [f64; 3]) -> ([f64; 3], [f64; 3]) {
-    let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-    let n = n.map(|c| c / l);
+    let n = unit(n);
     let seed = if n[0].abs() < 0.9 {
         [1.0, 0.0, 0.0]
     } else {
         [0.0, 1.0, 0.0]
     };
-    let d = seed[0] * n[0] + seed[1] * n[1] + seed[2] * n[2];
-    let u = [0, 1, 2].map(|i| seed[i] - d * n[i]);
-    let lu = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt();
-    let u = u.map(|c| c / lu);
-    let v = [
-        n[1] * u[2] - n[2] * u[1],
-        n[2] * u[0] - n[0] * u[2],
-        n[0] * u[1] - n[1] * u[0],
-    ];
-    (u, v)
+    // Not `math::tangents`: u is the seed axis projected on the plane, so a circle starts
+    // on the +x side of its centre.
+    let d = dot(seed, n);
+    let u = unit([0, 1, 2].map(|i| seed[i] - d * n[i]));
+    (u, cross(n, u))
 }
 
 /// A phase in [0, 2π) from a seed and an index.
 fn phase(seed: u64, i: u64) -> f64 {
-    std::f64::consts::TAU * crate::scene::sensor::uniform(seed, 0, i, 0)
+    std::f64::consts::TAU * crate::math::rand::uniform(seed, 0, i, 0)
 }

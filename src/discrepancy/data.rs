@@ -28,9 +28,10 @@ pub struct RecordedFrame {
     pub input: FrameInput,
 }
 
-/// A recorded frames folder.
+/// A recording folder as `explain` reads it: the camera, its noise model, and each
+/// frame's robot points with its recorded inputs.
 #[derive(Clone, Debug)]
-pub struct Recording {
+pub struct RobotFrames {
     /// The camera.
     pub camera: Camera,
     /// The sensor's noise model (known from the sensor, not fitted).
@@ -50,7 +51,7 @@ fn sensor_file(dir: &Path) -> DiscrepancyResult<Option<SensorModel>> {
 
 /// Reads a recording folder (see the module docs) and picks each frame's robot points
 /// with `color`.
-pub fn load_frames(dir: &Path, color: &RobotColorModel) -> DiscrepancyResult<Recording> {
+pub fn load_frames(dir: &Path, color: &RobotColorModel) -> DiscrepancyResult<RobotFrames> {
     let rec = crate::recording::Recording::open(dir)?;
     let robot_from_camera = rec.robot_from_camera.ok_or_else(|| {
         DiscrepancyError::Data(format!(
@@ -131,7 +132,7 @@ pub fn load_frames(dir: &Path, color: &RobotColorModel) -> DiscrepancyResult<Rec
         }
         frames.push(RecordedFrame { points, input });
     }
-    Ok(Recording {
+    Ok(RobotFrames {
         camera,
         // Without a sensor.json: the default D415-like model.
         sensor: sensor_file.unwrap_or_default(),

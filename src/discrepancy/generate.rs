@@ -5,9 +5,10 @@
 use super::effects::{apply_model, rotation, rotation_vector, tet_legs, Effect, EffectKind};
 use super::{load_candidates, DiscrepancyError, DiscrepancyResult};
 use crate::fem::model::Model;
+use crate::math::rand::{normal, uniform};
 use crate::recording::RecordingWriter;
 use crate::scene::camera::CameraSpec;
-use crate::scene::sensor::{normal, uniform, SensorModel};
+use crate::scene::sensor::SensorModel;
 use crate::scene::{render_frame, CableInput, FrameInput, LoadInput, LoadKind, Scene, SceneSpec};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};

@@ -64,6 +64,9 @@ use thiserror::Error;
 /// Errors of the discrepancy workflow.
 #[derive(Debug, Error)]
 pub enum DiscrepancyError {
+    /// An output file could not be written (it names the file).
+    #[error(transparent)]
+    Write(#[from] crate::io::atomic::AtomicError),
     /// A file could not be read or written.
     #[error("{path}: {message}")]
     File {

@@ -209,7 +209,7 @@ pub fn write_report(
     std::fs::create_dir_all(dir).map_err(|e| file_err(dir, e))?;
     let w = |name: &str, text: String| -> DiscrepancyResult<()> {
         let p = dir.join(name);
-        crate::io::atomic::write(&p, text.as_bytes()).map_err(|e| file_err(&p, e.reason()))
+        Ok(crate::io::atomic::write(&p, text.as_bytes())?)
     };
     let mut md = markdown(x);
     for pic in ["residual_before_after.png", "criterion.png"] {

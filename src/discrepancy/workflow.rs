@@ -8,7 +8,7 @@ use super::features::{choose_features, Feature};
 use super::frame::FrameCtx;
 use super::holdout::split_frames;
 use super::select::{significant, Search, State};
-use super::{data::Recording, DiscrepancyError, DiscrepancyParams, DiscrepancyResult};
+use super::{data::RobotFrames, DiscrepancyError, DiscrepancyParams, DiscrepancyResult};
 use crate::fem::model::Model;
 use crate::fem::solve::Problem;
 use crate::register::{farthest_point_sampling, RegisterParams};
@@ -50,7 +50,7 @@ pub fn candidate_kinds(problem: &Problem, params: &DiscrepancyParams) -> Vec<Eff
 /// What every stage of the workflow reads.
 pub(super) struct Workflow<'a> {
     pub(super) model: &'a Model,
-    pub(super) rec: &'a Recording,
+    pub(super) rec: &'a RobotFrames,
     pub(super) params: &'a DiscrepancyParams,
     /// Feature points on the rest surface.
     pub(super) features: Vec<Feature>,
@@ -70,7 +70,7 @@ impl<'a> Workflow<'a> {
     /// Chooses the features and candidates and builds every frame's context.
     pub(super) fn new(
         model: &'a Model,
-        rec: &'a Recording,
+        rec: &'a RobotFrames,
         params: &'a DiscrepancyParams,
     ) -> DiscrepancyResult<Self> {
         let surface = model.problem.mesh.surface();
@@ -180,7 +180,7 @@ fn outcome(eval: &[RegionStats], z_significant: f64, fitted: &[FittedEffect]) ->
 /// Runs the workflow on a model and a recording.
 pub fn explain(
     model: &Model,
-    rec: &Recording,
+    rec: &RobotFrames,
     params: &DiscrepancyParams,
 ) -> DiscrepancyResult<Explanation> {
     if !(0.0..1.0).contains(&params.holdout) {
@@ -234,7 +234,7 @@ pub fn explain(
 /// applied exactly: a diagnostic, e.g. the residual at the true effects of a generated set.
 pub fn evaluate(
     model: &Model,
-    rec: &Recording,
+    rec: &RobotFrames,
     params: &DiscrepancyParams,
     effects: &[Effect],
 ) -> DiscrepancyResult<[Vec<RegionStats>; 2]> {

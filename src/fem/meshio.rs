@@ -778,11 +778,5 @@ pub fn write_vtu(
     cell_data: &[Field],
 ) -> FemResult<()> {
     let text = vtu_string(nodes, tets, point_data, cell_data);
-    crate::io::atomic::write(path, text.as_bytes()).map_err(|e| FemError::File {
-        path: path.display().to_string(),
-        source: match e {
-            crate::io::atomic::AtomicError::Os { source, .. } => source,
-            other => std::io::Error::other(other.reason()),
-        },
-    })
+    Ok(crate::io::atomic::write(path, text.as_bytes())?)
 }

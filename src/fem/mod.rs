@@ -23,6 +23,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod assembly;
+pub mod bind;
 mod cable;
 pub mod constraint;
 mod factor;
@@ -43,6 +44,21 @@ use thiserror::Error;
 /// Errors of the FE core: bad meshes and files, bad models, singular or failing solves.
 #[derive(Debug, Error)]
 pub enum FemError {
+    /// A point to bind is farther from the surface than allowed.
+    #[error("marker {name} at {position:?} m is {distance:.4} m from the surface (more than {max_distance} m)")]
+    OffSurface {
+        /// The point's name (a marker's, or `feature N`).
+        name: String,
+        /// Where it was given (m, model frame).
+        position: [f64; 3],
+        /// Its distance to the surface (m; NaN for a non-finite position).
+        distance: f64,
+        /// The largest distance allowed (m).
+        max_distance: f64,
+    },
+    /// An output file could not be written (it names the file).
+    #[error(transparent)]
+    Write(#[from] crate::io::atomic::AtomicError),
     /// A file could not be read or written.
     #[error("{path}: {source}")]
     File {

@@ -15,4 +15,5 @@
 //! ```
 
 pub mod raycast;
+pub mod rigid;
 pub mod triangle;

@@ -44,14 +44,6 @@ impl AtomicError {
             AtomicError::Os { path, .. } | AtomicError::Encode { path, .. } => path,
         }
     }
-
-    /// What went wrong, without the file name (for errors that print the name).
-    pub fn reason(&self) -> String {
-        match self {
-            AtomicError::Os { source, .. } => format!("cannot write: {source}"),
-            AtomicError::Encode { message, .. } => format!("cannot encode the PNG: {message}"),
-        }
-    }
 }
 
 /// Temporary files this process has created and not yet renamed or removed.

@@ -1,7 +1,7 @@
 //! The tracker-to-robot transform from markers (thesis 3.3 calibrates the sensor-robot
 //! system with markers): the rigid fit of the markers' tracked rest positions (tracker
 //! frame) onto their positions on the model (robot frame), by least squares
-//! ([`crate::calibrate::rigid::kabsch`]).
+//! ([`crate::geometry::rigid::kabsch`]).
 
 use super::{MarkersError, MarkersResult};
 use crate::math::pose::Pose;
@@ -55,7 +55,7 @@ pub fn fit_robot_from_tracker(
             1e3 * MIN_SPREAD
         )));
     }
-    let iso = crate::calibrate::rigid::kabsch(tracker, model).ok_or_else(|| {
+    let iso = crate::geometry::rigid::kabsch(tracker, model).ok_or_else(|| {
         MarkersError::Calibration("the rigid fit failed (non-finite data)".into())
     })?;
     let pose = Pose::from_iso(&iso);
@@ -124,10 +124,7 @@ fn second_spread(points: &[[f64; 3]]) -> f64 {
 /// Writes `calibration` as pretty JSON (all or nothing).
 pub fn write_calibration(path: &Path, calibration: &MarkerCalibration) -> MarkersResult<()> {
     let text = serde_json::to_string_pretty(calibration).expect("a calibration serialises") + "\n";
-    crate::io::atomic::write(path, text.as_bytes()).map_err(|e| MarkersError::File {
-        path: path.display().to_string(),
-        source: std::io::Error::other(e.reason()),
-    })
+    Ok(crate::io::atomic::write(path, text.as_bytes())?)
 }
 
 /// Reads a calibration written by [`write_calibration`]; a matrix that is not rigid is

@@ -43,7 +43,8 @@ pub mod refine;
 pub mod solve;
 pub mod tracks;
 
-pub use bind::{bind_markers, BoundMarker, Directions, ForceCandidate};
+pub use crate::fem::bind::{bind_markers, BoundMarker};
+pub use bind::{Directions, ForceCandidate};
 pub use locate::{locate_forces, LocatedForce};
 pub use refine::refine_located;
 pub use solve::{MarkerFrame, MarkerSensor, MarkersStatus};
@@ -55,6 +56,12 @@ use thiserror::Error;
 /// FE failures.
 #[derive(Debug, Error)]
 pub enum MarkersError {
+    /// A track file could not be read or written.
+    #[error(transparent)]
+    Tracks(#[from] crate::recording::tracks::TracksError),
+    /// An output file could not be written (it names the file).
+    #[error(transparent)]
+    Write(#[from] crate::io::atomic::AtomicError),
     /// A file could not be read or written.
     #[error("{path}: {source}")]
     File {
@@ -83,9 +90,9 @@ pub enum MarkersError {
     /// camera pose).
     #[error("marker detection: {0}")]
     Detection(String),
-    /// A marker or candidate too far from the model's surface, or a model without one.
-    #[error("{0}")]
-    Binding(String),
+    /// The model has no surface to put a candidate on.
+    #[error("the model has no surface")]
+    NoSurface,
     /// A tracker-to-robot calibration that cannot be fitted or read (too few markers, all on
     /// one line, a bad file).
     #[error("marker calibration: {0}")]

@@ -11,7 +11,8 @@
 //! - `truth.json`: the generator's truth, for error reports only.
 //!
 //! A folder of several cameras keeps each camera's frames, camera file and pose in its own
-//! sub-folder and the other files at the top: [`Rig`].
+//! sub-folder and the other files at the top: [`Rig`]. Marker track files (a motion-capture
+//! system's, or `markers detect`'s) are read and written by [`tracks`].
 //!
 //! File names inside these files (the model) resolve against the folder, never the working
 //! directory. The format is in `docs/recording-format.md`.
@@ -29,6 +30,7 @@ mod inputs;
 mod layout;
 mod rig;
 pub mod schema;
+pub mod tracks;
 mod write;
 
 pub use inputs::{InputsFile, RecordedInputs};
@@ -48,6 +50,9 @@ use thiserror::Error;
 /// Errors of reading a recording folder.
 #[derive(Debug, Error)]
 pub enum RecordingError {
+    /// An output file could not be written (it names the file).
+    #[error(transparent)]
+    Write(#[from] crate::io::atomic::AtomicError),
     /// An image or camera file could not be read.
     #[error(transparent)]
     Io(#[from] IoError),

@@ -16,7 +16,7 @@ fn write_err(path: &Path, e: impl std::fmt::Display) -> RecordingError {
 /// Writes `v` as pretty JSON to `path`.
 pub fn write_json(path: &Path, v: &impl Serialize) -> RecordingResult<()> {
     let text = serde_json::to_string_pretty(v).map_err(|e| write_err(path, e))?;
-    crate::io::atomic::write(path, text.as_bytes()).map_err(|e| write_err(path, e.reason()))
+    Ok(crate::io::atomic::write(path, text.as_bytes())?)
 }
 
 /// A recording folder being written.
@@ -86,8 +86,7 @@ impl RecordingWriter {
         let flat: Vec<u8> = color.iter().flatten().copied().collect();
         let color = image::RgbImage::from_raw(width, height, flat)
             .ok_or_else(|| write_err(&cp, "colour buffer size"))?;
-        write_png(&cp, &image::DynamicImage::ImageRgb8(color))
-            .map_err(|e| write_err(&cp, e.reason()))
+        Ok(write_png(&cp, &image::DynamicImage::ImageRgb8(color))?)
     }
 
     /// Writes `depth_NNNN.png` of frame `i` alone (a depth-only recording).
@@ -102,7 +101,7 @@ impl RecordingWriter {
         let dp = self.dir.join(format!("depth_{i:04}.png"));
         let depth = image::ImageBuffer::<image::Luma<u16>, _>::from_raw(width, height, depth)
             .ok_or_else(|| write_err(&dp, "depth buffer size"))?;
-        write_png(&dp, &DynamicImage::ImageLuma16(depth)).map_err(|e| write_err(&dp, e.reason()))
+        Ok(write_png(&dp, &DynamicImage::ImageLuma16(depth))?)
     }
 
     /// Writes `name` in the folder as pretty JSON.

@@ -107,8 +107,10 @@ impl Canvas {
         let bytes: Vec<u8> = self.pixels.iter().flatten().copied().collect();
         let img = image::RgbImage::from_raw(self.width, self.height, bytes)
             .ok_or_else(|| err("the canvas's pixels do not fill its size".into()))?;
-        crate::io::atomic::write_png(path, &image::DynamicImage::ImageRgb8(img))
-            .map_err(|e| err(e.reason()))
+        Ok(crate::io::atomic::write_png(
+            path,
+            &image::DynamicImage::ImageRgb8(img),
+        )?)
     }
 
     /// Width in pixels.

@@ -3,7 +3,7 @@
 
 use super::{
     bar_chart, side_by_side, surface_map, Canvas, ColorMap, RenderError, SurfaceMapParams,
-    SurfaceMesh, SurfaceValues, View, WHITE,
+    SurfaceMesh, SurfaceValues, WHITE,
 };
 use crate::camera::{Camera, PinholeIntrinsics};
 use crate::discrepancy::Explanation;
@@ -53,7 +53,7 @@ pub fn write_discrepancy_pictures(
         height: size[1],
         ..camera.intrinsics
     };
-    let view = View::new(intr, *camera.robot_from_camera());
+    let view = Camera::new(intr, *camera.robot_from_camera());
     let surface = SurfaceMesh {
         vertices_in_robot: rest,
         triangles,
@@ -78,7 +78,7 @@ fn residual_maps(
     dir: &Path,
     x: &Explanation,
     surface: &SurfaceMesh<'_>,
-    view: &View,
+    view: &Camera,
     written: &mut Vec<String>,
 ) -> Result<Vec<(&'static str, Canvas)>, RenderError> {
     let before = mean_residual_mm(x, 0);

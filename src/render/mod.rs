@@ -6,7 +6,7 @@
 //!   [`text_size`]); PNG in and out.
 //! - [`ColorMap`]: a sequential (viridis-like) and a diverging (blue-white-red) map, with
 //!   [`colorbar`] and [`format_value`] for labels.
-//! - [`project`], [`Pose`], [`View`]: the pinhole model and rigid camera poses, those of
+//! - [`project`], [`Pose`]: the pinhole model and rigid camera poses, those of
 //!   [`crate::camera::Camera`] and [`crate::camera::PinholeIntrinsics`].
 //! - [`surface_map`]: a z-buffered, flat-shaded rendering of a triangle surface with a
 //!   scalar per vertex or per triangle (e.g. residuals), with a colour bar and title.
@@ -14,6 +14,7 @@
 //!   candidate effect) and legend boxes.
 //! - [`sense_overlay`]: the robot segment, feature points, contacts and force arrows over
 //!   a colour frame; [`side_by_side`] puts before/after panels together.
+//! - [`control`]: the pictures of a `control` run.
 //! - [`discrepancy`]: the pictures of an `explain` report.
 //! - [`markers::marker_picture`]: one frame of `softsense markers --render` (markers, their
 //!   displacements, candidates and located forces, top and side views).
@@ -42,6 +43,7 @@
 mod canvas;
 mod chart;
 mod colormap;
+pub mod control;
 pub mod discrepancy;
 mod font;
 mod lines;
@@ -63,7 +65,7 @@ pub use overlay::{
     LabelPlacer, OverlayParams, SenseOverlay, CONTACT, FEATURE_HIDDEN, FEATURE_VISIBLE, FORCE,
     MATCH_LINE, ROBOT_TINT,
 };
-pub use project::{camera_from_robot, project, project_with, Pose, View, NEAR_Z, RIGID_TOLERANCE};
+pub use project::{camera_from_robot, project, project_with, Pose, NEAR_Z, RIGID_TOLERANCE};
 pub use surface::{
     surface_map, SurfaceMapParams, SurfaceMesh, SurfaceValues, COLORBAR_PANEL, TITLE_BAND,
 };
@@ -71,6 +73,9 @@ pub use surface::{
 /// Errors of the render module.
 #[derive(Debug, thiserror::Error)]
 pub enum RenderError {
+    /// An output file could not be written (it names the file).
+    #[error(transparent)]
+    Write(#[from] crate::io::atomic::AtomicError),
     /// A canvas would exceed [`MAX_SIDE`] per side or [`MAX_PIXELS`] in all.
     #[error("a {width}x{height} picture is larger than allowed ({MAX_SIDE} per side, {MAX_PIXELS} pixels)")]
     TooLarge {

@@ -7,9 +7,6 @@ use crate::camera::PinholeIntrinsics;
 pub use crate::camera::NEAR_Z;
 pub use crate::math::pose::{Pose, RIGID_TOLERANCE};
 
-/// The camera a picture is drawn from.
-pub type View = crate::camera::Camera;
-
 /// Projects a point in the camera frame to pixel coordinates `[u, v]`:
 /// `u = fx·x/z + cx`, `v = fy·y/z + cy`. `None` when the point is behind or on the camera
 /// plane (`z <= NEAR_Z`) or anything is not finite.

@@ -3,8 +3,10 @@
 use super::canvas::{Canvas, Rgb, BLACK, WHITE};
 use super::colormap::{colorbar, finite_range, ColorMap};
 use super::font::text_size;
-use super::project::{cross, normalize, View, NEAR_Z};
+use super::project::{cross, normalize, NEAR_Z};
 use super::RenderError;
+use crate::camera::Camera;
+use crate::math::sub;
 
 /// The values shown on a surface.
 #[derive(Clone, Copy, Debug)]
@@ -86,7 +88,7 @@ struct Raster {
 /// [`TITLE_BAND`] rows. Triangles with a vertex behind the camera are skipped (no clipping).
 pub fn surface_map(
     mesh: &SurfaceMesh<'_>,
-    view: &View,
+    view: &Camera,
     params: &SurfaceMapParams,
 ) -> Result<Canvas, RenderError> {
     let nv = mesh.vertices_in_robot.len();
@@ -176,7 +178,7 @@ fn check_len(what: &'static str, expected: usize, got: usize) -> Result<(), Rend
 
 fn rasterize(
     mesh: &SurfaceMesh<'_>,
-    view: &View,
+    view: &Camera,
     params: &SurfaceMapParams,
     range: [f64; 2],
 ) -> Result<Raster, RenderError> {
@@ -196,7 +198,6 @@ fn rasterize(
         {
             continue;
         }
-        let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
         let Some(n) = normalize(cross(sub(p[1], p[0]), sub(p[2], p[0]))) else {
             continue;
         };

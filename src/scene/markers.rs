@@ -4,7 +4,7 @@
 //! A scene's `[markers]` table gives the paint colour, the disc radius and either the
 //! marker points (`at`, robot frame at rest, each snapped to its nearest surface point) or
 //! a `count` spread over the surface the camera faces. Each marker is bound to its surface
-//! triangle at rest (barycentric weights, [`crate::markers::bind_markers`]) and follows the
+//! triangle at rest (barycentric weights, [`crate::fem::bind::bind_markers`]) and follows the
 //! deformed mesh; a pixel whose ray hits the body within `radius` of a marker's deformed
 //! position takes the marker's colour (shaded like the body). `scene generate` writes the
 //! deformed positions per frame to `markers_truth.csv` (softsense track format, robot
@@ -12,9 +12,10 @@
 
 use super::{SceneError, SceneResult};
 use crate::camera::Camera;
+use crate::fem::bind::{bind_markers, BoundMarker};
 use crate::fem::mesh::Surface;
-use crate::markers::{bind_markers, BoundMarker, MarkerTracks, TrackFrame};
 use crate::math::{dot, norm, sub};
+use crate::recording::tracks::{MarkerTracks, TrackFrame};
 use serde::{Deserialize, Serialize};
 
 /// The `[markers]` table of a scene file.

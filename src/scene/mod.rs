@@ -520,7 +520,7 @@ pub(crate) fn write_recording(
     }
     if let Some(painted) = painted {
         let path = writer.dir().join(MARKERS_TRUTH);
-        crate::markers::tracks::write_tracks(&path, &painted.truth_tracks(&marker_positions))
+        crate::recording::tracks::write_tracks(&path, &painted.truth_tracks(&marker_positions))
             .map_err(|e| SceneError::File {
                 path: path.display().to_string(),
                 message: e.to_string(),

@@ -23,7 +23,7 @@ pub struct SceneView {
     /// Intrinsics and pose.
     pub camera: CameraSpec,
     /// Seed of this camera's sensor noise: the scene's for `[camera]`, else drawn from the
-    /// scene's seed and the camera's index ([`super::sensor::camera_seed`]).
+    /// scene's seed and the camera's index ([`crate::math::rand::camera_seed`]).
     pub seed: u64,
 }
 
@@ -60,7 +60,7 @@ impl SceneSpec {
             .map(|(i, c)| SceneView {
                 name: Some(c.name.clone()),
                 camera: c.camera.clone(),
-                seed: super::sensor::camera_seed(self.seed, i),
+                seed: crate::math::rand::camera_seed(self.seed, i),
             })
             .collect()
     }

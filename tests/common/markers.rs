@@ -3,7 +3,7 @@
 use softsense::fem::model::Model;
 use softsense::fem::solve::PointLoad;
 use softsense::markers::{bind_markers, Directions, ForceCandidate, MarkerSensor, MarkersParams};
-use softsense::scene::sensor::normal;
+use softsense::math::rand::normal;
 use std::path::Path;
 
 pub const SIGMA: f64 = 1e-4;
@@ -110,7 +110,7 @@ pub fn robot_tip_sensor(around: [f64; 3]) -> MarkerSensor {
 
 /// A small seeded generator for the trials (splitmix-style hashing of the scene's).
 pub fn uniform(seed: u64, k: u64) -> f64 {
-    softsense::scene::sensor::uniform(seed, 7, k, 0)
+    softsense::math::rand::uniform(seed, 7, k, 0)
 }
 
 /// The bundled candidates of a body (thesis 4.7.4): `meshes/models/<body>_candidates.csv`,

@@ -208,7 +208,7 @@ fn a_noisy_reference_frame_shifts_every_robot_estimate_alike_and_its_noise_is_in
 fn robot_with_unloaded_frames(dir: &std::path::Path, unloaded: usize, seed: u64) -> String {
     use softsense::markers::tracks::{read_tracks, write_tracks};
     use softsense::markers::TrackFrame;
-    use softsense::scene::sensor::normal;
+    use softsense::math::rand::normal;
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
     let exact = read_tracks(&root.join("clouds/markers/robot/markers_truth.csv")).unwrap();
     let mut out = exact.clone();

@@ -5,8 +5,9 @@ use softsense::fem::mesh::TetMesh;
 use softsense::fem::solve::{
     Cable, CableControl, Formulation, MappedPoint, NewtonParams, PointLoad, Problem,
 };
+use softsense::fem::FemError;
 use softsense::markers::tracks::{
-    flag_hidden, read_motive_str, read_tracks_str, write_tracks_string,
+    flag_hidden, read_motive_str, read_tracks_str, write_tracks_string, TracksError,
 };
 use softsense::markers::{
     bind_markers, locate_forces, Directions, ForceCandidate, MarkerSensor, MarkersError,
@@ -39,7 +40,7 @@ fn bad_track_lines_are_errors_naming_the_line() {
     ];
     for (text, want) in cases {
         match read_tracks_str(text) {
-            Err(MarkersError::Parse { line, .. }) => assert_eq!(line, want, "{text:?}"),
+            Err(TracksError::Parse { line, .. }) => assert_eq!(line, want, "{text:?}"),
             other => panic!("{text:?}: {other:?}"),
         }
     }
@@ -64,7 +65,7 @@ fn motive_exports_give_metres_and_skip_rotations() {
     assert_eq!(t.frames[1].positions[1], None);
     let bad = MOTIVE.replace("11.0,21.0", "11.0,oops");
     match read_motive_str(&bad) {
-        Err(MarkersError::Parse { line, .. }) => assert_eq!(line, 8),
+        Err(TracksError::Parse { line, .. }) => assert_eq!(line, 8),
         other => panic!("{other:?}"),
     }
 }
@@ -164,7 +165,7 @@ fn markers_bind_to_their_nearest_surface_point() {
         &[[0.05, 0.01, 0.05]],
         1e-3,
     );
-    assert!(matches!(far, Err(MarkersError::Binding(_))));
+    assert!(matches!(far, Err(FemError::OffSurface { .. })));
 }
 
 #[test]
@@ -339,7 +340,7 @@ fn stacking_frames_of_the_same_forces_locates_weak_forces_more_often_than_one_fr
         // candidate is found above 5 σ: one frame should find about half of them, four
         // stacked frames (σ halved) about 90%.
         let c = (t % 3) as usize;
-        let u = softsense::scene::sensor::uniform(t, 1, 0, 0);
+        let u = softsense::math::rand::uniform(t, 1, 0, 0);
         let mag = sigma1[c] * (2.0 + 6.0 * u);
         let d = s.candidates[c].directions[0];
         let mut p = s.problem.clone();
@@ -353,8 +354,7 @@ fn stacking_frames_of_the_same_forces_locates_weak_forces_more_often_than_one_fr
                 (x.iter().enumerate())
                     .map(|(m, q)| {
                         Some([0, 1, 2].map(|k| {
-                            q[k] + noise
-                                * softsense::scene::sensor::normal(t, f, m as u64, k as u64)
+                            q[k] + noise * softsense::math::rand::normal(t, f, m as u64, k as u64)
                         }))
                     })
                     .collect()

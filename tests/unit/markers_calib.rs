@@ -4,8 +4,8 @@ use softsense::markers::calib::{
 };
 use softsense::markers::MarkersError;
 use softsense::math::pose::Pose;
+use softsense::math::rand::normal;
 use softsense::math::{Iso3, Vec3};
-use softsense::scene::sensor::normal;
 
 fn names(n: usize) -> Vec<String> {
     (0..n).map(|i| format!("m{i}")).collect()

@@ -6,7 +6,7 @@ use softsense::markers::layout::{
     exchange, greedy, layout_i_w, propose_layout, spearman, LayoutParams,
 };
 use softsense::markers::{Directions, MarkersError};
-use softsense::scene::sensor::normal;
+use softsense::math::rand::normal;
 
 /// 40 seeded random 3 × 6 rows as blocks WᵀW.
 fn random_blocks() -> Vec<DMatrix<f64>> {

@@ -2,6 +2,7 @@
 //! projection against the scene camera, the z-buffer, charts and overlays, and a property
 //! test that no drawing call panics on any input.
 use proptest::prelude::*;
+use softsense::camera::Camera;
 use softsense::io::intrinsics::PinholeIntrinsics;
 use softsense::math::pose::PoseError;
 use softsense::render::*;
@@ -273,12 +274,12 @@ fn projection_inverts_the_scene_cameras_back_projection() {
             (uv[0] - u).abs() < 1e-9 && (uv[1] - v).abs() < 1e-9,
             "{uv:?} vs ({u}, {v})"
         );
-        let view = View::from_camera_from_robot(k, pose);
+        let view = Camera::from_camera_from_robot(k, pose);
         let (uv2, z2) = view.project_robot(p_robot).unwrap();
         assert!((uv2[0] - u).abs() < 1e-9 && (uv2[1] - v).abs() < 1e-9 && (z2 - z).abs() < 1e-12);
     }
     // The same through the conveniences a `sense` caller uses.
-    let view = View::from_matrix(k, &cam.robot_from_camera().to_matrix()).unwrap();
+    let view = Camera::from_matrix(k, &cam.robot_from_camera().to_matrix()).unwrap();
     let tip = cam.backproject(300.0, 200.0, 0.45);
     let (uv, _) = view.project_robot(tip).unwrap();
     assert!((uv[0] - 300.0).abs() < 1e-9 && (uv[1] - 200.0).abs() < 1e-9);
@@ -331,8 +332,8 @@ fn poses_invert_rigidly_and_reject_non_rigid_matrices() {
 }
 
 /// A 100x100 camera at the origin looking along +z.
-fn straight_view() -> View {
-    View::from_camera_from_robot(
+fn straight_view() -> Camera {
+    Camera::from_camera_from_robot(
         PinholeIntrinsics {
             width: 100,
             height: 100,
@@ -363,7 +364,7 @@ fn an_orbit_view_frames_every_point_in_front_of_the_camera() {
         .chain([[f64::NAN, 0.0, 0.0]])
         .collect();
     for (az, el) in [(0.0, 0.0), (-60.0, 30.0), (135.0, -45.0), (90.0, 80.0)] {
-        let view = View::orbit(&points, az, el, 320, 200).unwrap();
+        let view = Camera::orbit(&points, az, el, 320, 200).unwrap();
         for p in points.iter().filter(|p| p[0].is_finite()) {
             let (uv, z) = view.project_robot(*p).unwrap();
             assert!(z > 0.0);
@@ -377,9 +378,9 @@ fn an_orbit_view_frames_every_point_in_front_of_the_camera() {
         let (hi, _) = view.project_robot([0.1, 0.05, 1.04]).unwrap();
         assert!(hi[1] < lo[1]);
     }
-    assert!(View::orbit(&points, 0.0, 90.0, 320, 200).is_none());
-    assert!(View::orbit(&[], 0.0, 0.0, 320, 200).is_none());
-    assert!(View::orbit(&points, 0.0, 0.0, 0, 200).is_none());
+    assert!(Camera::orbit(&points, 0.0, 90.0, 320, 200).is_none());
+    assert!(Camera::orbit(&[], 0.0, 0.0, 320, 200).is_none());
+    assert!(Camera::orbit(&points, 0.0, 0.0, 0, 200).is_none());
 }
 
 #[test]
@@ -809,13 +810,13 @@ proptest! {
         let vertices = [[a[0], a[1], r], [b[0], b[1], width], [c[0], c[1], alpha], [0.0, 0.0, 1.0]];
         let triangles = [[0, 1, 2], [0, 2, 3], [1, 3, 2]];
         let per_vertex: Vec<f64> = (0..4).map(|i| values.get(i).copied().unwrap_or(r)).collect();
-        let view = View::from_camera_from_robot(k, Pose { rotation: Pose::identity().rotation, translation: [b[0], c[1], a[1]] });
+        let view = Camera::from_camera_from_robot(k, Pose { rotation: Pose::identity().rotation, translation: [b[0], c[1], a[1]] });
         let markers = [([a[0], b[1], 1.0], r)];
         let mesh = SurfaceMesh { vertices_in_robot: &vertices, triangles: &triangles, values: SurfaceValues::PerVertex(&per_vertex), markers: &markers };
         let map_params = SurfaceMapParams { range: Some([r, width]), ..Default::default() };
         let map = surface_map(&mesh, &view, &map_params);
         prop_assert!(map.is_ok());
-        let _ = View::orbit(&vertices, r, width, w, h);
+        let _ = Camera::orbit(&vertices, r, width, w, h);
     }
 }
 

@@ -1,7 +1,7 @@
 //! Scene files with several cameras (`[[cameras]]`): what is refused, and each camera's
 //! own noise seed.
 
-use softsense::scene::sensor::camera_seed;
+use softsense::math::rand::camera_seed;
 use softsense::scene::{Scene, SceneError};
 
 const FRAME: &str = "[[frames]]\n";

@@ -8,11 +8,9 @@
 //! to the same reference, `colour_from_depth = colour_from_reference * depth_from_reference⁻¹`.
 
 use super::msg::Transform;
+use crate::camera::PinholeIntrinsics;
 use nalgebra::{Isometry3, Point3, Quaternion, Translation3, UnitQuaternion};
 use std::collections::HashMap;
-
-/// A camera's size and `[fx, fy, cx, cy]`.
-pub type Camera = ([usize; 2], [f64; 4]);
 
 fn isometry(t: &Transform) -> Option<Isometry3<f64>> {
     let [x, y, z, w] = t.rotation;
@@ -72,12 +70,14 @@ pub fn is_identity(x: &Isometry3<f64>) -> bool {
 pub fn align(
     depth: &[u16],
     unit: f64,
-    from: Camera,
-    to: Camera,
+    from: &PinholeIntrinsics,
+    to: &PinholeIntrinsics,
     colour_from_depth: &Isometry3<f64>,
 ) -> Vec<u16> {
-    let ([wd, hd], [fxd, fyd, cxd, cyd]) = from;
-    let ([wc, hc], [fxc, fyc, cxc, cyc]) = to;
+    let (wd, hd) = (from.width as usize, from.height as usize);
+    let (fxd, fyd, cxd, cyd) = (from.fx, from.fy, from.cx, from.cy);
+    let (wc, hc) = (to.width as usize, to.height as usize);
+    let (fxc, fyc, cxc, cyc) = (to.fx, to.fy, to.cx, to.cy);
     let range = |a: f64, b: f64, n: usize| {
         let lo = (a + 0.5).round().max(0.0) as usize;
         let hi = ((b + 0.5).round().max(0.0) as usize).min(n);

@@ -1,9 +1,10 @@
 //! From a bag's messages to frames: choosing the topics, pairing depth with colour,
 //! converting pixels and writing the recording (the rules are in the module docs above).
 
-use super::align::{self, Camera};
+use super::align;
 use super::msg::{self, CameraInfo};
 use super::{Bag, BagMessage, ImportError};
+use crate::camera::PinholeIntrinsics;
 use crate::recording::RecordingWriter;
 use std::collections::{BTreeMap, HashMap};
 use std::path::Path;
@@ -383,10 +384,9 @@ fn colour_pixels(im: &msg::Image<'_>, topic: &str) -> Result<Vec<[u8; 3]>, Impor
 struct Plan {
     depth_topic: String,
     colour_topic: Option<String>,
-    /// Size and `[fx, fy, cx, cy]` of the depth camera, and of the colour one when depth
-    /// is reprojected into it.
-    depth_camera: Camera,
-    align_to: Option<Camera>,
+    /// The depth camera, and the colour one when depth is reprojected into it.
+    depth_camera: PinholeIntrinsics,
+    align_to: Option<PinholeIntrinsics>,
     /// The bag's depth-to-colour extrinsic [identity when it has none].
     colour_from_depth: Option<nalgebra::Isometry3<f64>>,
     /// Depth message (file order) → (frame number, colour message).
@@ -461,15 +461,26 @@ fn plan(s: &Scan, p: &ImportParams, summary: &mut ImportSummary) -> Result<Plan,
         )));
     }
     // A camera info of size 0x0 (some drivers leave it unset) takes its image's size.
-    let size = |i: &CameraInfo, topic: &str| match [i.width as usize, i.height as usize] {
-        [0, 0] => s.sizes[topic],
-        size => size,
+    let camera = |i: &CameraInfo, topic: &str| {
+        let [width, height] = match [i.width as usize, i.height as usize] {
+            [0, 0] => s.sizes[topic],
+            size => size,
+        };
+        let [fx, fy, cx, cy] = focal(i);
+        PinholeIntrinsics {
+            width: width as u32,
+            height: height as u32,
+            fx,
+            fy,
+            cx,
+            cy,
+        }
     };
-    let depth_camera = (size(depth_info, &depth_topic), focal(depth_info));
+    let depth_camera = camera(depth_info, &depth_topic);
     let (mut align_to, mut colour_from_depth) = (None, None);
     if let Some(c) = &colour_topic {
         let colour_info = s.info_topic(p.colour_info_topic.as_deref(), c, "--colour-info-topic")?;
-        let colour_camera = (size(colour_info, c), focal(colour_info));
+        let colour_camera = camera(colour_info, c);
         colour_from_depth = align::realsense_colour_from_depth(&s.tfs, &depth_topic, c);
         let moved = colour_from_depth.is_some_and(|x| !align::is_identity(&x));
         if colour_camera != depth_camera || moved {
@@ -530,15 +541,15 @@ impl FrameWriter<'_> {
     ) -> Result<(), ImportError> {
         let i = self.depth_seen;
         self.depth_seen += 1;
-        let (size, k) = self.plan.depth_camera;
-        check_size(im, topic, size)?;
+        let d = &self.plan.depth_camera;
+        check_size(im, topic, [d.width as usize, d.height as usize])?;
         let mut depth = depth_pixels(im, topic, self.plan.written_unit / self.plan.raw_unit)?;
-        if let Some(to) = self.plan.align_to {
+        if let Some(to) = &self.plan.align_to {
             let x = self
                 .plan
                 .colour_from_depth
                 .unwrap_or_else(nalgebra::Isometry3::identity);
-            depth = align::align(&depth, self.plan.written_unit, (size, k), to, &x);
+            depth = align::align(&depth, self.plan.written_unit, d, to, &x);
         }
         let (number, colour) = self.plan.frames[i];
         match (colour, &self.plan.colour_topic) {
@@ -602,8 +613,13 @@ pub fn import(
         e => e,
     })?;
     let writer = RecordingWriter::create(out)?;
-    let (size, k) = plan.align_to.unwrap_or(plan.depth_camera);
-    writer.write_intrinsics(size.map(|x| x as u32), k, plan.written_unit)?;
+    let c = plan.align_to.as_ref().unwrap_or(&plan.depth_camera);
+    let size = [c.width as usize, c.height as usize];
+    writer.write_intrinsics(
+        [c.width, c.height],
+        [c.fx, c.fy, c.cx, c.cy],
+        plan.written_unit,
+    )?;
     let mut frames = FrameWriter {
         plan: &plan,
         writer,

@@ -8,7 +8,6 @@
 //! seed starts with the same scenes.
 
 use super::camera::{CameraSpec, NamedCameraSpec};
-use super::sensor::uniform;
 use super::{render_frame, Occluder, Rendered, Scene, SceneError};
 use super::{SceneResult, SceneSpec};
 use crate::camera::Camera;
@@ -16,6 +15,7 @@ use crate::fem::mesh::signed_volume;
 use crate::fem::model::Model;
 use crate::fem::FemError;
 use crate::geometry::raycast::{ray_sphere, Bvh};
+use crate::math::rand::uniform;
 use crate::math::{cross, dot, norm, sub};
 use crate::recording::schema::{FrameInput, LoadInput, LoadKind};
 use crate::register::vertex_normals;

@@ -1,4 +1,5 @@
-//! Rigid fits: Kabsch (point-to-point) and one point-to-plane Gauss-Newton step.
+//! Rigid fits: Kabsch (point-to-point, thesis 3.15) and one point-to-plane Gauss-Newton
+//! step. Calibration, marker calibration and the ICP all fit rigid motions here.
 
 use crate::math::{Iso3, Mat3, Vec3};
 use nalgebra::{Matrix6, Rotation3, Translation3, UnitQuaternion, Vector6};
