@@ -106,27 +106,19 @@ pub struct Predictor {
 
 /// The index of the effector named `name` (the first when `None`).
 pub fn effector_index(model: &Model, name: Option<&str>) -> ControlResult<usize> {
-    let names = || {
-        let n: Vec<&str> = model.effectors.iter().map(|e| e.name.as_str()).collect();
-        format!("[{}]", n.join(", "))
-    };
     let i = match name {
         Some(n) => model.effectors.iter().position(|e| e.name == n),
         None => (!model.effectors.is_empty()).then_some(0),
     };
-    let i = i.ok_or_else(|| {
-        ControlError::Scenario(format!(
-            "the model has no effector {:?} (it has {})",
-            name.unwrap_or("(any)"),
-            names()
-        ))
+    let i = i.ok_or_else(|| ControlError::NoEffector {
+        name: name.map(str::to_string),
+        available: model.effectors.iter().map(|e| e.name.clone()).collect(),
     })?;
     if model.effectors[i].rows.len() != 3 {
-        return Err(ControlError::Scenario(format!(
-            "effector {:?} has {} rows; control needs a 3-D point (no direction)",
-            model.effectors[i].name,
-            model.effectors[i].rows.len()
-        )));
+        return Err(ControlError::NotAPoint {
+            effector: model.effectors[i].name.clone(),
+            rows: model.effectors[i].rows.len(),
+        });
     }
     Ok(i)
 }
@@ -136,9 +128,7 @@ impl Predictor {
     pub fn new(model: Model, effector: Option<&str>, actuation: Actuation) -> ControlResult<Self> {
         let effector = effector_index(&model, effector)?;
         if model.problem.cables.is_empty() {
-            return Err(ControlError::Scenario(
-                "the model has no cables to control".into(),
-            ));
+            return Err(ControlError::NoCables);
         }
         Ok(Self {
             model,
@@ -240,7 +230,7 @@ impl Kinematics {
             .j
             .clone()
             .pseudo_inverse(1e-12 * self.j.norm().max(f64::MIN_POSITIVE))
-            .map_err(|e| ControlError::Singular(e.to_string()))?;
+            .map_err(|_| ControlError::Singular { what: "J" })?;
         let delta: Vec<f64> = (&pinv * &u).iter().copied().collect();
         let tension_step = self.tension_per_input()?;
         if self.admissible(&delta, inputs, limits, &tension_step) {
@@ -273,7 +263,7 @@ impl Kinematics {
                 .w_aa
                 .clone()
                 .try_inverse()
-                .ok_or_else(|| ControlError::Singular("W_aa is singular".into())),
+                .ok_or(ControlError::Singular { what: "W_aa" }),
         }
     }
 

@@ -3,7 +3,7 @@
 
 use super::law::{self, Gains, LawState, StepInput, SwitchState};
 use super::plant::{Plant, Sensor};
-use super::predictor::Predictor;
+use super::predictor::{Kinematics, Predictor};
 use super::scenario::{LawKind, Scenario};
 use super::task::Task;
 use super::{ControlError, ControlResult};
@@ -102,8 +102,22 @@ pub struct Run {
     pub scenario: Scenario,
 }
 
-/// Runs `scenario`, calling `progress(step, steps)` after each step.
-pub fn run(scenario: &Scenario, progress: &mut dyn FnMut(usize, usize)) -> ControlResult<Run> {
+/// What a run starts from: both models, the law's gains and state, the task, and the
+/// first positions.
+struct Start {
+    predictor: Predictor,
+    plant: Plant,
+    gains: Gains,
+    state: LawState,
+    kin: Kinematics,
+    task: Task,
+    robot_pos: [f64; 3],
+    /// Theorem 2's γ between the plant's J and the model's at the start.
+    gamma: f64,
+}
+
+/// Loads both models and solves them at the initial inputs.
+fn start(scenario: &Scenario) -> ControlResult<Start> {
     let c = &scenario.controller;
     let scale = scenario.input_scale();
     let load =
@@ -118,8 +132,7 @@ pub fn run(scenario: &Scenario, progress: &mut dyn FnMut(usize, usize)) -> Contr
         &scenario.plant,
         scale,
     )?;
-    let n = predictor.actuators();
-    let initial = vec![c.initial * scale; n];
+    let initial = vec![c.initial * scale; predictor.actuators()];
     let gains = Gains {
         gain: c.gain,
         model_gain: c.model_gain,
@@ -128,19 +141,67 @@ pub fn run(scenario: &Scenario, progress: &mut dyn FnMut(usize, usize)) -> Contr
         keep_input_offset: c.keep_input_offset,
         model_feed_forward: c.model_feed_forward,
     };
-    let mut kin = predictor.update(&initial)?;
+    let kin = predictor.update(&initial)?;
     let task = Task::new(scenario.task.clone(), kin.position, scenario.rate_hz);
-    let mut robot_pos = plant.apply(0, &initial)?;
-    let gamma = match plant.kinematics()? {
+    let robot_pos = plant
+        .apply(0, &initial)
+        .map_err(|e| plant_error(scenario, e))?;
+    let gamma = match plant.kinematics().map_err(|e| plant_error(scenario, e))? {
         Some(k) => law::mismatch(&k.j, &kin.j),
         None => f64::NAN,
     };
-    let mut sensor = Sensor::new(&scenario.sensor);
-    let mut state = LawState {
+    let state = LawState {
         robot: initial.clone(),
         offset: vec![0.0; initial.len()],
         model: initial,
     };
+    Ok(Start {
+        predictor,
+        plant,
+        gains,
+        state,
+        kin,
+        task,
+        robot_pos,
+        gamma,
+    })
+}
+
+/// An FE failure of the plant, naming `plant.young_factor` when it is not 1: a plant far
+/// softer or stiffer than its model is the likely cause of an inverted element.
+fn plant_error(scenario: &Scenario, e: ControlError) -> ControlError {
+    match e {
+        ControlError::Fem(source) if scenario.plant.young_factor != 1.0 => ControlError::Plant {
+            file: scenario.file.clone(),
+            young_factor: scenario.plant.young_factor,
+            source,
+        },
+        e => e,
+    }
+}
+
+/// Theorem 2's γ at the end of a completed run (NaN otherwise): the robot's J moves away
+/// from the model's on the way, so the start alone can understate it.
+fn gamma_at_end(status: &RunStatus, plant: &mut Plant, kin: &Kinematics) -> f64 {
+    match (status, plant.kinematics()) {
+        (RunStatus::Completed, Ok(Some(k))) => law::mismatch(&k.j, &kin.j),
+        _ => f64::NAN,
+    }
+}
+
+/// Runs `scenario`, calling `progress(step, steps)` after each step.
+pub fn run(scenario: &Scenario, progress: &mut dyn FnMut(usize, usize)) -> ControlResult<Run> {
+    let Start {
+        mut predictor,
+        mut plant,
+        gains,
+        mut state,
+        mut kin,
+        task,
+        mut robot_pos,
+        gamma,
+    } = start(scenario)?;
+    let mut sensor = Sensor::new(&scenario.sensor);
     let mut model_history = vec![kin.position];
     let mut records: Vec<StepRecord> = Vec::with_capacity(scenario.steps);
     let mut status = RunStatus::Completed;
@@ -168,40 +229,35 @@ pub fn run(scenario: &Scenario, progress: &mut dyn FnMut(usize, usize)) -> Contr
             status = RunStatus::Diverged { step: k };
             break;
         }
+        let next_target = match task.preassigned() {
+            true => task.target(k + 1),
+            false => target,
+        };
         let input = StepInput {
             kin: &kin,
             target,
-            next_target: if task.preassigned() {
-                task.target(k + 1)
-            } else {
-                target
-            },
+            next_target,
             error: measured.map(|m| sub(m.position, task.target(m.of_step))),
             model_error: measured.map(|m| sub(model_history[m.of_step], m.position)),
         };
         let stepped =
             law::step(scenario.controller.law, &gains, &input, &mut state).and_then(|o| {
                 outcome = o;
-                robot_pos = plant.apply(k + 1, &state.robot)?;
+                robot_pos =
+                    (plant.apply(k + 1, &state.robot)).map_err(|e| plant_error(scenario, e))?;
                 kin = predictor.update(&state.model)?;
                 Ok(())
             });
         if let Err(e) = stepped {
-            status = RunStatus::Failed {
-                step: k,
-                reason: e.to_string(),
-            };
+            let reason = e.to_string();
+            status = RunStatus::Failed { step: k, reason };
             break;
         }
         model_history.push(kin.position);
         progress(k + 1, scenario.steps);
     }
-    // Theorem 2's γ at the end too: the robot's J moves away from the model's on the way.
-    let gamma_end = match (&status, plant.kinematics()) {
-        (RunStatus::Completed, Ok(Some(k))) => law::mismatch(&k.j, &kin.j),
-        _ => f64::NAN,
-    };
-    let summary = summarise(&records, &sensor, gamma.max(gamma_end), scale);
+    let gamma = gamma.max(gamma_at_end(&status, &mut plant, &kin));
+    let summary = summarise(&records, &sensor, gamma, scenario.input_scale());
     Ok(Run {
         name: scenario.name.clone(),
         law: scenario.controller.law,

@@ -5,7 +5,7 @@
 //! actuator inputs in the model's actuation unit (mm of cable shortening or N of
 //! tension); everything is converted to SI when the file is read.
 
-use super::{ControlError, ControlResult};
+use super::{ControlError, ControlResult, FieldProblem};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
@@ -221,6 +221,9 @@ pub struct Scenario {
     /// Folder of the scenario file, against which model paths are resolved.
     #[serde(skip)]
     pub base: PathBuf,
+    /// The file it was read from (empty for one built in code), for messages.
+    #[serde(skip)]
+    pub file: PathBuf,
 }
 
 fn default_rate() -> f64 {
@@ -237,16 +240,18 @@ impl Scenario {
             path: path.display().to_string(),
             source,
         })?;
-        let mut s: Scenario = toml::from_str(&text)
-            .map_err(|e| ControlError::Scenario(format!("{}: {e}", path.display())))?;
+        let mut s: Scenario = toml::from_str(&text).map_err(|e| ControlError::Toml {
+            path: path.display().to_string(),
+            source: Box::new(e),
+        })?;
         s.base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+        s.file = path.to_path_buf();
         if s.name.is_empty() {
             s.name = (path.file_stem())
                 .map(|n| n.to_string_lossy().into_owned())
                 .unwrap_or_default();
         }
-        s.validate()
-            .map_err(|e| ControlError::Scenario(format!("{}: {e}", path.display())))?;
+        s.validate()?;
         Ok(s)
     }
 
@@ -271,85 +276,78 @@ impl Scenario {
         }
     }
 
-    /// Checks ranges; the message names the field.
-    pub fn validate(&self) -> Result<(), String> {
-        let c = &self.controller;
-        let finite = |name: &str, v: f64| {
-            v.is_finite()
-                .then_some(())
-                .ok_or(format!("{name} must be finite, got {v}"))
+    /// Checks ranges; the error names the file and the field.
+    pub fn validate(&self) -> ControlResult<()> {
+        let bad = |field: &'static str, problem: FieldProblem| ControlError::Field {
+            file: self.file.clone(),
+            field,
+            problem,
         };
+        let positive = |field, v: f64| match v > 0.0 && v.is_finite() {
+            true => Ok(()),
+            false => Err(bad(field, FieldProblem::NotPositive(v))),
+        };
+        let finite = |field, v: f64| match v.is_finite() {
+            true => Ok(()),
+            false => Err(bad(field, FieldProblem::NotFinite(v))),
+        };
+        let c = &self.controller;
         if self.steps == 0 || self.steps > MAX_STEPS {
-            return Err(format!(
-                "steps must be in 1..={MAX_STEPS}, got {}",
-                self.steps
-            ));
+            let (min, max, got) = (1, MAX_STEPS, self.steps);
+            return Err(bad("steps", FieldProblem::Count { min, max, got }));
         }
-        if !(self.rate_hz > 0.0 && self.rate_hz.is_finite()) {
-            return Err(format!("rate_hz must be positive, got {}", self.rate_hz));
-        }
-        for (name, v) in [
-            ("controller.gain", c.gain),
-            ("controller.model_gain", c.model_gain),
-        ] {
-            finite(name, v)?;
-            if v <= 0.0 {
-                return Err(format!("{name} must be positive, got {v}"));
-            }
-        }
+        positive("rate_hz", self.rate_hz)?;
+        positive("controller.gain", c.gain)?;
+        positive("controller.model_gain", c.model_gain)?;
         if !(c.switch_rate > 0.0 && c.switch_rate < 1.0) {
-            return Err(format!(
-                "controller.switch_rate (p of 3.43) must be in (0, 1), got {}",
-                c.switch_rate
-            ));
+            let problem = FieldProblem::NotInUnitInterval(c.switch_rate);
+            return Err(bad("controller.switch_rate", problem));
         }
         finite("controller.initial", c.initial)?;
         let [lo, hi] = c.limits;
         if !(lo.is_finite() && hi.is_finite() && lo < hi) {
-            return Err(format!(
-                "controller.limits must be [min, max] with min < max, got {:?}",
-                c.limits
-            ));
+            return Err(bad("controller.limits", FieldProblem::Limits(c.limits)));
         }
         if !(lo..=hi).contains(&c.initial) {
-            return Err(format!(
-                "controller.initial {} is outside the limits {:?}",
-                c.initial, c.limits
+            let (value, limits) = (c.initial, c.limits);
+            return Err(bad(
+                "controller.initial",
+                FieldProblem::OutsideLimits { value, limits },
             ));
         }
         let p = &self.plant;
-        if !(p.young_factor > 0.0 && p.young_factor.is_finite()) {
-            return Err(format!(
-                "plant.young_factor must be positive, got {}",
-                p.young_factor
-            ));
-        }
+        positive("plant.young_factor", p.young_factor)?;
         finite("plant.weight", p.weight)?;
         finite("plant.input_offset", p.input_offset)?;
         finite("plant.input_gain", p.input_gain)?;
         let s = &self.sensor;
         if !(s.noise_mm >= 0.0 && s.noise_mm.is_finite()) {
-            return Err(format!("sensor.noise_mm must be >= 0, got {}", s.noise_mm));
+            return Err(bad("sensor.noise_mm", FieldProblem::Negative(s.noise_mm)));
         }
         if s.latency > 100 {
-            return Err(format!(
-                "sensor.latency must be at most 100 frames, got {}",
-                s.latency
-            ));
+            let (min, max, got) = (0, 100, s.latency);
+            return Err(bad("sensor.latency", FieldProblem::Count { min, max, got }));
         }
         if let Some(r) = s.lost.iter().find(|r| r[0] > r[1]) {
-            return Err(format!("sensor.lost range {r:?} ends before it starts"));
+            return Err(bad("sensor.lost", FieldProblem::Backwards(*r)));
         }
         self.validate_task()
+            .map_err(|(field, problem)| bad(field, problem))
     }
 
-    fn validate_task(&self) -> Result<(), String> {
+    /// The task's field that is out of range, if one is.
+    fn validate_task(&self) -> Result<(), (&'static str, FieldProblem)> {
+        let finite = |field, v: &[f64]| match v.iter().find(|x| !x.is_finite()) {
+            Some(x) => Err((field, FieldProblem::NotFinite(*x))),
+            None => Ok(()),
+        };
+        // An angle per step beyond half a turn samples the path too coarsely to follow.
+        let pace = |field, w: f64| match w.abs() <= std::f64::consts::PI {
+            true => Ok(()),
+            false => Err((field, FieldProblem::TooFast(w))),
+        };
         match &self.task {
-            TaskSpec::Position { offset_mm } => {
-                if offset_mm.iter().any(|v| !v.is_finite()) {
-                    return Err("task.offset_mm must be finite".into());
-                }
-            }
+            TaskSpec::Position { offset_mm } => finite("task.offset_mm", offset_mm)?,
             TaskSpec::Circle {
                 radius_mm,
                 rad_per_s,
@@ -357,19 +355,19 @@ impl Scenario {
                 normal,
             } => {
                 if !(*radius_mm > 0.0 && radius_mm.is_finite()) {
-                    return Err(format!("task.radius_mm must be positive, got {radius_mm}"));
+                    return Err(("task.radius_mm", FieldProblem::NotPositive(*radius_mm)));
                 }
                 match (rad_per_s, rad_per_step) {
-                    (Some(w), None) | (None, Some(w)) if w.is_finite() => {}
+                    (Some(w), None) if w.is_finite() => pace("task.rad_per_s", w / self.rate_hz)?,
+                    (None, Some(w)) if w.is_finite() => pace("task.rad_per_step", *w)?,
                     _ => {
-                        return Err(
-                            "task: give exactly one of rad_per_s, rad_per_step (finite)".into()
-                        )
+                        let problem = FieldProblem::ExactlyOne("rad_per_s", "rad_per_step");
+                        return Err(("task", problem));
                     }
                 }
                 let n = normal.iter().map(|v| v * v).sum::<f64>().sqrt();
                 if !(n > 0.0 && n.is_finite()) {
-                    return Err(format!("task.normal {normal:?} has no length"));
+                    return Err(("task.normal", FieldProblem::NoLength(*normal)));
                 }
             }
             TaskSpec::Follow {
@@ -377,9 +375,9 @@ impl Scenario {
                 rad_per_step,
                 ..
             } => {
-                if amplitude_mm.iter().any(|v| !v.is_finite()) || !rad_per_step.is_finite() {
-                    return Err("task.amplitude_mm and task.rad_per_step must be finite".into());
-                }
+                finite("task.amplitude_mm", amplitude_mm)?;
+                finite("task.rad_per_step", &[*rad_per_step])?;
+                pace("task.rad_per_step", *rad_per_step)?;
             }
         }
         Ok(())

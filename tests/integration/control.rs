@@ -90,3 +90,89 @@ fn a_bad_scenario_is_refused_naming_the_file_and_the_field() {
     let o = softsense(&["control", "scenarios/control/nothing.toml"]);
     assert_fails(&o, 1, &["nothing.toml"]);
 }
+
+/// The positioning scenario with `from` replaced by `to`, written into `dir` with its model
+/// path made absolute.
+fn edited_positioning(dir: &std::path::Path, from: &str, to: &str) -> std::path::PathBuf {
+    let text =
+        std::fs::read_to_string(project_root().join("scenarios/control/positioning.toml")).unwrap();
+    assert!(text.contains(from), "{from:?}");
+    let path = dir.join("edited.toml");
+    let meshes = project_root().join("meshes");
+    let text = text
+        .replace(from, to)
+        .replace("../../meshes", meshes.to_str().unwrap());
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+#[test]
+fn each_out_of_range_field_is_named_with_its_file_and_value() {
+    let dir = tempfile::tempdir().unwrap();
+    let task = "kind = \"position\"\noffset_mm = [8.0, -6.0, -8.0]";
+    let circle = |w: &str| format!("kind = \"circle\"\nradius_mm = 5.0\n{w}");
+    let cases: Vec<(&str, String, &[&str])> = vec![
+        (
+            "young_factor = 1.15",
+            "young_factor = -1.0".into(),
+            &["plant.young_factor", "positive", "-1"],
+        ),
+        (
+            "young_factor = 1.15",
+            "young_factor = nan".into(),
+            &["plant.young_factor", "NaN"],
+        ),
+        (
+            "gain = 0.3",
+            "gain = inf".into(),
+            &["controller.gain", "inf"],
+        ),
+        (
+            "latency = 1",
+            "latency = 1000".into(),
+            &["sensor.latency", "0..=100", "1000"],
+        ),
+        (
+            "initial = 10.0 ",
+            "initial = 1e9 ".into(),
+            &["controller.initial", "outside the limits"],
+        ),
+        (
+            "steps = 150",
+            "steps = 0".into(),
+            &["steps", "1..=100000", "got 0"],
+        ),
+        (
+            task,
+            "kind = \"position\"\noffset_mm = [inf, 0.0, 0.0]".into(),
+            &["task.offset_mm", "finite", "inf"],
+        ),
+        (
+            task,
+            circle("rad_per_step = 1e300"),
+            &["task.rad_per_step", "π rad a step", "1e300"],
+        ),
+        (
+            task,
+            circle("rad_per_s = 1000.0"),
+            &["task.rad_per_s", "π rad a step"],
+        ),
+        (task, circle(""), &["task", "rad_per_s", "rad_per_step"]),
+    ];
+    for (from, to, needles) in cases {
+        let path = edited_positioning(dir.path(), from, &to);
+        let err = Scenario::load(&path).expect_err(&to).to_string();
+        assert!(err.contains("edited.toml"), "{to}: {err}");
+        for n in needles {
+            assert!(err.contains(n), "{to}: {err} lacks {n:?}");
+        }
+    }
+}
+
+#[test]
+fn a_plant_too_soft_to_solve_names_its_young_factor() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = edited_positioning(dir.path(), "young_factor = 1.15", "young_factor = 1e-6");
+    let o = softsense(&["control", path.to_str().unwrap(), "--steps", "3"]);
+    assert_fails(&o, 1, &["edited.toml", "plant.young_factor = 0.000001"]);
+}
