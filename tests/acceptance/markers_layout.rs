@@ -138,10 +138,7 @@ fn check(body: &str, rows: &[(String, f64, f64)], rho: f64, want: f64) {
         "{body}: proposed I_w {} > {best_random}",
         rows[0].1
     );
-    assert!(
-        rho >= want && rho > 0.0,
-        "{body}: Spearman {rho:.3} < {want}"
-    );
+    assert!(rho >= want, "{body}: Spearman {rho:.3} < {want}");
 }
 
 #[test]
@@ -151,19 +148,12 @@ fn sheet_layouts_rank_i_e_by_i_w() {
     check("sheet", &rows, rho, 0.8);
 }
 
-/// The 0.8 line is missed on the robot (docs/markers.md): the inverse fails (an inverted
-/// element, Newton) in a draw of most layouts, the proposed one included, so I_e ties at ∞.
+/// The line is 0.8; the robot misses it (docs/accuracy.md, "Known misses"): the
+/// inverse fails (an inverted element, Newton) in a draw of most layouts, the proposed one
+/// included, so I_e ties at ∞. Measured 0.228; this holds that floor.
 #[test]
-fn robot_layouts_rank_i_e_by_i_w_positively() {
+fn robot_layouts_rank_i_e_by_i_w_at_least_as_well_as_measured() {
     let (m, c) = robot();
     let (rows, rho) = study("robot", &m, &c);
-    check("robot", &rows, rho, 0.0);
-}
-
-#[test]
-#[ignore = "known miss: measured Spearman 0.228 on the robot (inverse failures tie I_e at infinity)"]
-fn robot_layouts_rank_i_e_by_i_w() {
-    let (m, c) = robot();
-    let (rows, rho) = study("robot", &m, &c);
-    check("robot", &rows, rho, 0.8);
+    check("robot", &rows, rho, 0.2);
 }
