@@ -2,8 +2,9 @@
 //! state, contacts and features, then the estimate (of the seen contacts' locations,
 //! [`super::locate`], else of the model's declared force points), then the report.
 
+use super::blend::Group;
 use super::free::FreeState;
-use super::report::{ms, Group};
+use super::timings::ms;
 use super::track::{force_point_ends, leave, Track};
 use super::{FrameReport, FrameStatus, ModelInputs, Observation, Sensor};
 use crate::contact::Contact;

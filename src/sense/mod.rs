@@ -31,6 +31,7 @@
 //! }
 //! ```
 
+mod blend;
 mod cameras;
 mod estimate;
 mod free;
@@ -40,18 +41,18 @@ mod params;
 mod report;
 pub mod score;
 mod stream;
+mod timings;
 mod track;
 
 pub use crate::recording::{Recording, Rig};
+pub use blend::{largest_sigma, LocationAlternative};
 pub use cameras::{CameraFrames, CameraReport, CameraState, SensorCamera};
 pub use free::SAME_INPUT;
 pub use observe::{Observation, View};
 pub use params::{Registration, SenseParams};
-pub use report::{
-    compare, largest_sigma, median_timings, ForceEstimate, FrameReport, FrameStatus, LoadError,
-    LocationAlternative, StageTimings, MIN_SCORED_FORCE,
-};
+pub use report::{compare, ForceEstimate, FrameReport, FrameStatus, LoadError, MIN_SCORED_FORCE};
 pub use stream::default_window;
+pub use timings::{median_timings, StageTimings};
 pub use track::Track;
 
 use crate::fem::mesh::Surface;

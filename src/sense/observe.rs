@@ -3,7 +3,7 @@
 //! where the objects touch the robot ([`Sensor::contacts`]).
 
 use super::cameras::{CameraFrames, CameraReport, CameraState};
-use super::report::ms;
+use super::timings::ms;
 use super::SenseError;
 use super::{Recording, SenseParams, SenseResult, Sensor};
 use crate::contact::{detect_contacts, Contact};

@@ -1,8 +1,8 @@
 //! Sensing a stream frame after frame ([`Sensor::track_frames`]): what a frame leaves for
 //! the next ([`Track`]), and whether the next can start from it.
 
+use super::blend::Group;
 use super::free::same_inputs;
-use super::report::Group;
 use super::{CameraFrames, FrameReport, FrameStatus, Observation, SenseResult, Sensor};
 use crate::fem::solve::CableControl;
 use crate::inverse::{Candidate, FrameEstimate};
