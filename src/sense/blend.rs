@@ -56,50 +56,29 @@ pub(super) fn force_estimate(
     cands: &[Candidate],
     positions: &[[f64; 3]],
 ) -> ForceEstimate {
-    let f = force_of(&cands[g.range.clone()], &e.forces[g.range.clone()]);
-    let mut var = 0.0;
-    let magnitude = norm(f);
-    // The components' (co)variance: the sandwich's when the estimate has it, else
-    // the independent σ.
-    let cov_kl = |k: usize, l: usize| match &e.force_covariance {
-        Some(cov) if cov.nrows() == cands.len() => cov[(k, l)],
-        _ if k == l => e.force_sigma.get(k).copied().unwrap_or(f64::NAN).powi(2),
-        _ => 0.0,
-    };
-    // Magnitude sigma: that (co)variance projected on the force direction.
-    let proj = |k: usize| {
-        if magnitude > 0.0 {
-            dot(unit(cands[k].direction), f) / magnitude
-        } else {
-            1.0
+    let r = g.range.clone();
+    let f = force_of(&cands[r.clone()], &e.forces[r.clone()]);
+    // The candidates' (co)variance: the sandwich's when the estimate has it, else the
+    // independent σ.
+    let cov = |k: usize, l: usize| {
+        let (k, l) = (r.start + k, r.start + l);
+        match &e.force_covariance {
+            Some(c) if c.nrows() == cands.len() => c[(k, l)],
+            _ if k == l => e.force_sigma.get(k).copied().unwrap_or(f64::NAN).powi(2),
+            _ => 0.0,
         }
     };
-    // The same in the robot frame: Σ_kl u_k u_lᵀ cov_kl.
-    let mut covariance = [[0.0; 3]; 3];
-    for k in g.range.clone() {
-        let uk = unit(cands[k].direction);
-        for l in g.range.clone() {
-            let ul = unit(cands[l].direction);
-            let c = cov_kl(k, l);
-            var += proj(k) * proj(l) * c;
-            for (a, row) in covariance.iter_mut().enumerate() {
-                for (b, v) in row.iter_mut().enumerate() {
-                    *v += uk[a] * ul[b] * c;
-                }
-            }
-        }
-    }
-    let var = var.max(0.0);
-    let at = cands[g.range.start].at.position(positions);
+    let axes: Vec<[f64; 3]> = cands[r.clone()].iter().map(|c| unit(c.direction)).collect();
+    let covariance = in_robot_frame(&axes, &cov);
     let mut out = ForceEstimate {
         source: g.source.clone(),
         seen_at: g.seen_at,
         contact_points: g.points,
-        location: at,
+        location: cands[r.start].at.position(positions),
         node: g.node,
         force: f,
-        magnitude,
-        sigma: var.sqrt(),
+        magnitude: norm(f),
+        sigma: magnitude_sigma(f, &axes, &cov),
         sigma_max: largest_sigma(&covariance),
         covariance,
         location_sigma: g.seen_at.map(|_| 0.0),
@@ -107,6 +86,46 @@ pub(super) fn force_estimate(
     };
     out.blend(g.alternatives.clone());
     out
+}
+
+/// The robot frame's axes x, y, z.
+const ROBOT_AXES: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+
+/// The covariance in the robot frame of a force whose components along the unit `axes`
+/// have covariance `cov(k, l)`: Σ_kl a_k a_lᵀ cov(k, l).
+fn in_robot_frame(axes: &[[f64; 3]], cov: &dyn Fn(usize, usize) -> f64) -> [[f64; 3]; 3] {
+    let mut out = [[0.0; 3]; 3];
+    for (k, ak) in axes.iter().enumerate() {
+        for (l, al) in axes.iter().enumerate() {
+            let c = cov(k, l);
+            for (a, row) in out.iter_mut().enumerate() {
+                for (b, v) in row.iter_mut().enumerate() {
+                    *v += ak[a] * al[b] * c;
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The one-sigma of the magnitude of `force`, whose components along the unit `axes` (the
+/// candidates' directions, or [`ROBOT_AXES`]) have covariance `cov(k, l)`: that covariance
+/// projected on the force's direction, Σ_kl p_k p_l cov(k, l) with p_k = a_k·F / |F|. A
+/// zero force has no direction, so its magnitude is taken as uncertain as the least
+/// certain direction: the largest σ over all of them ([`largest_sigma`]).
+fn magnitude_sigma(force: [f64; 3], axes: &[[f64; 3]], cov: &dyn Fn(usize, usize) -> f64) -> f64 {
+    let magnitude = norm(force);
+    if magnitude > 0.0 {
+        let p: Vec<f64> = axes.iter().map(|a| dot(*a, force) / magnitude).collect();
+        let mut var = 0.0;
+        for (k, pk) in p.iter().enumerate() {
+            for (l, pl) in p.iter().enumerate() {
+                var += pk * pl * cov(k, l);
+            }
+        }
+        return var.max(0.0).sqrt();
+    }
+    largest_sigma(&in_robot_frame(axes, cov))
 }
 
 impl ForceEstimate {
@@ -133,16 +152,7 @@ impl ForceEstimate {
             }
         }
         let c = &self.covariance;
-        let u = if self.magnitude > 0.0 {
-            self.force.map(|v| v / self.magnitude)
-        } else {
-            [1.0, 0.0, 0.0]
-        };
-        let var: f64 = (0..3)
-            .flat_map(|r| (0..3).map(move |q| (r, q)))
-            .map(|(r, q)| u[r] * c[r][q] * u[q])
-            .sum();
-        self.sigma = var.max(0.0).sqrt();
+        self.sigma = magnitude_sigma(self.force, &ROBOT_AXES, &|r, q| c[r][q]);
         self.sigma_max = largest_sigma(c);
         self.location_sigma = Some(spread.sqrt());
         self.alternatives = alternatives;
@@ -173,7 +183,10 @@ pub fn largest_sigma(covariance: &[[f64; 3]; 3]) -> f64 {
 
 #[cfg(test)]
 pub(super) mod tests {
-    use super::{largest_sigma, ForceEstimate, LocationAlternative};
+    use super::{
+        in_robot_frame, largest_sigma, magnitude_sigma, ForceEstimate, LocationAlternative,
+        ROBOT_AXES,
+    };
 
     pub(crate) fn force(seen: bool, magnitude: f64, sigma_max: f64) -> ForceEstimate {
         ForceEstimate {
@@ -225,6 +238,33 @@ pub(super) mod tests {
         f.blend(vec![alternative(7, 0.008, [0.0, 1.0, 0.0], 40.0)]);
         assert!(f.sigma_max < 0.01 * (1.0 + 1e-4), "{}", f.sigma_max);
         assert!(f.location_sigma.unwrap() < 1e-6);
+    }
+
+    #[test]
+    fn the_magnitude_sigma_is_the_same_from_the_candidates_and_from_the_robot_frame() {
+        // A force along two oblique unit axes with correlated components.
+        let s = 0.5f64.sqrt();
+        let axes = [[s, s, 0.0], [0.0, s, s]];
+        let cov = |k: usize, l: usize| [[4e-4, 1e-4], [1e-4, 9e-4]][k][l];
+        let force = [0.3 * s, 0.3 * s + 0.1 * s, 0.1 * s];
+        let robot = in_robot_frame(&axes, &cov);
+        let from_axes = magnitude_sigma(force, &axes, &cov);
+        let from_robot = magnitude_sigma(force, &ROBOT_AXES, &|r, q| robot[r][q]);
+        assert!(
+            (from_axes - from_robot).abs() < 1e-15,
+            "{from_axes} {from_robot}"
+        );
+    }
+
+    #[test]
+    fn a_zero_force_has_the_largest_sigma_as_its_magnitude_sigma_in_any_basis() {
+        let cov = [[1e-4, 0.0, 0.0], [0.0, 4e-4, 0.0], [0.0, 0.0, 9e-6]];
+        let sigma = magnitude_sigma([0.0; 3], &ROBOT_AXES, &|r, q| cov[r][q]);
+        assert!((sigma - 0.02).abs() < 1e-15, "{sigma}");
+        // The same covariance along the axes taken in another order.
+        let axes = [ROBOT_AXES[1], ROBOT_AXES[2], ROBOT_AXES[0]];
+        let turned = |k: usize, l: usize| cov[(k + 1) % 3][(l + 1) % 3];
+        assert!((magnitude_sigma([0.0; 3], &axes, &turned) - 0.02).abs() < 1e-15);
     }
 
     #[test]

@@ -70,7 +70,8 @@ pub struct ForceEstimate {
     /// Its magnitude (N).
     pub magnitude: f64,
     /// One-sigma uncertainty of the magnitude (N), from the sensor noise, W and the rows'
-    /// residuals (see [`crate::inverse::FrameEstimate::use_shared_point_uncertainty`]).
+    /// residuals (see [`crate::inverse::FrameEstimate::use_shared_point_uncertainty`]); a
+    /// zero force, which has no direction, takes `sigma_max`.
     pub sigma: f64,
     /// The largest one-sigma of the force over all directions (N): the square root of
     /// `covariance`'s largest eigenvalue (NaN if it has a NaN). Where `sigma` is small but
