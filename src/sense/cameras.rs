@@ -8,7 +8,7 @@
 use super::{Recording, SenseError, SenseResult, Sensor};
 use crate::math::pose::Pose;
 use crate::recording::{FrameInput, Rig};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// One camera of a [`Sensor`].
 #[derive(Clone, Debug)]
@@ -72,7 +72,7 @@ impl CameraFrames for Rig {
 }
 
 /// What one camera gave a frame.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "status", rename_all = "snake_case")]
 pub enum CameraState {
     /// Read and used.

@@ -49,7 +49,7 @@ pub use blend::{largest_sigma, LocationAlternative};
 pub use cameras::{CameraFrames, CameraReport, CameraState, SensorCamera};
 pub use free::SAME_INPUT;
 pub use observe::{Observation, View};
-pub use params::{Registration, SenseParams};
+pub use params::{Registration, SenseParams, CHI2_3DOF_95};
 pub use report::{compare, ForceEstimate, FrameReport, FrameStatus, LoadError, MIN_SCORED_FORCE};
 pub use stream::default_window;
 pub use timings::{median_timings, StageTimings};

@@ -11,10 +11,10 @@ use crate::inverse::intensity::Identifiability;
 use crate::inverse::{Candidate, FrameEstimate};
 use crate::math::{norm, sub};
 use crate::recording::FrameTruth;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// What happened to a frame.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "status", content = "detail", rename_all = "snake_case")]
 pub enum FrameStatus {
     /// Forces estimated.
@@ -396,7 +396,7 @@ mod tests {
         let mut far = force(true, 0.5, 0.005);
         far.blend(vec![alternative(14, 0.009, [0.4, 0.0, 0.0], 9.0)]);
         r.forces = vec![near, far];
-        r.warn_ambiguous_locations(7.81);
+        r.warn_ambiguous_locations(crate::sense::CHI2_3DOF_95);
         assert_eq!(r.warnings.len(), 1, "{:?}", r.warnings);
         let w = &r.warnings[0];
         assert!(
