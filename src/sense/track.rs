@@ -52,6 +52,11 @@ impl Track {
 }
 
 impl Sensor {
+    /// Observes and senses `frames` of `rec` one after the other as a stream, each frame
+    /// starting from what the one before left ([`Sensor::track`]) while the next is read
+    /// beside it, and hands each observation and report to `emit` in frame order. An
+    /// unreadable frame gets [`FrameStatus::Unreadable`] (and the next starts afresh).
+    /// Stops at the first error of `emit`.
     ///
     /// ```no_run
     /// # use softsense::sense::{Recording, SenseParams, Sensor};
