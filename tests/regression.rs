@@ -380,8 +380,14 @@ fn a_nan_in_the_recorded_actuators_refused_the_whole_run() {
         SenseParams::default(),
     );
     assert!(sensor.observe(&rec, 0).is_ok());
-    let err = sensor.observe(&rec, 1).unwrap_err().to_string();
-    assert!(err.contains("NaN"), "{err}");
+    let err = sensor.observe(&rec, 1).unwrap_err();
+    assert!(
+        matches!(&err, softsense::sense::SenseError::Inputs { path, frame: 1, .. }
+            if path.ends_with("actuators.json")),
+        "{err}"
+    );
+    let err = err.to_string();
+    assert!(err.contains("NaN") && err.contains("frame 1"), "{err}");
 }
 
 /// An empty frame list in `actuators.json` was sensed with the model's cable inputs and

@@ -8,7 +8,7 @@
 use super::{Recording, SenseError, SenseResult, Sensor};
 use crate::math::pose::Pose;
 use crate::recording::{FrameInput, Rig};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// One camera of a [`Sensor`].
 #[derive(Clone, Debug)]
@@ -72,7 +72,7 @@ impl CameraFrames for Rig {
 }
 
 /// What one camera gave a frame.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "status", rename_all = "snake_case")]
 pub enum CameraState {
     /// Read and used.
@@ -125,6 +125,12 @@ impl std::fmt::Display for CameraReport {
     }
 }
 
+/// Each camera's part in a frame, `; `-separated.
+pub(super) fn joined(cameras: &[CameraReport]) -> String {
+    let each: Vec<String> = cameras.iter().map(ToString::to_string).collect();
+    each.join("; ")
+}
+
 impl Sensor {
     /// A sensor for every camera of `rig`, each at its folder's pose
     /// ([`Sensor::with_cameras`]); a camera without one is [`SenseError::NoPose`].
@@ -139,7 +145,7 @@ impl Sensor {
                 .recording
                 .robot_from_camera
                 .ok_or_else(|| SenseError::NoPose {
-                    dir: c.recording.dir.display().to_string(),
+                    dir: c.recording.dir.clone(),
                 })?;
             cameras.push(SensorCamera::new(&c.name, pose));
         }
@@ -148,17 +154,17 @@ impl Sensor {
 
     /// Checks that `source` has the sensor's cameras, by count and name.
     pub fn check_cameras(&self, source: &impl CameraFrames) -> SenseResult<()> {
-        let names: Vec<&str> = (0..source.camera_count())
-            .map(|k| source.camera_name(k))
+        let names: Vec<String> = (0..source.camera_count())
+            .map(|k| source.camera_name(k).to_string())
             .collect();
-        let mine: Vec<&str> = self.cameras.iter().map(|c| c.name.as_str()).collect();
+        let mine: Vec<String> = self.cameras.iter().map(|c| c.name.clone()).collect();
         // A one-camera sensor reads any one-camera recording, whatever its name.
         if names.len() == mine.len() && (mine.len() == 1 || names == mine) {
             return Ok(());
         }
         Err(SenseError::Cameras {
-            sensor: mine.join(", "),
-            recording: names.join(", "),
+            sensor: mine,
+            recording: names,
         })
     }
 }

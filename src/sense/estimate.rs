@@ -2,8 +2,9 @@
 //! state, contacts and features, then the estimate (of the seen contacts' locations,
 //! [`super::locate`], else of the model's declared force points), then the report.
 
+use super::blend::Group;
 use super::free::FreeState;
-use super::report::{ms, Group};
+use super::timings::ms;
 use super::track::{force_point_ends, leave, Track};
 use super::{FrameReport, FrameStatus, ModelInputs, Observation, Sensor};
 use crate::contact::Contact;
@@ -16,6 +17,7 @@ use crate::inverse::{
 use crate::math::{dot, sub};
 use crate::recording::FrameInput;
 use crate::register::{Registrar, SurfaceFeature};
+use std::sync::Arc;
 
 /// A frame failed: its status says how.
 pub(super) fn fail(e: &dyn std::fmt::Display) -> FrameStatus {
@@ -131,35 +133,14 @@ impl Sensor {
             return Err(FrameStatus::NoRobot);
         }
         let model = self.actuated(inputs).map_err(|e| fail(&e))?;
-        let clock = std::time::Instant::now();
-        let free = self.free.solve(&self.model, &model).map_err(|e| fail(&e))?;
-        report.timings.free_solve = ms(clock.elapsed());
-        let clock = std::time::Instant::now();
-        let contacts = self.contacts(obs).map_err(|e| fail(&e))?;
-        report.timings.contacts = ms(clock.elapsed());
-        if contacts.len() > self.params.max_contacts {
-            return Err(FrameStatus::TooManyContacts {
-                seen: contacts.len(),
-                max: self.params.max_contacts,
-            });
-        }
+        let (free, contacts) = self.free_and_contacts(obs, &model, report)?;
         let features = self.features_near(&free.solution.positions, &contacts);
         report.features = features.len();
         let clock = std::time::Instant::now();
         let registrar = Registrar::new(&obs.robot);
         let dense_on = self.params.registration.is_dense(contacts.len());
-        let views: Vec<DenseView> = if dense_on {
-            (obs.views.iter())
-                .map(|v| {
-                    let points = &obs.robot[v.robot.clone()];
-                    let camera = &self.cameras[v.camera];
-                    DenseView {
-                        points: subsample(points, self.params.dense_rows.max_points),
-                        eye: camera.eye,
-                        axis: camera.robot_from_camera.axis(2),
-                    }
-                })
-                .collect()
+        let views = if dense_on {
+            self.dense_views(obs)
         } else {
             Vec::new()
         };
@@ -205,6 +186,45 @@ impl Sensor {
             return Ok(None);
         }
         Ok(leave(frame.cables, est, candidates, &groups, force_points))
+    }
+
+    /// The free equilibrium of the actuated `model` (cached per input) and the contacts
+    /// seen in `obs`, timed; a frame with more contacts than `max_contacts` stops here.
+    fn free_and_contacts(
+        &self,
+        obs: &Observation,
+        model: &crate::fem::model::Model,
+        report: &mut FrameReport,
+    ) -> Result<(Arc<FreeState>, Vec<Contact>), FrameStatus> {
+        let clock = std::time::Instant::now();
+        let free = self.free.solve(&self.model, model).map_err(|e| fail(&e))?;
+        report.timings.free_solve = ms(clock.elapsed());
+        let clock = std::time::Instant::now();
+        let contacts = self.contacts(obs).map_err(|e| fail(&e))?;
+        report.timings.contacts = ms(clock.elapsed());
+        if contacts.len() > self.params.max_contacts {
+            return Err(FrameStatus::TooManyContacts {
+                seen: contacts.len(),
+                max: self.params.max_contacts,
+            });
+        }
+        Ok((free, contacts))
+    }
+
+    /// Each camera's robot points in `obs`, subsampled, with its eye and viewing axis: the
+    /// rows of dense registration.
+    fn dense_views(&self, obs: &Observation) -> Vec<DenseView> {
+        (obs.views.iter())
+            .map(|v| {
+                let points = &obs.robot[v.robot.clone()];
+                let camera = &self.cameras[v.camera];
+                DenseView {
+                    points: subsample(points, self.params.dense_rows.max_points),
+                    eye: camera.eye,
+                    axis: camera.robot_from_camera.axis(2),
+                }
+            })
+            .collect()
     }
 
     /// The frame's features: the sensor's, and the pool's within

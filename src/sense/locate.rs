@@ -4,8 +4,9 @@
 //! whose choice moves estimating the new locations. A tracked frame starts from the
 //! previous frame's locations and forces, and checks them with one choice.
 
+use super::blend::{force_of, Group, LocationAlternative};
 use super::estimate::{fail, Estimated, Frame};
-use super::report::{force_of, ms, Group, LocationAlternative};
+use super::timings::ms;
 use super::track::{resume_contacts, Resumed, Track};
 use super::FrameReport;
 use super::FrameStatus;

@@ -31,6 +31,7 @@
 //! }
 //! ```
 
+mod blend;
 mod cameras;
 mod estimate;
 mod free;
@@ -40,18 +41,18 @@ mod params;
 mod report;
 pub mod score;
 mod stream;
+mod timings;
 mod track;
 
 pub use crate::recording::{Recording, Rig};
+pub use blend::{largest_sigma, LocationAlternative};
 pub use cameras::{CameraFrames, CameraReport, CameraState, SensorCamera};
 pub use free::SAME_INPUT;
 pub use observe::{Observation, View};
-pub use params::{Registration, SenseParams};
-pub use report::{
-    compare, largest_sigma, median_timings, ForceEstimate, FrameReport, FrameStatus, LoadError,
-    LocationAlternative, StageTimings, MIN_SCORED_FORCE,
-};
+pub use params::{Registration, SenseParams, CHI2_3DOF_95};
+pub use report::{compare, ForceEstimate, FrameReport, FrameStatus, LoadError, MIN_SCORED_FORCE};
 pub use stream::default_window;
+pub use timings::{median_timings, StageTimings};
 pub use track::Track;
 
 use crate::fem::mesh::Surface;
@@ -63,50 +64,86 @@ use crate::recording::{ActuatorCalibration, FrameInput};
 use crate::register::{surface_features, FeatureParams, SurfaceFeature};
 use free::FreeSolves;
 use serde::Serialize;
+use std::path::PathBuf;
 use thiserror::Error;
 
 /// Errors of the sensing stage (per recording; per-frame failures are [`FrameStatus`]es).
 #[derive(Debug, Error)]
 pub enum SenseError {
-    /// A file of the recording is missing or unreadable.
-    #[error("{path}: {message}")]
-    File {
-        /// The file.
-        path: String,
-        /// What is wrong.
-        message: String,
-    },
     /// The recording could not be read.
     #[error(transparent)]
     Recording(#[from] crate::recording::RecordingError),
     /// Image or intrinsics reading failed.
     #[error(transparent)]
     Io(#[from] crate::io::IoError),
-    /// The frame's entry of the recorded inputs cannot be used (the message names the
-    /// file and the frame).
-    #[error("recorded inputs: {0}")]
-    Inputs(String),
-    /// Calibrated cable inputs that do not fit the model.
-    #[error("calibrated cable inputs: {0}")]
-    Calibration(String),
+    /// The frame's entry of the recorded inputs cannot be used.
+    #[error("recorded inputs: {path}: frame {frame}: {problem}")]
+    Inputs {
+        /// The recorded inputs file (`inputs.json` or `actuators.json`).
+        path: PathBuf,
+        /// The frame.
+        frame: usize,
+        /// Why its entry cannot be used, as [`RecordedInputs`](crate::recording::RecordedInputs)
+        /// keeps it (its entries hold their parse error as text).
+        problem: String,
+    },
+    /// A frame's recorded cable inputs do not fit the model: a cable it does not have, or
+    /// not exactly one of shorten and force.
+    #[error("recorded inputs: {reason}")]
+    CableInputs {
+        /// Why, as [`apply_cable_inputs`] says it (it has no error type of its own).
+        reason: String,
+    },
+    /// A calibrated cable input names a cable the model does not have: the calibration is
+    /// of another model.
+    #[error(
+        "calibrated cable inputs: the model has no cable named {cable:?} (its cables: {})",
+        model_cables.join(", ")
+    )]
+    UnknownCalibratedCable {
+        /// The calibration's cable.
+        cable: String,
+        /// The model's cables.
+        model_cables: Vec<String>,
+    },
+    /// A calibrated cable input that is not finite.
+    #[error(
+        "calibrated cable inputs: cable {cable:?}: tension {tension} N, shortening {shortening} m: \
+         not finite"
+    )]
+    NonFiniteCalibratedCable {
+        /// The cable.
+        cable: String,
+        /// Its calibrated tension (N).
+        tension: f64,
+        /// Its calibrated shortening (m).
+        shortening: f64,
+    },
     /// The recording's cameras are not the sensor's.
-    #[error("the sensor has cameras [{sensor}], the recording [{recording}]")]
+    #[error(
+        "the sensor has cameras [{}], the recording [{}]",
+        sensor.join(", "),
+        recording.join(", ")
+    )]
     Cameras {
         /// The sensor's camera names.
-        sensor: String,
+        sensor: Vec<String>,
         /// The recording's camera names.
-        recording: String,
+        recording: Vec<String>,
     },
     /// A camera without a pose (the folder has neither calibration.json nor
     /// camera_pose.json).
     #[error("{dir} has no camera pose (calibration.json or camera_pose.json)")]
     NoPose {
         /// The camera's folder.
-        dir: String,
+        dir: PathBuf,
     },
-    /// No camera could read the frame (each camera's reason).
-    #[error("no camera could read the frame: {0}")]
-    NoCamera(String),
+    /// No camera could read the frame.
+    #[error("no camera could read the frame: {}", self::cameras::joined(cameras))]
+    NoCamera {
+        /// Each camera's part: missing, or unreadable and why.
+        cameras: Vec<CameraReport>,
+    },
 }
 
 /// `Result` of the sensing stage.
@@ -221,24 +258,18 @@ impl Sensor {
             let c = cables
                 .iter_mut()
                 .find(|c| c.name == a.name)
-                .ok_or_else(|| {
-                    SenseError::Calibration(format!(
-                        "the model has no cable named {:?} (its cables: {})",
-                        a.name,
-                        self.model
-                            .problem
-                            .cables
-                            .iter()
-                            .map(|c| c.name.as_str())
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    ))
+                .ok_or_else(|| SenseError::UnknownCalibratedCable {
+                    cable: a.name.clone(),
+                    model_cables: (self.model.problem.cables.iter())
+                        .map(|c| c.name.clone())
+                        .collect(),
                 })?;
             if !(a.tension.is_finite() && a.shortening.is_finite()) {
-                return Err(SenseError::Calibration(format!(
-                    "cable {:?}: tension {} N, shortening {} m",
-                    a.name, a.tension, a.shortening
-                )));
+                return Err(SenseError::NonFiniteCalibratedCable {
+                    cable: a.name.clone(),
+                    tension: a.tension,
+                    shortening: a.shortening,
+                });
             }
             c.control = match c.control {
                 CableControl::Displacement(_) => CableControl::Displacement(a.shortening),
@@ -255,12 +286,12 @@ impl Sensor {
     /// The model with the cable inputs of `inputs` as its cable controls (its loads are what
     /// sensing estimates, so they are not applied); the error names a cable input that does
     /// not fit the model.
-    fn actuated(&self, inputs: Option<&FrameInput>) -> Result<Model, String> {
+    fn actuated(&self, inputs: Option<&FrameInput>) -> SenseResult<Model> {
         let mut model = self.model.clone();
         model.problem.loads.clear();
         if let Some(inputs) = inputs {
             apply_cable_inputs(&mut model.problem.cables, &inputs.cables)
-                .map_err(|e| format!("recorded inputs: {e}"))?;
+                .map_err(|reason| SenseError::CableInputs { reason })?;
         }
         Ok(model)
     }

@@ -3,7 +3,7 @@
 //! where the objects touch the robot ([`Sensor::contacts`]).
 
 use super::cameras::{CameraFrames, CameraReport, CameraState};
-use super::report::ms;
+use super::timings::ms;
 use super::SenseError;
 use super::{Recording, SenseParams, SenseResult, Sensor};
 use crate::contact::{detect_contacts, Contact};
@@ -57,8 +57,14 @@ impl Sensor {
         self.check_cameras(source)?;
         let shared = source.camera_recording(0);
         // Without its inputs the frame would be sensed against the wrong cable state.
-        if let Some(problem) = shared.input_problem(frame) {
-            return Err(SenseError::Inputs(problem));
+        if let Some(recorded) = &shared.recorded {
+            if let Some(Err(problem)) = recorded.entries.get(frame) {
+                return Err(SenseError::Inputs {
+                    path: recorded.path.clone(),
+                    frame,
+                    problem: problem.clone(),
+                });
+            }
         }
         let mut obs = Observation::default();
         if self.cameras.len() == 1 {
@@ -93,8 +99,9 @@ impl Sensor {
             });
         }
         if obs.views.is_empty() {
-            let each: Vec<String> = obs.cameras.iter().map(|c| c.to_string()).collect();
-            return Err(SenseError::NoCamera(each.join("; ")));
+            return Err(SenseError::NoCamera {
+                cameras: obs.cameras,
+            });
         }
         Ok(obs)
     }

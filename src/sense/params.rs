@@ -5,6 +5,11 @@ use crate::inverse::FrameParams;
 use crate::register::FeatureParams;
 use crate::segment::robot_color::RobotColorModel;
 
+/// The 95% quantile of χ² with 3 degrees of freedom (7.8147): how far an equally good
+/// location of a 3-D force may fit worse ([`SenseParams::location_ambiguity`]), and the
+/// squared Mahalanobis distance inside a 3-D Gaussian's 95% ellipsoid ([`super::score`]).
+pub const CHI2_3DOF_95: f64 = 7.815;
+
 /// Parameters of the sensing chain.
 #[derive(Clone, Debug)]
 pub struct SenseParams {
@@ -31,8 +36,8 @@ pub struct SenseParams {
     pub location_options: usize,
     /// Another location whose misfit (the fit's loss in units of the noise,
     /// [`LocationAlternative::misfit`](super::LocationAlternative::misfit)) is at most this
-    /// "fits within the noise": the force gets a warning (7.81, χ² of 3 unknowns at 95%).
-    /// Up to twice this, alternatives are reported and widen the σ.
+    /// "fits within the noise": the force gets a warning ([`CHI2_3DOF_95`], χ² of 3
+    /// unknowns at 95%). Up to twice this, alternatives are reported and widen the σ.
     pub location_ambiguity: f64,
     /// FE updates of the preview, the first estimate of an untracked frame with seen
     /// contacts, after which the choice is made again (2; 0 or 1: no preview).
@@ -111,7 +116,10 @@ impl Default for SenseParams {
             direction_warning: 0.025,
             location_radius: 0.015,
             location_options: 16,
-            location_ambiguity: 7.81,
+            // 7.81 before it was the constant `score` uses: no bundled recording has an
+            // alternative location with a misfit near either threshold (the least is
+            // 19.7, beyond twice this), so their answers are the same.
+            location_ambiguity: CHI2_3DOF_95,
             preview_updates: 2,
             location_checks: 2,
             max_combinations: 400,

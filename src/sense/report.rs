@@ -1,92 +1,20 @@
 //! What the sensor reports per frame: the outcome ([`FrameStatus`]), the estimated forces
-//! ([`ForceEstimate`]) with their uncertainty, where the time went ([`StageTimings`]), and
-//! the errors against a generator's truth ([`compare`]).
+//! ([`ForceEstimate`]) with their uncertainty and the warnings a user should read, where
+//! the time went ([`StageTimings`], in `timings`), and the errors against a generator's
+//! truth ([`compare`]). How a force and its uncertainty come from an estimate is in
+//! `blend`.
 
-use super::SenseParams;
+use super::blend::{force_estimate, Group, LocationAlternative};
+use super::{SenseParams, StageTimings};
 use crate::fem::model::Model;
-use crate::inverse::intensity::{Identifiability, IntensityEstimate};
-use crate::inverse::{Candidate, FrameEstimate, LoopTimings};
-use crate::math::{dot, norm, sub, unit};
+use crate::inverse::intensity::Identifiability;
+use crate::inverse::{Candidate, FrameEstimate};
+use crate::math::{norm, sub};
 use crate::recording::FrameTruth;
-use serde::Serialize;
-
-/// Milliseconds of a duration.
-pub(super) fn ms(d: std::time::Duration) -> f64 {
-    d.as_secs_f64() * 1e3
-}
-
-/// Where the time of one frame went (ms). Stage times add up the work done in each stage:
-/// where candidate estimates run in parallel (rayon) they are summed over threads, so their
-/// sum can exceed `total`, the wall time of the frame.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
-pub struct StageTimings {
-    /// Decoding the depth and colour PNGs and back-projecting depth into points.
-    pub read: f64,
-    /// Filter: transform to the robot frame and crop to the working box.
-    pub crop: f64,
-    /// Segment: the colour model splitting robot and object points.
-    pub segment: f64,
-    /// The free FE solve at the frame's actuator inputs (near zero when cached).
-    pub free_solve: f64,
-    /// Contact detection (KD-tree) and Euclidean grouping.
-    pub contacts: f64,
-    /// Location mapping: options per contact, their linearisation and the QPs choosing one.
-    pub mapping: f64,
-    /// Registration of the features along their normal lines (grid build included).
-    pub register: f64,
-    /// FE updates: Newton solves under the estimated forces.
-    pub fe_update: f64,
-    /// Compliance: tangent factorisation at the updated state and W = H K⁻¹ Hᵀ.
-    pub compliance: f64,
-    /// Intensity QPs (clarabel), identifiability and uncertainty included.
-    pub qp: f64,
-    /// Wall time of the whole frame: read to report.
-    pub total: f64,
-}
-
-impl StageTimings {
-    /// Stage names and values, in chain order (`total` last).
-    pub fn named(&self) -> [(&'static str, f64); 11] {
-        [
-            ("read", self.read),
-            ("crop", self.crop),
-            ("segment", self.segment),
-            ("free_solve", self.free_solve),
-            ("contacts", self.contacts),
-            ("mapping", self.mapping),
-            ("register", self.register),
-            ("fe_update", self.fe_update),
-            ("compliance", self.compliance),
-            ("qp", self.qp),
-            ("total", self.total),
-        ]
-    }
-
-    /// Adds the loop timings of one frame estimate.
-    fn add_loop(&mut self, t: &LoopTimings) {
-        self.register += t.register;
-        self.fe_update += t.fe_update;
-        self.compliance += t.compliance;
-        self.qp += t.qp;
-    }
-}
-
-/// Per-stage medians over frames (ms), in [`StageTimings::named`] order.
-pub fn median_timings(timings: &[StageTimings]) -> Vec<(&'static str, f64)> {
-    let named: Vec<_> = timings.iter().map(|t| t.named()).collect();
-    StageTimings::default()
-        .named()
-        .iter()
-        .enumerate()
-        .map(|(k, (name, _))| {
-            let mut v: Vec<f64> = named.iter().map(|n| n[k].1).collect();
-            (*name, crate::math::median(&mut v))
-        })
-        .collect()
-}
+use serde::{Deserialize, Serialize};
 
 /// What happened to a frame.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "status", content = "detail", rename_all = "snake_case")]
 pub enum FrameStatus {
     /// Forces estimated.
@@ -142,7 +70,8 @@ pub struct ForceEstimate {
     /// Its magnitude (N).
     pub magnitude: f64,
     /// One-sigma uncertainty of the magnitude (N), from the sensor noise, W and the rows'
-    /// residuals (see [`crate::inverse::FrameEstimate::use_shared_point_uncertainty`]).
+    /// residuals (see [`crate::inverse::FrameEstimate::use_shared_point_uncertainty`]); a
+    /// zero force, which has no direction, takes `sigma_max`.
     pub sigma: f64,
     /// The largest one-sigma of the force over all directions (N): the square root of
     /// `covariance`'s largest eigenvalue (NaN if it has a NaN). Where `sigma` is small but
@@ -164,29 +93,6 @@ pub struct ForceEstimate {
     /// the forces they would give (each weighted by [`LocationAlternative::weight`]).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub alternatives: Vec<LocationAlternative>,
-}
-
-/// Another surface node that explains a frame nearly as well as a contact's chosen one.
-#[derive(Clone, Debug, Serialize)]
-pub struct LocationAlternative {
-    /// The surface node.
-    pub node: usize,
-    /// Its position where the choice was made (robot frame, m).
-    pub location: [f64; 3],
-    /// The contact's force were it there (N, robot frame): the estimate moved by what the
-    /// swap changes in the choice's QP.
-    pub force: [f64; 3],
-    /// How much worse the frame fits with the contact there, in units of the noise
-    /// ([`crate::inverse::Alternative::misfit`]); at most
-    /// [`SenseParams::location_ambiguity`] reads "fits within the noise".
-    pub misfit: f64,
-}
-
-impl LocationAlternative {
-    /// Its weight against the chosen location's 1: the likelihood ratio exp(−misfit / 2).
-    pub fn weight(&self) -> f64 {
-        (-0.5 * self.misfit).exp()
-    }
 }
 
 /// The smallest true force a relative error is taken against (N): a weaker or zero true
@@ -302,22 +208,6 @@ impl FrameReport {
             positions: Vec::new(),
         }
     }
-}
-
-/// The candidates of one reported force: a seen contact's, or a declared force point's.
-pub(super) struct Group {
-    /// Where the location came from (`contact`, `force point <name>`).
-    pub source: String,
-    /// The seen contact's centroid (robot frame, m).
-    pub seen_at: Option<[f64; 3]>,
-    /// Contact points in the seen group.
-    pub points: usize,
-    /// The chosen surface node (seen contacts).
-    pub node: Option<usize>,
-    /// Its candidates (a range of the estimate's).
-    pub range: std::ops::Range<usize>,
-    /// Other locations that fit nearly as well.
-    pub alternatives: Vec<LocationAlternative>,
 }
 
 impl FrameReport {
@@ -453,129 +343,6 @@ impl FrameReport {
     }
 }
 
-/// The force of group `g` in the estimate `e` of `cands` at node positions `positions`:
-/// the sum of its candidates' forces, with its magnitude's σ and its covariance.
-fn force_estimate(
-    g: &Group,
-    e: &IntensityEstimate,
-    cands: &[Candidate],
-    positions: &[[f64; 3]],
-) -> ForceEstimate {
-    let f = force_of(&cands[g.range.clone()], &e.forces[g.range.clone()]);
-    let mut var = 0.0;
-    let magnitude = norm(f);
-    // The components' (co)variance: the sandwich's when the estimate has it, else
-    // the independent σ.
-    let cov_kl = |k: usize, l: usize| match &e.force_covariance {
-        Some(cov) if cov.nrows() == cands.len() => cov[(k, l)],
-        _ if k == l => e.force_sigma.get(k).copied().unwrap_or(f64::NAN).powi(2),
-        _ => 0.0,
-    };
-    // Magnitude sigma: that (co)variance projected on the force direction.
-    let proj = |k: usize| {
-        if magnitude > 0.0 {
-            dot(unit(cands[k].direction), f) / magnitude
-        } else {
-            1.0
-        }
-    };
-    // The same in the robot frame: Σ_kl u_k u_lᵀ cov_kl.
-    let mut covariance = [[0.0; 3]; 3];
-    for k in g.range.clone() {
-        let uk = unit(cands[k].direction);
-        for l in g.range.clone() {
-            let ul = unit(cands[l].direction);
-            let c = cov_kl(k, l);
-            var += proj(k) * proj(l) * c;
-            for (a, row) in covariance.iter_mut().enumerate() {
-                for (b, v) in row.iter_mut().enumerate() {
-                    *v += uk[a] * ul[b] * c;
-                }
-            }
-        }
-    }
-    let var = var.max(0.0);
-    let at = cands[g.range.start].at.position(positions);
-    let mut out = ForceEstimate {
-        source: g.source.clone(),
-        seen_at: g.seen_at,
-        contact_points: g.points,
-        location: at,
-        node: g.node,
-        force: f,
-        magnitude,
-        sigma: var.sqrt(),
-        sigma_max: largest_sigma(&covariance),
-        covariance,
-        location_sigma: g.seen_at.map(|_| 0.0),
-        alternatives: Vec::new(),
-    };
-    out.blend(g.alternatives.clone());
-    out
-}
-
-impl ForceEstimate {
-    /// Takes in the locations that explain the frame nearly as well: the answer is then a
-    /// mixture over them (weights [`LocationAlternative::weight`], the chosen location's
-    /// 1), so the force's mean squared error about the reported force gains
-    /// Σ w_k ΔF_k ΔF_kᵀ / Σ w (ΔF_k the force's change were the contact at k), and the
-    /// location's the same of the distances.
-    fn blend(&mut self, alternatives: Vec<LocationAlternative>) {
-        if alternatives.is_empty() {
-            return;
-        }
-        let total: f64 = 1.0 + alternatives.iter().map(|a| a.weight()).sum::<f64>();
-        let mut spread = 0.0;
-        for a in &alternatives {
-            let w = a.weight() / total;
-            let df = sub(a.force, self.force);
-            let dx = sub(a.location, self.location);
-            spread += w * dot(dx, dx);
-            for (r, row) in self.covariance.iter_mut().enumerate() {
-                for (c, v) in row.iter_mut().enumerate() {
-                    *v += w * df[r] * df[c];
-                }
-            }
-        }
-        let c = &self.covariance;
-        let u = if self.magnitude > 0.0 {
-            self.force.map(|v| v / self.magnitude)
-        } else {
-            [1.0, 0.0, 0.0]
-        };
-        let var: f64 = (0..3)
-            .flat_map(|r| (0..3).map(move |q| (r, q)))
-            .map(|(r, q)| u[r] * c[r][q] * u[q])
-            .sum();
-        self.sigma = var.max(0.0).sqrt();
-        self.sigma_max = largest_sigma(c);
-        self.location_sigma = Some(spread.sqrt());
-        self.alternatives = alternatives;
-    }
-}
-
-/// The force of candidates `cands` with intensities `forces` (N).
-pub(super) fn force_of(cands: &[Candidate], forces: &[f64]) -> [f64; 3] {
-    let mut f = [0.0; 3];
-    for (c, l) in cands.iter().zip(forces) {
-        let d = unit(c.direction);
-        for q in 0..3 {
-            f[q] += l * d[q];
-        }
-    }
-    f
-}
-
-/// The square root of a symmetric 3x3 covariance's largest eigenvalue (0 for a negative
-/// one from rounding), NaN when an entry is not finite.
-pub fn largest_sigma(covariance: &[[f64; 3]; 3]) -> f64 {
-    if covariance.iter().flatten().any(|v| !v.is_finite()) {
-        return f64::NAN;
-    }
-    let m = nalgebra::Matrix3::from_fn(|r, c| 0.5 * (covariance[r][c] + covariance[c][r]));
-    m.symmetric_eigenvalues().max().max(0.0).sqrt()
-}
-
 /// Matches each true load to the nearest estimate and reports the errors.
 pub fn compare(report: &FrameReport, truth: &FrameTruth) -> Vec<LoadError> {
     truth
@@ -613,57 +380,10 @@ pub fn compare(report: &FrameReport, truth: &FrameTruth) -> Vec<LoadError> {
         })
         .collect()
 }
-
 #[cfg(test)]
 mod tests {
-    use super::{largest_sigma, ForceEstimate, FrameReport, FrameStatus, LocationAlternative};
-
-    fn force(seen: bool, magnitude: f64, sigma_max: f64) -> ForceEstimate {
-        ForceEstimate {
-            source: if seen { "contact" } else { "force point tip" }.into(),
-            seen_at: seen.then_some([0.0; 3]),
-            contact_points: 10,
-            location: [0.0; 3],
-            node: None,
-            force: [magnitude, 0.0, 0.0],
-            magnitude,
-            sigma: sigma_max,
-            sigma_max,
-            covariance: [[sigma_max * sigma_max, 0.0, 0.0], [0.0; 3], [0.0; 3]],
-            location_sigma: seen.then_some(0.0),
-            alternatives: Vec::new(),
-        }
-    }
-
-    fn alternative(node: usize, dx: f64, force: [f64; 3], misfit: f64) -> LocationAlternative {
-        LocationAlternative {
-            node,
-            location: [dx, 0.0, 0.0],
-            force,
-            misfit,
-        }
-    }
-
-    #[test]
-    fn an_equally_good_location_adds_half_its_force_change_squared_to_the_variance() {
-        let mut f = force(true, 1.0, 0.01);
-        // Misfit 0: weight 1 against the chosen location's 1.
-        f.blend(vec![alternative(7, 0.008, [1.2, 0.0, 0.0], 0.0)]);
-        let var = 0.01f64.powi(2) + 0.5 * 0.2f64.powi(2);
-        assert!((f.covariance[0][0] - var).abs() < 1e-15);
-        assert!((f.sigma - var.sqrt()).abs() < 1e-15);
-        assert!((f.sigma_max - var.sqrt()).abs() < 1e-15);
-        assert!((f.location_sigma.unwrap() - (0.5f64 * 0.008 * 0.008).sqrt()).abs() < 1e-15);
-        assert_eq!(f.alternatives.len(), 1);
-    }
-
-    #[test]
-    fn a_location_that_fits_far_worse_than_the_noise_barely_widens_the_sigma() {
-        let mut f = force(true, 1.0, 0.01);
-        f.blend(vec![alternative(7, 0.008, [0.0, 1.0, 0.0], 40.0)]);
-        assert!(f.sigma_max < 0.01 * (1.0 + 1e-4), "{}", f.sigma_max);
-        assert!(f.location_sigma.unwrap() < 1e-6);
-    }
+    use super::super::blend::tests::{alternative, force};
+    use super::{FrameReport, FrameStatus};
 
     #[test]
     fn a_second_location_within_the_noise_is_named_in_a_warning() {
@@ -676,7 +396,7 @@ mod tests {
         let mut far = force(true, 0.5, 0.005);
         far.blend(vec![alternative(14, 0.009, [0.4, 0.0, 0.0], 9.0)]);
         r.forces = vec![near, far];
-        r.warn_ambiguous_locations(7.81);
+        r.warn_ambiguous_locations(crate::sense::CHI2_3DOF_95);
         assert_eq!(r.warnings.len(), 1, "{:?}", r.warnings);
         let w = &r.warnings[0];
         assert!(
@@ -696,25 +416,5 @@ mod tests {
         r.warn_uncertain_directions(0.025);
         assert_eq!(r.warnings.len(), 1, "{:?}", r.warnings);
         assert!(r.warnings[0].starts_with("force 0: cannot be told from zero"));
-    }
-
-    #[test]
-    fn the_largest_sigma_of_a_rotated_covariance_is_its_longest_axis() {
-        // diag(1, 4, 9) turned 30° about z: the axes keep their lengths.
-        let (s, c) = (0.5f64, 3f64.sqrt() / 2.0);
-        let r = nalgebra::Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0);
-        let m = r
-            * nalgebra::Matrix3::from_diagonal(&nalgebra::Vector3::new(1.0, 4.0, 9.0))
-            * r.transpose();
-        let cov = [0, 1, 2].map(|i| [0, 1, 2].map(|j| m[(i, j)]));
-        assert!((largest_sigma(&cov) - 3.0).abs() < 1e-12);
-    }
-
-    #[test]
-    fn a_covariance_with_a_nan_has_no_largest_sigma() {
-        let mut cov = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-        cov[1][2] = f64::NAN;
-        assert!(largest_sigma(&cov).is_nan());
-        assert_eq!(largest_sigma(&[[0.0; 3]; 3]), 0.0);
     }
 }

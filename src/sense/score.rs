@@ -15,6 +15,8 @@
 //! - sigma coverage: the magnitude error against `sigma` (1, 2, 3 σ) and the squared
 //!   Mahalanobis distance eᵀ C⁻¹ e of the 3-D error, over located loads.
 
+use super::{CameraState, FrameStatus, CHI2_3DOF_95};
+use crate::math::median;
 use serde::{Deserialize, Serialize};
 
 /// Largest distance between an estimate and its true load for "located" (m).
@@ -27,8 +29,9 @@ pub const WITHIN: f64 = 0.05;
 pub struct SensedFrame {
     /// Frame number.
     pub frame: usize,
-    /// `sensed` or why not.
-    pub status: String,
+    /// Sensed, or why not (`status`, and its `detail` where it has one).
+    #[serde(flatten)]
+    pub status: FrameStatus,
     /// Estimated forces.
     #[serde(default)]
     pub forces: Vec<SensedForce>,
@@ -52,8 +55,9 @@ pub struct SensedFrame {
 /// One camera's part in a frame as `sense --json` prints it.
 #[derive(Clone, Debug, Deserialize)]
 pub struct SensedCamera {
-    /// `seen`, `missing` or `unreadable`.
-    pub status: String,
+    /// Seen, missing or unreadable (`status`, and its counts or message).
+    #[serde(flatten)]
+    pub state: CameraState,
 }
 
 impl SensedFrame {
@@ -61,8 +65,15 @@ impl SensedFrame {
     pub fn cameras_seen(&self) -> usize {
         match self.cameras.len() {
             0 => 1,
-            _ => self.cameras.iter().filter(|c| c.status == "seen").count(),
+            _ => (self.cameras.iter())
+                .filter(|c| matches!(c.state, CameraState::Seen { .. }))
+                .count(),
         }
+    }
+
+    /// Whether the frame is flagged: not sensed, marked unreliable, or warned.
+    pub fn flagged(&self) -> bool {
+        self.status != FrameStatus::Sensed || !self.reliable || !self.warnings.is_empty()
     }
 }
 
@@ -159,7 +170,7 @@ pub struct Summary {
     pub sigma_coverage: [f64; 3],
     /// Median squared Mahalanobis distance (Gaussian, 3-D: 2.366).
     pub median_mahalanobis2: f64,
-    /// Share of located loads inside the Gaussian 95% ellipsoid (χ²₃ ≤ 7.815).
+    /// Share of located loads inside the Gaussian 95% ellipsoid (χ²₃ ≤ [`CHI2_3DOF_95`]).
     pub within_ellipsoid95: f64,
     /// Median time per frame (ms).
     pub median_ms: f64,
@@ -184,7 +195,7 @@ fn inverse3(m: &[[f64; 3]; 3]) -> Option<nalgebra::Matrix3<f64>> {
 
 /// Scores one frame: its loads and its phantoms. `frame_ms` is kept per load.
 pub fn score_frame(recording: &str, f: &SensedFrame) -> (Vec<LoadScore>, Vec<Phantom>) {
-    let flagged = f.status != "sensed" || !f.reliable || !f.warnings.is_empty();
+    let flagged = f.flagged();
     let errors = f.errors.as_deref().unwrap_or(&[]);
     let loads = errors
         .iter()
@@ -243,19 +254,6 @@ pub fn score_frame(recording: &str, f: &SensedFrame) -> (Vec<LoadScore>, Vec<Pha
     (loads, phantoms)
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
-
 /// Summarises loads and phantoms of `frames` (each with its frame time).
 fn summarise(frames: &[(&SensedFrame, Vec<LoadScore>, Vec<Phantom>)]) -> Summary {
     let loads: Vec<&LoadScore> = frames.iter().flat_map(|f| &f.1).collect();
@@ -276,7 +274,8 @@ fn summarise(frames: &[(&SensedFrame, Vec<LoadScore>, Vec<Phantom>)]) -> Summary
             located.len(),
         )
     });
-    let m2: Vec<f64> = located.iter().filter_map(|l| l.mahalanobis2).collect();
+    let mut m2: Vec<f64> = located.iter().filter_map(|l| l.mahalanobis2).collect();
+    let inside95 = m2.iter().filter(|&&d| d <= CHI2_3DOF_95).count();
     let phantoms = frames.iter().map(|f| f.2.len()).sum::<usize>();
     let silent_phantoms = frames
         .iter()
@@ -285,11 +284,10 @@ fn summarise(frames: &[(&SensedFrame, Vec<LoadScore>, Vec<Phantom>)]) -> Summary
         .count();
     Summary {
         frames: frames.len(),
-        sensed: frames.iter().filter(|f| f.0.status == "sensed").count(),
-        flagged_frames: frames
-            .iter()
-            .filter(|f| f.0.status != "sensed" || !f.0.reliable || !f.0.warnings.is_empty())
+        sensed: (frames.iter())
+            .filter(|f| f.0.status == FrameStatus::Sensed)
             .count(),
+        flagged_frames: frames.iter().filter(|f| f.0.flagged()).count(),
         loads: loads.len(),
         located: located.len(),
         within: loads.iter().filter(|l| l.within).count(),
@@ -304,9 +302,9 @@ fn summarise(frames: &[(&SensedFrame, Vec<LoadScore>, Vec<Phantom>)]) -> Summary
         silent: loads.iter().filter(|l| l.silent).count() + silent_phantoms,
         phantoms,
         sigma_coverage: cover,
-        median_mahalanobis2: median(m2.clone()),
-        within_ellipsoid95: share(m2.iter().filter(|&&d| d <= 7.815).count(), m2.len()),
-        median_ms: median(frames.iter().map(|f| f.0.ms).collect()),
+        within_ellipsoid95: share(inside95, m2.len()),
+        median_mahalanobis2: median(&mut m2),
+        median_ms: median(&mut frames.iter().map(|f| f.0.ms).collect::<Vec<_>>()),
     }
 }
 

@@ -1,8 +1,8 @@
 //! Sensing a stream frame after frame ([`Sensor::track_frames`]): what a frame leaves for
 //! the next ([`Track`]), and whether the next can start from it.
 
+use super::blend::Group;
 use super::free::same_inputs;
-use super::report::Group;
 use super::{CameraFrames, FrameReport, FrameStatus, Observation, SenseResult, Sensor};
 use crate::fem::solve::CableControl;
 use crate::inverse::{Candidate, FrameEstimate};
@@ -52,6 +52,11 @@ impl Track {
 }
 
 impl Sensor {
+    /// Observes and senses `frames` of `rec` one after the other as a stream, each frame
+    /// starting from what the one before left ([`Sensor::track`]) while the next is read
+    /// beside it, and hands each observation and report to `emit` in frame order. An
+    /// unreadable frame gets [`FrameStatus::Unreadable`] (and the next starts afresh).
+    /// Stops at the first error of `emit`.
     ///
     /// ```no_run
     /// # use softsense::sense::{Recording, SenseParams, Sensor};

@@ -83,19 +83,28 @@ fn calibrated_inputs_of_another_model_are_refused_by_cable_name() {
         tension,
         shortening: 0.01,
     };
+    use softsense::sense::SenseError;
     let e = sensor
         .use_calibrated_inputs(&[cal("north", 5.0), cal("tendon-7", 1.0)])
-        .unwrap_err()
-        .to_string();
+        .unwrap_err();
+    assert!(
+        matches!(&e, SenseError::UnknownCalibratedCable { cable, .. } if cable == "tendon-7"),
+        "{e}"
+    );
+    let e = e.to_string();
     assert!(
         e.contains("\"tendon-7\"") && e.contains("north, west, south, east"),
         "{e}"
     );
     let e = sensor
         .use_calibrated_inputs(&[cal("east", f64::NAN)])
-        .unwrap_err()
-        .to_string();
-    assert!(e.contains("\"east\""), "{e}");
+        .unwrap_err();
+    assert!(
+        matches!(&e, SenseError::NonFiniteCalibratedCable { cable, tension, .. } if cable == "east" && tension.is_nan()),
+        "{e}"
+    );
+    let e = e.to_string();
+    assert!(e.contains("\"east\"") && e.contains("not finite"), "{e}");
     // Refused inputs leave the model as it was; good ones take each cable's own control.
     assert_eq!(
         sensor.model_inputs(),

@@ -116,7 +116,7 @@ fn a_sensor_refuses_a_recording_of_other_cameras_and_a_frame_no_camera_reads() {
     }
     let err = rig_sensor(&rig).observe(&rig, 0).unwrap_err();
     let text = err.to_string();
-    assert!(matches!(err, SenseError::NoCamera(_)), "{text}");
+    assert!(matches!(err, SenseError::NoCamera { .. }), "{text}");
     assert!(text.contains("front:") && text.contains("side:"), "{text}");
 }
 

@@ -291,3 +291,44 @@ fn an_error_from_the_consumer_stops_the_stream_and_is_returned() {
         assert_eq!(seen, [0, 1], "window {window}");
     }
 }
+
+#[test]
+fn recorded_inputs_that_do_not_fit_the_model_make_the_frame_not_solved_saying_why() {
+    use softsense::recording::{CableInput, FrameInput};
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let rec = Recording::open(&root.join("clouds/scenes/tip_weight")).unwrap();
+    let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
+    let sensor = Sensor::new(
+        model,
+        rec.robot_from_camera.unwrap(),
+        SenseParams::default(),
+    );
+    let obs = sensor.observe(&rec, 0).unwrap();
+    let input = |name: &str, shorten: Option<f64>, force: Option<f64>| FrameInput {
+        cables: vec![CableInput {
+            name: name.into(),
+            shorten,
+            force,
+        }],
+        loads: Vec::new(),
+    };
+    for (inputs, why) in [
+        (
+            input("tendon-7", Some(0.01), None),
+            "no cable named \"tendon-7\"",
+        ),
+        (
+            input("north", Some(0.01), Some(1.0)),
+            "exactly one of shorten, force",
+        ),
+    ] {
+        let report = sensor.sense(0, &obs, Some(&inputs));
+        let FrameStatus::NotSolved(detail) = &report.status else {
+            panic!("{:?}", report.status);
+        };
+        assert!(
+            detail.starts_with("recorded inputs: ") && detail.contains(why),
+            "{detail}"
+        );
+    }
+}

@@ -2,6 +2,7 @@
 //! hand-made sense lines whose answers are known.
 
 use softsense::sense::score::{score, score_frame, SensedFrame};
+use softsense::sense::FrameStatus;
 
 /// A sense line with one true load of `truth` N along x and one estimate `est` N along x
 /// with isotropic covariance sigma², `located_mm` from the truth.
@@ -87,4 +88,46 @@ fn coverage_counts_each_sigma_band_over_located_loads() {
     assert!((c[2] - 1.0).abs() < 1e-12);
     assert!((s.all.median_mahalanobis2 - 2.25).abs() < 1e-9);
     assert_eq!(s.all.median_ms, 100.0);
+}
+
+#[test]
+fn a_frame_not_sensed_is_flagged_and_not_counted_sensed_whatever_its_detail() {
+    let not_solved: SensedFrame = serde_json::from_value(serde_json::json!({
+        "frame": 0, "status": "not_solved", "detail": "the QP failed", "errors": [],
+    }))
+    .unwrap();
+    assert_eq!(
+        not_solved.status,
+        FrameStatus::NotSolved("the QP failed".into())
+    );
+    let crowded: SensedFrame = serde_json::from_value(serde_json::json!({
+        "frame": 1, "status": "too_many_contacts", "detail": {"seen": 9, "max": 6}, "errors": [],
+    }))
+    .unwrap();
+    assert_eq!(
+        crowded.status,
+        FrameStatus::TooManyContacts { seen: 9, max: 6 }
+    );
+    let sensed = line(0.5, 0.5, 0.01, 1.0, true);
+    assert!(not_solved.flagged() && crowded.flagged() && !sensed.flagged());
+    let s = score(&[("r".into(), vec![not_solved, crowded, sensed])]);
+    assert_eq!(
+        (s.all.frames, s.all.sensed, s.all.flagged_frames),
+        (3, 1, 2)
+    );
+}
+
+#[test]
+fn a_frame_of_a_rig_counts_the_cameras_it_was_seen_by() {
+    let f: SensedFrame = serde_json::from_value(serde_json::json!({
+        "frame": 0, "status": "sensed",
+        "cameras": [
+            {"name": "front", "status": "seen", "robot_points": 10, "object_points": 0},
+            {"name": "side", "status": "unreadable", "message": "no such file"},
+            {"name": "top", "status": "missing"},
+        ],
+    }))
+    .unwrap();
+    assert_eq!(f.cameras_seen(), 1);
+    assert_eq!(line(0.5, 0.5, 0.01, 1.0, true).cameras_seen(), 1);
 }
