@@ -15,7 +15,7 @@ use crate::inverse::{
     choose_locations, estimate, Alternative, Candidate, FrameEstimate, FrameInputs, FrameParams,
     InverseResult, LinearisationPoint, LocationChoice, Start,
 };
-use crate::math::{cross, dot, sub, unit};
+use crate::math::{dot, sub, tangents};
 use crate::register::vertex_normals;
 
 /// Locations tried, per round of a frame's location choice, after the chosen one could not
@@ -624,13 +624,3 @@ fn near_nodes(x: &[[f64; 3]], nodes: &[usize], p: [f64; 3], radius: f64, max: us
     d.iter().take(within).map(|e| e.1).collect()
 }
 
-/// Two unit vectors completing `n` (unit) to an orthonormal basis.
-fn tangents(n: [f64; 3]) -> ([f64; 3], [f64; 3]) {
-    let a = if n[0].abs() < 0.9 {
-        [1.0, 0.0, 0.0]
-    } else {
-        [0.0, 1.0, 0.0]
-    };
-    let t1 = unit(cross(n, a));
-    (t1, cross(n, t1))
-}
