@@ -1,8 +1,9 @@
 //! The inverse model: a small QP layer over clarabel ([`qp`]), the normal-space intensity
-//! QP of thesis 4.5.2 (equations 4.14-4.18, [`intensity`]), and the per-frame sensing loop
-//! built on them: one entry, [`estimate`] (the loop, [`sensing`]), its linearisation
-//! ([`linearise`]), the choice of contact locations ([`locations`]) and the forces'
-//! uncertainty from shared points ([`uncertainty`]).
+//! QP of thesis 4.5.2 (equations 4.14-4.18, [`intensity`]), the least squares'
+//! identifiability and covariance it shares with the markers ([`lsq`]), and the per-frame
+//! sensing loop built on them: one entry, [`estimate`] (the loop, [`sensing`]), its
+//! linearisation ([`linearise`]), the choice of contact locations ([`locations`]) and the
+//! forces' uncertainty from shared points ([`uncertainty`]).
 //!
 //! ```
 //! use softsense::inverse::qp::{QpProblem, QpStatus};
@@ -20,6 +21,7 @@ pub mod dense;
 pub mod intensity;
 pub mod linearise;
 pub mod locations;
+pub mod lsq;
 pub mod qp;
 pub mod sensing;
 pub mod uncertainty;

@@ -10,6 +10,7 @@
 use super::bind::{BoundMarker, ForceCandidate};
 use super::{MarkerSensor, MarkersError, MarkersParams, MarkersResult};
 use crate::fem::solve::{MappedPoint, NewtonParams, Problem};
+use crate::inverse::lsq;
 use crate::math::{norm, sub};
 use nalgebra::DMatrix;
 use serde::Serialize;
@@ -185,19 +186,9 @@ pub fn check_counts(markers: usize, unknowns: usize) -> MarkersResult<()> {
 }
 
 /// I_w (N/m) of the sum of blocks `gram` = W_efᵀW_ef, and log det(gram + εI) to rank
-/// layouts that do not identify the unknowns yet (every one of them has I_w = ∞).
+/// layouts that do not identify the unknowns yet ([`lsq::gram_i_w`]).
 fn score(gram: &DMatrix<f64>) -> (f64, f64) {
-    let eig = gram.clone().symmetric_eigen().eigenvalues;
-    let max = eig.iter().copied().fold(0.0, f64::max);
-    let min = eig.iter().copied().fold(f64::INFINITY, f64::min);
-    let eps = 1e-12 * max.max(f64::MIN_POSITIVE);
-    let logdet = eig.iter().map(|l| (l.max(0.0) + eps).ln()).sum::<f64>();
-    let i_w = if min > eps {
-        1.0 / min.sqrt()
-    } else {
-        f64::INFINITY
-    };
-    (i_w, logdet)
+    lsq::gram_i_w(gram)
 }
 
 /// I_w of the layout `chosen` (indices into `blocks`).

@@ -13,7 +13,8 @@ use super::bind::{BoundMarker, ForceCandidate};
 use super::{MarkersParams, MarkersResult};
 use crate::fem::constraint::ConstraintRow;
 use crate::fem::solve::{CableControl, NewtonParams, PointLoad, Problem, Solution};
-use crate::inverse::intensity::{IntensityParams, IntensityProblem};
+use crate::inverse::intensity::IntensityParams;
+use crate::inverse::lsq;
 use crate::math::Vec3;
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
@@ -404,29 +405,17 @@ impl MarkerSensor {
         lambda: Vec<f64>,
         status: MarkersStatus,
     ) {
-        let (m, n) = w_ef.shape();
-        let problem = IntensityProblem {
-            w_ea: DMatrix::zeros(m, 0),
-            w_ef: w_ef.clone(),
-            delta_free_e: vec![0.0; m],
-            delta_measured: vec![0.0; m],
-            w_aa: DMatrix::zeros(0, 0),
-            w_af: DMatrix::zeros(0, n),
-            delta_free_a: Vec::new(),
-            actuators: Vec::new(),
-            push_only: vec![false; n],
-            row_noise: Default::default(),
-        };
-        let ident = problem.identifiability(&IntensityParams::default());
+        let n = w_ef.ncols();
+        let ident = lsq::identifiability(w_ef, n, IntensityParams::default().max_i_w);
         out.i_w = ident.i_w;
         let s2 = self.params.sigma * self.params.sigma;
-        out.covariance = problem.force_covariance_with(|a| match &noise {
+        out.covariance = lsq::covariance_with(w_ef, |a| match &noise {
             Some(c) => Some(a * c * a.transpose()),
             None => Some(a * a.transpose() * s2),
         });
         out.sigma = match &out.covariance {
             Some(c) => (0..n).map(|k| c[(k, k)].max(0.0).sqrt()).collect(),
-            None => problem.force_sigma(self.params.sigma),
+            None => lsq::gauss_markov_sigma(w_ef, self.params.sigma),
         };
         out.warnings.extend(ident.warning);
         out.forces = self.force_vectors(&lambda);
