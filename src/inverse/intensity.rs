@@ -152,12 +152,14 @@ impl IntensityProblem {
             && self.w_af.shape() == (a, k)
             && self.delta_free_a.len() == a;
         if !ok {
-            return Err(InverseError::Intensity(format!(
-                "inconsistent dimensions (rows {m}, actuators {a}, forces {k})"
-            )));
+            return Err(InverseError::IntensityShape {
+                rows: m,
+                actuators: a,
+                forces: k,
+            });
         }
         if m == 0 {
-            return Err(InverseError::Intensity("no visible feature rows".into()));
+            return Err(InverseError::NoVisibleRows);
         }
         Ok((m, a, k))
     }
