@@ -146,11 +146,10 @@ pub fn propose_layout(
         None => default_pool(problem, candidates, params),
     };
     if pool.len() < params.markers {
-        return Err(MarkersError::Layout(format!(
-            "the pool has {} nodes for {} markers",
-            pool.len(),
-            params.markers
-        )));
+        return Err(MarkersError::PoolTooSmall {
+            pool: pool.len(),
+            markers: params.markers,
+        });
     }
     let pc = PoolCompliance::new(problem, newton, candidates, &pool)?;
     Ok(layout_from_pool(&pc, params))
@@ -175,12 +174,7 @@ pub fn layout_from_pool(pc: &PoolCompliance, params: &LayoutParams) -> Layout {
 /// Corollary 1: `markers` markers give 3 rows each, which must be at least the unknowns.
 pub fn check_counts(markers: usize, unknowns: usize) -> MarkersResult<()> {
     if markers * 3 < unknowns || unknowns == 0 {
-        return Err(MarkersError::Layout(format!(
-            "{markers} markers give {} rows for {unknowns} force unknowns: Corollary 1 needs \
-             rows >= unknowns, so at least {} markers",
-            markers * 3,
-            unknowns.div_ceil(3).max(1)
-        )));
+        return Err(MarkersError::TooFewMarkers { markers, unknowns });
     }
     Ok(())
 }
