@@ -92,7 +92,7 @@ impl DetectParams {
         if !(self.radius > 0.0 && self.radius.is_finite()) {
             return bad("radius", "finite and > 0", self.radius.to_string());
         }
-        if !(self.max_jump > 0.0) {
+        if self.max_jump.is_nan() || self.max_jump <= 0.0 {
             return bad("max_jump", "> 0", self.max_jump.to_string());
         }
         let [lo, hi] = self.area_range;
