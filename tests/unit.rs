@@ -41,6 +41,8 @@ mod filter_golden;
 
 #[path = "unit/inverse.rs"]
 mod inverse;
+#[path = "unit/inverse_lsq.rs"]
+mod inverse_lsq;
 #[path = "unit/markers.rs"]
 mod markers;
 #[path = "unit/markers_calib.rs"]

@@ -7,6 +7,8 @@
 //! actuators (4.17) or W_a^N λ + δ_a^{free} = δ_a^r for displacement-controlled ones (4.18),
 //! plus pushing-only bounds (λ_f ≥ 0) where asked and an optional Tikhonov term.
 
+use super::lsq;
+pub use super::lsq::Identifiability;
 use super::qp::{QpParams, QpProblem, QpStatus};
 use super::{InverseError, InverseResult};
 use nalgebra::{DMatrix, DVector};
@@ -60,19 +62,6 @@ pub struct RowNoise {
     /// Each row's patch (the FE surface triangle it meets): the model cannot bend within
     /// a triangle, so rows of one patch share its misfit.
     pub patch: Vec<usize>,
-}
-
-/// Identifiability of the force unknowns (thesis Corollaries 1-2 and index I_w of 4.6.1).
-#[derive(Clone, Debug, Serialize)]
-pub struct Identifiability {
-    /// Number of feature rows.
-    pub rows: usize,
-    /// Number of force unknowns.
-    pub unknowns: usize,
-    /// I_w = ‖W_ef⁺‖₂ = 1 / σ_min(W_ef) (N/m); infinite when rank deficient.
-    pub i_w: f64,
-    /// A human-readable warning when the forces are not (well) identifiable.
-    pub warning: Option<String>,
 }
 
 /// Options of the intensity QP.
@@ -163,60 +152,26 @@ impl IntensityProblem {
             && self.w_af.shape() == (a, k)
             && self.delta_free_a.len() == a;
         if !ok {
-            return Err(InverseError::Intensity(format!(
-                "inconsistent dimensions (rows {m}, actuators {a}, forces {k})"
-            )));
+            return Err(InverseError::IntensityShape {
+                rows: m,
+                actuators: a,
+                forces: k,
+            });
         }
         if m == 0 {
-            return Err(InverseError::Intensity("no visible feature rows".into()));
+            return Err(InverseError::NoVisibleRows);
         }
         Ok((m, a, k))
     }
 
-    /// Rows against unknowns and I_w = ‖W_ef⁺‖.
+    /// Rows against unknowns (the forces and the displacement-controlled actuators) and
+    /// I_w = ‖W_ef⁺‖ ([`lsq::identifiability`]).
     pub fn identifiability(&self, params: &IntensityParams) -> Identifiability {
-        let (m, k) = self.w_ef.shape();
-        let unknowns = k + self
-            .actuators
-            .iter()
-            .filter(|a| matches!(a, ActuatorInput::Displacement(_)))
-            .count();
-        // No force to identify (only the actuators are estimated): ‖W_ef⁺‖ of an empty
-        // matrix is 0, and nalgebra's SVD refuses one.
-        let i_w = if k == 0 || m == 0 {
-            0.0
-        } else {
-            let sv = self.w_ef.clone().singular_values();
-            let smin = if m < k {
-                0.0
-            } else {
-                sv.iter().copied().fold(f64::INFINITY, f64::min)
-            };
-            let smax = sv.iter().copied().fold(0.0, f64::max);
-            if smin > 1e-12 * smax.max(f64::MIN_POSITIVE) {
-                1.0 / smin
-            } else {
-                f64::INFINITY
-            }
-        };
-        let warning = if m < unknowns {
-            Some(format!(
-                "{m} feature rows for {unknowns} unknowns: forces are not identifiable"
-            ))
-        } else if i_w > params.max_i_w || i_w.is_nan() {
-            Some(format!(
-                "I_w = {i_w:.3e} N/m exceeds {:.3e}: forces are poorly conditioned",
-                params.max_i_w
-            ))
-        } else {
-            None
-        };
-        Identifiability {
-            rows: m,
-            unknowns,
-            i_w,
-            warning,
-        }
+        let unknowns = self.w_ef.ncols()
+            + (self.actuators.iter())
+                .filter(|a| matches!(a, ActuatorInput::Displacement(_)))
+                .count();
+        lsq::identifiability(&self.w_ef, unknowns, params.max_i_w)
     }
 
     /// Solves the QP (4.16) with (4.17)/(4.18) and the bounds.
@@ -397,11 +352,7 @@ impl IntensityProblem {
         &self,
         sandwich: impl FnOnce(&DMatrix<f64>) -> Option<DMatrix<f64>>,
     ) -> Option<DMatrix<f64>> {
-        let inv = (self.w_ef.transpose() * &self.w_ef).try_inverse()?;
-        let a = inv * self.w_ef.transpose();
-        let cov = sandwich(&a)?;
-        let k = a.nrows();
-        (cov.nrows() == k && cov.ncols() == k && cov.iter().all(|v| v.is_finite())).then_some(cov)
+        lsq::covariance_with(&self.w_ef, sandwich)
     }
 
     /// The cluster-robust (White, Liang-Zeger) covariance of the force unknowns from the
@@ -434,13 +385,6 @@ impl IntensityProblem {
     /// σ_f = σ_d sqrt(diag((W_efᵀ W_ef)⁻¹)): the Gauss-Markov spread of the force unknowns
     /// with the actuator forces held (bounds ignored). Infinite when not identifiable.
     pub fn force_sigma(&self, sensor_sigma: f64) -> Vec<f64> {
-        let k = self.w_ef.ncols();
-        let g = self.w_ef.transpose() * &self.w_ef;
-        match g.try_inverse() {
-            Some(inv) => (0..k)
-                .map(|j| sensor_sigma * inv[(j, j)].max(0.0).sqrt())
-                .collect(),
-            None => vec![f64::INFINITY; k],
-        }
+        lsq::gauss_markov_sigma(&self.w_ef, sensor_sigma)
     }
 }

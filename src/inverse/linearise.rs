@@ -153,7 +153,7 @@ pub(crate) fn linearise(
         row_noise,
     };
     if ne == 0 {
-        return Err(InverseError::Intensity("no visible feature point".into()));
+        return Err(InverseError::NoVisibleRows);
     }
     Ok((prob, visible))
 }

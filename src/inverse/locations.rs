@@ -80,10 +80,8 @@ pub fn choose_locations(
     max_combinations: usize,
     excluded: &[Vec<usize>],
 ) -> InverseResult<LocationChoice> {
-    if options.iter().any(|o| o.is_empty()) {
-        return Err(InverseError::Intensity(
-            "a contact has no location option".into(),
-        ));
+    if let Some(contact) = options.iter().position(|o| o.is_empty()) {
+        return Err(InverseError::NoLocationOption { contact });
     }
     // Columns of each option in the joint candidate list.
     let mut all = Vec::new();
@@ -144,11 +142,10 @@ fn joint_problem(
         state,
     } = at;
     if tensions.len() != model.problem.cables.len() {
-        return Err(InverseError::Intensity(format!(
-            "{} cable tensions for {} cables",
-            tensions.len(),
-            model.problem.cables.len()
-        )));
+        return Err(InverseError::CableTensions {
+            tensions: tensions.len(),
+            cables: model.problem.cables.len(),
+        });
     }
     let mut solver = match state {
         Some(s) => base.solver_from(s)?,
@@ -167,7 +164,7 @@ fn joint_problem(
 }
 
 fn every_excluded() -> InverseError {
-    InverseError::Intensity("every combination of location options was excluded".into())
+    InverseError::AllLocationsExcluded
 }
 
 /// The combinations of one option per contact, as sub-problems of the joint one.

@@ -1,8 +1,9 @@
 //! The inverse model: a small QP layer over clarabel ([`qp`]), the normal-space intensity
-//! QP of thesis 4.5.2 (equations 4.14-4.18, [`intensity`]), and the per-frame sensing loop
-//! built on them: one entry, [`estimate`] (the loop, [`sensing`]), its linearisation
-//! ([`linearise`]), the choice of contact locations ([`locations`]) and the forces'
-//! uncertainty from shared points ([`uncertainty`]).
+//! QP of thesis 4.5.2 (equations 4.14-4.18, [`intensity`]), the least squares'
+//! identifiability and covariance it shares with the markers ([`lsq`]), and the per-frame
+//! sensing loop built on them: one entry, [`estimate`] (the loop, [`sensing`]), its
+//! linearisation ([`linearise`]), the choice of contact locations ([`locations`]) and the
+//! forces' uncertainty from shared points ([`uncertainty`]).
 //!
 //! ```
 //! use softsense::inverse::qp::{QpProblem, QpStatus};
@@ -20,6 +21,7 @@ pub mod dense;
 pub mod intensity;
 pub mod linearise;
 pub mod locations;
+pub mod lsq;
 pub mod qp;
 pub mod sensing;
 pub mod uncertainty;
@@ -35,18 +37,112 @@ use thiserror::Error;
 /// Errors of the inverse stage.
 #[derive(Debug, Error)]
 pub enum InverseError {
-    /// A QP was given inconsistent dimensions or non-finite data.
-    #[error("invalid QP: {0}")]
-    InvalidProblem(String),
+    /// A least-squares QP whose matrix and targets differ in rows.
+    #[error("invalid QP: least squares: {rows} rows but {targets} targets")]
+    LeastSquaresShape {
+        /// Rows of the matrix.
+        rows: usize,
+        /// Targets given.
+        targets: usize,
+    },
+    /// A QP whose P is not unknowns x unknowns.
+    #[error("invalid QP: P is {rows}x{cols}, q has {unknowns}")]
+    ObjectiveShape {
+        /// Rows of P.
+        rows: usize,
+        /// Columns of P.
+        cols: usize,
+        /// Unknowns (q's length).
+        unknowns: usize,
+    },
+    /// A QP's constraint rows and right-hand side disagree (`kind`: equality or inequality).
+    #[error("invalid QP: {kind} rows and right-hand side disagree")]
+    ConstraintShape {
+        /// "equality" or "inequality".
+        kind: &'static str,
+    },
+    /// A QP's bounds are not one per unknown.
+    #[error("invalid QP: bounds must have one entry per unknown ({lower} lower, {upper} upper for {unknowns})")]
+    BoundsShape {
+        /// Lower bounds given.
+        lower: usize,
+        /// Upper bounds given.
+        upper: usize,
+        /// Unknowns.
+        unknowns: usize,
+    },
+    /// A second-order cone whose G, h and the unknowns disagree (or h has fewer than 2 rows).
+    #[error("invalid QP: second-order cone {cone} with bad dimensions")]
+    ConeShape {
+        /// The cone's index.
+        cone: usize,
+    },
+    /// A QP with a non-finite matrix or vector entry (bounds aside).
+    #[error("invalid QP: non-finite data")]
+    NonFiniteQp,
+    /// A QP with a NaN bound.
+    #[error("invalid QP: NaN bound")]
+    NanBound,
     /// The QP solver ended without a solution; the status says why.
     #[error("QP not solved: {0:?}")]
     NotSolved(qp::QpStatus),
-    /// clarabel refused the problem data or settings.
+    /// clarabel refused the settings.
     #[error("QP solver setup failed: {0}")]
-    Setup(String),
-    /// The intensity problem is ill-posed (no rows, no unknowns, bad indices).
-    #[error("intensity problem: {0}")]
-    Intensity(String),
+    Settings(#[from] clarabel::solver::DefaultSettingsBuilderError),
+    /// clarabel refused the problem data.
+    #[error("QP solver setup failed: {0}")]
+    Solver(#[from] clarabel::solver::SolverError),
+    /// An intensity problem whose blocks disagree in size.
+    #[error("intensity problem: inconsistent dimensions (rows {rows}, actuators {actuators}, forces {forces})")]
+    IntensityShape {
+        /// Feature rows (δ_measured's length).
+        rows: usize,
+        /// Actuators.
+        actuators: usize,
+        /// Candidate forces.
+        forces: usize,
+    },
+    /// No feature row is visible: nothing to fit.
+    #[error("intensity problem: no visible feature rows")]
+    NoVisibleRows,
+    /// A contact without any candidate location.
+    #[error("intensity problem: contact {contact} has no location option")]
+    NoLocationOption {
+        /// The contact's index.
+        contact: usize,
+    },
+    /// Cable tensions that are not one per cable of the model.
+    #[error("intensity problem: {tensions} cable tensions for {cables} cables")]
+    CableTensions {
+        /// Tensions given.
+        tensions: usize,
+        /// The model's cables.
+        cables: usize,
+    },
+    /// Every combination of location options was excluded.
+    #[error("intensity problem: every combination of location options was excluded")]
+    AllLocationsExcluded,
+    /// A sensing loop with `max_updates` 0.
+    #[error("intensity problem: max_updates is zero")]
+    NoUpdates,
+    /// A loop asked to go on from one with another number of candidates.
+    #[error("intensity problem: a loop of {from} candidates cannot go on with {candidates}")]
+    OnwardsCandidates {
+        /// The earlier loop's candidates.
+        from: usize,
+        /// This loop's.
+        candidates: usize,
+    },
+    /// Starting forces that are not one finite value per candidate.
+    #[error(
+        "intensity problem: {forces} starting forces for {candidates} candidates (or not finite)"
+    )]
+    StartingForces {
+        /// Forces given.
+        forces: usize,
+        /// Candidates.
+        candidates: usize,
+    },
     /// The FE model failed while updating the state.
     #[error(transparent)]
     Fem(#[from] crate::fem::FemError),

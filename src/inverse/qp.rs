@@ -146,11 +146,10 @@ impl QpProblem {
     /// The least-squares problem min ½‖M x − d‖²: P = MᵀM, q = −Mᵀd.
     pub fn least_squares(m: &DMatrix<f64>, d: &[f64]) -> InverseResult<Self> {
         if m.nrows() != d.len() {
-            return Err(InverseError::InvalidProblem(format!(
-                "least squares: {} rows but {} targets",
-                m.nrows(),
-                d.len()
-            )));
+            return Err(InverseError::LeastSquaresShape {
+                rows: m.nrows(),
+                targets: d.len(),
+            });
         }
         let mut p = Self::new(m.ncols());
         p.p = m.transpose() * m;
@@ -166,26 +165,30 @@ impl QpProblem {
 
     fn validate(&self) -> InverseResult<()> {
         let n = self.n();
-        let bad = |s: String| Err(InverseError::InvalidProblem(s));
         if self.p.nrows() != n || self.p.ncols() != n {
-            return bad(format!(
-                "P is {}x{}, q has {n}",
-                self.p.nrows(),
-                self.p.ncols()
-            ));
+            return Err(InverseError::ObjectiveShape {
+                rows: self.p.nrows(),
+                cols: self.p.ncols(),
+                unknowns: n,
+            });
         }
+        let shape = |kind| Err(InverseError::ConstraintShape { kind });
         if self.a_eq.ncols() != n || self.a_eq.nrows() != self.b_eq.len() {
-            return bad("equality rows and right-hand side disagree".into());
+            return shape("equality");
         }
         if self.a_le.ncols() != n || self.a_le.nrows() != self.b_le.len() {
-            return bad("inequality rows and right-hand side disagree".into());
+            return shape("inequality");
         }
         if self.lower.len() != n || self.upper.len() != n {
-            return bad("bounds must have one entry per unknown".into());
+            return Err(InverseError::BoundsShape {
+                lower: self.lower.len(),
+                upper: self.upper.len(),
+                unknowns: n,
+            });
         }
-        for c in &self.cones {
+        for (cone, c) in self.cones.iter().enumerate() {
             if c.g.ncols() != n || c.g.nrows() != c.h.len() || c.h.len() < 2 {
-                return bad("second-order cone with bad dimensions".into());
+                return Err(InverseError::ConeShape { cone });
             }
         }
         let finite = self.p.iter().all(|v| v.is_finite())
@@ -199,10 +202,10 @@ impl QpProblem {
                 .iter()
                 .all(|c| c.g.iter().all(|v| v.is_finite()) && c.h.iter().all(|v| v.is_finite()));
         if !finite {
-            return bad("non-finite data".into());
+            return Err(InverseError::NonFiniteQp);
         }
         if self.lower.iter().any(|v| v.is_nan()) || self.upper.iter().any(|v| v.is_nan()) {
-            return bad("NaN bound".into());
+            return Err(InverseError::NanBound);
         }
         Ok(())
     }
@@ -283,10 +286,8 @@ impl QpProblem {
             .tol_gap_abs(params.tolerance)
             .tol_gap_rel(params.tolerance)
             .tol_feas(params.tolerance)
-            .build()
-            .map_err(|e| InverseError::Setup(e.to_string()))?;
-        let mut solver = DefaultSolver::new(&pm, &self.q, &am, &b, &cones, settings)
-            .map_err(|e| InverseError::Setup(e.to_string()))?;
+            .build()?;
+        let mut solver = DefaultSolver::new(&pm, &self.q, &am, &b, &cones, settings)?;
         solver.solve();
         let status = QpStatus::from_clarabel(solver.solution.status);
         let iterations = solver.solution.iterations;

@@ -499,9 +499,7 @@ impl<'a> LoopState<'a> {
     }
 
     fn finish(self) -> InverseResult<FrameEstimate> {
-        let (estimate, visible, problem) = self
-            .last
-            .ok_or_else(|| InverseError::Intensity("max_updates is zero".into()))?;
+        let (estimate, visible, problem) = self.last.ok_or(InverseError::NoUpdates)?;
         Ok(FrameEstimate {
             solution: self.prev,
             estimate,
@@ -541,11 +539,10 @@ fn starting_point(start: Start<'_>, n: usize) -> InverseResult<StartingPoint<'_>
         Start::Onwards { from, state } => {
             // (The QP forces are checked below.)
             if from.applied.len() != n {
-                return Err(InverseError::Intensity(format!(
-                    "a loop of {} candidates cannot go on with {}",
-                    from.applied.len(),
-                    n
-                )));
+                return Err(InverseError::OnwardsCandidates {
+                    from: from.applied.len(),
+                    candidates: n,
+                });
             }
             let forces = Some(&from.estimate.forces[..]);
             (from.solution.as_ref(), state, forces, Onwards::Loop(from))
@@ -557,11 +554,10 @@ fn starting_point(start: Start<'_>, n: usize) -> InverseResult<StartingPoint<'_>
     };
     if let Some(f) = forces {
         if f.len() != n || f.iter().any(|v| !v.is_finite()) {
-            return Err(InverseError::Intensity(format!(
-                "{} starting forces for {} candidates (or not finite)",
-                f.len(),
-                n
-            )));
+            return Err(InverseError::StartingForces {
+                forces: f.len(),
+                candidates: n,
+            });
         }
     }
     Ok((near, carry, forces, onwards))

@@ -99,7 +99,6 @@ pub fn read_candidates(path: &Path, mesh: &TetMesh) -> MarkersResult<Vec<ForceCa
 /// Parses a candidate file (see [`read_candidates`]).
 pub fn parse_candidates(text: &str, mesh: &TetMesh) -> MarkersResult<Vec<ForceCandidate>> {
     let surface = mesh.surface();
-    let bad = |line: usize, message: String| MarkersError::Parse { line, message };
     let mut out = Vec::new();
     for (i, l) in text.lines().enumerate() {
         let cells: Vec<&str> = l.split(',').map(str::trim).collect();
@@ -107,20 +106,20 @@ pub fn parse_candidates(text: &str, mesh: &TetMesh) -> MarkersResult<Vec<ForceCa
             continue;
         }
         if cells.len() != 5 {
-            return Err(bad(
-                i + 1,
-                format!("{} cells, expected name,x,y,z,directions", cells.len()),
-            ));
+            return Err(MarkersError::CandidateCells {
+                line: i + 1,
+                cells: cells.len(),
+            });
         }
         let mut p = [0.0; 3];
         for (k, pk) in p.iter_mut().enumerate() {
             *pk = match cells[1 + k].parse::<f64>() {
                 Ok(v) if v.is_finite() => v,
                 _ => {
-                    return Err(bad(
-                        i + 1,
-                        format!("{:?} is not a finite number", cells[1 + k]),
-                    ))
+                    return Err(MarkersError::CandidateNumber {
+                        line: i + 1,
+                        cell: cells[1 + k].to_string(),
+                    })
                 }
             };
         }
@@ -128,10 +127,10 @@ pub fn parse_candidates(text: &str, mesh: &TetMesh) -> MarkersResult<Vec<ForceCa
             "normal" => Directions::Normal,
             "3d" => Directions::Free,
             d => {
-                return Err(bad(
-                    i + 1,
-                    format!("directions {d:?}: expected normal or 3d"),
-                ))
+                return Err(MarkersError::CandidateDirections {
+                    line: i + 1,
+                    cell: d.to_string(),
+                })
             }
         };
         out.push(ForceCandidate::snapped(

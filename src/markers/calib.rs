@@ -41,23 +41,20 @@ pub fn fit_robot_from_tracker(
     assert_eq!(tracker.len(), model.len(), "one model position per track");
     assert_eq!(names.len(), model.len(), "one name per marker");
     if tracker.len() < 3 {
-        return Err(MarkersError::Calibration(format!(
-            "{} markers: a rigid fit needs at least 3 not on one line",
-            tracker.len()
-        )));
+        return Err(MarkersError::CalibrationTooFew {
+            markers: tracker.len(),
+        });
     }
     let spread = second_spread(model).min(second_spread(tracker));
     if spread.is_nan() || spread < MIN_SPREAD {
-        return Err(MarkersError::Calibration(format!(
-            "the {} markers lie on one line (spread {:.3} mm off it, below {:.3} mm): the rotation about it is not determined",
-            tracker.len(),
-            1e3 * spread,
-            1e3 * MIN_SPREAD
-        )));
+        return Err(MarkersError::CalibrationOnALine {
+            markers: tracker.len(),
+            spread,
+            min_spread: MIN_SPREAD,
+        });
     }
-    let iso = crate::geometry::rigid::kabsch(tracker, model).ok_or_else(|| {
-        MarkersError::Calibration("the rigid fit failed (non-finite data)".into())
-    })?;
+    let iso =
+        crate::geometry::rigid::kabsch(tracker, model).ok_or(MarkersError::CalibrationNonFinite)?;
     let pose = Pose::from_iso(&iso);
     let residuals: Vec<f64> = (tracker.iter().zip(model))
         .map(|(t, m)| (Vec3::from(pose.apply(*t)) - Vec3::from(*m)).norm())
@@ -134,7 +131,8 @@ pub fn read_calibration(path: &Path) -> MarkersResult<MarkerCalibration> {
         path: path.display().to_string(),
         source,
     })?;
-    serde_json::from_str(&text).map_err(|e| {
-        MarkersError::Calibration(format!("{}: not a marker calibration: {e}", path.display()))
+    serde_json::from_str(&text).map_err(|source| MarkersError::NotACalibration {
+        path: path.display().to_string(),
+        source,
     })
 }

@@ -69,24 +69,35 @@ impl Default for DetectParams {
 impl DetectParams {
     /// Checks every field's range; the error names the first bad one.
     pub fn validate(&self) -> MarkersResult<()> {
-        let bad = |m: String| Err(MarkersError::Detection(m));
+        let bad = |field, expected, value: String| {
+            Err(MarkersError::DetectOption {
+                field,
+                expected,
+                value,
+            })
+        };
         if !(self.max_angle_deg > 0.0 && self.max_angle_deg < 90.0) {
-            return bad(format!(
-                "max_angle_deg must be in (0, 90), got {}",
-                self.max_angle_deg
-            ));
+            return bad(
+                "max_angle_deg",
+                "in (0, 90)",
+                self.max_angle_deg.to_string(),
+            );
         }
-        if !(self.min_value.is_finite() && self.min_value >= 0.0) || self.colour == [0, 0, 0] {
-            return bad("min_value must be >= 0 and the colour not black".into());
+        if !(self.min_value.is_finite() && self.min_value >= 0.0) {
+            return bad("min_value", ">= 0", self.min_value.to_string());
         }
-        if !(self.radius > 0.0 && self.radius.is_finite() && self.max_jump > 0.0) {
-            return bad("radius and max_jump must be finite and > 0".into());
+        if self.colour == [0, 0, 0] {
+            return bad("colour", "not black", format!("{:?}", self.colour));
+        }
+        if !(self.radius > 0.0 && self.radius.is_finite()) {
+            return bad("radius", "finite and > 0", self.radius.to_string());
+        }
+        if self.max_jump.is_nan() || self.max_jump <= 0.0 {
+            return bad("max_jump", "> 0", self.max_jump.to_string());
         }
         let [lo, hi] = self.area_range;
         if !(lo >= 0.0 && hi >= lo && hi.is_finite()) {
-            return bad(format!(
-                "area_range must be 0 <= lo <= hi, got [{lo}, {hi}]"
-            ));
+            return bad("area_range", "0 <= lo <= hi", format!("[{lo}, {hi}]"));
         }
         Ok(())
     }
@@ -260,13 +271,12 @@ pub fn detect_frame(
     params.validate()?;
     let n = k.width as usize * k.height as usize;
     if colours.len() != n || points_in_camera.len() != n {
-        return Err(MarkersError::Detection(format!(
-            "{} colours and {} points for a {}x{} image",
-            colours.len(),
-            points_in_camera.len(),
-            k.width,
-            k.height
-        )));
+        return Err(MarkersError::DetectImage {
+            colours: colours.len(),
+            points: points_in_camera.len(),
+            width: k.width,
+            height: k.height,
+        });
     }
     let w = k.width as usize;
     let mask = colour_mask(colours, params);
@@ -388,25 +398,16 @@ pub fn detect_recording(
     reference: Option<&MarkerTracks>,
 ) -> MarkersResult<(MarkerTracks, Vec<Vec<Detection>>, usize)> {
     params.validate()?;
-    let pose = rec.robot_from_camera.as_ref().ok_or_else(|| {
-        MarkersError::Detection(format!(
-            "{}: no camera pose (camera_pose.json or calibration.json): the markers cannot be put in the robot frame",
-            rec.dir.display()
-        ))
+    let pose = (rec.robot_from_camera.as_ref()).ok_or_else(|| MarkersError::NoCameraPose {
+        dir: rec.dir.display().to_string(),
     })?;
     let mut all = Vec::with_capacity(rec.frames.len());
     let mut per_frame = Vec::with_capacity(rec.frames.len());
     for &f in &rec.frames {
-        let fail = |e: String| MarkersError::Detection(format!("frame {f}: {e}"));
-        let cloud = rec.read_frame(f).map_err(|e| fail(e.to_string()))?;
-        let colours = cloud
-            .colors
-            .as_ref()
-            .ok_or_else(|| fail("no colour image".into()))?;
-        let mut k = rec
-            .camera_of(f)
-            .map_err(|e| fail(e.to_string()))?
-            .intrinsics;
+        let fail = |source| MarkersError::DetectFrame { frame: f, source };
+        let cloud = rec.read_frame(f).map_err(fail)?;
+        let colours = (cloud.colors.as_ref()).ok_or(MarkersError::NoColour { frame: f })?;
+        let mut k = rec.camera_of(f).map_err(fail)?.intrinsics;
         (k.width, k.height) = (cloud.width, cloud.height);
         let found = detect_frame(colours, &cloud.positions, &k, pose, params)?;
         per_frame.push((f as u64, found.iter().map(|d| d.position).collect()));

@@ -10,6 +10,7 @@
 use super::bind::{BoundMarker, ForceCandidate};
 use super::{MarkerSensor, MarkersError, MarkersParams, MarkersResult};
 use crate::fem::solve::{MappedPoint, NewtonParams, Problem};
+use crate::inverse::lsq;
 use crate::math::{norm, sub};
 use nalgebra::DMatrix;
 use serde::Serialize;
@@ -145,11 +146,10 @@ pub fn propose_layout(
         None => default_pool(problem, candidates, params),
     };
     if pool.len() < params.markers {
-        return Err(MarkersError::Layout(format!(
-            "the pool has {} nodes for {} markers",
-            pool.len(),
-            params.markers
-        )));
+        return Err(MarkersError::PoolTooSmall {
+            pool: pool.len(),
+            markers: params.markers,
+        });
     }
     let pc = PoolCompliance::new(problem, newton, candidates, &pool)?;
     Ok(layout_from_pool(&pc, params))
@@ -174,30 +174,15 @@ pub fn layout_from_pool(pc: &PoolCompliance, params: &LayoutParams) -> Layout {
 /// Corollary 1: `markers` markers give 3 rows each, which must be at least the unknowns.
 pub fn check_counts(markers: usize, unknowns: usize) -> MarkersResult<()> {
     if markers * 3 < unknowns || unknowns == 0 {
-        return Err(MarkersError::Layout(format!(
-            "{markers} markers give {} rows for {unknowns} force unknowns: Corollary 1 needs \
-             rows >= unknowns, so at least {} markers",
-            markers * 3,
-            unknowns.div_ceil(3).max(1)
-        )));
+        return Err(MarkersError::TooFewMarkers { markers, unknowns });
     }
     Ok(())
 }
 
 /// I_w (N/m) of the sum of blocks `gram` = W_efᵀW_ef, and log det(gram + εI) to rank
-/// layouts that do not identify the unknowns yet (every one of them has I_w = ∞).
+/// layouts that do not identify the unknowns yet ([`lsq::gram_i_w`]).
 fn score(gram: &DMatrix<f64>) -> (f64, f64) {
-    let eig = gram.clone().symmetric_eigen().eigenvalues;
-    let max = eig.iter().copied().fold(0.0, f64::max);
-    let min = eig.iter().copied().fold(f64::INFINITY, f64::min);
-    let eps = 1e-12 * max.max(f64::MIN_POSITIVE);
-    let logdet = eig.iter().map(|l| (l.max(0.0) + eps).ln()).sum::<f64>();
-    let i_w = if min > eps {
-        1.0 / min.sqrt()
-    } else {
-        f64::INFINITY
-    };
-    (i_w, logdet)
+    lsq::gram_i_w(gram)
 }
 
 /// I_w of the layout `chosen` (indices into `blocks`).

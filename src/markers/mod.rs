@@ -70,13 +70,29 @@ pub enum MarkersError {
         /// The underlying I/O error.
         source: std::io::Error,
     },
-    /// A malformed line of a track or candidate file (1-based line number).
-    #[error("line {line}: {message}")]
-    Parse {
+    /// A candidate-file line without the 5 cells name,x,y,z,directions (1-based line).
+    #[error("line {line}: {cells} cells, expected name,x,y,z,directions")]
+    CandidateCells {
         /// The 1-based line number.
         line: usize,
-        /// What is wrong with it.
-        message: String,
+        /// Cells found.
+        cells: usize,
+    },
+    /// A candidate-file coordinate that is not a finite number.
+    #[error("line {line}: {cell:?} is not a finite number")]
+    CandidateNumber {
+        /// The 1-based line number.
+        line: usize,
+        /// The cell as written.
+        cell: String,
+    },
+    /// A candidate-file directions cell other than normal or 3d.
+    #[error("line {line}: directions {cell:?}: expected normal or 3d")]
+    CandidateDirections {
+        /// The 1-based line number.
+        line: usize,
+        /// The cell as written (lower-cased).
+        cell: String,
     },
     /// An error in a file, with the file's name.
     #[error("{path}: {source}")]
@@ -86,20 +102,96 @@ pub enum MarkersError {
         /// What is wrong in it.
         source: Box<MarkersError>,
     },
-    /// Coloured-marker detection could not run (bad options, a frame without colour or
-    /// camera pose).
-    #[error("marker detection: {0}")]
-    Detection(String),
+    /// A detection option out of its range.
+    #[error("marker detection: {field} must be {expected}, got {value}")]
+    DetectOption {
+        /// The [`detect::DetectParams`] field.
+        field: &'static str,
+        /// Its allowed range.
+        expected: &'static str,
+        /// The value given.
+        value: String,
+    },
+    /// A frame whose colours or points do not fill its image.
+    #[error(
+        "marker detection: {colours} colours and {points} points for a {width}x{height} image"
+    )]
+    DetectImage {
+        /// Colours given.
+        colours: usize,
+        /// Points given.
+        points: usize,
+        /// Image width (pixels).
+        width: u32,
+        /// Image height (pixels).
+        height: u32,
+    },
+    /// A recording without the camera pose that puts the markers in the robot frame.
+    #[error("marker detection: {dir}: no camera pose (camera_pose.json or calibration.json): the markers cannot be put in the robot frame")]
+    NoCameraPose {
+        /// The recording's directory.
+        dir: String,
+    },
+    /// A recording frame (or its camera) that could not be read.
+    #[error("marker detection: frame {frame}: {source}")]
+    DetectFrame {
+        /// The frame number.
+        frame: usize,
+        /// Why it could not be read.
+        source: crate::recording::RecordingError,
+    },
+    /// A recording frame without a colour image.
+    #[error("marker detection: frame {frame}: no colour image")]
+    NoColour {
+        /// The frame number.
+        frame: usize,
+    },
     /// The model has no surface to put a candidate on.
     #[error("the model has no surface")]
     NoSurface,
-    /// A tracker-to-robot calibration that cannot be fitted or read (too few markers, all on
-    /// one line, a bad file).
-    #[error("marker calibration: {0}")]
-    Calibration(String),
-    /// A layout that cannot be proposed (Corollary 1, a pool smaller than the markers).
-    #[error("{0}")]
-    Layout(String),
+    /// A tracker-to-robot fit from fewer than 3 markers.
+    #[error("marker calibration: {markers} markers: a rigid fit needs at least 3 not on one line")]
+    CalibrationTooFew {
+        /// Markers given.
+        markers: usize,
+    },
+    /// A tracker-to-robot fit from markers on one line: the rotation about it is free.
+    #[error("marker calibration: the {markers} markers lie on one line (spread {:.3} mm off it, below {:.3} mm): the rotation about it is not determined", 1e3 * spread, 1e3 * min_spread)]
+    CalibrationOnALine {
+        /// Markers given.
+        markers: usize,
+        /// Their second principal spread (m).
+        spread: f64,
+        /// The least spread accepted (m).
+        min_spread: f64,
+    },
+    /// The rigid fit failed on non-finite marker positions.
+    #[error("marker calibration: the rigid fit failed (non-finite data)")]
+    CalibrationNonFinite,
+    /// A calibration file that does not parse as one.
+    #[error("marker calibration: {path}: not a marker calibration: {source}")]
+    NotACalibration {
+        /// The file.
+        path: String,
+        /// The JSON error.
+        source: serde_json::Error,
+    },
+    /// A layout of too few markers for the unknowns (Corollary 1: rows >= unknowns).
+    #[error("{markers} markers give {} rows for {unknowns} force unknowns: Corollary 1 needs rows >= unknowns, so at least {} markers", 3 * markers, unknowns.div_ceil(3).max(1))]
+    TooFewMarkers {
+        /// Markers asked for.
+        markers: usize,
+        /// Force unknowns.
+        unknowns: usize,
+    },
+    /// A layout pool smaller than the markers asked for.
+    #[error("the pool has {pool} nodes for {markers} markers")]
+    PoolTooSmall {
+        /// Nodes in the pool.
+        pool: usize,
+        /// Markers asked for.
+        markers: usize,
+    },
     /// The FE model failed (a solve, a factorization).
     #[error(transparent)]
     Fem(#[from] crate::fem::FemError),

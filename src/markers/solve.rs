@@ -13,7 +13,8 @@ use super::bind::{BoundMarker, ForceCandidate};
 use super::{MarkersParams, MarkersResult};
 use crate::fem::constraint::ConstraintRow;
 use crate::fem::solve::{CableControl, NewtonParams, PointLoad, Problem, Solution};
-use crate::inverse::intensity::{IntensityParams, IntensityProblem};
+use crate::inverse::intensity::IntensityParams;
+use crate::inverse::lsq;
 use crate::math::Vec3;
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
@@ -272,36 +273,9 @@ impl MarkerSensor {
         let visible: Vec<usize> = (0..self.markers.len())
             .filter(|&m| measured.iter().any(|f| f[m].is_some()))
             .collect();
-        // Each stacked row: (index into `visible`, axis, measured coordinate).
-        let stacked: Vec<(usize, usize, f64)> = (measured.iter())
-            .flat_map(|f| {
-                visible.iter().enumerate().flat_map(move |(j, &m)| {
-                    f[m].into_iter()
-                        .flat_map(move |p| (0..3).map(move |a| (j, a, p[a])))
-                })
-            })
-            .collect();
-        let rows = stacked.len();
-        let mut out = MarkerFrame {
-            frame,
-            status: MarkersStatus::NotIdentifiable {
-                rows: 3 * visible.len(),
-                unknowns: n,
-            },
-            forces: Vec::new(),
-            intensities: Vec::new(),
-            sigma: Vec::new(),
-            covariance: None,
-            i_w: f64::INFINITY,
-            i_e: None,
-            hidden: (0..last.len()).filter(|&m| last[m].is_none()).collect(),
-            rows,
-            unknowns: n,
-            updates: 0,
-            residual_rms: f64::NAN,
-            warnings: Vec::new(),
-            solution: None,
-        };
+        let stacked = stack_rows(measured, &visible);
+        let hidden = (0..last.len()).filter(|&m| last[m].is_none()).collect();
+        let mut out = unidentified(frame, 3 * visible.len(), n, hidden, stacked.len());
         if 3 * visible.len() < n || n == 0 {
             out.warnings.push(format!(
                 "{} marker rows for {n} unknowns: the forces are not identifiable (Corollary 1 needs rows >= unknowns)",
@@ -309,6 +283,32 @@ impl MarkerSensor {
             ));
             return Ok(out);
         }
+        let Some(it) = self.iterate(&mut out, &stacked, &visible, previous)? else {
+            return Ok(out);
+        };
+        if it.status == MarkersStatus::NotConverged {
+            out.warnings.push(format!(
+                "the forces did not settle in {} FE updates",
+                self.params.max_updates
+            ));
+        }
+        let noise = (it.start.as_ref()).map(|sol| self.noise_covariance(&stacked, &visible, sol));
+        self.finish(&mut out, &it.w_ef, noise, it.lambda, it.status);
+        out.solution = it.start;
+        Ok(out)
+    }
+
+    /// The FE updates of one estimate on the `stacked` rows of the `visible` markers, from
+    /// `previous` when it fits; `out` gets the updates done and the residual. `None` (with a
+    /// warning in `out`) when W_ef is rank deficient.
+    fn iterate(
+        &self,
+        out: &mut MarkerFrame,
+        stacked: &[(usize, usize, f64)],
+        visible: &[usize],
+        previous: Option<&MarkerFrame>,
+    ) -> MarkersResult<Option<Iterated>> {
+        let (rows, n) = (stacked.len(), self.unknowns());
         let prev_ok = previous.filter(|p| p.intensities.len() == n);
         let mut lambda = prev_ok.map_or(vec![0.0; n], |p| p.intensities.clone());
         let mut start = prev_ok.and_then(|p| p.solution.clone());
@@ -316,7 +316,7 @@ impl MarkerSensor {
         let mut w_ef = DMatrix::zeros(rows, n);
         let mut status = MarkersStatus::NotConverged;
         for update in 0..self.params.max_updates {
-            let (sol, w) = self.linearise(&lambda, &visible, start.as_ref())?;
+            let (sol, w) = self.linearise(&lambda, visible, start.as_ref())?;
             let model: Vec<[f64; 3]> = (visible.iter())
                 .map(|&m| self.markers[m].at.position(&sol.positions))
                 .collect();
@@ -332,7 +332,7 @@ impl MarkerSensor {
             let Some(chol) = gram.cholesky() else {
                 out.warnings
                     .push("W_ef is rank deficient: the forces are not identifiable".into());
-                return Ok(out);
+                return Ok(None);
             };
             let step = chol.solve(&w_ef.tr_mul(&r));
             // The residual at this state is the one of `lambda`: a small step or a residual
@@ -350,16 +350,12 @@ impl MarkerSensor {
                 .for_each(|(l, s)| *l += s);
             last_rms = rms;
         }
-        if status == MarkersStatus::NotConverged {
-            out.warnings.push(format!(
-                "the forces did not settle in {} FE updates",
-                self.params.max_updates
-            ));
-        }
-        let noise = (start.as_ref()).map(|sol| self.noise_covariance(&stacked, &visible, sol));
-        self.finish(&mut out, &w_ef, noise, lambda, status);
-        out.solution = start;
-        Ok(out)
+        Ok(Some(Iterated {
+            lambda,
+            w_ef,
+            status,
+            start,
+        }))
     }
 
     /// The covariance of the stacked residual rows (m²): σ² on the diagonal for each
@@ -404,33 +400,77 @@ impl MarkerSensor {
         lambda: Vec<f64>,
         status: MarkersStatus,
     ) {
-        let (m, n) = w_ef.shape();
-        let problem = IntensityProblem {
-            w_ea: DMatrix::zeros(m, 0),
-            w_ef: w_ef.clone(),
-            delta_free_e: vec![0.0; m],
-            delta_measured: vec![0.0; m],
-            w_aa: DMatrix::zeros(0, 0),
-            w_af: DMatrix::zeros(0, n),
-            delta_free_a: Vec::new(),
-            actuators: Vec::new(),
-            push_only: vec![false; n],
-            row_noise: Default::default(),
-        };
-        let ident = problem.identifiability(&IntensityParams::default());
+        let n = w_ef.ncols();
+        let ident = lsq::identifiability(w_ef, n, IntensityParams::default().max_i_w);
         out.i_w = ident.i_w;
         let s2 = self.params.sigma * self.params.sigma;
-        out.covariance = problem.force_covariance_with(|a| match &noise {
+        out.covariance = lsq::covariance_with(w_ef, |a| match &noise {
             Some(c) => Some(a * c * a.transpose()),
             None => Some(a * a.transpose() * s2),
         });
         out.sigma = match &out.covariance {
             Some(c) => (0..n).map(|k| c[(k, k)].max(0.0).sqrt()).collect(),
-            None => problem.force_sigma(self.params.sigma),
+            None => lsq::gauss_markov_sigma(w_ef, self.params.sigma),
         };
         out.warnings.extend(ident.warning);
         out.forces = self.force_vectors(&lambda);
         out.intensities = lambda;
         out.status = status;
+    }
+}
+
+/// Where [`MarkerSensor::iterate`] ended.
+struct Iterated {
+    /// The unknowns λ_f (N).
+    lambda: Vec<f64>,
+    /// W_ef of the stacked rows at the last linearisation.
+    w_ef: DMatrix<f64>,
+    /// Whether the updates settled.
+    status: MarkersStatus,
+    /// The last FE state.
+    start: Option<Solution>,
+}
+
+/// Each stacked row of the `measured` frames: (index into `visible`, axis, measured
+/// coordinate), frame by frame, the visible markers' rows in order.
+fn stack_rows(measured: &[&[Option<[f64; 3]>]], visible: &[usize]) -> Vec<(usize, usize, f64)> {
+    (measured.iter())
+        .flat_map(|f| {
+            visible.iter().enumerate().flat_map(move |(j, &m)| {
+                f[m].into_iter()
+                    .flat_map(move |p| (0..3).map(move |a| (j, a, p[a])))
+            })
+        })
+        .collect()
+}
+
+/// A frame not (yet) identified: no forces, I_w infinite, `rows` stacked rows of which
+/// `marker_rows` distinct, `n` unknowns, the last frame's `hidden` markers.
+fn unidentified(
+    frame: u64,
+    marker_rows: usize,
+    n: usize,
+    hidden: Vec<usize>,
+    rows: usize,
+) -> MarkerFrame {
+    MarkerFrame {
+        frame,
+        status: MarkersStatus::NotIdentifiable {
+            rows: marker_rows,
+            unknowns: n,
+        },
+        forces: Vec::new(),
+        intensities: Vec::new(),
+        sigma: Vec::new(),
+        covariance: None,
+        i_w: f64::INFINITY,
+        i_e: None,
+        hidden,
+        rows,
+        unknowns: n,
+        updates: 0,
+        residual_rms: f64::NAN,
+        warnings: Vec::new(),
+        solution: None,
     }
 }

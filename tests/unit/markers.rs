@@ -286,7 +286,11 @@ fn candidate_files_snap_to_surface_nodes_and_name_bad_lines() {
         ("name,x,y,z,directions\n\na,0,0\n", 3),
     ] {
         match softsense::markers::bind::parse_candidates(bad, &p.mesh) {
-            Err(MarkersError::Parse { line: l, .. }) => assert_eq!(l, line, "{bad:?}"),
+            Err(
+                MarkersError::CandidateCells { line: l, .. }
+                | MarkersError::CandidateNumber { line: l, .. }
+                | MarkersError::CandidateDirections { line: l, .. },
+            ) => assert_eq!(l, line, "{bad:?}"),
             other => panic!("{bad:?}: {other:?}"),
         }
     }

@@ -83,7 +83,10 @@ fn noisy_tracks_give_a_residual_near_the_noise() {
 fn fewer_than_three_or_collinear_markers_are_refused() {
     let two = [[0.0, 0.0, 0.0], [0.1, 0.0, 0.0]];
     let err = fit_robot_from_tracker(&names(2), &two, &two).unwrap_err();
-    assert!(matches!(err, MarkersError::Calibration(_)), "{err}");
+    assert!(
+        matches!(err, MarkersError::CalibrationTooFew { .. }),
+        "{err}"
+    );
     assert!(err.to_string().contains("at least 3"), "{err}");
     let line = [
         [0.0, 0.0, 0.0],

@@ -77,7 +77,8 @@ fn fewer_rows_than_unknowns_is_refused_by_corollary_1() {
         ..Default::default()
     };
     match propose_layout(&s.problem, &s.newton, &s.candidates, None, &params) {
-        Err(MarkersError::Layout(msg)) => {
+        Err(e @ MarkersError::TooFewMarkers { .. }) => {
+            let msg = e.to_string();
             assert!(
                 msg.contains("Corollary 1") && msg.contains("at least 4 markers"),
                 "{msg}"
