@@ -623,4 +623,3 @@ fn near_nodes(x: &[[f64; 3]], nodes: &[usize], p: [f64; 3], radius: f64, max: us
         .clamp(1, max.max(1));
     d.iter().take(within).map(|e| e.1).collect()
 }
-
