@@ -295,14 +295,7 @@ fn an_error_from_the_consumer_stops_the_stream_and_is_returned() {
 #[test]
 fn recorded_inputs_that_do_not_fit_the_model_make_the_frame_not_solved_saying_why() {
     use softsense::recording::{CableInput, FrameInput};
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let rec = Recording::open(&root.join("clouds/scenes/tip_weight")).unwrap();
-    let model = Model::load(&rec.model_path().unwrap(), None).unwrap();
-    let sensor = Sensor::new(
-        model,
-        rec.robot_from_camera.unwrap(),
-        SenseParams::default(),
-    );
+    let (rec, sensor) = tip_weight_sensor();
     let obs = sensor.observe(&rec, 0).unwrap();
     let input = |name: &str, shorten: Option<f64>, force: Option<f64>| FrameInput {
         cables: vec![CableInput {
