@@ -17,7 +17,7 @@
 //! and stops when both the pose and the tensions settle. A first, coarse stage runs
 //! untrimmed ICP from the rough start and from six turned copies of it and keeps the best.
 //!
-//! The package: [`params`] (options), [`pose`] (pose matrices and files), [`rigid`]
+//! The package: [`params`] (options), [`pose`] (pose matrices and files), [`crate::geometry::rigid`]
 //! (Kabsch and point-to-plane steps), [`surface`] (exact closest points on the FE
 //! surface), [`observe`] (robot pixels of a frame), `icp` (matching and rigid ICP),
 //! [`solve`] (Algorithm 3.1: the actuator QP and the outer loop), [`schema`] (the

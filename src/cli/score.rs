@@ -39,7 +39,7 @@ Rules:
                 frame matched to no true load (a phantom)
   sigma         over located loads: the magnitude error within 1/2/3 sigma (Gaussian:
                 68.3/95.4/99.7%), and the squared Mahalanobis distance e' C^-1 e of the
-                3-D error (Gaussian: median 2.37, 95% below 7.81)
+                3-D error (Gaussian: median 2.37, 95% below 7.815)
 
 Every silent miss is listed with its recording and frame. Recordings of a sweep (its
 draws.json beside them) are also scored by how far the camera's azimuth is from the
