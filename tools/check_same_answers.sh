@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
 # Shows that a change leaves every answer as it was: runs `softsense sense --json` (plain
-# and --track) on every bundled recording, `calibrate --json` on the calibration scene and
-# `fem solve --json` / `fem compliance --json` on every bundled model, `scene generate` on
-# two bundled scene files (every written file's bytes) and `hidden` + `explain --json` on a
-# small hidden-effect dataset, at BASE_REV and at
-# the working tree, and compares the outputs with the timings taken out. Forces, sigmas,
-# statuses and warnings must agree to the bit (the JSON's shortest round-trip decimals).
+# and --track) on every bundled recording, `calibrate --json` on the calibration scene,
+# `fem solve --json` / `fem compliance --json` on every bundled model, `markers` and
+# `markers layout` on the bundled tracks, `control --json` on every bundled scenario,
+# `scene generate` on two bundled scene files (every written file's bytes) and `hidden` +
+# `explain --json` on a small hidden-effect dataset, at BASE_REV and at the working tree,
+# and compares the outputs with the timings taken out. Forces, sigmas, statuses and
+# warnings must agree to the bit (the JSON's shortest round-trip decimals).
 #
 # Usage: tools/check_same_answers.sh BASE_REV        compare the working tree with BASE_REV
 #        tools/check_same_answers.sh --save DIR      write the working tree's answers to DIR
@@ -53,6 +54,20 @@ answers() {
     "$bin" explain "$repo/meshes/models/robot.toml" "$out/hidden/frames" --json \
         >"$out/explain.json" 2>/dev/null
     rm -rf "${out:?}/hidden"
+    "$bin" markers "$repo/clouds/markers/sheet/tracks.csv" "$repo/meshes/models/sheet.toml" \
+        --candidates "$repo/clouds/markers/sheet/candidates.csv" --json >"$out/markers_sheet.json" 2>/dev/null
+    "$bin" markers "$repo/clouds/markers/robot/tracks.csv" "$repo/meshes/models/robot.toml" \
+        --json >"$out/markers_robot.json" 2>/dev/null
+    "$bin" markers "$repo/clouds/markers/robot/tracks.csv" "$repo/meshes/models/robot.toml" \
+        --force-points hook --json >"$out/markers_robot_hook.json" 2>/dev/null
+    "$bin" markers layout "$repo/meshes/models/sheet.toml" --markers 4 \
+        --candidates "$repo/meshes/models/sheet_candidates.csv" --json >"$out/layout_sheet.json" 2>/dev/null
+    "$bin" markers layout "$repo/meshes/models/robot.toml" --markers 3 --json \
+        >"$out/layout_robot.json" 2>/dev/null
+    local scenario
+    for scenario in "$repo"/scenarios/control/*.toml; do
+        "$bin" control "$scenario" --json >"$out/control_$(basename "$scenario" .toml).json" 2>/dev/null
+    done
     local model
     for model in "$repo"/meshes/models/*.toml; do
         local name
@@ -132,7 +147,7 @@ case "${1:-}" in
     compare "$dir" "$work/head"
     ;;
 "" | -h | --help)
-    sed -n 2,14p "$0" | sed 's/^# \{0,1\}//'
+    sed -n 2,16p "$0" | sed 's/^# \{0,1\}//'
     exit 2
     ;;
 *)
