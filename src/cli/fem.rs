@@ -4,6 +4,7 @@ use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use softsense::fem::meshio::{write_vtu, Field};
 use softsense::fem::model::Model;
+use softsense::io::InFile;
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};

@@ -8,6 +8,7 @@ use super::scenario::{LawKind, Scenario};
 use super::task::Task;
 use super::{ControlError, ControlResult};
 use crate::fem::model::Model;
+use crate::io::InFile;
 use crate::math::{dist, sub};
 use serde::Serialize;
 

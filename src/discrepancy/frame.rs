@@ -29,7 +29,7 @@ pub(super) struct FrameCtx {
 /// The problem of one frame: the model with the recorded cable inputs and known loads.
 pub fn frame_problem(model: &Model, input: &FrameInput) -> DiscrepancyResult<Problem> {
     let mut p = model.problem.clone();
-    apply_cable_inputs(&mut p.cables, &input.cables).map_err(DiscrepancyError::Data)?;
+    apply_cable_inputs(&mut p.cables, &input.cables)?;
     if !input.loads.is_empty() {
         let surface = p.mesh.surface();
         for l in &input.loads {

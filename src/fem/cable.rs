@@ -4,6 +4,7 @@
 use super::mesh::{norm, sub};
 use super::problem::MappedPoint;
 use super::solve::Solver;
+use super::{FemError, FemResult};
 use serde::Serialize;
 
 /// How a cable is driven.
@@ -20,20 +21,21 @@ pub enum CableControl {
 pub fn apply_cable_inputs(
     cables: &mut [Cable],
     inputs: &[crate::recording::CableInput],
-) -> Result<(), String> {
+) -> FemResult<()> {
     for c in inputs {
         let cable = cables
             .iter_mut()
             .find(|k| k.name == c.name)
-            .ok_or_else(|| format!("no cable named {:?}", c.name))?;
+            .ok_or_else(|| FemError::NoSuchCable {
+                name: c.name.clone(),
+            })?;
         cable.control = match (c.shorten, c.force) {
             (Some(s), None) => CableControl::Displacement(s),
             (None, Some(f)) => CableControl::Force(f),
             _ => {
-                return Err(format!(
-                    "cable {:?}: give exactly one of shorten, force",
-                    c.name
-                ))
+                return Err(FemError::CableInputNotOne {
+                    name: c.name.clone(),
+                })
             }
         };
     }

@@ -7,6 +7,7 @@
 
 use super::mesh::TetMesh;
 use super::{FemError, FemResult};
+use crate::io::InFile;
 use std::fmt::Write as _;
 use std::path::Path;
 

@@ -45,9 +45,10 @@ use thiserror::Error;
 #[derive(Debug, Error)]
 pub enum FemError {
     /// A point to bind is farther from the surface than allowed.
-    #[error("marker {name} at {position:?} m is {distance:.4} m from the surface (more than {max_distance} m)")]
+    #[error("point {name:?} at {position:?} m is {distance:.4} m from the surface (more than {max_distance} m)")]
     OffSurface {
-        /// The point's name (a marker's, or `feature N`).
+        /// The point's name (a marker's as tracked, a calibration `feature N`, a painted
+        /// marker's).
         name: String,
         /// Where it was given (m, model frame).
         position: [f64; 3],
@@ -151,6 +152,18 @@ pub enum FemError {
     /// The model file is invalid.
     #[error("invalid model: {0}")]
     Model(String),
+    /// Cable inputs name a cable the model does not have.
+    #[error("no cable named {name:?}")]
+    NoSuchCable {
+        /// The name given.
+        name: String,
+    },
+    /// A cable input gives both, or neither, of its shortening and its force.
+    #[error("cable {name:?}: give exactly one of shorten, force")]
+    CableInputNotOne {
+        /// The cable.
+        name: String,
+    },
     /// faer could not allocate or index the sparse system.
     #[error("sparse linear algebra: {0}")]
     Linalg(#[from] faer::sparse::FaerError),
@@ -179,15 +192,18 @@ impl From<faer::linalg::solvers::LltError> for FemError {
     }
 }
 
-impl FemError {
-    /// `self` naming `path`, unless it names a file already.
-    pub fn in_file(self, path: &std::path::Path) -> FemError {
-        match self {
-            e @ (FemError::File { .. } | FemError::InFile { .. }) => e,
-            e => FemError::InFile {
-                path: path.display().to_string(),
-                source: Box::new(e),
-            },
+impl crate::io::InFile for FemError {
+    fn names_file(&self) -> bool {
+        matches!(
+            self,
+            FemError::File { .. } | FemError::InFile { .. } | FemError::Write(_)
+        )
+    }
+
+    fn wrap_in_file(self, path: &std::path::Path) -> Self {
+        FemError::InFile {
+            path: path.display().to_string(),
+            source: Box::new(self),
         }
     }
 }

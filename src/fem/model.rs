@@ -24,6 +24,7 @@ use super::solve::{
     Cable, CableControl, Formulation, MappedPoint, NewtonParams, PointLoad, Problem,
 };
 use super::{FemError, FemResult};
+use crate::io::InFile;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 

@@ -213,73 +213,8 @@ impl QpProblem {
     /// Solves the QP. Errors only on invalid data; a solver failure is a status.
     pub fn solve(&self, params: &QpParams) -> InverseResult<QpSolution> {
         self.validate()?;
-        let n = self.n();
-        // P: upper triangle, column by column.
-        let mut triplets = Vec::new();
-        for j in 0..n {
-            for i in 0..=j {
-                let v = 0.5 * (self.p[(i, j)] + self.p[(j, i)]);
-                if v != 0.0 {
-                    triplets.push((i, j, v));
-                }
-            }
-        }
-        let pm = csc(n, n, &triplets);
-        // Constraint rows: s = b - A x in the cone.
-        let mut rows: Vec<(usize, usize, f64)> = Vec::new();
-        let mut b = Vec::new();
-        let mut cones = Vec::new();
-        let m_eq = self.a_eq.nrows();
-        for i in 0..m_eq {
-            for j in 0..n {
-                let v = self.a_eq[(i, j)];
-                if v != 0.0 {
-                    rows.push((b.len(), j, v));
-                }
-            }
-            b.push(self.b_eq[i]);
-        }
-        if m_eq > 0 {
-            cones.push(SupportedConeT::ZeroConeT(m_eq));
-        }
-        let before = b.len();
-        for i in 0..self.a_le.nrows() {
-            // a x <= h  <=>  a x + s = h, s >= 0
-            for j in 0..n {
-                let v = self.a_le[(i, j)];
-                if v != 0.0 {
-                    rows.push((b.len(), j, v));
-                }
-            }
-            b.push(self.b_le[i]);
-        }
-        for j in 0..n {
-            if self.lower[j].is_finite() {
-                // x_j >= l  <=>  -x_j + s = -l, s >= 0
-                rows.push((b.len(), j, -1.0));
-                b.push(-self.lower[j]);
-            }
-            if self.upper[j].is_finite() {
-                rows.push((b.len(), j, 1.0));
-                b.push(self.upper[j]);
-            }
-        }
-        if b.len() > before {
-            cones.push(SupportedConeT::NonnegativeConeT(b.len() - before));
-        }
-        for c in &self.cones {
-            for i in 0..c.h.len() {
-                for j in 0..n {
-                    let v = c.g[(i, j)];
-                    if v != 0.0 {
-                        rows.push((b.len(), j, -v));
-                    }
-                }
-                b.push(c.h[i]);
-            }
-            cones.push(SupportedConeT::SecondOrderConeT(c.h.len()));
-        }
-        let am = csc(b.len(), n, &rows);
+        let pm = self.objective_upper();
+        let (am, b, cones) = self.clarabel_constraints();
         let settings = DefaultSettingsBuilder::default()
             .verbose(false)
             .max_iter(params.max_iterations)
@@ -308,6 +243,58 @@ impl QpProblem {
         })
     }
 
+    /// P's upper triangle (symmetrised), as Clarabel takes it.
+    fn objective_upper(&self) -> CscMatrix<f64> {
+        let n = self.n();
+        let mut triplets = Vec::new();
+        for j in 0..n {
+            for i in 0..=j {
+                let v = 0.5 * (self.p[(i, j)] + self.p[(j, i)]);
+                if v != 0.0 {
+                    triplets.push((i, j, v));
+                }
+            }
+        }
+        csc(n, n, &triplets)
+    }
+
+    /// Every constraint in Clarabel's form A x + s = b, s in the cones: the equalities
+    /// (zero cone), the inequalities and finite bounds (nonnegative cone), then the
+    /// second-order cones.
+    fn clarabel_constraints(&self) -> (CscMatrix<f64>, Vec<f64>, Vec<SupportedConeT<f64>>) {
+        let n = self.n();
+        let mut rows: Vec<(usize, usize, f64)> = Vec::new();
+        let mut b = Vec::new();
+        let mut cones = Vec::new();
+        push_rows(&mut rows, &mut b, &self.a_eq, &self.b_eq, 1.0);
+        if !self.b_eq.is_empty() {
+            cones.push(SupportedConeT::ZeroConeT(self.b_eq.len()));
+        }
+        let before = b.len();
+        // a x <= h  <=>  a x + s = h, s >= 0
+        push_rows(&mut rows, &mut b, &self.a_le, &self.b_le, 1.0);
+        for j in 0..n {
+            if self.lower[j].is_finite() {
+                // x_j >= l  <=>  -x_j + s = -l, s >= 0
+                rows.push((b.len(), j, -1.0));
+                b.push(-self.lower[j]);
+            }
+            if self.upper[j].is_finite() {
+                rows.push((b.len(), j, 1.0));
+                b.push(self.upper[j]);
+            }
+        }
+        if b.len() > before {
+            cones.push(SupportedConeT::NonnegativeConeT(b.len() - before));
+        }
+        for c in &self.cones {
+            // s = G x + h in the cone: rows -G, right-hand side h.
+            push_rows(&mut rows, &mut b, &c.g, &c.h, -1.0);
+            cones.push(SupportedConeT::SecondOrderConeT(c.h.len()));
+        }
+        (csc(b.len(), n, &rows), b, cones)
+    }
+
     /// ½xᵀPx + qᵀx.
     pub fn objective(&self, x: &[f64]) -> f64 {
         let n = self.n();
@@ -319,6 +306,26 @@ impl QpProblem {
             }
         }
         f
+    }
+}
+
+/// Appends the rows `sign · a` (its non-zeros, as triplets numbered after the rows already
+/// in `b`) and their right-hand sides `rhs` to `b`.
+fn push_rows(
+    rows: &mut Vec<(usize, usize, f64)>,
+    b: &mut Vec<f64>,
+    a: &DMatrix<f64>,
+    rhs: &[f64],
+    sign: f64,
+) {
+    for (i, &h) in rhs.iter().enumerate() {
+        for j in 0..a.ncols() {
+            let v = a[(i, j)];
+            if v != 0.0 {
+                rows.push((b.len(), j, sign * v));
+            }
+        }
+        b.push(h);
     }
 }
 

@@ -21,6 +21,26 @@ use crate::cloud::PointCloud;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
 
+/// An error that can name the file it came from: parsers report what is wrong without the
+/// path, their callers add it once, and an error that names a file already (a read or
+/// write failure, or one already wrapped) is passed through unchanged.
+pub trait InFile: Sized {
+    /// Whether the error names its file already.
+    fn names_file(&self) -> bool;
+
+    /// The error wrapped in a variant that names `path`.
+    fn wrap_in_file(self, path: &Path) -> Self;
+
+    /// The error naming `path`, unless it names a file already.
+    fn in_file(self, path: &Path) -> Self {
+        if self.names_file() {
+            self
+        } else {
+            self.wrap_in_file(path)
+        }
+    }
+}
+
 /// Errors of reading and writing files. Every variant names the file.
 #[derive(Debug, Error)]
 pub enum IoError {

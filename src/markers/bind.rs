@@ -10,6 +10,7 @@ use crate::fem::constraint::{ConstraintRow, RowKind};
 use crate::fem::mesh::{Surface, TetMesh};
 use crate::fem::model::Effector;
 use crate::fem::solve::MappedPoint;
+use crate::io::InFile;
 use crate::math::{norm, sub};
 use std::path::Path;
 

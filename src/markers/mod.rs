@@ -197,15 +197,21 @@ pub enum MarkersError {
     Fem(#[from] crate::fem::FemError),
 }
 
-impl MarkersError {
-    /// `self` naming `path`.
-    pub fn in_file(self, path: &std::path::Path) -> MarkersError {
-        match self {
-            e @ (MarkersError::File { .. } | MarkersError::InFile { .. }) => e,
-            e => MarkersError::InFile {
-                path: path.display().to_string(),
-                source: Box::new(e),
-            },
+impl crate::io::InFile for MarkersError {
+    fn names_file(&self) -> bool {
+        matches!(
+            self,
+            MarkersError::File { .. }
+                | MarkersError::InFile { .. }
+                | MarkersError::Write(_)
+                | MarkersError::Tracks(_)
+        )
+    }
+
+    fn wrap_in_file(self, path: &std::path::Path) -> Self {
+        MarkersError::InFile {
+            path: path.display().to_string(),
+            source: Box::new(self),
         }
     }
 }

@@ -5,6 +5,7 @@ use super::schema::{ActuatorTruth, FrameInput};
 use super::{file_err, RecordingResult};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// Which file the recorded inputs came from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -23,7 +24,29 @@ pub struct RecordedInputs {
     /// Its kind.
     pub kind: InputsFile,
     /// Each frame's inputs, or why its entry cannot be used.
-    pub entries: Vec<Result<FrameInput, String>>,
+    pub entries: Vec<Result<FrameInput, EntryProblem>>,
+}
+
+/// Why one frame's entry of the recorded inputs cannot be used (the other frames' can).
+#[derive(Clone, Debug, thiserror::Error)]
+pub enum EntryProblem {
+    /// The entry is not a frame's inputs (a missing field, a string for a number).
+    #[error("{0}")]
+    Parse(#[source] Arc<serde_json::Error>),
+    /// A cable's shortening or force is NaN or infinite.
+    #[error("cable '{cable}': {field} is not finite")]
+    CableNotFinite {
+        /// The cable.
+        cable: String,
+        /// `shorten` or `force`.
+        field: &'static str,
+    },
+    /// A known load's position, force or radius is NaN or infinite.
+    #[error("load {load}: a position, force or radius is not finite")]
+    LoadNotFinite {
+        /// The load's index in the entry.
+        load: usize,
+    },
 }
 
 impl RecordedInputs {
@@ -85,12 +108,12 @@ impl RecordedInputs {
     }
 }
 
-fn parse_entry(v: Value, kind: InputsFile) -> Result<FrameInput, String> {
+fn parse_entry(v: Value, kind: InputsFile) -> Result<FrameInput, EntryProblem> {
+    let parse = |e| EntryProblem::Parse(Arc::new(e));
     let input = match kind {
-        InputsFile::Inputs => serde_json::from_value::<FrameInput>(v).map_err(|e| e.to_string())?,
+        InputsFile::Inputs => serde_json::from_value::<FrameInput>(v).map_err(parse)?,
         InputsFile::Actuators => {
-            let cables: Vec<ActuatorTruth> =
-                serde_json::from_value(v).map_err(|e| e.to_string())?;
+            let cables: Vec<ActuatorTruth> = serde_json::from_value(v).map_err(parse)?;
             FrameInput {
                 cables: cables.iter().map(ActuatorTruth::commanded).collect(),
                 loads: Vec::new(),
@@ -101,20 +124,21 @@ fn parse_entry(v: Value, kind: InputsFile) -> Result<FrameInput, String> {
     Ok(input)
 }
 
-fn check_finite(input: &FrameInput) -> Result<(), String> {
+fn check_finite(input: &FrameInput) -> Result<(), EntryProblem> {
     for c in &input.cables {
         for (field, v) in [("shorten", c.shorten), ("force", c.force)] {
             if v.is_some_and(|v| !v.is_finite()) {
-                return Err(format!("cable '{}': {field} is not finite", c.name));
+                return Err(EntryProblem::CableNotFinite {
+                    cable: c.name.clone(),
+                    field,
+                });
             }
         }
     }
-    for (i, l) in input.loads.iter().enumerate() {
+    for (load, l) in input.loads.iter().enumerate() {
         let all = l.at.iter().chain(&l.force).chain([&l.radius]);
         if all.into_iter().any(|v| !v.is_finite()) {
-            return Err(format!(
-                "load {i}: a position, force or radius is not finite"
-            ));
+            return Err(EntryProblem::LoadNotFinite { load });
         }
     }
     Ok(())

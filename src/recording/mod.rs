@@ -33,7 +33,7 @@ pub mod schema;
 pub mod tracks;
 mod write;
 
-pub use inputs::{InputsFile, RecordedInputs};
+pub use inputs::{EntryProblem, InputsFile, RecordedInputs};
 pub use layout::{list_frames, FrameFiles, Layout};
 pub use rig::{Rig, RigCamera};
 pub use schema::{

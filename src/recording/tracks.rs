@@ -11,6 +11,7 @@
 //! are positions), then `Frame,Time,...` and X, Y, Z triplets per marker; empty cells are a
 //! hidden marker. Lengths are millimetres unless the header says otherwise.
 
+use crate::io::InFile;
 use std::path::Path;
 use thiserror::Error;
 
@@ -46,17 +47,18 @@ pub enum TracksError {
     Write(#[from] crate::io::atomic::AtomicError),
 }
 
-impl TracksError {
-    /// The error with the file's name, unless it names one already.
-    pub fn in_file(self, path: &Path) -> TracksError {
-        match self {
-            e @ (TracksError::File { .. } | TracksError::InFile { .. } | TracksError::Write(_)) => {
-                e
-            }
-            e => TracksError::InFile {
-                path: path.display().to_string(),
-                source: Box::new(e),
-            },
+impl crate::io::InFile for TracksError {
+    fn names_file(&self) -> bool {
+        matches!(
+            self,
+            TracksError::File { .. } | TracksError::InFile { .. } | TracksError::Write(_)
+        )
+    }
+
+    fn wrap_in_file(self, path: &Path) -> Self {
+        TracksError::InFile {
+            path: path.display().to_string(),
+            source: Box::new(self),
         }
     }
 }

@@ -13,13 +13,15 @@ use std::path::Path;
 const TARGET: Rgb = [120, 120, 120];
 const ROBOT: Rgb = [40, 90, 180];
 const MODEL: Rgb = [215, 95, 30];
+// Blue and orange mean robot and model in every picture of a run, so the cables take
+// other colours.
 const CABLES: [Rgb; 6] = [
-    [40, 90, 180],
-    [215, 95, 30],
     [60, 150, 60],
     [170, 50, 150],
     [30, 160, 170],
     [150, 120, 40],
+    [200, 60, 80],
+    [110, 80, 200],
 ];
 
 /// The pictures of a run: `error.png` (robot error and model gap against step, lost

@@ -83,17 +83,14 @@ pub enum SenseError {
         path: PathBuf,
         /// The frame.
         frame: usize,
-        /// Why its entry cannot be used, as [`RecordedInputs`](crate::recording::RecordedInputs)
-        /// keeps it (its entries hold their parse error as text).
-        problem: String,
+        /// Why its entry cannot be used.
+        #[source]
+        problem: crate::recording::EntryProblem,
     },
     /// A frame's recorded cable inputs do not fit the model: a cable it does not have, or
     /// not exactly one of shorten and force.
-    #[error("recorded inputs: {reason}")]
-    CableInputs {
-        /// Why, as [`apply_cable_inputs`] says it (it has no error type of its own).
-        reason: String,
-    },
+    #[error("recorded inputs: {0}")]
+    CableInputs(#[source] crate::fem::FemError),
     /// A calibrated cable input names a cable the model does not have: the calibration is
     /// of another model.
     #[error(
@@ -291,7 +288,7 @@ impl Sensor {
         model.problem.loads.clear();
         if let Some(inputs) = inputs {
             apply_cable_inputs(&mut model.problem.cables, &inputs.cables)
-                .map_err(|reason| SenseError::CableInputs { reason })?;
+                .map_err(SenseError::CableInputs)?;
         }
         Ok(model)
     }
