@@ -225,7 +225,7 @@ fn feature_rows_that_average_shared_points_get_correlated_offsets() {
     // The first feature twice: two rows of the very same points.
     let mut features = vec![sensor.features[0]];
     features.extend_from_slice(&sensor.features);
-    let shared = SharedPoints::register(&reg, &features, x, params).unwrap();
+    let shared = SharedPoints::of(&reg.match_features(&features, x, params)).unwrap();
     let c = shared.matrix();
     let m = c.nrows();
     assert!(m > 200, "{m} visible rows");

@@ -434,7 +434,8 @@ fn an_averaged_match_reports_the_very_points_it_averaged() {
         ..RegisterParams::default()
     };
     let (p, n) = ([0.02, 0.021, 0.0], [0.0, 0.0, 1.0]);
-    let (m, used, scatter) = reg.match_feature_points(p, n, &params).unwrap();
+    let (m, points) = reg.match_feature_points(p, n, &params).unwrap();
+    let (used, scatter) = (points.indices, points.scatter);
     let plain = reg.match_feature(p, n, &params).unwrap();
     assert_eq!((m.offset, m.points), (plain.offset, plain.points));
     let brute: Vec<u32> = (0..pts.len() as u32)
@@ -483,8 +484,9 @@ fn remembered_feature_matches_equal_fresh_ones_and_follow_the_positions() {
             })
             .collect()
     };
-    let bits = |ms: Vec<Option<softsense::register::LineMatch>>| -> Vec<Option<(u64, u64, usize)>> {
-        ms.into_iter()
+    let bits = |r: softsense::register::Registration| -> Vec<Option<(u64, u64, usize)>> {
+        r.matches
+            .into_iter()
             .map(|m| m.map(|m| (m.offset.to_bits(), m.line_distance.to_bits(), m.points)))
             .collect()
     };
