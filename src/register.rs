@@ -157,7 +157,7 @@ pub struct Registrar {
 struct Registered {
     positions: Vec<[f64; 3]>,
     params: RegisterParams,
-    registration: Registration,
+    matches: FeatureMatches,
 }
 
 /// The points an averaged match used ([`RegisterParams::average`]).
@@ -175,7 +175,7 @@ pub struct SheetPoints {
 /// one, so the forces' uncertainty and the pictures read what was registered instead of
 /// registering again.
 #[derive(Clone, Debug, Default)]
-pub struct Registration {
+pub struct FeatureMatches {
     /// The features, in the caller's order.
     pub features: Vec<SurfaceFeature>,
     /// Each feature's match (`None`: hidden, a degenerate triangle, or not registered).
@@ -185,7 +185,7 @@ pub struct Registration {
     pub points: Vec<SheetPoints>,
 }
 
-impl Registration {
+impl FeatureMatches {
     /// `features`, none of them registered (e.g. a frame registered densely).
     pub fn unmatched(features: &[SurfaceFeature]) -> Self {
         Self {
@@ -435,7 +435,7 @@ impl Registrar {
         features: &[SurfaceFeature],
         positions: &[[f64; 3]],
         params: &RegisterParams,
-    ) -> Registration {
+    ) -> FeatureMatches {
         let bits = |a: &[[f64; 3]], b: &[[f64; 3]]| {
             a.len() == b.len()
                 && a.iter()
@@ -444,18 +444,16 @@ impl Registrar {
                     .all(|(u, v)| u.to_bits() == v.to_bits())
         };
         let same = |r: &Registered| {
-            r.params == *params
-                && r.registration.features == features
-                && bits(&r.positions, positions)
+            r.params == *params && r.matches.features == features && bits(&r.positions, positions)
         };
         if let Ok(memo) = self.memo.lock() {
             if let Some(r) = memo.iter().find(|r| same(r)) {
-                return r.registration.clone();
+                return r.matches.clone();
             }
         }
-        let mut registration = Registration {
+        let mut found = FeatureMatches {
             features: features.to_vec(),
-            ..Registration::default()
+            ..FeatureMatches::default()
         };
         for f in features {
             let n = f.normal(positions);
@@ -464,12 +462,12 @@ impl Registrar {
                 (false, true) => self
                     .match_feature_points(f.position(positions), n, params)
                     .map(|(m, points)| {
-                        registration.points.push(points);
+                        found.points.push(points);
                         m
                     }),
                 (false, false) => self.match_feature(f.position(positions), n, params),
             };
-            registration.matches.push(m);
+            found.matches.push(m);
         }
         if let Ok(mut memo) = self.memo.lock() {
             if memo.len() >= MEMO_CALLS {
@@ -478,10 +476,10 @@ impl Registrar {
             memo.push(Registered {
                 positions: positions.to_vec(),
                 params: params.clone(),
-                registration: registration.clone(),
+                matches: found.clone(),
             });
         }
-        registration
+        found
     }
 
     /// Matches every feature node; `None` entries are hidden features.

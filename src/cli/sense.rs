@@ -553,7 +553,7 @@ fn picture(
         &report.positions
     };
     // The features as the frame's estimate registered them.
-    let features: Vec<FeatureMark> = (report.registration.iter())
+    let features: Vec<FeatureMark> = (report.matches.iter())
         .filter_map(|(f, m)| {
             let (p, n) = (f.position(x), f.normal(x));
             // Another camera's features on faces this one sees from behind are left out.

@@ -7,7 +7,7 @@ use super::{InverseError, InverseResult};
 use crate::fem::constraint::{ConstraintRow, RowKind};
 use crate::fem::solve::{CableControl, MappedPoint, Solver, SolverState};
 use crate::fem::tet4::Tangent;
-use crate::register::Registration;
+use crate::register::FeatureMatches;
 
 /// A candidate force: a point on the mesh and the force direction (unit after normalising).
 #[derive(Clone, Copy, Debug)]
@@ -70,7 +70,7 @@ pub(crate) fn factorize_loop_tangent(
 fn feature_rows(
     inputs: &FrameInputs<'_>,
     x: &[[f64; 3]],
-) -> InverseResult<(Vec<ConstraintRow>, Vec<f64>, Registration)> {
+) -> InverseResult<(Vec<ConstraintRow>, Vec<f64>, FeatureMatches)> {
     let (registrar, features, params) = (inputs.registrar, inputs.features, inputs.params);
     let mut rows = Vec::new();
     let mut measured = Vec::new();
@@ -96,7 +96,7 @@ pub(crate) fn linearise(
     inputs: &FrameInputs<'_>,
     candidates: &[Candidate],
     timings: &mut LoopTimings,
-) -> InverseResult<(IntensityProblem, usize, Registration)> {
+) -> InverseResult<(IntensityProblem, usize, FeatureMatches)> {
     let base = solver.problem;
     let rest = &base.mesh.nodes_in_rest;
     let clock = std::time::Instant::now();
@@ -108,7 +108,7 @@ pub(crate) fn linearise(
                 rows,
                 measured,
                 noise,
-                Registration::unmatched(inputs.features),
+                FeatureMatches::unmatched(inputs.features),
             )
         }
         None => {

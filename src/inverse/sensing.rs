@@ -12,7 +12,7 @@ use crate::fem::solve::{
     norm_vec, NewtonParams, PointLoad, Problem, Solution, Solver, SolverState,
 };
 use crate::fem::FemError;
-use crate::register::{RegisterParams, Registrar, Registration, SurfaceFeature};
+use crate::register::{FeatureMatches, RegisterParams, Registrar, SurfaceFeature};
 
 /// Options of the per-frame loop.
 #[derive(Clone, Debug)]
@@ -107,7 +107,7 @@ pub struct FrameEstimate {
     pub positions: Vec<[f64; 3]>,
     /// The frame's features as the last linearisation registered them at `positions` (none
     /// matched under dense rows): its feature rows are the matched ones, in order.
-    pub registration: Registration,
+    pub matches: FeatureMatches,
     /// The last linearisation's solver state: elements evaluated at `positions`, the
     /// tangent with the cables factorized there (for
     /// [`choose_locations`](super::choose_locations) at `positions`).
@@ -265,7 +265,7 @@ struct LoopState<'a> {
     last_change: Vec<f64>,
     last: Option<(IntensityEstimate, usize, IntensityProblem)>,
     /// The features registered at `x` by the last linearisation.
-    registration: Registration,
+    matches: FeatureMatches,
     timings: LoopTimings,
 }
 
@@ -338,7 +338,7 @@ impl<'a> LoopState<'a> {
             settled: false,
             last_change: Vec::new(),
             last: None,
-            registration: Registration::default(),
+            matches: FeatureMatches::default(),
             timings: LoopTimings::default(),
         })
     }
@@ -434,9 +434,9 @@ impl<'a> LoopState<'a> {
         let tensions = self.prev.as_ref().map_or(&[][..], |s| &s.cable_tension[..]);
         factorize_loop_tangent(&mut solver, &self.x, tensions, self.newton.tangent)?;
         self.timings.compliance += ms_since(clock);
-        let (prob, visible, registration) =
+        let (prob, visible, matches) =
             linearise(&solver, &self.x, inputs, candidates, &mut self.timings)?;
-        self.registration = registration;
+        self.matches = matches;
         self.carry = Some(solver.into_state());
         self.cable_compliance = max_diagonal(&prob.w_aa);
         Ok((prob, visible))
@@ -520,7 +520,7 @@ impl<'a> LoopState<'a> {
             last_change: self.last_change,
             fit: None,
             positions: self.x,
-            registration: self.registration,
+            matches: self.matches,
             solver: self.carry,
             timings: self.timings,
         })

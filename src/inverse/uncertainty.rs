@@ -3,12 +3,12 @@
 //! ([`FrameEstimate::use_shared_point_uncertainty`]).
 
 use super::sensing::FrameEstimate;
-use crate::register::Registration;
+use crate::register::FeatureMatches;
 
 impl FrameEstimate {
     /// Replaces the forces' Gauss-Markov σ (independent feature rows, the loop's) with their
     /// covariance from the points the rows share ([`SharedPoints`] of the loop's own
-    /// [`FrameEstimate::registration`]):
+    /// [`FrameEstimate::matches`]):
     /// neighbouring features average some of the same points, so their offsets' errors are
     /// correlated, and near a contact, where the force is decided, they overlap most. A row
     /// whose residual is larger than its spread from the points' noise has its errors
@@ -19,7 +19,7 @@ impl FrameEstimate {
     /// share. The forces do not change. Returns whether the σ were replaced (not when a
     /// match is the single nearest point or the forces are not identifiable).
     pub fn use_shared_point_uncertainty(&mut self) -> bool {
-        let Some(shared) = SharedPoints::of(&self.registration) else {
+        let Some(shared) = SharedPoints::of(&self.matches) else {
             return false;
         };
         let e = &self.estimate;
@@ -83,10 +83,10 @@ pub struct SharedPoints {
 }
 
 impl SharedPoints {
-    /// The points of `registration`'s matches. `None` unless the matches average
+    /// The points of `matches`. `None` unless the matches average
     /// ([`crate::register::RegisterParams::average`]) and some row has two points or more.
-    pub fn of(registration: &Registration) -> Option<Self> {
-        let own: Vec<Option<f64>> = (registration.points.iter())
+    pub fn of(matches: &FeatureMatches) -> Option<Self> {
+        let own: Vec<Option<f64>> = (matches.points.iter())
             .map(|s| {
                 let n = s.indices.len();
                 (n > 1).then(|| s.scatter / (n - 1) as f64)
@@ -101,9 +101,7 @@ impl SharedPoints {
             .into_iter()
             .map(|v| v.map_or(median, |v| v.max(median)))
             .collect();
-        let rows = (registration.points.iter())
-            .map(|s| s.indices.clone())
-            .collect();
+        let rows = (matches.points.iter()).map(|s| s.indices.clone()).collect();
         Some(Self { rows, row_spread })
     }
 

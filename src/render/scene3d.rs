@@ -353,7 +353,7 @@ fn fe_surface(sensor: &Sensor, x: &[[f64; 3]]) -> Entity {
 /// registration, not a new one.
 fn features(report: &FrameReport, x: &[[f64; 3]], radius: f32) -> [Entity; 2] {
     let (mut positions, mut colors, mut strips) = (Vec::new(), Vec::new(), Vec::new());
-    for (f, m) in report.registration.iter() {
+    for (f, m) in report.matches.iter() {
         let (p, n) = (f.position(x), f.normal(x));
         positions.push(f32s(p));
         colors.push(if m.is_some() {

@@ -11,7 +11,7 @@ use crate::inverse::intensity::Identifiability;
 use crate::inverse::{Candidate, FrameEstimate};
 use crate::math::{norm, sub};
 use crate::recording::FrameTruth;
-use crate::register::Registration;
+use crate::register::FeatureMatches;
 use serde::{Deserialize, Serialize};
 
 /// What happened to a frame.
@@ -177,7 +177,7 @@ pub struct FrameReport {
     /// The frame's features as the final estimate registered them at `positions` (empty if
     /// none), for pictures.
     #[serde(skip)]
-    pub registration: Registration,
+    pub matches: FeatureMatches,
 }
 
 impl FrameReport {
@@ -211,7 +211,7 @@ impl FrameReport {
             ms: 0.0,
             timings: StageTimings::default(),
             positions: Vec::new(),
-            registration: Registration::default(),
+            matches: FeatureMatches::default(),
         }
     }
 }
@@ -231,7 +231,7 @@ impl FrameReport {
         let e = &est.estimate;
         self.features_visible = est.visible;
         self.positions.clone_from(&est.positions);
-        self.registration.clone_from(&est.registration);
+        self.matches.clone_from(&est.matches);
         self.residual_rms = e.residual_rms;
         self.updates = est.updates;
         self.residual_robust = e.residual_robust;
