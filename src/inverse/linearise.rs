@@ -66,7 +66,7 @@ pub(crate) fn factorize_loop_tangent(
 }
 
 /// The features' rows at node positions `x`: each matched feature along its normal, its
-/// measured value the row's plus the match's offset; and the registration they came from.
+/// measured value the row's plus the match's offset; and the matches they came from.
 fn feature_rows(
     inputs: &FrameInputs<'_>,
     x: &[[f64; 3]],
@@ -74,22 +74,22 @@ fn feature_rows(
     let (registrar, features, params) = (inputs.registrar, inputs.features, inputs.params);
     let mut rows = Vec::new();
     let mut measured = Vec::new();
-    let registration = registrar.match_features(features, x, &params.register);
-    for (f, m) in registration.iter() {
+    let matches = registrar.match_features(features, x, &params.register);
+    for (f, m) in matches.iter() {
         if let Some(m) = m {
             let row = ConstraintRow::along(RowKind::Effector, &f.mapped(), f.normal(x))?;
             measured.push(row.value(x) + m.offset);
             rows.push(row);
         }
     }
-    Ok((rows, measured, registration))
+    Ok((rows, measured, matches))
 }
 
 /// The intensity problem linearised at node positions `x` (an equilibrium of the solver's
 /// problem without its point loads, plus some candidate loads; the solver holds the tangent
 /// factorised at `x`): the frame's features registered at `x`, compliance of the feature,
 /// actuator and candidate rows. Returns the problem, the number of visible features (or
-/// dense rows) and the features' registration at `x` (none matched under dense rows).
+/// dense rows) and the features' matches at `x` (none matched under dense rows).
 pub(crate) fn linearise(
     solver: &Solver<'_>,
     x: &[[f64; 3]],
@@ -101,7 +101,7 @@ pub(crate) fn linearise(
     let rest = &base.mesh.nodes_in_rest;
     let clock = std::time::Instant::now();
     // Register at the current state.
-    let (mut rows, measured, row_noise, registration) = match inputs.dense {
+    let (mut rows, measured, row_noise, matches) = match inputs.dense {
         Some(dense) => {
             let (rows, measured, noise) = super::dense::dense_rows(dense, x)?;
             (
@@ -112,8 +112,8 @@ pub(crate) fn linearise(
             )
         }
         None => {
-            let (rows, measured, registration) = feature_rows(inputs, x)?;
-            (rows, measured, Default::default(), registration)
+            let (rows, measured, matches) = feature_rows(inputs, x)?;
+            (rows, measured, Default::default(), matches)
         }
     };
     let visible = rows.len();
@@ -165,5 +165,5 @@ pub(crate) fn linearise(
     if ne == 0 {
         return Err(InverseError::NoVisibleRows);
     }
-    Ok((prob, visible, registration))
+    Ok((prob, visible, matches))
 }
