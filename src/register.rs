@@ -152,12 +152,55 @@ pub struct Registrar {
     memo: std::sync::Mutex<Vec<Registered>>,
 }
 
-/// One [`Registrar::match_features`] call: its inputs and its matches.
+/// One [`Registrar::match_features`] call: its positions and parameters, and its answer
+/// (which holds the features).
 struct Registered {
-    features: Vec<SurfaceFeature>,
     positions: Vec<[f64; 3]>,
     params: RegisterParams,
-    matches: Vec<Option<LineMatch>>,
+    matches: FeatureMatches,
+}
+
+/// The points an averaged match used ([`RegisterParams::average`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SheetPoints {
+    /// Their indices in the registrar's finite points, ascending.
+    pub indices: Vec<u32>,
+    /// The sum of their squared deviations from the match's offset (m²): the scatter along
+    /// the line that the noise of a point, and the surface within the disc, make.
+    pub scatter: f64,
+}
+
+/// Features registered at one state ([`Registrar::match_features`]): each feature's match
+/// and, when the matches average, the points behind them. The sensing loop returns its last
+/// one, so the forces' uncertainty and the pictures read what was registered instead of
+/// registering again.
+#[derive(Clone, Debug, Default)]
+pub struct FeatureMatches {
+    /// The features, in the caller's order.
+    pub features: Vec<SurfaceFeature>,
+    /// Each feature's match (`None`: hidden, a degenerate triangle, or not registered).
+    pub matches: Vec<Option<LineMatch>>,
+    /// With [`RegisterParams::average`], the points of each match, one entry per `Some`
+    /// in `matches`, in order (the sensing loop's feature rows); empty otherwise.
+    pub points: Vec<SheetPoints>,
+}
+
+impl FeatureMatches {
+    /// `features`, none of them registered (e.g. a frame registered densely).
+    pub fn unmatched(features: &[SurfaceFeature]) -> Self {
+        Self {
+            features: features.to_vec(),
+            matches: vec![None; features.len()],
+            points: Vec::new(),
+        }
+    }
+
+    /// Each feature with its match.
+    pub fn iter(&self) -> impl Iterator<Item = (&SurfaceFeature, Option<&LineMatch>)> {
+        self.features
+            .iter()
+            .zip(self.matches.iter().map(Option::as_ref))
+    }
 }
 
 /// Calls [`Registrar::match_features`] remembers (a frame's estimate and the location
@@ -300,32 +343,29 @@ impl Registrar {
     }
 
     /// [`Registrar::match_feature`] (averaged: `params.average`), and the points it
-    /// averaged: their indices in the finite input points, ascending, and the sum of their
-    /// squared deviations from the offset (the scatter along the line that the noise of a
-    /// point, and the surface within the disc, make). `None` when hidden, or when the match
-    /// is the thesis's single nearest point.
+    /// averaged. `None` when hidden, or when the match is the thesis's single nearest point.
     pub fn match_feature_points(
         &self,
         p: [f64; 3],
         n: [f64; 3],
         params: &RegisterParams,
-    ) -> Option<(LineMatch, Vec<u32>, f64)> {
+    ) -> Option<(LineMatch, SheetPoints)> {
         if !params.average || self.points.is_empty() {
             return None;
         }
         let on_line = self.near_line(p, n, params.d_m, params.d_l);
         let (m, centre) = self.sheet(&on_line, params)?;
-        let mut used = Vec::with_capacity(m.points);
+        let mut indices = Vec::with_capacity(m.points);
         let mut scatter = 0.0;
         for q in on_line
             .iter()
             .filter(|q| (q.0 - centre).abs() <= params.sheet)
         {
-            used.push(q.2);
+            indices.push(q.2);
             scatter += (q.0 - m.offset).powi(2);
         }
-        used.sort_unstable();
-        Some((m, used, scatter))
+        indices.sort_unstable();
+        Some((m, SheetPoints { indices, scatter }))
     }
 
     /// `(t, squared distance to the line, index)` of every point with |t| ≤ `d_l` and
@@ -385,16 +425,17 @@ impl Registrar {
     }
 
     /// The match of each feature at node positions `positions` (its point and the normal
-    /// of its triangle there; `None`: hidden, or a degenerate triangle). Remembered: the
-    /// same features, positions and parameters, bit for bit, get the same matches without
-    /// the search (a frame's location choice linearises at the state its last estimate
-    /// ended at, where every feature was matched already).
+    /// of its triangle there; `None`: hidden, or a degenerate triangle), and with
+    /// `params.average` the points of each, in one search per feature. Remembered: the
+    /// same features, positions and parameters, bit for bit, get the same registration
+    /// without the search (a frame's location choice linearises at the state its last
+    /// estimate ended at, where every feature was matched already).
     pub fn match_features(
         &self,
         features: &[SurfaceFeature],
         positions: &[[f64; 3]],
         params: &RegisterParams,
-    ) -> Vec<Option<LineMatch>> {
+    ) -> FeatureMatches {
         let bits = |a: &[[f64; 3]], b: &[[f64; 3]]| {
             a.len() == b.len()
                 && a.iter()
@@ -403,35 +444,42 @@ impl Registrar {
                     .all(|(u, v)| u.to_bits() == v.to_bits())
         };
         let same = |r: &Registered| {
-            r.params == *params && r.features == features && bits(&r.positions, positions)
+            r.params == *params && r.matches.features == features && bits(&r.positions, positions)
         };
         if let Ok(memo) = self.memo.lock() {
             if let Some(r) = memo.iter().find(|r| same(r)) {
                 return r.matches.clone();
             }
         }
-        let matches: Vec<Option<LineMatch>> = features
-            .iter()
-            .map(|f| {
-                let n = f.normal(positions);
-                if n == [0.0; 3] {
-                    return None;
-                }
-                self.match_feature(f.position(positions), n, params)
-            })
-            .collect();
+        let mut found = FeatureMatches {
+            features: features.to_vec(),
+            ..FeatureMatches::default()
+        };
+        for f in features {
+            let n = f.normal(positions);
+            let m = match (n == [0.0; 3], params.average) {
+                (true, _) => None,
+                (false, true) => self
+                    .match_feature_points(f.position(positions), n, params)
+                    .map(|(m, points)| {
+                        found.points.push(points);
+                        m
+                    }),
+                (false, false) => self.match_feature(f.position(positions), n, params),
+            };
+            found.matches.push(m);
+        }
         if let Ok(mut memo) = self.memo.lock() {
             if memo.len() >= MEMO_CALLS {
                 memo.remove(0);
             }
             memo.push(Registered {
-                features: features.to_vec(),
                 positions: positions.to_vec(),
                 params: params.clone(),
-                matches: matches.clone(),
+                matches: found.clone(),
             });
         }
-        matches
+        found
     }
 
     /// Matches every feature node; `None` entries are hidden features.

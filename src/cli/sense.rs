@@ -199,7 +199,7 @@ pub fn run(args: &SenseArgs) -> CliResult {
                 };
                 let path = dir.join(name);
                 let camera = &rig.cameras[view.camera].recording;
-                picture(camera, &sensor, obs, view, &report, &path)
+                picture(camera, &sensor, view, &report, &path)
                     .map_err(|e| CliError::Result(format!("{}: {e}", path.display())))
                     .map_err(Halt::Failed)?;
             }
@@ -533,12 +533,10 @@ fn truth_summary(errors: &[&LoadError]) -> String {
 fn picture(
     rec: &Recording,
     sensor: &Sensor,
-    obs: &Observation,
     view: &View,
     report: &FrameReport,
     path: &std::path::Path,
 ) -> Result<(), Box<dyn std::error::Error>> {
-    use softsense::register::{RegisterParams, Registrar};
     use softsense::render::{
         mask_from_indices, project_with, sense_overlay, Canvas, ContactMark, FeatureMark,
         ForceArrow, OverlayParams, SenseOverlay,
@@ -554,19 +552,15 @@ fn picture(
     } else {
         &report.positions
     };
-    let registrar = Registrar::new(&obs.robot);
-    let rp: &RegisterParams = &sensor.params.frame.register;
-    let features: Vec<FeatureMark> = sensor
-        .features
-        .iter()
-        .filter_map(|f| {
+    // The features as the frame's estimate registered them.
+    let features: Vec<FeatureMark> = (report.matches.iter())
+        .filter_map(|(f, m)| {
             let (p, n) = (f.position(x), f.normal(x));
             // Another camera's features on faces this one sees from behind are left out.
             let to_eye: [f64; 3] = std::array::from_fn(|i| eye[i] - p[i]);
             if (0..3).map(|i| to_eye[i] * n[i]).sum::<f64>() <= 0.0 {
                 return None;
             }
-            let m = registrar.match_feature(p, n, rp);
             Some(FeatureMark {
                 pixel: px(p)?,
                 visible: m.is_some(),

@@ -7,6 +7,7 @@ use super::{InverseError, InverseResult};
 use crate::fem::constraint::{ConstraintRow, RowKind};
 use crate::fem::solve::{CableControl, MappedPoint, Solver, SolverState};
 use crate::fem::tet4::Tangent;
+use crate::register::FeatureMatches;
 
 /// A candidate force: a point on the mesh and the force direction (unit after normalising).
 #[derive(Clone, Copy, Debug)]
@@ -65,45 +66,54 @@ pub(crate) fn factorize_loop_tangent(
 }
 
 /// The features' rows at node positions `x`: each matched feature along its normal, its
-/// measured value the row's plus the match's offset.
+/// measured value the row's plus the match's offset; and the matches they came from.
 fn feature_rows(
     inputs: &FrameInputs<'_>,
     x: &[[f64; 3]],
-) -> InverseResult<(Vec<ConstraintRow>, Vec<f64>)> {
+) -> InverseResult<(Vec<ConstraintRow>, Vec<f64>, FeatureMatches)> {
     let (registrar, features, params) = (inputs.registrar, inputs.features, inputs.params);
     let mut rows = Vec::new();
     let mut measured = Vec::new();
     let matches = registrar.match_features(features, x, &params.register);
-    for (f, m) in features.iter().zip(matches) {
+    for (f, m) in matches.iter() {
         if let Some(m) = m {
             let row = ConstraintRow::along(RowKind::Effector, &f.mapped(), f.normal(x))?;
             measured.push(row.value(x) + m.offset);
             rows.push(row);
         }
     }
-    Ok((rows, measured))
+    Ok((rows, measured, matches))
 }
 
 /// The intensity problem linearised at node positions `x` (an equilibrium of the solver's
 /// problem without its point loads, plus some candidate loads; the solver holds the tangent
 /// factorised at `x`): the frame's features registered at `x`, compliance of the feature,
-/// actuator and candidate rows. Returns the problem and the number of visible features.
+/// actuator and candidate rows. Returns the problem, the number of visible features (or
+/// dense rows) and the features' matches at `x` (none matched under dense rows).
 pub(crate) fn linearise(
     solver: &Solver<'_>,
     x: &[[f64; 3]],
     inputs: &FrameInputs<'_>,
     candidates: &[Candidate],
     timings: &mut LoopTimings,
-) -> InverseResult<(IntensityProblem, usize)> {
+) -> InverseResult<(IntensityProblem, usize, FeatureMatches)> {
     let base = solver.problem;
     let rest = &base.mesh.nodes_in_rest;
     let clock = std::time::Instant::now();
     // Register at the current state.
-    let (mut rows, measured, row_noise) = match inputs.dense {
-        Some(dense) => super::dense::dense_rows(dense, x)?,
+    let (mut rows, measured, row_noise, matches) = match inputs.dense {
+        Some(dense) => {
+            let (rows, measured, noise) = super::dense::dense_rows(dense, x)?;
+            (
+                rows,
+                measured,
+                noise,
+                FeatureMatches::unmatched(inputs.features),
+            )
+        }
         None => {
-            let (rows, measured) = feature_rows(inputs, x)?;
-            (rows, measured, Default::default())
+            let (rows, measured, matches) = feature_rows(inputs, x)?;
+            (rows, measured, Default::default(), matches)
         }
     };
     let visible = rows.len();
@@ -155,5 +165,5 @@ pub(crate) fn linearise(
     if ne == 0 {
         return Err(InverseError::NoVisibleRows);
     }
-    Ok((prob, visible))
+    Ok((prob, visible, matches))
 }

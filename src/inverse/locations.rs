@@ -159,7 +159,7 @@ fn joint_problem(
     let newton_tangent = model.newton.tangent;
     solver.assemble(at, newton_tangent)?;
     factorize_loop_tangent(&mut solver, at, tensions, newton_tangent)?;
-    let (joint, _) = linearise(&solver, at, inputs, all, &mut LoopTimings::default())?;
+    let (joint, ..) = linearise(&solver, at, inputs, all, &mut LoopTimings::default())?;
     Ok(joint)
 }
 

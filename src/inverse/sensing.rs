@@ -12,7 +12,7 @@ use crate::fem::solve::{
     norm_vec, NewtonParams, PointLoad, Problem, Solution, Solver, SolverState,
 };
 use crate::fem::FemError;
-use crate::register::{RegisterParams, Registrar, SurfaceFeature};
+use crate::register::{FeatureMatches, RegisterParams, Registrar, SurfaceFeature};
 
 /// Options of the per-frame loop.
 #[derive(Clone, Debug)]
@@ -105,6 +105,9 @@ pub struct FrameEstimate {
     pub halvings: usize,
     /// Final node positions (m).
     pub positions: Vec<[f64; 3]>,
+    /// The frame's features as the last linearisation registered them at `positions` (none
+    /// matched under dense rows): its feature rows are the matched ones, in order.
+    pub matches: FeatureMatches,
     /// The last linearisation's solver state: elements evaluated at `positions`, the
     /// tangent with the cables factorized there (for
     /// [`choose_locations`](super::choose_locations) at `positions`).
@@ -261,6 +264,8 @@ struct LoopState<'a> {
     /// The last QP's change of each force (N).
     last_change: Vec<f64>,
     last: Option<(IntensityEstimate, usize, IntensityProblem)>,
+    /// The features registered at `x` by the last linearisation.
+    matches: FeatureMatches,
     timings: LoopTimings,
 }
 
@@ -333,6 +338,7 @@ impl<'a> LoopState<'a> {
             settled: false,
             last_change: Vec::new(),
             last: None,
+            matches: FeatureMatches::default(),
             timings: LoopTimings::default(),
         })
     }
@@ -412,7 +418,7 @@ impl<'a> LoopState<'a> {
     }
 
     /// The intensity problem at the new FE state, and its visible features; keeps the
-    /// solver's state for the next update.
+    /// solver's state for the next update, and the features' registration there.
     fn linearise(
         &mut self,
         mut solver: Solver<'_>,
@@ -428,7 +434,9 @@ impl<'a> LoopState<'a> {
         let tensions = self.prev.as_ref().map_or(&[][..], |s| &s.cable_tension[..]);
         factorize_loop_tangent(&mut solver, &self.x, tensions, self.newton.tangent)?;
         self.timings.compliance += ms_since(clock);
-        let (prob, visible) = linearise(&solver, &self.x, inputs, candidates, &mut self.timings)?;
+        let (prob, visible, matches) =
+            linearise(&solver, &self.x, inputs, candidates, &mut self.timings)?;
+        self.matches = matches;
         self.carry = Some(solver.into_state());
         self.cable_compliance = max_diagonal(&prob.w_aa);
         Ok((prob, visible))
@@ -512,6 +520,7 @@ impl<'a> LoopState<'a> {
             last_change: self.last_change,
             fit: None,
             positions: self.x,
+            matches: self.matches,
             solver: self.carry,
             timings: self.timings,
         })

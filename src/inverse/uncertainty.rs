@@ -3,11 +3,12 @@
 //! ([`FrameEstimate::use_shared_point_uncertainty`]).
 
 use super::sensing::FrameEstimate;
-use crate::register::{RegisterParams, Registrar, SurfaceFeature};
+use crate::register::FeatureMatches;
 
 impl FrameEstimate {
     /// Replaces the forces' Gauss-Markov σ (independent feature rows, the loop's) with their
-    /// covariance from the points the rows share ([`SharedPoints`] at `positions`):
+    /// covariance from the points the rows share ([`SharedPoints`] of the loop's own
+    /// [`FrameEstimate::matches`]):
     /// neighbouring features average some of the same points, so their offsets' errors are
     /// correlated, and near a contact, where the force is decided, they overlap most. A row
     /// whose residual is larger than its spread from the points' noise has its errors
@@ -15,17 +16,10 @@ impl FrameEstimate {
     /// out (e.g. a bias in how the points near the probe's edge are selected) shows in the
     /// residuals, and the σ then cover it. Each force's variance also gains the square of
     /// its last change in the loop ([`FrameEstimate::last_change`]): the linearisation's
-    /// share. The forces do not change. `registrar` and
-    /// `features` must be the estimate's own. Returns whether the σ were replaced (not when
-    /// a match is the single nearest point or the forces are not identifiable).
-    pub fn use_shared_point_uncertainty(
-        &mut self,
-        registrar: &Registrar,
-        features: &[SurfaceFeature],
-        params: &RegisterParams,
-    ) -> bool {
-        let Some(shared) = SharedPoints::register(registrar, features, &self.positions, params)
-        else {
+    /// share. The forces do not change. Returns whether the σ were replaced (not when a
+    /// match is the single nearest point or the forces are not identifiable).
+    pub fn use_shared_point_uncertainty(&mut self) -> bool {
+        let Some(shared) = SharedPoints::of(&self.matches) else {
             return false;
         };
         let e = &self.estimate;
@@ -70,8 +64,8 @@ impl FrameEstimate {
     }
 }
 
-/// The points behind the offsets of the features visible at node positions `x` (the rows
-/// of the sensing loop's linearised problem, in its order): row i's offset is the mean of
+/// The points behind the offsets of a registration's matched features (the rows of the
+/// sensing loop's linearised problem, in its order): row i's offset is the mean of
 /// its n_i points, so with independent points of variance s_p² the covariance of rows i
 /// and j is Σ s_p² / (n_i n_j) over the points p they share. A point's s_p² is the largest
 /// of its rows' spreads: a row's spread is its points' scatter about their offset, never
@@ -89,31 +83,15 @@ pub struct SharedPoints {
 }
 
 impl SharedPoints {
-    /// Registers `features` at `x` as the sensing loop's linearisation does. `None` unless the matches average
-    /// (`params.average`) and some row has two points or more.
-    pub fn register(
-        registrar: &Registrar,
-        features: &[SurfaceFeature],
-        x: &[[f64; 3]],
-        params: &RegisterParams,
-    ) -> Option<Self> {
-        if !params.average {
-            return None;
-        }
-        let mut rows = Vec::new();
-        let mut own = Vec::new();
-        for f in features {
-            let (p, n) = (f.position(x), f.normal(x));
-            if n == [0.0; 3] {
-                continue;
-            }
-            // The same matches as `linearise` (visible there exactly when here).
-            let Some((m, pts, scatter)) = registrar.match_feature_points(p, n, params) else {
-                continue;
-            };
-            own.push((m.points > 1).then(|| scatter / (m.points - 1) as f64));
-            rows.push(pts);
-        }
+    /// The points of `matches`. `None` unless the matches average
+    /// ([`crate::register::RegisterParams::average`]) and some row has two points or more.
+    pub fn of(matches: &FeatureMatches) -> Option<Self> {
+        let own: Vec<Option<f64>> = (matches.points.iter())
+            .map(|s| {
+                let n = s.indices.len();
+                (n > 1).then(|| s.scatter / (n - 1) as f64)
+            })
+            .collect();
         let mut variances: Vec<f64> = own.iter().flatten().copied().collect();
         if variances.is_empty() {
             return None;
@@ -123,6 +101,7 @@ impl SharedPoints {
             .into_iter()
             .map(|v| v.map_or(median, |v| v.max(median)))
             .collect();
+        let rows = (matches.points.iter()).map(|s| s.indices.clone()).collect();
         Some(Self { rows, row_spread })
     }
 

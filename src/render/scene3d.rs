@@ -7,7 +7,6 @@
 
 use crate::math::Mat3;
 use crate::recording::Recording;
-use crate::register::Registrar;
 use crate::sense::{FrameReport, FrameStatus, Observation, Sensor};
 use serde::Serialize;
 
@@ -19,7 +18,8 @@ pub const ROBOT_POINTS: &str = "world/points/robot";
 pub const OBJECT_POINTS: &str = "world/points/objects";
 /// The FE surface at the frame's estimated state (the rest state when nothing was solved).
 pub const FE_SURFACE: &str = "world/fe_surface";
-/// The feature points on the FE surface: blue where registered, grey where not.
+/// The frame's feature points on the FE surface: blue where the final estimate registered
+/// them, grey where not.
 pub const FEATURES: &str = "world/features";
 /// A line from each registered feature to the point cloud's surface along its normal.
 pub const RESIDUALS: &str = "world/features/residuals";
@@ -303,7 +303,7 @@ pub fn frame_entities(
         false => &report.positions,
     };
     out.push(fe_surface(sensor, x));
-    out.extend(features(sensor, obs, x, params.point_radius));
+    out.extend(features(report, x, params.point_radius));
     out.extend(forces(sensor, report, params));
     out.extend(status(report));
     out.push(Entity::new(
@@ -348,20 +348,13 @@ fn fe_surface(sensor: &Sensor, x: &[[f64; 3]]) -> Entity {
     )
 }
 
-/// The feature points at `x` and, where the frame's points register them, the line to
-/// the surface they were matched to.
-fn features(
-    sensor: &Sensor,
-    obs: Option<&Observation>,
-    x: &[[f64; 3]],
-    radius: f32,
-) -> [Entity; 2] {
-    let registrar = obs.map(|o| Registrar::new(&o.robot));
-    let rp = &sensor.params.frame.register;
+/// The frame's feature points at `x` (the report's final state) and, where its estimate
+/// registered them, the line to the surface they were matched to: the report's own
+/// registration, not a new one.
+fn features(report: &FrameReport, x: &[[f64; 3]], radius: f32) -> [Entity; 2] {
     let (mut positions, mut colors, mut strips) = (Vec::new(), Vec::new(), Vec::new());
-    for f in &sensor.features {
+    for (f, m) in report.matches.iter() {
         let (p, n) = (f.position(x), f.normal(x));
-        let m = registrar.as_ref().and_then(|r| r.match_feature(p, n, rp));
         positions.push(f32s(p));
         colors.push(if m.is_some() {
             REGISTERED_BLUE

@@ -176,7 +176,7 @@ impl Sensor {
         if dense_on {
             est.use_independent_uncertainty();
         } else {
-            est.use_shared_point_uncertainty(&registrar, &features, &self.params.frame.register);
+            est.use_shared_point_uncertainty();
         }
         report.describe(&est, &candidates, &groups, &model, &self.params);
         if est.visible == 0 {

@@ -11,6 +11,7 @@ use crate::inverse::intensity::Identifiability;
 use crate::inverse::{Candidate, FrameEstimate};
 use crate::math::{norm, sub};
 use crate::recording::FrameTruth;
+use crate::register::FeatureMatches;
 use serde::{Deserialize, Serialize};
 
 /// What happened to a frame.
@@ -173,6 +174,10 @@ pub struct FrameReport {
     /// Node positions of the final FE state (m, robot frame; empty if none), for pictures.
     #[serde(skip)]
     pub positions: Vec<[f64; 3]>,
+    /// The frame's features as the final estimate registered them at `positions` (empty if
+    /// none), for pictures.
+    #[serde(skip)]
+    pub matches: FeatureMatches,
 }
 
 impl FrameReport {
@@ -206,6 +211,7 @@ impl FrameReport {
             ms: 0.0,
             timings: StageTimings::default(),
             positions: Vec::new(),
+            matches: FeatureMatches::default(),
         }
     }
 }
@@ -225,6 +231,7 @@ impl FrameReport {
         let e = &est.estimate;
         self.features_visible = est.visible;
         self.positions.clone_from(&est.positions);
+        self.matches.clone_from(&est.matches);
         self.residual_rms = e.residual_rms;
         self.updates = est.updates;
         self.residual_robust = e.residual_robust;

@@ -233,7 +233,7 @@ fn feature_rows_that_average_shared_points_get_correlated_offsets() {
     // The first feature twice: two rows of the very same points.
     let mut features = vec![sensor.features[0]];
     features.extend_from_slice(&sensor.features);
-    let shared = SharedPoints::register(&reg, &features, x, params).unwrap();
+    let shared = SharedPoints::of(&reg.match_features(&features, x, params)).unwrap();
     let c = shared.matrix();
     let m = c.nrows();
     assert!(m > 200, "{m} visible rows");
@@ -424,4 +424,40 @@ fn the_default_locates_each_bundled_probe_within_five_mm_and_ten_percent() {
             assert!(e.force_error <= 0.10, "frame {frame}: {e:?}");
         }
     }
+}
+
+/// Issue 50: the report carries the loop's own registration, the one its forces and σ came
+/// from, so the pictures draw it rather than registering again: the frame's features (the
+/// local ones near the contact included), matched at the final state exactly as a fresh
+/// registration there matches them; a densely registered frame matches none.
+#[test]
+fn the_report_carries_the_registration_its_forces_came_from() {
+    let (rec, sensor) = bundled("probe_side", SenseParams::features());
+    let obs = sensor.observe(&rec, 0).unwrap();
+    let report = sensor.sense(0, &obs, rec.inputs_of(0).as_ref());
+    assert_eq!(report.status, FrameStatus::Sensed);
+    let matches = &report.matches;
+    assert_eq!(matches.features.len(), report.features);
+    assert!(
+        matches.features.len() > sensor.features.len(),
+        "local features too"
+    );
+    let matched = matches.iter().filter(|(_, m)| m.is_some()).count();
+    assert_eq!(matched, report.features_visible);
+    assert_eq!(matches.points.len(), matched);
+    let fresh = softsense::register::Registrar::new(&obs.robot).match_features(
+        &matches.features,
+        &report.positions,
+        &sensor.params.frame.register,
+    );
+    let key = |m: &softsense::register::LineMatch| (m.offset.to_bits(), m.points);
+    for ((_, a), (_, b)) in matches.iter().zip(fresh.iter()) {
+        assert_eq!(a.map(key), b.map(key));
+    }
+    let (rec, sensor) = bundled("probe_side", SenseParams::dense());
+    let obs = sensor.observe(&rec, 0).unwrap();
+    let report = sensor.sense(0, &obs, rec.inputs_of(0).as_ref());
+    assert_eq!(report.status, FrameStatus::Sensed);
+    assert_eq!(report.matches.features.len(), report.features);
+    assert!(report.matches.iter().all(|(_, m)| m.is_none()));
 }

@@ -4,7 +4,7 @@ use softsense::fem::mesh::TetMesh;
 use softsense::geometry::raycast::Bvh;
 use softsense::register::{
     closest_point_on_triangle, farthest_point_sampling, surface_features, vertex_normals,
-    FeatureParams, RegisterParams, Registrar,
+    FeatureParams, LineMatch, RegisterParams, Registrar,
 };
 
 /// Dense samples (24 steps per edge) on every triangle.
@@ -434,7 +434,8 @@ fn an_averaged_match_reports_the_very_points_it_averaged() {
         ..RegisterParams::default()
     };
     let (p, n) = ([0.02, 0.021, 0.0], [0.0, 0.0, 1.0]);
-    let (m, used, scatter) = reg.match_feature_points(p, n, &params).unwrap();
+    let (m, points) = reg.match_feature_points(p, n, &params).unwrap();
+    let (used, scatter) = (points.indices, points.scatter);
     let plain = reg.match_feature(p, n, &params).unwrap();
     assert_eq!((m.offset, m.points), (plain.offset, plain.points));
     let brute: Vec<u32> = (0..pts.len() as u32)
@@ -483,8 +484,9 @@ fn remembered_feature_matches_equal_fresh_ones_and_follow_the_positions() {
             })
             .collect()
     };
-    let bits = |ms: Vec<Option<softsense::register::LineMatch>>| -> Vec<Option<(u64, u64, usize)>> {
-        ms.into_iter()
+    let bits = |r: softsense::register::FeatureMatches| -> Vec<Option<(u64, u64, usize)>> {
+        r.matches
+            .into_iter()
             .map(|m| m.map(|m| (m.offset.to_bits(), m.line_distance.to_bits(), m.points)))
             .collect()
     };
@@ -510,4 +512,46 @@ fn remembered_feature_matches_equal_fresh_ones_and_follow_the_positions() {
     // memory that ignores them).
     assert_ne!(fresh(&disp, &params), fresh(&rest, &params));
     assert_ne!(fresh(&disp, &params), fresh(&disp, &narrow));
+}
+
+#[test]
+fn one_registration_pass_gives_each_features_match_and_its_points() {
+    let (rest, disp, _, _, pts) = setup();
+    let m = TetMesh::structured_box([0.0, 0.0, 0.0], [0.1, 0.04, 0.02], [10, 4, 2]).unwrap();
+    let feats = surface_features(&rest, &m.surface(), &FeatureParams::default());
+    let reg = Registrar::new(&pts);
+    let params = RegisterParams {
+        d_m: 0.004,
+        ..RegisterParams::default()
+    };
+    let key = |m: &LineMatch| (m.offset.to_bits(), m.line_distance.to_bits(), m.points);
+    // Twice: the second answer comes from memory and must carry the same points.
+    for _ in 0..2 {
+        let got = reg.match_features(&feats, &disp, &params);
+        assert_eq!(got.features, feats);
+        let mut points = got.points.iter();
+        let mut matched = 0;
+        for (f, m) in got.iter() {
+            let (p, n) = (f.position(&disp), f.normal(&disp));
+            let alone = reg.match_feature_points(p, n, &params);
+            assert_eq!(m.map(key), alone.as_ref().map(|(m, _)| key(m)));
+            if let Some((_, sheet)) = alone {
+                assert_eq!(points.next(), Some(&sheet));
+                matched += 1;
+            }
+        }
+        assert!(points.next().is_none());
+        assert!(matched > 10, "{matched} matched");
+    }
+    // The thesis's single nearest point: the same matches as alone, and no points.
+    let single = RegisterParams {
+        average: false,
+        ..params
+    };
+    let got = reg.match_features(&feats, &disp, &single);
+    assert!(got.points.is_empty());
+    for (f, m) in got.iter() {
+        let alone = reg.match_feature(f.position(&disp), f.normal(&disp), &single);
+        assert_eq!(m.map(key), alone.as_ref().map(key));
+    }
 }
