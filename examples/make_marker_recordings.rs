@@ -31,7 +31,7 @@ use softsense::fem::model::Model;
 use softsense::fem::solve::{MappedPoint, PointLoad};
 use softsense::markers::bind::read_candidates;
 use softsense::markers::tracks::write_tracks;
-use softsense::markers::{ForceCandidate, MarkerTracks, TrackFrame};
+use softsense::markers::{CandidateLocation, MarkerTracks, TrackFrame};
 use softsense::math::rand::normal;
 use std::error::Error;
 use std::path::Path;
@@ -124,8 +124,8 @@ fn main() -> Result<(), Box<dyn Error>> {
 
     let robot = Model::load(&models.join("robot.toml"), None)?;
     let mesh = &robot.problem.mesh;
-    let candidates: Vec<ForceCandidate> = (robot.force_points.iter())
-        .map(|e| ForceCandidate::from_force_point(e, mesh))
+    let candidates: Vec<CandidateLocation> = (robot.force_points.iter())
+        .map(|e| CandidateLocation::from_force_point(e, mesh))
         .collect();
     let tip = [0.0, 0.0, 0.125];
     let mut near: Vec<usize> = (mesh.surface().nodes.into_iter())
@@ -166,7 +166,7 @@ fn nearest_node(model: &Model, p: [f64; 3]) -> usize {
 /// `dir/truth.json`.
 fn record(
     model: &Model,
-    candidates: &[ForceCandidate],
+    candidates: &[CandidateLocation],
     nodes: &[usize],
     frames: &[FrameLoads],
     seed: u64,
@@ -184,7 +184,7 @@ fn record(
             let c = (candidates.iter().find(|c| c.name == *name))
                 .ok_or_else(|| format!("no candidate {name}"))?;
             problem.loads.push(PointLoad {
-                at: c.at,
+                at: c.at(),
                 force: *force,
             });
         }

@@ -198,7 +198,7 @@ pub fn minimise(
 
 /// A pose and tensions with their RMS error (m) at the FE state of those tensions.
 #[derive(Clone)]
-struct Candidate {
+struct Trial {
     pose: Iso3,
     tensions: Vec<f64>,
     residual: f64,
@@ -214,7 +214,7 @@ fn rotation(a: &[f64]) -> UnitQuaternion<f64> {
 fn swarm_fit(
     lin: &Linear,
     camera: &[[f64; 3]],
-    best: &Candidate,
+    best: &Trial,
     params: &PsoParams,
     update: usize,
 ) -> (Iso3, Vec<f64>, usize) {
@@ -293,7 +293,7 @@ pub fn calibrate_pso(
     check_pso_params(params)?;
     check_points(features, camera_points)?;
     let mut fe = FeatureModel::new(model, features, start_tensions)?;
-    let mut best = Candidate {
+    let mut best = Trial {
         pose: *start,
         tensions: fe.tensions().to_vec(),
         residual: rms_distance(start, camera_points, &fe.positions()),
@@ -309,7 +309,7 @@ pub fn calibrate_pso(
         history.push(residual);
         let dropped = residual < best.residual * (1.0 - params.residual_tol);
         if residual < best.residual {
-            best = Candidate {
+            best = Trial {
                 pose,
                 tensions: fe.tensions().to_vec(),
                 residual,

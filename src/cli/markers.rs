@@ -7,7 +7,7 @@ use softsense::markers::bind::read_candidates;
 use softsense::markers::calib::{read_calibration, rigid_fit_covariance, MarkerCalibration};
 use softsense::markers::tracks::{flag_hidden, read_motive, read_tracks, MarkerTracks};
 use softsense::markers::{
-    bind_markers, locate_forces, refine_located, ForceCandidate, LocatedForce, MarkerFrame,
+    bind_markers, locate_forces, refine_located, CandidateLocation, LocatedForce, MarkerFrame,
     MarkerSensor, MarkersParams,
 };
 use std::path::PathBuf;
@@ -124,7 +124,7 @@ pub(crate) fn load_candidates(
     model: &Model,
     path: Option<&std::path::Path>,
     names: &[String],
-) -> Result<Vec<ForceCandidate>, CliError> {
+) -> Result<Vec<CandidateLocation>, CliError> {
     let mesh = &model.problem.mesh;
     if let Some(missing) = names
         .iter()
@@ -136,11 +136,11 @@ pub(crate) fn load_candidates(
             known.join(", ")
         )));
     }
-    let candidates: Vec<ForceCandidate> = match path {
+    let candidates: Vec<CandidateLocation> = match path {
         Some(p) => read_candidates(p, mesh).map_err(|e| CliError::Lib(e.into()))?,
         None => (model.force_points.iter())
             .filter(|e| names.is_empty() || names.contains(&e.name))
-            .map(|e| ForceCandidate::from_force_point(e, mesh))
+            .map(|e| CandidateLocation::from_force_point(e, mesh))
             .collect(),
     };
     if candidates.is_empty() {
@@ -253,7 +253,7 @@ pub fn run(args: &MarkersArgs) -> CliResult {
         let est = sensor
             .solve_frames(f.frame, &window, previous.as_ref())
             .map_err(|e| CliError::Lib(e.into()))?;
-        let located = locate_forces(&est, &sensor.candidates, &sensor.params);
+        let located = locate_forces(&est, &sensor.locations, &sensor.params);
         let refined = refine_between(&sensor, &est, &measured[i], &located)?;
         print_frame(
             &sensor,
@@ -299,7 +299,7 @@ fn render_frame(
             hidden: est.hidden.contains(&m),
         })
         .collect();
-    let candidates: Vec<[f64; 3]> = sensor.candidates.iter().map(|c| c.position).collect();
+    let candidates: Vec<[f64; 3]> = sensor.locations.iter().map(|c| c.position).collect();
     let forces: Vec<([f64; 3], [f64; 3])> = located.iter().map(|l| (l.centre, l.force)).collect();
     let positions = match &est.solution {
         Some(s) => &s.positions,
@@ -442,7 +442,7 @@ fn print_frame(
         est.frame, est.status, est.rows, est.unknowns, est.i_w, 1e3 * est.residual_rms,
         est.updates, hidden.join(", ")
     )?;
-    for (c, f) in sensor.candidates.iter().zip(&est.forces) {
+    for (c, f) in sensor.locations.iter().zip(&est.forces) {
         outln!(
             "  {}: F = ({:.4}, {:.4}, {:.4}) N",
             c.name,
@@ -455,7 +455,7 @@ fn print_frame(
         let names: Vec<&str> = l
             .candidates
             .iter()
-            .map(|&i| sensor.candidates[i].name.as_str())
+            .map(|&i| sensor.locations[i].name.as_str())
             .collect();
         let c = l.centre.map(|v| 1e3 * v);
         outln!(

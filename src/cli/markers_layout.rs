@@ -87,7 +87,7 @@ pub fn run(args: &LayoutArgs) -> CliResult {
         let v = serde_json::json!({
             "markers": names, "nodes": layout.nodes, "positions_m": layout.positions,
             "i_w_greedy_n_per_m": layout.i_w_greedy, "i_w_n_per_m": layout.i_w,
-            "pool": layout.pool, "unknowns": candidates.iter().map(|c| c.directions.len()).sum::<usize>(),
+            "pool": layout.pool, "unknowns": candidates.iter().map(|c| c.unknowns()).sum::<usize>(),
         });
         return print_json(&v);
     }

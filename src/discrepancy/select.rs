@@ -12,7 +12,7 @@ use nalgebra::DMatrix;
 /// The best refined trial so far: its BIC, effects and covariance.
 pub(super) type Best = Option<(f64, Kept, DMatrix<f64>)>;
 /// A candidate of a step: what it adds, its score and its linear-fit increments.
-type Candidate<T> = (T, CandidateScore, Vec<f64>);
+type Scored<T> = (T, CandidateScore, Vec<f64>);
 
 /// The effects kept so far with their covariance and the residuals of all frames.
 pub(super) struct State {
@@ -279,9 +279,9 @@ impl Search<'_, '_> {
         base: &Kept,
         res: &[Vec<Residual>],
         removed: Option<usize>,
-    ) -> Vec<Candidate<usize>> {
+    ) -> Vec<Scored<usize>> {
         let wf = self.wf;
-        let mut cands: Vec<Candidate<usize>> = Vec::new();
+        let mut cands: Vec<Scored<usize>> = Vec::new();
         for c in 0..wf.kinds.len() {
             if base.iter().any(|(k, _)| *k == c) || removed == Some(c) {
                 continue;
@@ -312,7 +312,7 @@ impl Search<'_, '_> {
 
     /// Refines exactly the best few candidates by the linear fit and the best of every
     /// effect type (each added to `base`), scoring them in place; returns the best.
-    fn refine_chosen(&self, base: &Kept, cands: &mut [Candidate<usize>]) -> Best {
+    fn refine_chosen(&self, base: &Kept, cands: &mut [Scored<usize>]) -> Best {
         let wf = self.wf;
         // The best of every type too: the linearisation about the nominal solution can
         // rank a right effect low once a large kept effect has moved the robot, e.g.
@@ -391,10 +391,10 @@ impl Search<'_, '_> {
     }
 
     /// The `pair_candidates` best pairs of candidates by their joint linear fit on `res0`.
-    fn pair_candidates(&self, res0: &[Vec<Residual>]) -> Vec<Candidate<Kept>> {
+    fn pair_candidates(&self, res0: &[Vec<Residual>]) -> Vec<Scored<Kept>> {
         let wf = self.wf;
         let nc = wf.model.problem.cables.len();
-        let mut cands: Vec<Candidate<Kept>> = Vec::new();
+        let mut cands: Vec<Scored<Kept>> = Vec::new();
         for a in 0..wf.kinds.len() {
             for b in a + 1..wf.kinds.len() {
                 let Some((theta, chi2, _, _)) = wf.fit(res0, self.train, &[a, b], None) else {

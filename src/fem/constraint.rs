@@ -36,17 +36,24 @@ impl ConstraintRow {
     pub fn along(kind: RowKind, at: &MappedPoint, direction: [f64; 3]) -> FemResult<Self> {
         let l = super::mesh::norm(direction);
         if !(l > 0.0 && l.is_finite()) {
-            return Err(FemError::Model(format!(
-                "row direction {direction:?} has no length"
-            )));
+            return Err(no_length(direction));
         }
-        let d = direction.map(|c| c / l);
+        Self::along_unit(kind, at, direction.map(|c| c / l))
+    }
+
+    /// As [`ConstraintRow::along`] with `direction` taken as unit, not normalised again:
+    /// a direction normalised once (by [`crate::math::unit`]) gives `along`'s very values.
+    pub fn along_unit(kind: RowKind, at: &MappedPoint, direction: [f64; 3]) -> FemResult<Self> {
+        let l = super::mesh::norm(direction);
+        if !(l > 0.0 && l.is_finite()) {
+            return Err(no_length(direction));
+        }
         let entries = at
             .nodes
             .iter()
             .zip(at.weights)
             .filter(|(_, w)| *w != 0.0)
-            .map(|(n, w)| (*n, d.map(|c| w * c)))
+            .map(|(n, w)| (*n, direction.map(|c| w * c)))
             .collect();
         Ok(Self { kind, entries })
     }
@@ -273,7 +280,8 @@ impl Solver<'_> {
     }
 
     /// Assembles and factorizes the tangent at `x` and returns the compliance of `rows`
-    /// together with delta^free for the problem's external forces (gravity, loads).
+    /// together with delta^free for the solver's external forces (gravity, the problem's
+    /// loads and those given to [`Solver::with_loads`]).
     pub fn compliance_at(
         &mut self,
         x: &[[f64; 3]],
@@ -454,4 +462,9 @@ impl ForwardWalk {
             }
         }
     }
+}
+
+/// The error of a row direction without a length.
+fn no_length(direction: [f64; 3]) -> FemError {
+    FemError::Model(format!("row direction {direction:?} has no length"))
 }

@@ -255,15 +255,8 @@ impl Problem {
     }
 
     /// `f` (node-major 3n) plus the point loads.
-    pub(super) fn add_point_loads(&self, mut f: Vec<f64>) -> Vec<f64> {
-        for l in &self.loads {
-            for (n, w) in l.at.nodes.iter().zip(l.at.weights) {
-                for k in 0..3 {
-                    f[3 * n + k] += w * l.force[k];
-                }
-            }
-        }
-        f
+    pub(super) fn add_point_loads(&self, f: Vec<f64>) -> Vec<f64> {
+        add_loads(f, &self.loads)
     }
 
     /// A copy without the point loads (body forces, cables and supports kept).
@@ -342,4 +335,16 @@ fn spans_plane(pts: &[[f64; 3]], scale: f64) -> bool {
     }
     pts.iter()
         .any(|p| norm(super::mesh::cross(ab, sub(*p, a))) / lab > tol)
+}
+
+/// `f` (node-major 3n) plus `loads`, in their order.
+pub(super) fn add_loads(mut f: Vec<f64>, loads: &[PointLoad]) -> Vec<f64> {
+    for l in loads {
+        for (n, w) in l.at.nodes.iter().zip(l.at.weights) {
+            for k in 0..3 {
+                f[3 * n + k] += w * l.force[k];
+            }
+        }
+    }
+    f
 }

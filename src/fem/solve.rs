@@ -64,6 +64,8 @@ pub struct Solver<'p> {
     pub(super) failed_pivot: usize,
     /// Numeric factorizations attempted by this solver (failed ones included).
     pub(super) factorizations: usize,
+    /// Point loads acting besides the problem's own ([`Solver::with_loads`]).
+    pub(super) extra_loads: Vec<PointLoad>,
 }
 
 impl<'p> Solver<'p> {
@@ -94,19 +96,10 @@ impl<'p> Solver<'p> {
         l_values: Arc<Pooled<f64>>,
         values: Vec<f64>,
     ) -> FemResult<Self> {
-        let n = problem.mesh.num_nodes();
-        let points = problem
-            .loads
-            .iter()
-            .map(|l| &l.at)
+        let points = (problem.loads.iter().map(|l| &l.at))
             .chain(problem.cables.iter().flat_map(|c| &c.attach));
-        for at in points {
-            if let Some(v) = at.nodes.iter().find(|&&v| v >= n) {
-                return Err(FemError::Model(format!(
-                    "a load or cable refers to node {v} ({n} nodes)"
-                )));
-            }
-        }
+        check_nodes(problem, points)?;
+        let n = problem.mesh.num_nodes();
         if let Some((v, _)) = problem
             .prescribed
             .iter()
@@ -135,7 +128,18 @@ impl<'p> Solver<'p> {
             failed_of: Vec::new(),
             failed_pivot: 0,
             factorizations: 0,
+            extra_loads: Vec::new(),
         })
+    }
+
+    /// The same solver with `loads` acting besides the problem's own, which they follow
+    /// (sums in that order: the same values as the problem with `loads` pushed onto its
+    /// own). A problem solved under changing loads is then not copied, mesh included, per
+    /// change. Replaces loads given before.
+    pub fn with_loads(mut self, loads: Vec<PointLoad>) -> FemResult<Self> {
+        check_nodes(self.problem, loads.iter().map(|l| &l.at))?;
+        self.extra_loads = loads;
+        Ok(self)
     }
 
     /// Numeric factorizations this solver attempted, failed ones included (not those of
@@ -157,13 +161,31 @@ impl<'p> Solver<'p> {
         }
     }
 
-    /// The problem's external forces ([`Problem::external_forces`], the same values).
+    /// The external forces: the problem's ([`Problem::external_forces`], the same values)
+    /// plus the loads given to [`Solver::with_loads`].
     pub fn external_forces(&self) -> Vec<f64> {
-        self.problem.add_point_loads(self.body_forces())
+        let f = self.problem.add_point_loads(self.body_forces());
+        super::problem::add_loads(f, &self.extra_loads)
     }
 
     /// Number of free DOFs.
     pub fn ndof(&self) -> usize {
         self.dofs.ndof
     }
+}
+
+/// Checks that the `points` a load or cable acts on refer to nodes of `problem`'s mesh.
+fn check_nodes<'a>(
+    problem: &Problem,
+    points: impl Iterator<Item = &'a MappedPoint>,
+) -> FemResult<()> {
+    let n = problem.mesh.num_nodes();
+    for at in points {
+        if let Some(v) = at.nodes.iter().find(|&&v| v >= n) {
+            return Err(FemError::Model(format!(
+                "a load or cable refers to node {v} ({n} nodes)"
+            )));
+        }
+    }
+    Ok(())
 }

@@ -1,35 +1,14 @@
-//! The sensing loop's linearisation: candidate forces ([`Candidate`]), the tangent the loop
-//! factorizes at an equilibrium, and the intensity problem linearised there.
+//! The sensing loop's linearisation: the tangent the loop factorizes at an equilibrium, and
+//! the intensity problem of the candidate forces ([`Candidate`]) linearised there.
 
+use super::candidate::Candidate;
 use super::intensity::{ActuatorInput, IntensityProblem};
 use super::sensing::{ms_since, FrameInputs, LoopTimings};
 use super::{InverseError, InverseResult};
 use crate::fem::constraint::{ConstraintRow, RowKind};
-use crate::fem::solve::{CableControl, MappedPoint, Solver, SolverState};
+use crate::fem::solve::{CableControl, Solver, SolverState};
 use crate::fem::tet4::Tangent;
 use crate::register::FeatureMatches;
-
-/// A candidate force: a point on the mesh and the force direction (unit after normalising).
-#[derive(Clone, Copy, Debug)]
-pub struct Candidate {
-    /// Where the force acts.
-    pub at: MappedPoint,
-    /// Direction of a positive intensity.
-    pub direction: [f64; 3],
-    /// Whether the intensity is bounded below by zero (a push, or a hanging weight).
-    pub push_only: bool,
-}
-
-impl Candidate {
-    /// A pushing-only force on node `node` along `direction`.
-    pub fn at_node(node: usize, direction: [f64; 3]) -> Self {
-        Self {
-            at: MappedPoint::node(node),
-            direction,
-            push_only: true,
-        }
-    }
-}
 
 /// Where [`choose_locations`](super::choose_locations) linearises.
 #[derive(Debug)]
@@ -135,7 +114,7 @@ pub(crate) fn linearise(
     }
     let na = base.cables.len();
     for c in candidates {
-        rows.push(ConstraintRow::along(RowKind::Force, &c.at, c.direction)?);
+        rows.push(c.row()?);
     }
     let nf = candidates.len();
     // Loads enter only as candidate rows: the free residual has the body forces alone.

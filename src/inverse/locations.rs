@@ -1,8 +1,9 @@
 //! Location mapping by the data ([`choose_locations`]): for each seen contact a few options
 //! (surface nodes near it), and the combination whose intensity QP fits the frame best.
 
+use super::candidate::Candidate;
 use super::intensity::{IntensityEstimate, IntensityProblem};
-use super::linearise::{factorize_loop_tangent, linearise, Candidate, LinearisationPoint};
+use super::linearise::{factorize_loop_tangent, linearise, LinearisationPoint};
 use super::sensing::{FrameInputs, FrameParams, LoopTimings};
 use super::{par_map, InverseError, InverseResult};
 

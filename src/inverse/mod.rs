@@ -1,7 +1,7 @@
 //! The inverse model: a small QP layer over clarabel ([`qp`]), the normal-space intensity
 //! QP of thesis 4.5.2 (equations 4.14-4.18, [`intensity`]), the least squares'
 //! identifiability and covariance it shares with the markers ([`lsq`]), and the per-frame
-//! sensing loop built on them: one entry, [`estimate`] (the loop, [`sensing`]), its
+//! sensing loop built on them: the candidate forces and their loads ([`candidate`]), one entry, [`estimate`] (the loop, [`sensing`]), its
 //! linearisation ([`linearise`]), the choice of contact locations ([`locations`]) and the
 //! forces' uncertainty from shared points ([`uncertainty`]).
 //!
@@ -17,6 +17,7 @@
 //! assert!((s.x[0] - 2.0).abs() < 1e-6);
 //! ```
 
+pub mod candidate;
 pub mod dense;
 pub mod intensity;
 pub mod linearise;
@@ -26,8 +27,9 @@ pub mod qp;
 pub mod sensing;
 pub mod uncertainty;
 
+pub use candidate::{loads_of, total_force, Candidate};
 pub use dense::{DenseInputs, DenseParams, DenseView};
-pub use linearise::{Candidate, LinearisationPoint};
+pub use linearise::LinearisationPoint;
 pub use locations::{choose_locations, Alternative, LocationChoice};
 pub use sensing::{estimate, FrameEstimate, FrameInputs, FrameParams, LoopTimings, Start};
 pub use uncertainty::SharedPoints;

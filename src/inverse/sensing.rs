@@ -3,8 +3,9 @@
 //! state with the solved forces, and repeat until the forces settle. One entry,
 //! [`estimate`]: what the loop works on ([`FrameInputs`]) and where it starts ([`Start`]).
 
+use super::candidate::{loads_of, Candidate};
 use super::intensity::{IntensityEstimate, IntensityParams, IntensityProblem};
-use super::linearise::{factorize_loop_tangent, linearise, Candidate};
+use super::linearise::{factorize_loop_tangent, linearise};
 use super::locations::LocationChoice;
 use super::{InverseError, InverseResult};
 use crate::fem::model::Model;
@@ -209,10 +210,16 @@ pub fn estimate(
     start: Start<'_>,
 ) -> InverseResult<FrameEstimate> {
     let mut state = LoopState::new(inputs, candidates, start)?;
-    let base = inputs.model.problem.without_loads();
+    // The model without its point loads: the candidates' loads go to each update's solver.
+    let model = &inputs.model.problem;
+    let base = if model.loads.is_empty() {
+        std::borrow::Cow::Borrowed(model)
+    } else {
+        std::borrow::Cow::Owned(model.without_loads())
+    };
     while state.updates < inputs.params.max_updates {
-        let problem = state.loaded(&base, candidates);
-        let Some(solver) = state.fe_update(&problem, inputs.params)? else {
+        let loads = loads_of(candidates, &state.forces);
+        let Some(solver) = state.fe_update(&base, loads, inputs.params)? else {
             continue;
         };
         let (prob, visible) = state.linearise(solver, inputs, candidates)?;
@@ -343,30 +350,20 @@ impl<'a> LoopState<'a> {
         })
     }
 
-    /// `base` with the candidates loaded by the current forces.
-    fn loaded(&self, base: &Problem, candidates: &[Candidate]) -> Problem {
-        let mut problem = base.clone();
-        for (c, f) in candidates.iter().zip(&self.forces) {
-            problem.loads.push(PointLoad {
-                at: c.at,
-                force: crate::math::unit(c.direction).map(|d| d * f),
-            });
-        }
-        problem
-    }
-
-    /// The FE state under the current forces (`problem`), warm-started from the previous
-    /// state (or the caller's). `None`: it failed and the step was halved.
+    /// The FE state of `problem` under the current forces' `loads`, warm-started from the
+    /// previous state (or the caller's). `None`: it failed and the step was halved.
     fn fe_update<'p>(
         &mut self,
         problem: &'p Problem,
+        loads: Vec<PointLoad>,
         params: &FrameParams,
     ) -> InverseResult<Option<Solver<'p>>> {
         let clock = std::time::Instant::now();
-        let mut solver = match self.carry.take() {
+        let solver = match self.carry.take() {
             Some(state) => problem.solver_from(state)?,
             None => problem.solver()?,
         };
+        let mut solver = solver.with_loads(loads)?;
         let newton = &mut self.newton;
         newton.abs_tol = self.abs_tol.max(params.fe_forcing * self.step);
         // A cable gap g is a tension error of about g / W_aa.

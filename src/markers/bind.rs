@@ -1,8 +1,9 @@
 //! Markers bound to the FE surface and candidate force locations.
 //!
 //! A marker sits at the nearest point of the surface (barycentric on that triangle)
-//! and measures 3 rows (its x, y, z). A candidate force location is a surface node with its
-//! allowed directions: the surface normal only (1 unknown) or free in 3-D (3 unknowns).
+//! and measures 3 rows (its x, y, z). A candidate force location ([`CandidateLocation`]) is a
+//! surface node with a candidate force ([`Candidate`]) along each allowed direction: the
+//! surface normal only (1 unknown) or free in 3-D (3 unknowns).
 
 use super::{MarkersError, MarkersResult};
 pub use crate::fem::bind::{bind_markers, BoundMarker};
@@ -10,6 +11,7 @@ use crate::fem::constraint::{ConstraintRow, RowKind};
 use crate::fem::mesh::{Surface, TetMesh};
 use crate::fem::model::Effector;
 use crate::fem::solve::MappedPoint;
+use crate::inverse::Candidate;
 use crate::io::InFile;
 use crate::math::{norm, sub};
 use std::path::Path;
@@ -23,21 +25,38 @@ pub enum Directions {
     Free,
 }
 
-/// A candidate force location.
+/// A candidate force location: a named place on the mesh and its candidate forces, one per
+/// allowed direction (1 or 3), each an unknown of the least squares.
 #[derive(Debug, Clone, PartialEq)]
-pub struct ForceCandidate {
+pub struct CandidateLocation {
     /// Name.
     pub name: String,
-    /// Where it acts.
-    pub at: MappedPoint,
-    /// Unit direction of each unknown (1 or 3).
-    pub directions: Vec<[f64; 3]>,
+    /// Its candidate forces, all at the same point: directions as the location gives them
+    /// (unit to rounding; the rows normalise them, the loads take them as they are).
+    pub candidates: Vec<Candidate>,
     /// Rest position (m).
     pub position: [f64; 3],
 }
 
-impl ForceCandidate {
-    /// A candidate on the surface node nearest to `p` (rest shape, m).
+impl CandidateLocation {
+    /// A location at `at` (rest position `position`, m) with one candidate along each of
+    /// `directions`, taken as they are; the least squares leaves their intensities free.
+    pub fn new(name: &str, at: MappedPoint, directions: &[[f64; 3]], position: [f64; 3]) -> Self {
+        let candidates = (directions.iter())
+            .map(|&direction| Candidate {
+                at,
+                direction,
+                push_only: false,
+            })
+            .collect();
+        Self {
+            name: name.to_string(),
+            candidates,
+            position,
+        }
+    }
+
+    /// A location on the surface node nearest to `p` (rest shape, m).
     pub fn snapped(
         name: &str,
         mesh: &TetMesh,
@@ -53,43 +72,56 @@ impl ForceCandidate {
             Directions::Normal => vec![surface.vertex_normals[node]],
             Directions::Free => vec![[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
         };
-        Ok(Self {
-            name: name.to_string(),
-            at: MappedPoint::node(node),
-            directions,
-            position: x[node],
-        })
+        Ok(Self::new(
+            name,
+            MappedPoint::node(node),
+            &directions,
+            x[node],
+        ))
     }
 
-    /// A candidate from a model file's force point: its point and its rows' directions.
+    /// A location from a model file's force point: its point and its rows' directions.
     pub fn from_force_point(e: &Effector, mesh: &TetMesh) -> Self {
         // A row's coefficients are w_i d with Σ w_i = 1: their sum is d.
-        let directions = (e.rows.iter())
+        let directions: Vec<[f64; 3]> = (e.rows.iter())
             .map(|r| {
                 r.entries.iter().fold([0.0; 3], |s, (_, c)| {
                     [s[0] + c[0], s[1] + c[1], s[2] + c[2]]
                 })
             })
             .collect();
-        Self {
-            name: e.name.clone(),
-            at: e.point,
-            directions,
-            position: e.point.position(&mesh.nodes_in_rest),
-        }
+        Self::new(
+            &e.name,
+            e.point,
+            &directions,
+            e.point.position(&mesh.nodes_in_rest),
+        )
     }
 
-    /// Its rows (one per direction).
+    /// Where its forces act.
+    pub fn at(&self) -> MappedPoint {
+        self.candidates
+            .first()
+            .expect("a location has a candidate")
+            .at
+    }
+
+    /// Its unknowns: one per candidate.
+    pub fn unknowns(&self) -> usize {
+        self.candidates.len()
+    }
+
+    /// Its rows (one per candidate, along its direction normalised).
     pub fn rows(&self) -> MarkersResult<Vec<ConstraintRow>> {
-        (self.directions.iter())
-            .map(|d| Ok(ConstraintRow::along(RowKind::Force, &self.at, *d)?))
+        (self.candidates.iter())
+            .map(|c| Ok(ConstraintRow::along(RowKind::Force, &c.at, c.direction)?))
             .collect()
     }
 }
 
 /// Reads a candidate file: CSV `name,x,y,z,directions` (m, model frame; directions `normal`
 /// or `3d`), each point snapped to its nearest surface node.
-pub fn read_candidates(path: &Path, mesh: &TetMesh) -> MarkersResult<Vec<ForceCandidate>> {
+pub fn read_candidates(path: &Path, mesh: &TetMesh) -> MarkersResult<Vec<CandidateLocation>> {
     let text = std::fs::read_to_string(path).map_err(|source| MarkersError::File {
         path: path.display().to_string(),
         source,
@@ -98,7 +130,7 @@ pub fn read_candidates(path: &Path, mesh: &TetMesh) -> MarkersResult<Vec<ForceCa
 }
 
 /// Parses a candidate file (see [`read_candidates`]).
-pub fn parse_candidates(text: &str, mesh: &TetMesh) -> MarkersResult<Vec<ForceCandidate>> {
+pub fn parse_candidates(text: &str, mesh: &TetMesh) -> MarkersResult<Vec<CandidateLocation>> {
     let surface = mesh.surface();
     let mut out = Vec::new();
     for (i, l) in text.lines().enumerate() {
@@ -134,7 +166,7 @@ pub fn parse_candidates(text: &str, mesh: &TetMesh) -> MarkersResult<Vec<ForceCa
                 })
             }
         };
-        out.push(ForceCandidate::snapped(
+        out.push(CandidateLocation::snapped(
             cells[0], mesh, &surface, p, directions,
         )?);
     }

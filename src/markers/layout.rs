@@ -7,7 +7,7 @@
 //! no layout re-solves the FE model. Greedy forward selection adds the node that lowers I_w
 //! most; an exchange pass then swaps a chosen node for an unchosen one while I_w drops.
 
-use super::bind::{BoundMarker, ForceCandidate};
+use super::bind::{BoundMarker, CandidateLocation};
 use super::{MarkerSensor, MarkersError, MarkersParams, MarkersResult};
 use crate::fem::solve::{MappedPoint, NewtonParams, Problem};
 use crate::inverse::lsq;
@@ -79,7 +79,7 @@ impl PoolCompliance {
     pub fn new(
         problem: &Problem,
         newton: &NewtonParams,
-        candidates: &[ForceCandidate],
+        candidates: &[CandidateLocation],
         pool: &[usize],
     ) -> MarkersResult<Self> {
         let markers = (pool.iter())
@@ -118,7 +118,7 @@ impl PoolCompliance {
 /// `clearance` from every candidate, every `pool_stride`-th, at most `pool_limit`.
 pub fn default_pool(
     problem: &Problem,
-    candidates: &[ForceCandidate],
+    candidates: &[CandidateLocation],
     params: &LayoutParams,
 ) -> Vec<usize> {
     let x = &problem.mesh.nodes_in_rest;
@@ -135,11 +135,11 @@ pub fn default_pool(
 pub fn propose_layout(
     problem: &Problem,
     newton: &NewtonParams,
-    candidates: &[ForceCandidate],
+    candidates: &[CandidateLocation],
     pool: Option<&[usize]>,
     params: &LayoutParams,
 ) -> MarkersResult<Layout> {
-    let unknowns: usize = candidates.iter().map(|c| c.directions.len()).sum();
+    let unknowns: usize = candidates.iter().map(|c| c.unknowns()).sum();
     check_counts(params.markers, unknowns)?;
     let pool = match pool {
         Some(p) => p.to_vec(),

@@ -9,14 +9,15 @@
 //! between candidates spreads its force over its neighbours), carrying their summed force.
 
 use super::solve::MarkerFrame;
-use super::{ForceCandidate, MarkersParams};
+use super::{CandidateLocation, MarkersParams};
 use crate::math::{norm, sub};
 use serde::Serialize;
 
 /// One located force.
 #[derive(Debug, Clone, Serialize)]
 pub struct LocatedForce {
-    /// The found candidates it gathers (indices), strongest first.
+    /// The found candidate locations it gathers (indices into the sensor's `locations`),
+    /// strongest first.
     pub candidates: Vec<usize>,
     /// Magnitude-weighted centre of their rest positions (m).
     pub centre: [f64; 3],
@@ -27,7 +28,7 @@ pub struct LocatedForce {
 /// The candidates found in `frame` (see the module docs), grouped into located forces.
 pub fn locate_forces(
     frame: &MarkerFrame,
-    candidates: &[ForceCandidate],
+    candidates: &[CandidateLocation],
     params: &MarkersParams,
 ) -> Vec<LocatedForce> {
     if frame.forces.len() != candidates.len() {
@@ -38,7 +39,7 @@ pub fn locate_forces(
     let mut k = 0;
     let mut found = Vec::new();
     for (i, c) in candidates.iter().enumerate() {
-        let n = c.directions.len();
+        let n = c.unknowns();
         let sigma = (frame.sigma.get(k..k + n).unwrap_or(&[]).iter().copied()).fold(0.0, f64::max);
         k += n;
         if mags[i] > params.found_sigmas * sigma

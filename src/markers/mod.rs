@@ -6,7 +6,7 @@
 //!   Motive CSV exports) and the hidden-marker rule ([`tracks::flag_hidden`]).
 //! - [`bind`]: markers at their nearest surface-triangle point ([`BoundMarker`]); candidate
 //!   force locations snapped to surface nodes with their allowed directions
-//!   ([`ForceCandidate`]).
+//!   ([`CandidateLocation`]).
 //! - [`solve`]: per frame, the analytic least squares (4.9) iterated with the FE model
 //!   ([`MarkerSensor::solve_frame`]), with actuators held at the model's inputs; the status,
 //!   the forces, their covariance σ²(W_efᵀW_ef)⁻¹, I_w and I_e.
@@ -44,7 +44,7 @@ pub mod solve;
 pub mod tracks;
 
 pub use crate::fem::bind::{bind_markers, BoundMarker};
-pub use bind::{Directions, ForceCandidate};
+pub use bind::{CandidateLocation, Directions};
 pub use locate::{locate_forces, LocatedForce};
 pub use refine::refine_located;
 pub use solve::{MarkerFrame, MarkerSensor, MarkersStatus};

@@ -9,12 +9,12 @@
 //! Δλ_f = (W_efᵀW_ef)⁻¹W_efᵀ(δ_e^r − δ_e). It stops when the update or the change of the
 //! markers' residual is small.
 
-use super::bind::{BoundMarker, ForceCandidate};
+use super::bind::{BoundMarker, CandidateLocation};
 use super::{MarkersParams, MarkersResult};
 use crate::fem::constraint::ConstraintRow;
-use crate::fem::solve::{CableControl, NewtonParams, PointLoad, Problem, Solution};
+use crate::fem::solve::{CableControl, NewtonParams, Problem, Solution};
 use crate::inverse::intensity::IntensityParams;
-use crate::inverse::lsq;
+use crate::inverse::{loads_of, lsq, total_force, Candidate};
 use crate::math::Vec3;
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
@@ -99,7 +99,7 @@ pub struct MarkerSensor {
     /// The markers, in track-file order.
     pub markers: Vec<BoundMarker>,
     /// The candidate force locations.
-    pub candidates: Vec<ForceCandidate>,
+    pub locations: Vec<CandidateLocation>,
     /// Options.
     pub params: MarkersParams,
     /// Per marker, the variance of its bound (reference) position in units of σ²: 1/N when
@@ -111,6 +111,8 @@ pub struct MarkerSensor {
     /// tracker-to-robot calibration adds alike to every frame's marker positions
     /// ([`crate::markers::calib::rigid_fit_covariance`]); `None` without one.
     pub calibration_covariance: Option<DMatrix<f64>>,
+    /// The locations' candidate forces in order: one per unknown.
+    candidates: Vec<Candidate>,
     force_rows: Vec<ConstraintRow>,
 }
 
@@ -120,21 +122,19 @@ impl MarkerSensor {
         problem: &Problem,
         newton: NewtonParams,
         markers: Vec<BoundMarker>,
-        candidates: Vec<ForceCandidate>,
+        locations: Vec<CandidateLocation>,
         params: MarkersParams,
     ) -> MarkersResult<Self> {
-        let mut force_rows = Vec::new();
-        for c in &candidates {
-            force_rows.extend(c.rows()?);
-        }
+        let (candidates, force_rows) = unknowns_of(&locations)?;
         Ok(Self {
             problem: problem.without_loads(),
             newton,
             reference_variance: vec![0.0; markers.len()],
             calibration_covariance: None,
             markers,
-            candidates,
+            locations,
             params,
+            candidates,
             force_rows,
         })
     }
@@ -151,20 +151,20 @@ impl MarkerSensor {
     }
 
     /// The same body (known loads included), markers, solver and parameters with other
-    /// candidates (a cheap copy: nothing is solved).
-    pub fn with_candidates(&self, candidates: Vec<ForceCandidate>) -> MarkersResult<Self> {
-        let mut s = Self::new(
-            &self.problem,
-            self.newton.clone(),
-            self.markers.clone(),
+    /// candidate locations (nothing is solved).
+    pub fn with_locations(&self, locations: Vec<CandidateLocation>) -> MarkersResult<Self> {
+        let (candidates, force_rows) = unknowns_of(&locations)?;
+        Ok(Self {
+            problem: self.problem.clone(),
+            newton: self.newton.clone(),
+            markers: self.markers.clone(),
+            locations,
+            params: self.params.clone(),
+            reference_variance: self.reference_variance.clone(),
+            calibration_covariance: self.calibration_covariance.clone(),
             candidates,
-            self.params.clone(),
-        )?;
-        s.problem.loads.clone_from(&self.problem.loads);
-        s.reference_variance.clone_from(&self.reference_variance);
-        s.calibration_covariance
-            .clone_from(&self.calibration_covariance);
-        Ok(s)
+            force_rows,
+        })
     }
 
     /// Number of force unknowns.
@@ -172,26 +172,15 @@ impl MarkerSensor {
         self.force_rows.len()
     }
 
-    /// The problem under the unknowns `lambda` at the candidates.
-    fn loaded(&self, lambda: &[f64]) -> Problem {
-        let mut p = self.problem.clone();
-        let mut k = 0;
-        for c in &self.candidates {
-            let mut f = [0.0; 3];
-            for d in &c.directions {
-                (0..3).for_each(|a| f[a] += lambda[k] * d[a]);
-                k += 1;
-            }
-            p.loads.push(PointLoad { at: c.at, force: f });
-        }
-        p
-    }
-
-    /// The force vector of each candidate from the unknowns.
+    /// The force vector of each location from the unknowns: its candidates' loads summed.
     fn force_vectors(&self, lambda: &[f64]) -> Vec<[f64; 3]> {
-        let known = self.problem.loads.len();
-        (self.loaded(lambda).loads[known..].iter())
-            .map(|l| l.force)
+        let loads = loads_of(&self.candidates, lambda);
+        let mut k = 0;
+        (self.locations.iter())
+            .map(|l| {
+                k += l.unknowns();
+                total_force(&loads[k - l.unknowns()..k])
+            })
             .collect()
     }
 
@@ -203,8 +192,8 @@ impl MarkerSensor {
         visible: &[usize],
         start: Option<&Solution>,
     ) -> MarkersResult<(Solution, DMatrix<f64>)> {
-        let p = self.loaded(lambda);
-        let mut solver = p.solver()?;
+        let loads = loads_of(&self.candidates, lambda);
+        let mut solver = self.problem.solver()?.with_loads(loads)?;
         let sol = solver.solve_static_from(&self.newton, start)?;
         let x = &sol.positions;
         crate::inverse::linearise::factorize_loop_tangent(
@@ -218,7 +207,7 @@ impl MarkerSensor {
             .flat_map(|&m| self.markers[m].rows())
             .collect();
         let ne = rows.len();
-        let held: Vec<&crate::fem::solve::Cable> = (p.cables.iter())
+        let held: Vec<&crate::fem::solve::Cable> = (self.problem.cables.iter())
             .filter(|c| matches!(c.control, CableControl::Displacement(_)))
             .collect();
         rows.extend(held.iter().map(|c| ConstraintRow::cable(c, x)));
@@ -417,6 +406,20 @@ impl MarkerSensor {
         out.intensities = lambda;
         out.status = status;
     }
+}
+
+/// The candidate forces of `locations`, in order, and their rows.
+fn unknowns_of(
+    locations: &[CandidateLocation],
+) -> MarkersResult<(Vec<Candidate>, Vec<ConstraintRow>)> {
+    let mut rows = Vec::new();
+    for l in locations {
+        rows.extend(l.rows()?);
+    }
+    let candidates = (locations.iter())
+        .flat_map(|l| l.candidates.iter().copied())
+        .collect();
+    Ok((candidates, rows))
 }
 
 /// Where [`MarkerSensor::iterate`] ended.

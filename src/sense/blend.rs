@@ -4,8 +4,8 @@
 
 use super::ForceEstimate;
 use crate::inverse::intensity::IntensityEstimate;
-use crate::inverse::Candidate;
-use crate::math::{dot, norm, sub, unit};
+use crate::inverse::{loads_of, total_force, Candidate};
+use crate::math::{dot, norm, sub};
 use serde::Serialize;
 
 /// The candidates of one reported force: a seen contact's, or a declared force point's.
@@ -68,7 +68,7 @@ pub(super) fn force_estimate(
             _ => 0.0,
         }
     };
-    let axes: Vec<[f64; 3]> = cands[r.clone()].iter().map(|c| unit(c.direction)).collect();
+    let axes: Vec<[f64; 3]> = cands[r.clone()].iter().map(|c| c.direction).collect();
     let covariance = in_robot_frame(&axes, &cov);
     let mut out = ForceEstimate {
         source: g.source.clone(),
@@ -161,14 +161,7 @@ impl ForceEstimate {
 
 /// The force of candidates `cands` with intensities `forces` (N).
 pub(super) fn force_of(cands: &[Candidate], forces: &[f64]) -> [f64; 3] {
-    let mut f = [0.0; 3];
-    for (c, l) in cands.iter().zip(forces) {
-        let d = unit(c.direction);
-        for q in 0..3 {
-            f[q] += l * d[q];
-        }
-    }
-    f
+    total_force(&loads_of(cands, forces))
 }
 
 /// The square root of a symmetric 3x3 covariance's largest eigenvalue (0 for a negative

@@ -318,12 +318,11 @@ fn force_point_candidates(model: &crate::fem::model::Model) -> Vec<Vec<Candidate
         .map(|fp| {
             fp.rows
                 .iter()
-                .map(|r| Candidate {
-                    at: fp.point,
-                    direction: r.entries.iter().fold([0.0; 3], |a, e| {
+                .map(|r| {
+                    let direction = r.entries.iter().fold([0.0; 3], |a, e| {
                         [a[0] + e.1[0], a[1] + e.1[1], a[2] + e.1[2]]
-                    }),
-                    push_only: true,
+                    });
+                    Candidate::new(fp.point, direction, true)
                 })
                 .collect()
         })

@@ -595,11 +595,7 @@ fn candidates_at(node: usize, normal: [f64; 3], three_d: bool) -> Vec<Candidate>
     if three_d {
         let (t1, t2) = tangents(inward);
         for t in [t1, t2] {
-            c.push(Candidate {
-                at: MappedPoint::node(node),
-                direction: t,
-                push_only: false,
-            });
+            c.push(Candidate::new(MappedPoint::node(node), t, false));
         }
     }
     c

@@ -10,7 +10,7 @@ use softsense::fem::solve::MappedPoint;
 use softsense::markers::layout::{
     default_pool, layout_from_pool, layout_i_w, spearman, LayoutParams, PoolCompliance,
 };
-use softsense::markers::{BoundMarker, ForceCandidate, MarkerSensor, MarkersParams};
+use softsense::markers::{BoundMarker, CandidateLocation, MarkerSensor, MarkersParams};
 
 const MARKERS: usize = 8;
 const DRAWS: u64 = 3;
@@ -18,7 +18,7 @@ const DRAWS: u64 = 3;
 /// Mean I_e (N) of the layout of pool indices `chosen` over the seeded draws.
 fn mean_i_e(
     m: &Model,
-    candidates: &[ForceCandidate],
+    candidates: &[CandidateLocation],
     pc: &PoolCompliance,
     chosen: &[usize],
 ) -> f64 {
@@ -45,7 +45,7 @@ fn mean_i_e(
             let b = (a + 1 + (uniform(d, 2) * (n - 1) as f64) as usize) % n;
             for (k, c) in [a, b].into_iter().enumerate() {
                 let w = 0.3 + 0.3 * uniform(d, 3 + k as u64);
-                truth[c] = candidates[c].directions[0].map(|v| -w * v);
+                truth[c] = candidates[c].candidates[0].direction.map(|v| -w * v);
             }
             // An inverse that fails (an FE update inverts an element) is the worst I_e.
             match s.solve_frame(d, &measure(&s, &truth, 900 + d), None) {
@@ -64,7 +64,11 @@ fn mean_i_e(
 }
 
 /// (name, I_w, I_e) of each layout, the proposed one first, and Spearman's ρ of I_w and I_e.
-fn study(body: &str, m: &Model, candidates: &[ForceCandidate]) -> (Vec<(String, f64, f64)>, f64) {
+fn study(
+    body: &str,
+    m: &Model,
+    candidates: &[CandidateLocation],
+) -> (Vec<(String, f64, f64)>, f64) {
     let params = LayoutParams {
         markers: MARKERS,
         ..Default::default()
@@ -119,13 +123,13 @@ fn study(body: &str, m: &Model, candidates: &[ForceCandidate]) -> (Vec<(String, 
     (rows, rho)
 }
 
-fn sheet() -> (Model, Vec<ForceCandidate>) {
+fn sheet() -> (Model, Vec<CandidateLocation>) {
     let m = model("sheet.toml");
     let candidates = bundled_candidates(&m, "sheet");
     (m, candidates)
 }
 
-fn robot() -> (Model, Vec<ForceCandidate>) {
+fn robot() -> (Model, Vec<CandidateLocation>) {
     let m = model("robot.toml");
     let candidates = bundled_candidates(&m, "robot");
     (m, candidates)

@@ -45,7 +45,7 @@ pub fn forces_between_candidates(seeds: std::ops::Range<u64>) -> usize {
         }];
         let measured = measure_loads(&s, loads, 300 + t);
         let est = s.solve_frame(t, &measured, None).unwrap();
-        let grid = locate_forces(&est, &s.candidates, &s.params);
+        let grid = locate_forces(&est, &s.locations, &s.params);
         let located = refine_located(&s, &est, &measured, &grid).unwrap();
         let p = mesh.nodes_in_rest[node];
         let off = |l: Option<&LocatedForce>| {

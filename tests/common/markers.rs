@@ -2,7 +2,9 @@
 //! sheet and robot with markers and candidates, and measurements made by the direct FE model.
 use softsense::fem::model::Model;
 use softsense::fem::solve::PointLoad;
-use softsense::markers::{bind_markers, Directions, ForceCandidate, MarkerSensor, MarkersParams};
+use softsense::markers::{
+    bind_markers, CandidateLocation, Directions, MarkerSensor, MarkersParams,
+};
 use softsense::math::rand::normal;
 use std::path::Path;
 
@@ -27,7 +29,7 @@ pub fn sensor(
     let markers = bind_markers(&mesh.nodes_in_rest, &surface, &names, &at, 0.005).unwrap();
     let candidates = (candidates_mm.iter().enumerate())
         .map(|(i, p)| {
-            ForceCandidate::snapped(&format!("c{i}"), mesh, &surface, p.map(|c| c * 1e-3), dirs)
+            CandidateLocation::snapped(&format!("c{i}"), mesh, &surface, p.map(|c| c * 1e-3), dirs)
                 .unwrap()
         })
         .collect();
@@ -43,9 +45,9 @@ pub fn sensor(
 
 /// Marker positions under `forces` (one vector per candidate, N) with noise from `seed`.
 pub fn measure(s: &MarkerSensor, forces: &[[f64; 3]], seed: u64) -> Vec<Option<[f64; 3]>> {
-    let loads = (s.candidates.iter().zip(forces))
+    let loads = (s.locations.iter().zip(forces))
         .map(|(c, f)| PointLoad {
-            at: c.at,
+            at: c.at(),
             force: *f,
         })
         .collect();
@@ -103,7 +105,7 @@ pub fn robot_tip_sensor(around: [f64; 3]) -> MarkerSensor {
     let names: Vec<String> = (0..16).map(|i| format!("m{i}")).collect();
     let markers = bind_markers(&mesh.nodes_in_rest, &surface, &names, &at, 1e-6).unwrap();
     let hook = m.force_points.iter().find(|e| e.name == "hook").unwrap();
-    let candidates = vec![ForceCandidate::from_force_point(hook, mesh)];
+    let candidates = vec![CandidateLocation::from_force_point(hook, mesh)];
     let params = MarkersParams::default();
     MarkerSensor::new(&m.problem, m.newton.clone(), markers, candidates, params).unwrap()
 }
@@ -115,7 +117,7 @@ pub fn uniform(seed: u64, k: u64) -> f64 {
 
 /// The bundled candidates of a body (thesis 4.7.4): `meshes/models/<body>_candidates.csv`,
 /// the sheet's 12 (a 4 x 3 grid, 40 mm apart, normal) or the robot's 8.
-pub fn bundled_candidates(m: &Model, body: &str) -> Vec<ForceCandidate> {
+pub fn bundled_candidates(m: &Model, body: &str) -> Vec<CandidateLocation> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let file = root.join(format!("meshes/models/{body}_candidates.csv"));
     softsense::markers::bind::read_candidates(&file, &m.problem.mesh).unwrap()
@@ -125,13 +127,13 @@ pub fn bundled_candidates(m: &Model, body: &str) -> Vec<ForceCandidate> {
 pub fn sheet_with_twelve_candidates() -> MarkerSensor {
     let m = model("sheet.toml");
     let s = sensor(&m, &sheet_markers(), &[], Directions::Normal);
-    s.with_candidates(bundled_candidates(&m, "sheet")).unwrap()
+    s.with_locations(bundled_candidates(&m, "sheet")).unwrap()
 }
 
 /// Trial `t` of location among candidates: one or two distinct candidates (0.3-0.6 N each,
 /// hanging along -z); returns the chosen candidates and the found ones, both sorted.
 pub fn location_trial(s: &MarkerSensor, t: u64) -> (Vec<usize>, Vec<usize>) {
-    let n = s.candidates.len();
+    let n = s.locations.len();
     let count = 1 + (uniform(t, 0) < 0.5) as usize;
     let mut truth = vec![[0.0; 3]; n];
     let mut chosen = Vec::new();
@@ -146,7 +148,7 @@ pub fn location_trial(s: &MarkerSensor, t: u64) -> (Vec<usize>, Vec<usize>) {
     }
     chosen.sort_unstable();
     let est = s.solve_frame(t, &measure(s, &truth, 70 + t), None).unwrap();
-    let mut found: Vec<usize> = softsense::markers::locate_forces(&est, &s.candidates, &s.params)
+    let mut found: Vec<usize> = softsense::markers::locate_forces(&est, &s.locations, &s.params)
         .iter()
         .flat_map(|l| l.candidates.clone())
         .collect();

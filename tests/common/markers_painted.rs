@@ -4,7 +4,9 @@
 use softsense::fem::model::Model;
 use softsense::markers::detect::{detect_recording, DetectParams};
 use softsense::markers::tracks::{read_tracks, MarkerTracks};
-use softsense::markers::{bind_markers, Directions, ForceCandidate, MarkerSensor, MarkersParams};
+use softsense::markers::{
+    bind_markers, CandidateLocation, Directions, MarkerSensor, MarkersParams,
+};
 use softsense::recording::Recording;
 use softsense::scene::Scene;
 use std::path::Path;
@@ -56,7 +58,7 @@ fn sensor(model: &Model, tracks: &MarkerTracks, points: &[[f64; 3]], sigma: f64)
     let markers = bind_markers(&free.positions, &surface, &tracks.names, &first, 0.005).unwrap();
     let candidates = (points.iter().enumerate())
         .map(|(i, p)| {
-            ForceCandidate::snapped(&format!("c{i}"), mesh, &surface, *p, Directions::Normal)
+            CandidateLocation::snapped(&format!("c{i}"), mesh, &surface, *p, Directions::Normal)
                 .unwrap()
         })
         .collect();

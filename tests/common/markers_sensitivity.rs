@@ -16,7 +16,7 @@
 use super::markers::{grid, model, robot_tip_sensor, sensor, sheet_markers};
 use softsense::fem::material::Material;
 use softsense::fem::solve::{CableControl, PointLoad};
-use softsense::markers::{Directions, ForceCandidate, MarkerSensor};
+use softsense::markers::{CandidateLocation, Directions, MarkerSensor};
 
 /// An error source and its three levels, in the unit its row is labelled with.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -127,9 +127,9 @@ fn distance(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
 pub fn study(layout: &Layout, sources: &[Source]) -> Column {
     let s = &layout.sensor;
     let mut direct = s.problem.clone();
-    direct.loads = (s.candidates.iter().zip(&layout.truth))
+    direct.loads = (s.locations.iter().zip(&layout.truth))
         .map(|(c, f)| PointLoad {
-            at: c.at,
+            at: c.at(),
             force: *f,
         })
         .collect();
@@ -253,9 +253,12 @@ pub fn robot_layouts() -> Vec<Layout> {
     let top_east = (m.force_points.iter())
         .find(|e| e.name == "top-east")
         .expect("robot.toml's top-east force point");
-    let mut two = near.candidates.clone();
-    two.push(ForceCandidate::from_force_point(top_east, &m.problem.mesh));
-    let with_two = near.with_candidates(two).expect("robot sensor");
+    let mut two = near.locations.clone();
+    two.push(CandidateLocation::from_force_point(
+        top_east,
+        &m.problem.mesh,
+    ));
+    let with_two = near.with_locations(two).expect("robot sensor");
     let hook = [0.0, 0.0, -0.4];
     vec![
         Layout {

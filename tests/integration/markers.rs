@@ -383,7 +383,7 @@ fn a_force_between_candidates_is_refined_to_within_one_node_of_the_truth() {
         group_radius: 0.06,
         ..Default::default()
     };
-    let (a, b) = (s.candidates[0].position, s.candidates[1].position);
+    let (a, b) = (s.locations[0].position, s.locations[1].position);
     let mesh = &s.problem.mesh;
     let top: Vec<usize> = (mesh.surface().nodes.iter().copied())
         .filter(|&v| mesh.nodes_in_rest[v][2] > 0.0039)
@@ -404,7 +404,7 @@ fn a_force_between_candidates_is_refined_to_within_one_node_of_the_truth() {
         }];
         let measured = measure_loads(&s, loads, 900 + case as u64);
         let est = s.solve_frame(0, &measured, None).unwrap();
-        let grid = locate_forces(&est, &s.candidates, &s.params);
+        let grid = locate_forces(&est, &s.locations, &s.params);
         let refined = refine_located(&s, &est, &measured, &grid).unwrap();
         let truth = mesh.nodes_in_rest[node];
         assert_eq!(

@@ -169,6 +169,43 @@ fn loads_on_missing_nodes_are_model_errors_not_panics() {
     ));
 }
 
+#[test]
+fn loads_given_to_the_solver_act_as_loads_pushed_onto_a_copy_of_the_problem() {
+    let (mut p, _) = setup();
+    p.loads.push(PointLoad {
+        at: MappedPoint::node(40),
+        force: [0.01, 0.0, -0.02],
+    });
+    let extra = vec![
+        PointLoad {
+            at: MappedPoint::node(60),
+            force: [0.0, 0.03, 0.0],
+        },
+        PointLoad {
+            at: MappedPoint::node(40),
+            force: [-0.004, 0.0, 0.01],
+        },
+    ];
+    let mut copy = p.clone();
+    copy.loads.extend(extra.iter().copied());
+    let newton = NewtonParams::default();
+    let mut given = p.solver().unwrap().with_loads(extra).unwrap();
+    assert_eq!(given.external_forces(), copy.external_forces());
+    let (a, b) = (
+        given.solve_static(&newton).unwrap(),
+        copy.solve_static(&newton).unwrap(),
+    );
+    assert_eq!(a.positions, b.positions);
+    let missing = vec![PointLoad {
+        at: MappedPoint::node(100_000),
+        force: [1.0, 0.0, 0.0],
+    }];
+    assert!(matches!(
+        p.solver().unwrap().with_loads(missing),
+        Err(FemError::Model(_))
+    ));
+}
+
 /// W and delta^free by full solves K X = [H^T r] and products H X (the straightforward path
 /// the forward-only supernodal compliance replaces).
 fn compliance_by_full_solves(

@@ -638,3 +638,22 @@ fn patch_robust_covariance_covers_noise_shared_within_each_patch() {
         assert!(ratio < 0.6, "force {i}: by row/sample σ {ratio}");
     }
 }
+
+#[test]
+fn candidate_loads_are_the_intensities_along_the_unit_directions_and_sum_in_order() {
+    use softsense::fem::solve::MappedPoint;
+    use softsense::inverse::{loads_of, total_force, Candidate};
+    let at = MappedPoint::node(3);
+    let c = [
+        Candidate::new(at, [0.0, 0.0, -2.0], true),
+        Candidate::new(at, [3.0, 4.0, 0.0], false),
+    ];
+    assert_eq!(c[0].direction, [0.0, 0.0, -1.0]);
+    let loads = loads_of(&c, &[0.5, -1.0]);
+    assert_eq!(loads.len(), 2);
+    assert_eq!(loads[0].at, at);
+    assert_eq!(loads[0].force, [0.0, 0.0, -0.5]);
+    assert_eq!(loads[1].force, [-0.6, -0.8, -0.0]);
+    assert_eq!(total_force(&loads), [-0.6, -0.8, -0.5]);
+    assert_eq!(c[1].row().unwrap().entries, vec![(3, [0.6, 0.8, 0.0])]);
+}

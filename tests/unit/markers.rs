@@ -10,7 +10,7 @@ use softsense::markers::tracks::{
     flag_hidden, read_motive_str, read_tracks_str, write_tracks_string, TracksError,
 };
 use softsense::markers::{
-    bind_markers, locate_forces, Directions, ForceCandidate, MarkerSensor, MarkersError,
+    bind_markers, locate_forces, CandidateLocation, Directions, MarkerSensor, MarkersError,
     MarkersParams, MarkersStatus,
 };
 
@@ -115,7 +115,7 @@ fn bar_sensor(cable: bool) -> MarkerSensor {
     let names: Vec<String> = ["a", "b", "c"].map(String::from).to_vec();
     let markers = bind_markers(&p.mesh.nodes_in_rest, &surface, &names, &at, 1e-3).unwrap();
     let cand = vec![
-        ForceCandidate::snapped(
+        CandidateLocation::snapped(
             "tip",
             &p.mesh,
             &surface,
@@ -123,7 +123,7 @@ fn bar_sensor(cable: bool) -> MarkerSensor {
             Directions::Free,
         )
         .unwrap(),
-        ForceCandidate::snapped(
+        CandidateLocation::snapped(
             "mid",
             &p.mesh,
             &surface,
@@ -178,13 +178,16 @@ fn w_ef_columns_match_finite_differences_of_the_fe_solve() {
         let markers_under = |l: &[f64]| -> Vec<f64> {
             let mut p = s.problem.clone();
             let mut k = 0;
-            for c in &s.candidates {
+            for c in &s.locations {
                 let mut f = [0.0; 3];
-                for d in &c.directions {
+                for d in c.candidates.iter().map(|c| c.direction) {
                     (0..3).for_each(|a| f[a] += l[k] * d[a]);
                     k += 1;
                 }
-                p.loads.push(PointLoad { at: c.at, force: f });
+                p.loads.push(PointLoad {
+                    at: c.at(),
+                    force: f,
+                });
             }
             let sol = p.solve_static(&s.newton).unwrap();
             s.markers
@@ -250,10 +253,10 @@ fn found_candidates_are_grouped_at_their_weighted_centre() {
         group_radius: 0.05,
         ..Default::default()
     };
-    let located = locate_forces(&est, &s.candidates, &params);
+    let located = locate_forces(&est, &s.locations, &params);
     assert_eq!(located.len(), 1);
     assert_eq!(located[0].candidates, [0, 1]);
-    let (pt, pm) = (s.candidates[0].position, s.candidates[1].position);
+    let (pt, pm) = (s.locations[0].position, s.locations[1].position);
     let want = (0..3)
         .map(|k| 0.75 * pt[k] + 0.25 * pm[k])
         .collect::<Vec<_>>();
@@ -261,12 +264,12 @@ fn found_candidates_are_grouped_at_their_weighted_centre() {
     assert_eq!(located[0].force, [0.0, 0.0, -2.0]);
     // Apart when the radius is smaller; below the fraction of the largest, not found.
     params.group_radius = 0.01;
-    assert_eq!(locate_forces(&est, &s.candidates, &params).len(), 2);
+    assert_eq!(locate_forces(&est, &s.locations, &params).len(), 2);
     params.found_fraction = 0.5;
-    assert_eq!(locate_forces(&est, &s.candidates, &params).len(), 1);
+    assert_eq!(locate_forces(&est, &s.locations, &params).len(), 1);
     // Below its σ rule, not found.
     est.sigma = vec![1.0; 4];
-    assert!(locate_forces(&est, &s.candidates, &params).is_empty());
+    assert!(locate_forces(&est, &s.locations, &params).is_empty());
 }
 
 #[test]
@@ -276,9 +279,9 @@ fn candidate_files_snap_to_surface_nodes_and_name_bad_lines() {
     let c = softsense::markers::bind::parse_candidates(text, &p.mesh).unwrap();
     assert_eq!(c.len(), 2);
     assert_eq!(c[0].position, [0.1, 0.01, 0.02]);
-    assert_eq!(c[0].directions.len(), 3);
+    assert_eq!(c[0].unknowns(), 3);
     // The top face's normal at an interior node of it.
-    let n = c[1].directions[0];
+    let n = c[1].candidates[0].direction;
     assert!((n[2] - 1.0).abs() < 1e-12, "{n:?}");
     for (bad, line) in [
         ("a,0,0,0,normal\nb,0,0,0,sideways\n", 2),
@@ -312,7 +315,7 @@ fn bar_with_three_candidates() -> MarkerSensor {
         .iter()
         .map(|&x| {
             let name = format!("x{}", 1e3 * x);
-            ForceCandidate::snapped(
+            CandidateLocation::snapped(
                 &name,
                 &p.mesh,
                 &surface,
@@ -346,10 +349,10 @@ fn stacking_frames_of_the_same_forces_locates_weak_forces_more_often_than_one_fr
         let c = (t % 3) as usize;
         let u = softsense::math::rand::uniform(t, 1, 0, 0);
         let mag = sigma1[c] * (2.0 + 6.0 * u);
-        let d = s.candidates[c].directions[0];
+        let d = s.locations[c].candidates[0].direction;
         let mut p = s.problem.clone();
         p.loads.push(PointLoad {
-            at: s.candidates[c].at,
+            at: s.locations[c].at(),
             force: d.map(|v| -mag * v),
         });
         let x = exact(&p.solve_static(&s.newton).unwrap().positions);
@@ -365,7 +368,7 @@ fn stacking_frames_of_the_same_forces_locates_weak_forces_more_often_than_one_fr
             })
             .collect();
         let located = |est: &softsense::markers::MarkerFrame| {
-            let l = locate_forces(est, &s.candidates, &s.params);
+            let l = locate_forces(est, &s.locations, &s.params);
             l.len() == 1 && l[0].candidates == [c]
         };
         let last = s
@@ -403,9 +406,9 @@ fn known_loads_put_back_on_the_sensor_are_held_and_not_reported_as_candidate_for
     s.problem.loads.push(known);
     let truth = 0.1;
     let mut p = s.problem.clone();
-    let d = s.candidates[1].directions[0];
+    let d = s.locations[1].candidates[0].direction;
     p.loads.push(PointLoad {
-        at: s.candidates[1].at,
+        at: s.locations[1].at(),
         force: d.map(|v| -truth * v),
     });
     let x = p.solve_static(&s.newton).unwrap().positions;
@@ -421,6 +424,6 @@ fn known_loads_put_back_on_the_sensor_are_held_and_not_reported_as_candidate_for
     );
     assert!(est.intensities[0].abs() < 1e-4 && est.intensities[2].abs() < 1e-4);
     // The copy with other candidates keeps the known load.
-    let other = s.with_candidates(s.candidates[..1].to_vec()).unwrap();
+    let other = s.with_locations(s.locations[..1].to_vec()).unwrap();
     assert_eq!(other.problem.loads.len(), 1);
 }

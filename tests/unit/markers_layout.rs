@@ -76,7 +76,7 @@ fn fewer_rows_than_unknowns_is_refused_by_corollary_1() {
         markers: 3,
         ..Default::default()
     };
-    match propose_layout(&s.problem, &s.newton, &s.candidates, None, &params) {
+    match propose_layout(&s.problem, &s.newton, &s.locations, None, &params) {
         Err(e @ MarkersError::TooFewMarkers { .. }) => {
             let msg = e.to_string();
             assert!(
