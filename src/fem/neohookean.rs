@@ -60,9 +60,9 @@ fn inverse_transpose_and_log_det(f: &Matrix3<f64>) -> (Matrix3<f64>, f64) {
 }
 
 impl TetRest {
-    /// Deformation gradient at positions `x`, or the inverted-element error for
-    /// det F ≤ 0 (or NaN); `tet` names the element.
-    fn neo_hookean_gradient(&self, tet: usize, x: &[[f64; 3]; 4]) -> FemResult<Matrix3<f64>> {
+    /// Deformation gradient F at positions `x`, checked for the Neo-Hookean element: det F
+    /// ≤ 0 (or NaN) is the inverted-element error naming `tet`, as W is undefined there.
+    pub fn neo_hookean_gradient(&self, tet: usize, x: &[[f64; 3]; 4]) -> FemResult<Matrix3<f64>> {
         let f = self.deformation_gradient(x);
         let det = f.determinant();
         if !(det > 0.0) {
@@ -71,46 +71,37 @@ impl TetRest {
         Ok(f)
     }
 
-    /// Strain energy V W(F) (J) at positions `x`; `tet` names the element if inverted.
-    pub fn neo_hookean_energy(
-        &self,
-        tet: usize,
-        m: &Material,
-        x: &[[f64; 3]; 4],
-    ) -> FemResult<f64> {
-        let f = self.neo_hookean_gradient(tet, x)?;
-        Ok(self.volume * compute_energy_density(m, &f))
-    }
-
-    /// Neo-Hookean internal force, Cauchy stress and tangent at positions `x`. The tangent
-    /// is the consistent one, or with [`Tangent::Rotated`] its positive semi-definite
-    /// projection (the fallback when the consistent K is not positive definite); `tet`
-    /// names the element if it is inverted (det F ≤ 0).
+    /// Neo-Hookean internal force, Cauchy stress and consistent tangent at positions `x`;
+    /// `tet` names the element if it is inverted (det F ≤ 0).
     pub fn neo_hookean(
         &self,
         tet: usize,
         m: &Material,
         x: &[[f64; 3]; 4],
-        tangent: Tangent,
     ) -> FemResult<ElementState> {
+        let f = self.neo_hookean_gradient(tet, x)?;
         let mut out = ElementState::default();
-        self.neo_hookean_into(tet, m, x, tangent, ALL_BLOCKS, &mut out)?;
+        self.neo_hookean_into(m, &f, Tangent::Consistent, ALL_BLOCKS, &mut out);
         Ok(out)
     }
 
-    /// As [`TetRest::neo_hookean`], written into `out`, with only the tangent blocks whose
-    /// bit 4a + b is set in `blocks` (as [`TetRest::corotational_into`]). The rotation of
-    /// `out` is the identity: this element has no corotated frame.
+    /// As [`TetRest::neo_hookean`] at the deformation gradient `f` of
+    /// [`TetRest::neo_hookean_gradient`] (det F > 0), written into `out`, with the
+    /// consistent tangent or, with [`Tangent::Rotated`], its positive semi-definite
+    /// projection (the solver's fallback when the consistent K is not positive definite).
+    /// Only the tangent blocks whose bit 4a + b is set in `blocks` are written (as
+    /// [`TetRest::corotational_into`]). The rotation of `out` is the identity: this element
+    /// has no corotated frame.
     pub fn neo_hookean_into(
         &self,
-        tet: usize,
         m: &Material,
-        x: &[[f64; 3]; 4],
+        f: &Matrix3<f64>,
         tangent: Tangent,
         blocks: u16,
         out: &mut ElementState,
-    ) -> FemResult<()> {
-        let f = self.neo_hookean_gradient(tet, x)?;
+    ) {
+        debug_assert!(f.determinant() > 0.0, "an inverted F: check it first");
+        let f = *f;
         let (f_inv_t, ln_j) = inverse_transpose_and_log_det(&f);
         let p = piola(m, &f, &f_inv_t, ln_j);
         out.force = self.forces(&p);
@@ -126,7 +117,6 @@ impl TetRest {
         // Cauchy stress sigma = P Fᵀ / J.
         out.stress = p * f.transpose() / f.determinant();
         out.rotation = Matrix3::identity();
-        Ok(())
     }
 
     /// The consistent tangent's blocks `blocks` into `k` (module docs), from F⁻ᵀ and ln J.

@@ -191,7 +191,9 @@ impl<'p> Solver<'p> {
                     r.corotational_into(e, m, &t.map(|a| x[a]), tangent, pattern.block_mask(e), out)
                 }
                 Formulation::NeoHookean => {
-                    r.neo_hookean_into(e, m, &t.map(|a| x[a]), tangent, pattern.block_mask(e), out)
+                    let f = r.neo_hookean_gradient(e, &t.map(|a| x[a]))?;
+                    r.neo_hookean_into(m, &f, tangent, pattern.block_mask(e), out);
+                    Ok(())
                 }
             }
         })?;

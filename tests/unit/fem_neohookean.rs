@@ -7,12 +7,12 @@ use nalgebra::{Matrix3, Rotation3, Vector3};
 use softsense::fem::material::Material;
 use softsense::fem::mesh::TetMesh;
 use softsense::fem::model::Model;
-use softsense::fem::neohookean::compute_stiffness;
+use softsense::fem::neohookean::{compute_energy_density, compute_stiffness};
 use softsense::fem::solve::{
     CableControl, Formulation, MappedPoint, NewtonParams, PointLoad, Problem, Solution,
 };
-use softsense::fem::tet4::{Tangent, TetRest};
-use softsense::fem::FemError;
+use softsense::fem::tet4::{ElementState, Tangent, TetRest, ALL_BLOCKS};
+use softsense::fem::{FemError, FemResult};
 
 /// Deterministic pseudo-random numbers in [-1, 1).
 fn lcg(seed: &mut u64) -> f64 {
@@ -134,7 +134,7 @@ fn neo_hookean_uniaxial_stretch_gives_the_closed_form_nominal_stress() {
         // One element's Cauchy stress: diag(P11 s / J, 0, 0).
         let (e, rest) = element();
         let fx = Matrix3::new(s, 0.0, 0.0, 0.0, t, 0.0, 0.0, 0.0, t);
-        let state = e.neo_hookean(0, &m, &apply(&fx, [0.0; 3], &rest), Tangent::Consistent);
+        let state = e.neo_hookean(0, &m, &apply(&fx, [0.0; 3], &rest));
         let want = Matrix3::new(p11 / (t * t), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
         assert!((state.unwrap().stress - want).amax() < 1e-10 * p11.abs());
     }
@@ -188,27 +188,21 @@ fn neo_hookean_tangent_and_forces_equal_central_differences() {
     let mut seed = 17;
     let h = 1e-6;
     let (mut worst_k, mut worst_f) = (0.0f64, 0.0f64);
+    let force = |y: &[[f64; 3]; 4]| e.neo_hookean(0, &m, y).unwrap().force;
+    let energy = |y: &[[f64; 3]; 4]| {
+        e.volume * compute_energy_density(&m, &e.neo_hookean_gradient(0, y).unwrap())
+    };
     for _ in 0..10 {
         let x = deformed(&rest, 0.25, &mut seed);
-        let state = e.neo_hookean(0, &m, &x, Tangent::Consistent).unwrap();
+        let state = e.neo_hookean(0, &m, &x).unwrap();
         let mut fd_k = [[0.0; 12]; 12];
         let mut fd_f = [0.0; 12];
         for col in 0..12 {
             let (mut xp, mut xm) = (x, x);
             xp[col / 3][col % 3] += h;
             xm[col / 3][col % 3] -= h;
-            let fp = e
-                .neo_hookean(0, &m, &xp, Tangent::Consistent)
-                .unwrap()
-                .force;
-            let fm = e
-                .neo_hookean(0, &m, &xm, Tangent::Consistent)
-                .unwrap()
-                .force;
-            for row in 0..12 {
-                fd_k[row][col] = (fp[row] - fm[row]) / (2.0 * h);
-            }
-            let energy = |y| e.neo_hookean_energy(0, &m, y).unwrap();
+            let (fp, fm) = (force(&xp), force(&xm));
+            (0..12).for_each(|row| fd_k[row][col] = (fp[row] - fm[row]) / (2.0 * h));
             fd_f[col] = (energy(&xp) - energy(&xm)) / (2.0 * h);
         }
         worst_k = worst_k.max(relative_difference(&state.tangent, &fd_k));
@@ -227,6 +221,14 @@ fn neo_hookean_tangent_and_forces_equal_central_differences() {
     assert!(worst_f < 1e-6, "force vs central differences: {worst_f:e}");
 }
 
+/// The element with its projected (positive semi-definite) tangent.
+fn with_projected_tangent(e: &TetRest, tet: usize, x: &[[f64; 3]; 4]) -> FemResult<ElementState> {
+    let mut out = ElementState::default();
+    let f = e.neo_hookean_gradient(tet, x)?;
+    e.neo_hookean_into(&material(), &f, Tangent::Rotated, ALL_BLOCKS, &mut out);
+    Ok(out)
+}
+
 /// Eigenvalues of a 12x12 element matrix.
 fn eigenvalues(k: &[[f64; 12]; 12]) -> Vec<f64> {
     let k = nalgebra::DMatrix::from_fn(12, 12, |i, j| k[i][j]);
@@ -239,10 +241,8 @@ fn projected_neo_hookean_tangent_is_positive_semidefinite_and_exact_where_the_he
     let m = material();
     // Squeezed to half its size in every direction: the consistent tangent is indefinite.
     let squeezed = apply(&(Matrix3::identity() * 0.5), [0.0; 3], &rest);
-    let consistent = e
-        .neo_hookean(0, &m, &squeezed, Tangent::Consistent)
-        .unwrap();
-    let projected = e.neo_hookean(0, &m, &squeezed, Tangent::Rotated).unwrap();
+    let consistent = e.neo_hookean(0, &m, &squeezed).unwrap();
+    let projected = with_projected_tangent(&e, 7, &squeezed).unwrap();
     let scale = max_abs(consistent.tangent.iter().flatten().copied());
     let low = |k| eigenvalues(k).into_iter().fold(f64::INFINITY, f64::min);
     assert!(low(&consistent.tangent) < -1e-3 * scale);
@@ -255,8 +255,8 @@ fn projected_neo_hookean_tangent_is_positive_semidefinite_and_exact_where_the_he
     assert!((h - h.transpose()).amax() < 1e-12 * h.amax());
     assert!(h.symmetric_eigen().eigenvalues.min() > 1e-3 * h.amax());
     let x = apply(&stretch, [0.1, 0.0, 0.0], &rest);
-    let c = e.neo_hookean(0, &m, &x, Tangent::Consistent).unwrap();
-    let p = e.neo_hookean(0, &m, &x, Tangent::Rotated).unwrap();
+    let c = e.neo_hookean(0, &m, &x).unwrap();
+    let p = with_projected_tangent(&e, 0, &x).unwrap();
     let diff = relative_difference(&p.tangent, &c.tangent);
     assert!(diff < 1e-12, "{diff:e}");
 }
@@ -270,14 +270,14 @@ fn neo_hookean_force_is_zero_for_rigid_motions_and_rotates_with_the_body() {
         let axis = Vector3::new(lcg(&mut seed), lcg(&mut seed), lcg(&mut seed));
         let q = Rotation3::new(axis * 3.0).into_inner();
         let x = apply(&q, [lcg(&mut seed), lcg(&mut seed), 0.5], &rest);
-        let f = e.neo_hookean(0, &m, &x, Tangent::Consistent).unwrap().force;
+        let f = e.neo_hookean(0, &m, &x).unwrap().force;
         assert!(max_abs(f) < 1e-10 * m.young() * e.volume, "{f:?}");
     }
     let x = deformed(&rest, 0.25, &mut seed);
-    let f0 = e.neo_hookean(0, &m, &x, Tangent::Consistent).unwrap();
+    let f0 = e.neo_hookean(0, &m, &x).unwrap();
     let q = Rotation3::new(Vector3::new(0.4, -1.1, 0.7)).into_inner();
     let f1 = e
-        .neo_hookean(0, &m, &apply(&q, [0.5, 0.0, -2.0], &x), Tangent::Consistent)
+        .neo_hookean(0, &m, &apply(&q, [0.5, 0.0, -2.0], &x))
         .unwrap();
     let scale = max_abs(f0.force);
     assert!(scale > 1.0);
@@ -295,14 +295,12 @@ fn inverted_neo_hookean_element_is_an_error_naming_it() {
     let (e, rest) = element();
     let mut x = rest;
     x[3][2] = -1.0;
-    for t in [Tangent::Consistent, Tangent::Rotated] {
-        assert!(matches!(
-            e.neo_hookean(7, &material(), &x, t),
-            Err(FemError::InvertedElement { tet: 7, .. })
-        ));
-    }
     assert!(matches!(
-        e.neo_hookean_energy(7, &material(), &x),
+        e.neo_hookean(7, &material(), &x),
+        Err(FemError::InvertedElement { tet: 7, .. })
+    ));
+    assert!(matches!(
+        with_projected_tangent(&e, 7, &x),
         Err(FemError::InvertedElement { tet: 7, .. })
     ));
 }
@@ -312,13 +310,13 @@ fn neo_hookean_element_at_small_strain_is_the_linear_element() {
     let (e, rest) = element();
     let m = material();
     let k0 = e.stiffness(&m);
-    let at_rest = e.neo_hookean(0, &m, &rest, Tangent::Consistent).unwrap();
+    let at_rest = e.neo_hookean(0, &m, &rest).unwrap();
     assert!(relative_difference(&at_rest.tangent, &k0) < 1e-12);
     assert!(max_abs(at_rest.force) < 1e-12 * m.young());
     let mut seed = 31;
     let u = [0; 4].map(|_| [0; 3].map(|_| 1e-7 * lcg(&mut seed)));
     let x = [0, 1, 2, 3].map(|a| [0, 1, 2].map(|k| rest[a][k] + u[a][k]));
-    let nh = e.neo_hookean(0, &m, &x, Tangent::Consistent).unwrap().force;
+    let nh = e.neo_hookean(0, &m, &x).unwrap().force;
     let lin = e.small_strain(&m, &u).force;
     let diff = max_abs(nh.iter().zip(&lin).map(|(a, b)| a - b)) / max_abs(lin);
     println!("small-strain element force difference {diff:.2e}");
