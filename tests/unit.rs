@@ -30,6 +30,8 @@ mod fem_element;
 mod fem_mesh;
 #[path = "unit/fem_model.rs"]
 mod fem_model;
+#[path = "unit/fem_neohookean.rs"]
+mod fem_neohookean;
 #[path = "unit/io_rgbd.rs"]
 mod io_rgbd;
 

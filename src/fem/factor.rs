@@ -1,6 +1,6 @@
 //! The numeric Cholesky factor of a solver's tangent: factorizing (skipping values already
 //! factorized or already failed), the one fallback from the consistent to the rotated
-//! corotational tangent, and solves with the factor.
+//! corotational tangent (the projected one for Neo-Hookean), and solves with the factor.
 
 use super::problem::Formulation;
 use super::solve::Solver;
@@ -132,8 +132,9 @@ impl Solver<'_> {
 
     /// Factorizes the last assembly (made at `x` with `tangent`) plus the geometric
     /// stiffness of the cables under `tensions` (one per cable, possibly fewer). If it is
-    /// not positive definite and was the consistent corotational tangent, the rotated
-    /// tangent R K0 Rᵀ is assembled at `x`, the cables added again, and that factorized.
+    /// not positive definite and was the consistent corotational (or Neo-Hookean) tangent,
+    /// the rotated tangent R K0 Rᵀ (the projected one) is assembled at `x`, the cables
+    /// added again, and that factorized.
     pub(super) fn factorize_or_rotated(
         &mut self,
         x: &[[f64; 3]],
@@ -144,7 +145,7 @@ impl Solver<'_> {
         match self.factorize() {
             Err(FemError::NotPositiveDefinite { .. })
                 if tangent == Tangent::Consistent
-                    && self.problem.formulation == Formulation::Corotational =>
+                    && self.problem.formulation != Formulation::SmallStrain =>
             {
                 self.assemble(x, Tangent::Rotated)?;
                 self.add_cables_stiffness(x, tensions);

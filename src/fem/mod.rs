@@ -1,4 +1,5 @@
-//! The finite-element core: tetrahedral meshes, corotational linear tetrahedra, sparse
+//! The finite-element core: tetrahedral meshes, corotational and Neo-Hookean linear
+//! tetrahedra, sparse
 //! Cholesky statics and constraint-space compliance (thesis 2.2, design section 3).
 //!
 //! Everything is `f64` and SI inside (m, kg, s, N, Pa); model files may be written in the
@@ -31,6 +32,7 @@ pub mod material;
 pub mod mesh;
 pub mod meshio;
 pub mod model;
+pub mod neohookean;
 mod newton;
 mod pool;
 mod problem;

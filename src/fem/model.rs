@@ -35,7 +35,8 @@ pub struct ModelSpec {
     /// `"SI"` (default) or `"mm-kg-s"`.
     #[serde(default = "default_units")]
     pub units: String,
-    /// `"corotational"` (default) or `"small-strain"`.
+    /// `"corotational"` (default), `"small-strain"` or `"neo-hookean"` (compressible
+    /// Neo-Hookean, for large strains; the same E and ν).
     #[serde(default)]
     pub formulation: Option<String>,
     /// The mesh file.
@@ -404,7 +405,6 @@ impl Units {
     }
 }
 
-/// The formulation a model file names (default corotational).
 /// The largest small-strain displacement, as a fraction of the mesh's bounding-box
 /// diagonal, before [`Model::validity_warning`] speaks.
 pub const SMALL_STRAIN_LIMIT: f64 = 0.1;
@@ -476,11 +476,15 @@ fn check_finite(spec: &ModelSpec) -> FemResult<()> {
     }
 }
 
+/// The formulation a model file names (default corotational).
 fn parse_formulation(name: Option<&str>) -> FemResult<Formulation> {
     match name {
         None | Some("corotational") | Some("large") => Ok(Formulation::Corotational),
         Some("small-strain") | Some("linear") => Ok(Formulation::SmallStrain),
-        Some(f) => Err(FemError::Model(format!("unknown formulation {f:?}"))),
+        Some("neo-hookean") => Ok(Formulation::NeoHookean),
+        Some(f) => Err(FemError::Model(format!(
+            "unknown formulation {f:?}: use \"corotational\", \"small-strain\" or \"neo-hookean\""
+        ))),
     }
 }
 

@@ -28,7 +28,8 @@ pub struct NewtonParams {
     /// Tolerance on the gaps of displacement-controlled cables (m): 0 means 1e-12 of the
     /// mesh's largest coordinate.
     pub gap_tol: f64,
-    /// Corotational tangent (the rotated K0 is used as fallback if the consistent one is indefinite).
+    /// Corotational or Neo-Hookean tangent (the rotated K0, or the projected one, is used
+    /// as fallback if the consistent one is indefinite).
     #[serde(skip)]
     pub tangent: Tangent,
 }

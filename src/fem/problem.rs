@@ -12,7 +12,7 @@ use super::{FemError, FemResult};
 use serde::Serialize;
 use std::sync::{Arc, OnceLock};
 
-/// Small-strain linear or corotational tetrahedra.
+/// Small-strain linear, corotational or Neo-Hookean tetrahedra (one Lamé pair for all).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
 pub enum Formulation {
     /// Linear elasticity about the rest shape (K constant).
@@ -20,6 +20,8 @@ pub enum Formulation {
     /// Corotational (large displacement, small strain), rotation by polar decomposition.
     #[default]
     Corotational,
+    /// Compressible Neo-Hookean (large displacement and strain; [`crate::fem::neohookean`]).
+    NeoHookean,
 }
 
 /// A point attached to the mesh: a weighted sum of (up to) four nodes.
@@ -77,7 +79,7 @@ pub struct Problem {
     pub mesh: TetMesh,
     /// Material.
     pub material: Material,
-    /// Small-strain or corotational.
+    /// Small-strain, corotational or Neo-Hookean.
     pub formulation: Formulation,
     /// Fixed nodes (removed from the system).
     pub fixed: Vec<usize>,

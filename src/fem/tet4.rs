@@ -84,7 +84,7 @@ impl TetRest {
     }
 
     /// Nodal forces V P g_a for a first-Piola-like stress P.
-    fn forces(&self, p: &Matrix3<f64>) -> [f64; 12] {
+    pub(super) fn forces(&self, p: &Matrix3<f64>) -> [f64; 12] {
         let mut f = [0.0; 12];
         for a in 0..4 {
             let fa = p * self.grads[a] * self.volume;
@@ -214,13 +214,14 @@ impl TetRest {
     }
 }
 
-/// Which tangent the corotational element returns.
+/// Which tangent the corotational and Neo-Hookean elements return.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Tangent {
     /// The exact derivative of the force (includes the rotation derivative).
     #[default]
     Consistent,
-    /// R K0 R^T, as SOFA's "large" method (always positive semi-definite).
+    /// R K0 R^T, as SOFA's "large" method (always positive semi-definite). For the
+    /// Neo-Hookean element, the consistent tangent projected to positive semi-definite.
     Rotated,
 }
 
@@ -234,7 +235,7 @@ pub struct ElementState {
     /// Cauchy stress in world axes (Pa).
     pub stress: Matrix3<f64>,
     /// Rotation of the polar decomposition F = R S (corotational; the identity for small
-    /// strain).
+    /// strain and Neo-Hookean).
     pub rotation: Matrix3<f64>,
 }
 

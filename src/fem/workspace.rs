@@ -190,9 +190,15 @@ impl<'p> Solver<'p> {
                 Formulation::Corotational => {
                     r.corotational_into(e, m, &t.map(|a| x[a]), tangent, pattern.block_mask(e), out)
                 }
+                Formulation::NeoHookean => {
+                    let f = r.neo_hookean_gradient(e, &t.map(|a| x[a]))?;
+                    r.neo_hookean_into(m, &f, tangent, pattern.block_mask(e), out);
+                    Ok(())
+                }
             }
         })?;
-        // Linear elasticity: force, tangent and stress all scale with Young's modulus.
+        // Force, tangent and stress are linear in (lambda, mu), so they all scale with
+        // Young's modulus (Neo-Hookean too: W is linear in them).
         for (s, &f) in states.iter_mut().zip(&p.young_scale) {
             if f != 1.0 {
                 s.force.iter_mut().for_each(|v| *v *= f);

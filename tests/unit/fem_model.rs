@@ -2,7 +2,7 @@
 
 use crate::common;
 use softsense::fem::model::{Model, ModelSpec};
-use softsense::fem::solve::CableControl;
+use softsense::fem::solve::{CableControl, Formulation};
 
 #[test]
 fn mm_kg_s_model_is_converted_to_si() {
@@ -64,4 +64,27 @@ fn bad_model_files_are_errors() {
     // TODO: Audit that the environment access only happens in single-threaded code.
     unsafe { std::env::remove_var("SOFTSENSE_SURELY_UNSET_VAR") };
     assert!(softsense::fem::model::expand_env("${SOFTSENSE_SURELY_UNSET_VAR}/x").is_err());
+}
+
+#[test]
+fn model_files_name_the_formulation_and_an_unknown_one_is_an_error_listing_the_choices() {
+    let base = "[mesh]\npath = \"robot.vtu\"\n[material]\nyoung = 1.0\npoisson = 0.3\n";
+    let mesh =
+        softsense::fem::mesh::TetMesh::structured_box([0.0; 3], [1.0; 3], [1, 1, 1]).unwrap();
+    let with = |name: &str| {
+        let spec: ModelSpec = toml::from_str(&format!("formulation = \"{name}\"\n{base}")).unwrap();
+        Model::from_spec(&spec, mesh.clone())
+    };
+    for (name, want) in [
+        ("corotational", Formulation::Corotational),
+        ("small-strain", Formulation::SmallStrain),
+        ("neo-hookean", Formulation::NeoHookean),
+    ] {
+        assert_eq!(with(name).unwrap().problem.formulation, want, "{name}");
+    }
+    let err = with("mooney-rivlin").unwrap_err().to_string();
+    assert!(
+        err.contains("mooney-rivlin") && err.contains("neo-hookean"),
+        "{err}"
+    );
 }
