@@ -1,6 +1,7 @@
 //! The numeric Cholesky factor of a solver's tangent: factorizing (skipping values already
-//! factorized or already failed), the one fallback from the consistent to the rotated
-//! corotational tangent (the projected one for Neo-Hookean), and solves with the factor.
+//! factorized or already failed), the one fallback from the consistent to the definite
+//! tangent (corotational: the rotated one; Neo-Hookean: the projected one), and solves
+//! with the factor.
 
 use super::problem::Formulation;
 use super::solve::Solver;
@@ -147,7 +148,7 @@ impl Solver<'_> {
                 if tangent == Tangent::Consistent
                     && self.problem.formulation != Formulation::SmallStrain =>
             {
-                self.assemble(x, Tangent::Rotated)?;
+                self.assemble(x, Tangent::Definite)?;
                 self.add_cables_stiffness(x, tensions);
                 self.factorize()
             }
@@ -155,7 +156,7 @@ impl Solver<'_> {
         }
     }
 
-    /// Assembles and factorizes at `x`, falling back to the rotated tangent when the
+    /// Assembles and factorizes at `x`, falling back to the definite tangent when the
     /// consistent one is not positive definite.
     pub fn tangent_at(&mut self, x: &[[f64; 3]], tangent: Tangent) -> FemResult<()> {
         self.assemble(x, tangent)?;
@@ -172,7 +173,7 @@ impl Solver<'_> {
 
     /// [`Solver::factorize_assembled`] with the geometric stiffness of the cables under
     /// `tensions` (one per cable) added to the last assembly: the matrix of a Newton step at
-    /// `x`. Falls back to the rotated tangent, with the cables, when it is not positive
+    /// `x`. Falls back to the definite tangent, with the cables, when it is not positive
     /// definite.
     pub fn factorize_assembled_with_cables(
         &mut self,
@@ -183,7 +184,7 @@ impl Solver<'_> {
     }
 
     /// Assembles and factorizes the tangent at `x` including the geometric stiffness of the
-    /// cables under `tensions` (one per cable), falling back to the rotated tangent when
+    /// cables under `tensions` (one per cable), falling back to the definite tangent when
     /// the consistent one is not positive definite.
     pub fn factorize_with_cables(&mut self, x: &[[f64; 3]], tensions: &[f64]) -> FemResult<()> {
         self.assemble(x, Tangent::Consistent)?;

@@ -87,7 +87,7 @@ impl TetRest {
 
     /// As [`TetRest::neo_hookean`] at the deformation gradient `f` of
     /// [`TetRest::neo_hookean_gradient`] (det F > 0), written into `out`, with the
-    /// consistent tangent or, with [`Tangent::Rotated`], its positive semi-definite
+    /// consistent tangent or, with [`Tangent::Definite`], its positive semi-definite
     /// projection (the solver's fallback when the consistent K is not positive definite).
     /// Only the tangent blocks whose bit 4a + b is set in `blocks` are written (as
     /// [`TetRest::corotational_into`]). The rotation of `out` is the identity: this element
@@ -109,7 +109,7 @@ impl TetRest {
             Tangent::Consistent => {
                 self.neo_hookean_blocks(m, &f_inv_t, ln_j, blocks, &mut out.tangent)
             }
-            Tangent::Rotated => {
+            Tangent::Definite => {
                 let h = project_positive(&compute_stiffness(m, &f));
                 self.blocks_of_stiffness(&h, blocks, &mut out.tangent);
             }

@@ -165,7 +165,7 @@ impl TetRest {
                 let q = self.grads.map(|g| a_inv * g.cross_matrix() * rt);
                 Some((p, q))
             }
-            Tangent::Rotated => None,
+            Tangent::Definite => None,
         };
         out.force = force;
         self.rotated_blocks(m, &h, rot.as_ref(), blocks, &mut out.tangent);
@@ -177,7 +177,7 @@ impl TetRest {
     /// The blocks `blocks` (as in [`TetRest::corotational_into`]) of the rotated tangent
     /// R K0 Rᵀ for the rotation `r` of a corotational state (e.g.
     /// [`ElementState::rotation`]) into `k`: equal to the tangent `corotational` returns
-    /// with [`Tangent::Rotated`] at the positions that gave `r`, without the polar
+    /// with [`Tangent::Definite`] at the positions that gave `r`, without the polar
     /// decomposition.
     pub fn rotated_tangent(&self, m: &Material, r: &Matrix3<f64>, blocks: u16, k: &mut Mat12) {
         self.rotated_blocks(m, &self.grads.map(|g| r * g), None, blocks, k);
@@ -220,9 +220,10 @@ pub enum Tangent {
     /// The exact derivative of the force (includes the rotation derivative).
     #[default]
     Consistent,
-    /// R K0 R^T, as SOFA's "large" method (always positive semi-definite). For the
-    /// Neo-Hookean element, the consistent tangent projected to positive semi-definite.
-    Rotated,
+    /// A positive semi-definite tangent, the fallback where the consistent one is not:
+    /// R K0 R^T for the corotational element (SOFA's "large" method), the consistent
+    /// tangent projected onto the positive semi-definite cone for the Neo-Hookean one.
+    Definite,
 }
 
 /// Force, stress and tangent of one element.

@@ -110,12 +110,12 @@ impl<'p> Solver<'p> {
     /// # let model = Model::load(&root.join("meshes/models/robot.toml"), None)?;
     /// let x = model.problem.mesh.nodes_in_rest.clone();
     /// let mut solver = model.problem.solver()?;
-    /// solver.tangent_at(&x, Tangent::Rotated)?;
+    /// solver.tangent_at(&x, Tangent::Definite)?;
     /// let before = solver.factorizations();
-    /// solver.tangent_at(&x, Tangent::Rotated)?; // the same values: skipped
+    /// solver.tangent_at(&x, Tangent::Definite)?; // the same values: skipped
     /// assert_eq!(solver.factorizations(), before);
     /// solver.forget_reuse();
-    /// solver.tangent_at(&x, Tangent::Rotated)?; // done again
+    /// solver.tangent_at(&x, Tangent::Definite)?; // done again
     /// assert_eq!(solver.factorizations(), before + 1);
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
@@ -145,7 +145,7 @@ impl<'p> Solver<'p> {
                 self.scatter_elements();
                 return Ok(());
             }
-            if tangent == Tangent::Rotated && self.problem.formulation == Formulation::Corotational
+            if tangent == Tangent::Definite && self.problem.formulation == Formulation::Corotational
             {
                 self.scatter_rotated();
                 return Ok(());
@@ -234,7 +234,7 @@ impl<'p> Solver<'p> {
     }
 
     /// K from the rotated tangents R K0 Rᵀ of the stored element rotations (the values
-    /// [`Solver::evaluate`] gives with [`Tangent::Rotated`]); the element states are kept.
+    /// [`Solver::evaluate`] gives with [`Tangent::Definite`]); the element states are kept.
     fn scatter_rotated(&mut self) {
         let m = &self.problem.material;
         let scale = &self.problem.young_scale;
