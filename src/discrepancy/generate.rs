@@ -420,12 +420,14 @@ fn render_frames(
             occluders: Vec::new(),
             colors: Default::default(),
             markers: None,
+            truth: None,
             camera: w.camera.clone(),
             cameras: Vec::new(),
             sensor: fine_sensor.clone(),
             frames: w.applied.clone(),
         },
         model_path: spec.model.clone(),
+        truth_mesh: None,
     };
     let depth = w.depth;
     for (i, input) in w.applied.iter().enumerate() {

@@ -291,6 +291,50 @@ impl Model {
         Self::from_spec(&spec, mesh).map_err(|e| e.in_file(path))
     }
 
+    /// Loads a model file on another mesh of the same body, `mesh_path` (in the model
+    /// file's units, placed by its `placement`), as the truth of a scene that is not its
+    /// model. What the file gives by position is located in the new mesh as in its own
+    /// (fixed boxes, cable attachments, loads' and effectors' `at`); what it gives by node
+    /// index (`fixed.nodes`, `loads.node`) moves to the new mesh's node nearest to that
+    /// node's rest position in the file's own mesh.
+    pub fn load_on_mesh(path: &Path, mesh_path: &Path) -> FemResult<Self> {
+        let mut spec = read_spec(path)?;
+        newton_params(spec.newton.as_ref()).map_err(|e| e.in_file(path))?;
+        let mesh = read_mesh(mesh_path)?;
+        let by_index = spec.fixed.iter().any(|f| f.nodes.is_some())
+            || spec.loads.iter().any(|l| l.node.is_some());
+        if by_index {
+            let own = read_mesh(&mesh_path_of(path, &spec)?)?;
+            let placed = |m: &TetMesh| {
+                let mut m = m.clone();
+                m.place(&spec.placement);
+                m.nodes_in_rest
+            };
+            let (from, to) = (placed(&own), placed(&mesh));
+            let moved = |i: usize| -> FemResult<usize> {
+                let p = from.get(i).ok_or_else(|| {
+                    FemError::Model(format!(
+                        "{}: node {i} is not in its mesh ({} nodes)",
+                        path.display(),
+                        from.len()
+                    ))
+                })?;
+                Ok(nearest_node(&to, *p))
+            };
+            for f in &mut spec.fixed {
+                if let Some(nodes) = &mut f.nodes {
+                    *nodes = nodes.iter().map(|&i| moved(i)).collect::<FemResult<_>>()?;
+                }
+            }
+            for l in &mut spec.loads {
+                if let Some(n) = &mut l.node {
+                    *n = moved(*n)?;
+                }
+            }
+        }
+        Self::from_spec(&spec, mesh).map_err(|e| e.in_file(path))
+    }
+
     /// The mesh file a model file names (resolved against the model's folder, `${VAR}`s
     /// expanded), without loading either: to refuse an output that would overwrite it.
     pub fn mesh_file(path: &Path) -> FemResult<PathBuf> {
@@ -502,6 +546,14 @@ fn fixed_nodes(specs: &[FixedSpec], mesh: &TetMesh, u: &Units) -> Vec<usize> {
     fixed.sort_unstable();
     fixed.dedup();
     fixed
+}
+
+/// The node of `nodes` nearest to `p` (the first of equals; 0 for no nodes).
+fn nearest_node(nodes: &[[f64; 3]], p: [f64; 3]) -> usize {
+    let d2 = |q: &[f64; 3]| (0..3).map(|k| (q[k] - p[k]).powi(2)).sum::<f64>();
+    (0..nodes.len())
+        .min_by(|&a, &b| d2(&nodes[a]).total_cmp(&d2(&nodes[b])))
+        .unwrap_or(0)
 }
 
 /// The mass density (kg/m^3) from a total mass over the mesh's `volume` or a density.

@@ -155,10 +155,30 @@ pub struct Truth<Spec = serde_json::Value> {
     /// `truth.json` is); older recordings have it relative to the directory `scene generate`
     /// ran in ([`super::Recording::model_path`] reads both).
     pub model_path: String,
-    /// Young's modulus (Pa) and Poisson ratio actually used.
+    /// Young's modulus (Pa) and Poisson ratio of the model (the scene's `young` applied).
     pub material: [f64; 2],
+    /// The body the frames were rendered from, when the scene's `[truth]` made it differ
+    /// from the model; absent when the truth is the model. What the scene was, for reports:
+    /// the estimator never reads it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub truth_model: Option<TruthModel>,
     /// Per frame.
     pub frames: Vec<FrameTruth>,
+}
+
+/// The body a scene's frames were rendered from, when it is not the model (`[truth]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TruthModel {
+    /// Its Young's modulus over the model's.
+    pub young_factor: f64,
+    /// Its Young's modulus (Pa).
+    pub young: f64,
+    /// Its Poisson ratio.
+    pub poisson: f64,
+    /// Its element law: "corotational", "small-strain" or "neo-hookean".
+    pub formulation: String,
+    /// Its mesh file (relative to the recording's folder when it can be), or the model's.
+    pub mesh: String,
 }
 
 /// How the calibration ended.

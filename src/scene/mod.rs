@@ -19,6 +19,7 @@ pub mod camera;
 pub mod markers;
 pub mod render;
 pub mod sweep;
+pub mod truth;
 pub use crate::geometry::raycast;
 pub use render::{render_frame, Rendered, RenderedView, SceneView};
 pub mod sensor;
@@ -34,6 +35,7 @@ use crate::fem::mesh::Surface;
 use crate::fem::model::Model;
 use crate::fem::solve::apply_cable_inputs;
 use crate::fem::solve::{MappedPoint, PointLoad, Problem};
+use crate::recording::schema::TruthModel;
 use crate::recording::RecordingWriter;
 use camera::{CameraSpec, NamedCameraSpec};
 use sensor::SensorModel;
@@ -61,6 +63,16 @@ pub enum SceneError {
     /// A recording file could not be written.
     #[error(transparent)]
     Recording(#[from] crate::recording::RecordingError),
+    /// A `[truth]` field has a value that cannot be used.
+    #[error("{field} = {value}: {problem}")]
+    BadTruth {
+        /// The field, e.g. `truth.young_factor`.
+        field: String,
+        /// Its value as written.
+        value: String,
+        /// What is wrong with it.
+        problem: String,
+    },
     /// Newton did not converge for a frame.
     #[error("frame {frame}: the FE solve did not converge")]
     NotConverged {
@@ -130,6 +142,10 @@ pub struct SceneSpec {
     /// Painted markers (`[markers]`; none by default).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub markers: Option<markers::MarkerPaint>,
+    /// The body the frames are rendered from, when it is not the model (`[truth]`; none:
+    /// the model).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub truth: Option<truth::TruthSpec>,
     /// Camera (unused, and not written out, when `cameras` is given).
     #[serde(default)]
     pub camera: CameraSpec,
@@ -154,7 +170,7 @@ fn default_table() -> f64 {
 impl Serialize for SceneSpec {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         use serde::ser::SerializeStruct;
-        let mut out = s.serialize_struct("SceneSpec", 12)?;
+        let mut out = s.serialize_struct("SceneSpec", 13)?;
         out.serialize_field("model", &self.model)?;
         out.serialize_field("young", &self.young)?;
         out.serialize_field("seed", &self.seed)?;
@@ -171,6 +187,10 @@ impl Serialize for SceneSpec {
         match self.markers.is_some() {
             true => out.serialize_field("markers", &self.markers)?,
             false => out.skip_field("markers")?,
+        }
+        match self.truth.is_some() {
+            true => out.serialize_field("truth", &self.truth)?,
+            false => out.skip_field("truth")?,
         }
         match self.cameras.is_empty() {
             true => {
@@ -215,6 +235,9 @@ pub struct Scene {
     pub spec: SceneSpec,
     /// The model path, resolved against the scene file's folder.
     pub model_path: PathBuf,
+    /// The `[truth]` mesh path, resolved against the scene file's folder (none: the
+    /// model's mesh).
+    pub truth_mesh: Option<PathBuf>,
 }
 
 impl Scene {
@@ -237,8 +260,18 @@ impl Scene {
                 spec.frames.len()
             )));
         }
+        if let Some(t) = &spec.truth {
+            t.check()?;
+        }
         let model_path = beside(path, &spec.model);
-        Ok(Self { spec, model_path })
+        let truth_mesh = (spec.truth.as_ref())
+            .and_then(|t| t.mesh.as_deref())
+            .map(|m| beside(path, m));
+        Ok(Self {
+            spec,
+            model_path,
+            truth_mesh,
+        })
     }
 
     /// The scene's cameras ([`SceneSpec::views`]).
@@ -253,6 +286,32 @@ impl Scene {
             model.problem.material = Material::new(e, model.problem.material.poisson())?;
         }
         Ok(model)
+    }
+
+    /// The body the frames are rendered from: `model` (the scene's [`Scene::model`]) as the
+    /// scene's `[truth]` changes it, or `model` itself without one.
+    pub fn truth_body(&self, model: &Model) -> SceneResult<Model> {
+        let Some(t) = &self.spec.truth else {
+            return Ok(model.clone());
+        };
+        match &self.truth_mesh {
+            Some(mesh) => {
+                let on_mesh = truth::on_mesh(&self.model_path, mesh, model)?;
+                t.body(&on_mesh, &model.problem.material)
+            }
+            None => t.body(model, &model.problem.material),
+        }
+    }
+
+    /// What `truth.json` says of the scene's `[truth]` body (`body`: [`Scene::truth_body`]),
+    /// its mesh file relative to `out` when it can be; `None` without `[truth]`.
+    fn truth_record(&self, body: &Model, out: &Path) -> Option<TruthModel> {
+        let t = self.spec.truth.as_ref()?;
+        let mesh = (self.truth_mesh.clone())
+            .or_else(|| Model::mesh_file(&self.model_path).ok())
+            .unwrap_or_default();
+        let shown = relative_to(&mesh, out).unwrap_or(mesh);
+        Some(t.record(body, shown.display().to_string()))
     }
 }
 
@@ -463,26 +522,31 @@ pub fn generate(
     progress: impl FnMut(usize, usize),
 ) -> SceneResult<Truth> {
     let model = scene.model()?;
+    let body = scene.truth_body(&model)?;
     write_recording(
         scene,
         &model,
+        &body,
         out,
-        |i| render_frame(scene, &model, i),
+        |i| render_frame(scene, &body, i),
         progress,
     )
 }
 
-/// [`generate`] with the frames made by `render` (frame index → rendered frame).
+/// [`generate`] with the frames made by `render` (frame index → rendered frame): `model`
+/// is the model the recording names, `body` the one the frames are rendered from
+/// ([`Scene::truth_body`]).
 pub(crate) fn write_recording(
     scene: &Scene,
     model: &Model,
+    body: &Model,
     out: &Path,
     mut render: impl FnMut(usize) -> SceneResult<Rendered>,
     mut progress: impl FnMut(usize, usize),
 ) -> SceneResult<Truth> {
     let writer = RecordingWriter::create(out)?;
     let spec = &scene.spec;
-    let rest = &model.problem.mesh.nodes_in_rest;
+    let rest = &body.problem.mesh.nodes_in_rest;
     let views = spec.views();
     let mut cameras = Vec::with_capacity(views.len());
     for view in &views {
@@ -499,9 +563,9 @@ pub(crate) fn write_recording(
     let total = spec.frames.len();
     // Every frame's inputs are checked before any is solved: a slip in the last frame
     // should not cost the minutes of the ones before it.
-    let surface = model.problem.mesh.surface();
+    let surface = body.problem.mesh.surface();
     for i in 0..total {
-        frame_problem(model, &surface, spec, i)?;
+        frame_problem(body, &surface, spec, i)?;
     }
     let painted = (spec.markers.as_ref())
         .map(|paint| markers::PaintedMarkers::bind(paint, rest, &surface, &cameras[0].0))
@@ -538,6 +602,7 @@ pub(crate) fn write_recording(
             model.problem.material.young(),
             model.problem.material.poisson(),
         ],
+        truth_model: scene.truth_record(body, out),
         frames,
     };
     writer.write_json("truth.json", &truth)?;

@@ -10,9 +10,14 @@ Structured tetrahedralisation: an implicit shape is sampled on a regular grid of
   at radius 97 mm, height 45 mm (the cable attach points), and a top platform up to z = 125 mm.
 - sheet: a 200 x 200 x 4 mm plate (its four corners are fixed in the model file).
 
-Usage: python3 tools/mesh/gen_meshes.py [OUT_DIR]   (default meshes/)
+Usage: python3 tools/mesh/gen_meshes.py [OUT_DIR] [--robot-h MM] [--only robot|sheet]
+(default meshes/, h = 8.8 mm, both meshes). --robot-h sets the robot's cube size: 4.4 makes
+a 2x finer conforming mesh of the same robot (OUT_DIR/robot.vtu, ~8x the tetrahedra), a
+truth that is not the model for a scene's [truth] mesh:
+    python3 tools/mesh/gen_meshes.py /tmp/fine --robot-h 4.4 --only robot
 Deterministic: same output bytes on every run.
 """
+import argparse
 import itertools
 import math
 import sys
@@ -103,15 +108,31 @@ def write_vtu(path, pts, tets, comment):
         f.write("\n</DataArray>\n</Cells>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n")
 
 
+ROBOT_H = 8.8  # mm, the bundled meshes/robot.vtu
+
+
 def main():
-    out = Path(sys.argv[1]) if len(sys.argv) > 1 else Path("meshes")
+    ap = argparse.ArgumentParser(description="Generate the project's tetrahedral meshes.")
+    ap.add_argument("out", nargs="?", default="meshes", help="output folder (meshes)")
+    ap.add_argument("--robot-h", type=float, default=ROBOT_H, help="robot cube size, mm (8.8)")
+    ap.add_argument("--only", choices=["robot", "sheet"], help="write only this mesh")
+    args = ap.parse_args()
+    if not (0.5 <= args.robot_h <= 50.0):
+        sys.exit("--robot-h must be within 0.5-50 mm")
+    out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    h = 8.8
-    n = int(math.ceil(220 / h))
-    lo = (-n * h / 2, -n * h / 2, 0.0)
-    pts, tets = kuhn_mesh(lo, (n, n, int(math.ceil(125 / h))), (h, h, 125 / math.ceil(125 / h)), robot_inside)
-    write_vtu(out / "robot.vtu", pts, tets, "softsense four-legged cable robot, mm, tools/mesh/gen_meshes.py")
-    print("robot: %d nodes, %d tets" % (len(pts), len(tets)))
+    if args.only in (None, "robot"):
+        h = args.robot_h
+        n = int(math.ceil(220 / h))
+        lo = (-n * h / 2, -n * h / 2, 0.0)
+        pts, tets = kuhn_mesh(lo, (n, n, int(math.ceil(125 / h))), (h, h, 125 / math.ceil(125 / h)), robot_inside)
+        comment = "softsense four-legged cable robot, mm, tools/mesh/gen_meshes.py"
+        if h != ROBOT_H:
+            comment += " --robot-h %g" % h
+        write_vtu(out / "robot.vtu", pts, tets, comment)
+        print("robot: %d nodes, %d tets" % (len(pts), len(tets)))
+    if args.only == "robot":
+        return
     pts, tets = kuhn_mesh((-100.0, -100.0, 0.0), (20, 20, 2), (10.0, 10.0, 2.0), lambda x, y, z: True)
     write_vtu(out / "sheet.vtu", pts, tets, "softsense soft sheet 200x200x4 mm, tools/mesh/gen_meshes.py")
     print("sheet: %d nodes, %d tets" % (len(pts), len(tets)))

@@ -8,6 +8,7 @@
 //! seed starts with the same scenes.
 
 use super::camera::{CameraSpec, NamedCameraSpec};
+use super::truth::{self, TruthSpec};
 use super::{render_frame, Occluder, Rendered, Scene, SceneError};
 use super::{SceneResult, SceneSpec};
 use crate::camera::Camera;
@@ -24,6 +25,7 @@ mod spec;
 use serde::{Deserialize, Serialize};
 use spec::stream;
 pub use spec::{CameraRanges, OccluderRanges, ProbeRanges, Sweep, SweepSpec, Validity};
+use std::borrow::Cow;
 use std::path::Path;
 
 /// What was drawn for one scene, and why earlier attempts were redrawn.
@@ -48,6 +50,9 @@ pub struct DrawRecord {
     /// The second and later cameras of a scene with several (`camera.count`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub more_cameras: Vec<CameraDraw>,
+    /// The body drawn from the sweep's `[truth]` (absent without one: the model).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub truth: Option<TruthSpec>,
 }
 
 /// Where one more camera of a scene was drawn (it has the first camera's stream).
@@ -217,12 +222,13 @@ const MIN_PROBE_PIXELS: usize = 20;
 /// Why a solved draw is not a physical scene, if it is not.
 fn physical_fault(
     prepared: &Prepared,
+    body: &Body,
     spec: &SceneSpec,
     r: &Rendered,
     min_volume_ratio: f64,
 ) -> Option<String> {
     let (table_z, unloaded_low) = (prepared.table_z, prepared.unloaded_low);
-    let mesh = &prepared.model.problem.mesh;
+    let mesh = &body.model.problem.mesh;
     let (x0, x) = (&mesh.nodes_in_rest, &r.positions);
     let worst = mesh
         .tets
@@ -256,7 +262,7 @@ fn physical_fault(
     // sphere touches the surface only where it presses.
     for l in &r.truth.loads {
         if let Some(c) = l.probe_center {
-            let cut = prepared
+            let cut = body
                 .surface_nodes
                 .iter()
                 .any(|&v| v != l.node && norm(sub(x[v], c)) < PROBE_CLEARANCE * l.radius);
@@ -301,6 +307,18 @@ pub struct Prepared {
     unloaded: Vec<[f64; 3]>,
     surface_nodes: Vec<usize>,
     held: Vec<usize>,
+    /// The model on the `[truth]` mesh, when the sweep's truth has one.
+    truth_on_mesh: Option<Model>,
+}
+
+/// The body a scene of a sweep is rendered from: the model, or the body its `[truth]`
+/// draw makes ([`TruthSpec::body`]), with that body's surface nodes.
+pub struct Body<'p> {
+    /// The scene's drawn truth (`None`: the model).
+    pub truth: Option<TruthSpec>,
+    /// The FE model of the body.
+    pub model: Cow<'p, Model>,
+    surface_nodes: Cow<'p, [usize]>,
 }
 
 impl Prepared {
@@ -316,6 +334,9 @@ impl Prepared {
             model.problem.material =
                 crate::fem::material::Material::new(e, model.problem.material.poisson())?;
         }
+        let truth_on_mesh = (sweep.truth_mesh.as_ref())
+            .map(|mesh| truth::on_mesh(&sweep.model_path, mesh, &model))
+            .transpose()?;
         let mesh = &model.problem.mesh;
         let x0 = &mesh.nodes_in_rest;
         let surface = mesh.surface();
@@ -344,12 +365,55 @@ impl Prepared {
             held: model.problem.held_nodes(),
             surface_nodes: surface.nodes,
             model,
+            truth_on_mesh,
+        })
+    }
+
+    /// Scene `index`'s body in a sweep of seed `seed`: its `[truth]` drawn
+    /// ([`truth::TruthRanges::draw`]), or the model without one.
+    pub fn body(&self, sweep: &Sweep, seed: u64, index: usize) -> SceneResult<Body<'_>> {
+        let Some(ranges) = &sweep.spec.truth else {
+            return Ok(Body {
+                truth: None,
+                model: Cow::Borrowed(&self.model),
+                surface_nodes: Cow::Borrowed(&self.surface_nodes),
+            });
+        };
+        let drawn = ranges.draw(seed, index, sweep.truth_mesh.as_deref());
+        let nominal = &self.model.problem.material;
+        let (model, surface_nodes) = match &self.truth_on_mesh {
+            Some(on_mesh) => {
+                let body = drawn.body(on_mesh, nominal)?;
+                let nodes = body.problem.mesh.surface().nodes;
+                (body, Cow::Owned(nodes))
+            }
+            None => (
+                drawn.body(&self.model, nominal)?,
+                Cow::Borrowed(&self.surface_nodes[..]),
+            ),
+        };
+        Ok(Body {
+            truth: Some(drawn),
+            model: Cow::Owned(model),
+            surface_nodes,
         })
     }
 }
 
 /// Draws scene `index` of `sweep` (seed `seed`), solving and checking each attempt.
 pub fn draw(sweep: &Sweep, prepared: &Prepared, seed: u64, index: usize) -> SceneResult<Drawn> {
+    let body = prepared.body(sweep, seed, index)?;
+    draw_body(sweep, prepared, &body, seed, index)
+}
+
+/// [`draw`] rendering from `body` ([`Prepared::body`]).
+fn draw_body(
+    sweep: &Sweep,
+    prepared: &Prepared,
+    body: &Body,
+    seed: u64,
+    index: usize,
+) -> SceneResult<Drawn> {
     let mut rejected = Vec::new();
     for attempt in 0..sweep.spec.validity.max_attempts {
         let mut r = Draws {
@@ -358,11 +422,12 @@ pub fn draw(sweep: &Sweep, prepared: &Prepared, seed: u64, index: usize) -> Scen
             attempt: attempt as u64,
             n: 0,
         };
-        match try_draw(sweep, prepared, &mut r)? {
+        match try_draw(sweep, prepared, body, &mut r)? {
             Ok((scene, rendered, mut record)) => {
                 record.index = index;
                 record.attempts = attempt + 1;
                 record.rejected = rejected;
+                record.truth = body.truth.clone();
                 return Ok(Drawn {
                     scene,
                     rendered,
@@ -406,6 +471,7 @@ fn draw_camera(r: &mut Draws, c: &CameraRanges) -> SceneResult<DrawRecord> {
         stream: stream_name,
         occluded: 0.0,
         more_cameras: Vec::new(),
+        truth: None,
     })
 }
 
@@ -524,7 +590,12 @@ fn draw_loads(
 /// One attempt: the scene, its rendered frame and what was drawn; or why it is redrawn.
 type Attempt = Result<(Scene, Rendered, DrawRecord), String>;
 
-fn try_draw(sweep: &Sweep, prepared: &Prepared, r: &mut Draws) -> SceneResult<Attempt> {
+fn try_draw(
+    sweep: &Sweep,
+    prepared: &Prepared,
+    body: &Body,
+    r: &mut Draws,
+) -> SceneResult<Attempt> {
     let spec = &sweep.spec;
     let Prepared {
         model,
@@ -573,6 +644,7 @@ fn try_draw(sweep: &Sweep, prepared: &Prepared, r: &mut Draws) -> SceneResult<At
             occluders,
             colors: spec.colors.clone(),
             markers: None,
+            truth: body.truth.clone(),
             camera: cam,
             cameras,
             sensor,
@@ -582,8 +654,9 @@ fn try_draw(sweep: &Sweep, prepared: &Prepared, r: &mut Draws) -> SceneResult<At
             }],
         },
         model_path: sweep.model_path.clone(),
+        truth_mesh: sweep.truth_mesh.clone(),
     };
-    let rendered = match render_frame(&scene, model, 0) {
+    let rendered = match render_frame(&scene, &body.model, 0) {
         Ok(rendered) => rendered,
         Err(SceneError::NotConverged { .. }) => {
             return Ok(Err("the FE solve did not converge".into()))
@@ -598,7 +671,7 @@ fn try_draw(sweep: &Sweep, prepared: &Prepared, r: &mut Draws) -> SceneResult<At
         Err(e) => return Err(e),
     };
     let ratio = spec.validity.min_volume_ratio;
-    if let Some(fault) = physical_fault(prepared, &scene.spec, &rendered, ratio) {
+    if let Some(fault) = physical_fault(prepared, body, &scene.spec, &rendered, ratio) {
         return Ok(Err(fault));
     }
     // The occluder is placed in the first camera's view.
@@ -618,16 +691,18 @@ pub fn write_drawn(
     index: usize,
     dir: &Path,
 ) -> SceneResult<(Scene, DrawRecord)> {
+    let body = prepared.body(sweep, seed, index)?;
     let Drawn {
         mut scene,
         rendered,
         record,
-    } = draw(sweep, prepared, seed, index)?;
+    } = draw_body(sweep, prepared, &body, seed, index)?;
     scene.model_path = sweep.model_path.clone();
     let mut once = Some(rendered);
     super::write_recording(
         &scene,
         &prepared.model,
+        &body.model,
         dir,
         |_| {
             once.take()
@@ -656,10 +731,16 @@ pub fn run(
     std::fs::create_dir_all(out).map_err(|e| io(out, &e))?;
     let prepared = Prepared::new(sweep)?;
     let mut spec = sweep.spec.clone();
-    spec.model = super::relative_to(&sweep.model_path, out)
-        .unwrap_or_else(|| sweep.model_path.clone())
-        .display()
-        .to_string();
+    let from_out = |path: &Path| {
+        (super::relative_to(path, out).unwrap_or_else(|| path.to_path_buf()))
+            .display()
+            .to_string()
+    };
+    spec.model = from_out(&sweep.model_path);
+    let truth_mesh = sweep.truth_mesh.as_deref().map(from_out);
+    if let Some(t) = &mut spec.truth {
+        t.mesh.clone_from(&truth_mesh);
+    }
     let body = toml::to_string(&spec).map_err(|e| SceneError::Spec(e.to_string()))?;
     let header = format!(
         "# The sweep file as drawn from, every default filled in; remake it with\n\
@@ -677,6 +758,9 @@ pub fn run(
         let (scene, record) = write_drawn(sweep, &prepared, seed, index, &dir)?;
         let mut file_spec = scene.spec;
         file_spec.model = spec.model.clone();
+        if let Some(t) = &mut file_spec.truth {
+            t.mesh.clone_from(&truth_mesh);
+        }
         let text = toml::to_string(&file_spec).map_err(|e| SceneError::Spec(e.to_string()))?;
         let name = out.join(format!("scene_{index:04}.toml"));
         crate::io::atomic::write(&name, text.as_bytes()).map_err(|e| io(&name, &e))?;

@@ -3,6 +3,7 @@
 
 use super::super::camera::CameraSpec;
 use super::super::sensor::SensorModel;
+use super::super::truth::TruthRanges;
 use super::super::{Colors, SceneError, SceneResult};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -38,6 +39,10 @@ pub struct SweepSpec {
     /// Redraw rules.
     #[serde(default)]
     pub validity: Validity,
+    /// The body scenes are rendered from, when it is not the model (`[truth]`, drawn per
+    /// scene; none: the model).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub truth: Option<TruthRanges>,
 }
 
 fn default_table() -> f64 {
@@ -166,6 +171,9 @@ pub struct Sweep {
     pub spec: SweepSpec,
     /// The model path, resolved against the sweep file's folder.
     pub model_path: PathBuf,
+    /// The `[truth]` mesh path, resolved against the sweep file's folder (none: the
+    /// model's mesh).
+    pub truth_mesh: Option<PathBuf>,
 }
 
 impl Sweep {
@@ -179,8 +187,18 @@ impl Sweep {
             .map_err(|e| SceneError::Spec(format!("{}: {e}", path.display())))?;
         spec.check()
             .map_err(|e| SceneError::Spec(format!("{}: {e}", path.display())))?;
+        if let Some(t) = &spec.truth {
+            t.check()?;
+        }
         let model_path = super::super::beside(path, &spec.model);
-        Ok(Self { spec, model_path })
+        let truth_mesh = (spec.truth.as_ref())
+            .and_then(|t| t.mesh.as_deref())
+            .map(|m| super::super::beside(path, m));
+        Ok(Self {
+            spec,
+            model_path,
+            truth_mesh,
+        })
     }
 }
 
