@@ -59,6 +59,8 @@ mod register;
 mod scene;
 #[path = "unit/scene_cameras.rs"]
 mod scene_cameras;
+#[path = "unit/scene_truth.rs"]
+mod scene_truth;
 #[path = "unit/segment.rs"]
 mod segment;
 #[path = "unit/segment_geometric.rs"]

@@ -90,6 +90,14 @@ the other keys show their defaults:
   min_volume_ratio = 0.1   # least deformed/rest element volume
   max_attempts = 200       # draws per scene before giving up
 
+  [truth]                  # optional: scenes rendered from a body that is not the model,
+                           # keys as in `scene generate --help`, drawn per scene on a
+                           # stream of their own (the cameras and probes stay the same)
+  young_factor = 1.0       # or a range drawn uniformly per scene: [0.85, 1.15]
+  # poisson = [0.40, 0.49]       # likewise; default the model's
+  # formulation = \"neo-hookean\"  # the same for every scene
+  # mesh = \"fine/robot.vtu\"      # relative to this file; the same for every scene
+
 Examples:
   softsense scene sweep tools/sweeps/robot_one_probe.toml /tmp/sw --count 100 --seed 7
   for d in /tmp/sw/scene_*/; do softsense sense \"$d\" --json > \"$d/sense.json\"; done
@@ -152,6 +160,17 @@ the model's own) and the example frame:
   count = 16               # spread over flat surface facing the camera (farthest points)
   # at = [[0.0, 0.0, 0.004]]  # or: these points, snapped to the surface (instead of count)
                            # writes markers_truth.csv (frame,marker,x,y,z, robot frame)
+
+  [truth]                  # optional: render a body that is not the model (the
+                           # recording still names the model; truth.json's
+                           # truth_model says what the body was). Defaults: the model's
+  young_factor = 1.0       # the body's Young's modulus over the model's (0-10]
+  # poisson = 0.45         # the body's Poisson ratio, in (-1, 0.5)
+  # formulation = \"neo-hookean\"  # or \"corotational\": the body's element law
+  # mesh = \"fine/robot.vtu\"  # another volume mesh of the same shape (relative to
+                           # this file; the model file's units): points move by position,
+                           # node indices to the nearest node. A 2x finer robot:
+                           # python3 tools/mesh/gen_meshes.py DIR --robot-h 4.4 --only robot
 
   [[occluders]]            # optional, any number: a sphere hiding part of the view
   center = [0.1, -0.2, 0.2]

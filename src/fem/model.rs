@@ -294,11 +294,16 @@ impl Model {
     /// Loads a model file on another mesh of the same body, `mesh_path` (in the model
     /// file's units, placed by its `placement`), as the truth of a scene that is not its
     /// model. What the file gives by position is located in the new mesh as in its own
-    /// (fixed boxes, cable attachments, loads' and effectors' `at`); what it gives by node
+    /// (fixed boxes, cable attachments, loads' `at`); what it gives by node
     /// index (`fixed.nodes`, `loads.node`) moves to the new mesh's node nearest to that
-    /// node's rest position in the file's own mesh.
+    /// node's rest position in the file's own mesh. The body has no effectors or force
+    /// points: those are what an estimator measures, not part of the body, and a point
+    /// given for one mesh's surface may fall off another's (a surface normal then has no
+    /// direction).
     pub fn load_on_mesh(path: &Path, mesh_path: &Path) -> FemResult<Self> {
         let mut spec = read_spec(path)?;
+        spec.effectors.clear();
+        spec.force_points.clear();
         newton_params(spec.newton.as_ref()).map_err(|e| e.in_file(path))?;
         let mesh = read_mesh(mesh_path)?;
         let by_index = spec.fixed.iter().any(|f| f.nodes.is_some())

@@ -267,3 +267,54 @@ fn a_sweep_with_two_cameras_draws_a_rig_spaced_in_azimuth_and_writes_a_folder_pe
     assert_eq!(at(&d.scene), at(&scene));
     assert!(d.record.more_cameras.is_empty() && d.scene.spec.cameras.is_empty());
 }
+
+#[test]
+fn a_sweeps_truth_is_drawn_per_scene_and_leaves_its_cameras_and_probes_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let plain = sweep_file(dir.path(), "");
+    let truth_dir = tempfile::tempdir().unwrap();
+    let body = "[truth]\nyoung_factor = [0.85, 1.15]\nformulation = \"neo-hookean\"\n";
+    let with_truth = sweep_file(truth_dir.path(), body);
+    let (p, q) = (
+        Prepared::new(&plain).unwrap(),
+        Prepared::new(&with_truth).unwrap(),
+    );
+    let (mut factors, mut compared) = (Vec::new(), 0);
+    for index in 0..3 {
+        let a = draw(&plain, &p, 4, index).unwrap();
+        let b = draw(&with_truth, &q, 4, index).unwrap();
+        assert!(a.record.truth.is_none() && a.scene.spec.truth.is_none());
+        let t = b.record.truth.clone().expect("a drawn truth");
+        assert!((0.85..=1.15).contains(&t.young_factor), "{t:?}");
+        assert_eq!(t.formulation.as_deref(), Some("neo-hookean"));
+        assert_eq!(b.scene.spec.truth.as_ref(), Some(&t));
+        factors.push(t.young_factor);
+        // Attempt k draws the same camera and probe with or without the truth (which body
+        // is physical under them may differ, so the kept attempt may too); another body.
+        if a.record.attempts == b.record.attempts {
+            compared += 1;
+            assert_eq!(a.scene.spec.camera.eye, b.scene.spec.camera.eye);
+            let (la, lb) = (&a.scene.spec.frames[0].loads, &b.scene.spec.frames[0].loads);
+            assert_eq!((la[0].at, la[0].force), (lb[0].at, lb[0].force));
+        }
+        let moved = (a.rendered.positions.iter().zip(&b.rendered.positions))
+            .map(|(x, y)| norm(sub(*x, *y)))
+            .fold(0.0, f64::max);
+        assert!(moved > 1e-4, "the truth moved the body {moved} m");
+    }
+    assert_ne!(factors[0], factors[1], "one draw per scene");
+    assert!(compared > 0, "no scene kept the same attempt");
+    // A range the wrong way round is refused by name.
+    let bad = dir.path().join("bad_truth.toml");
+    std::fs::write(
+        &bad,
+        "model = \"x.toml\"\n[truth]\nyoung_factor = [1.15, 0.85]\n",
+    )
+    .unwrap();
+    match Sweep::load(&bad) {
+        Err(softsense::scene::SceneError::BadTruth { field, .. }) => {
+            assert_eq!(field, "truth.young_factor")
+        }
+        other => panic!("not refused by name: {:?}", other.err()),
+    }
+}
