@@ -587,6 +587,23 @@ fn draw_loads(
     Ok((nodes, loads))
 }
 
+/// The attempt's scene rendered from `body`; or why it is redrawn, when its FE solve fails
+/// as an unphysical scene does.
+fn render_attempt(scene: &Scene, body: &Body) -> SceneResult<Result<Rendered, String>> {
+    match render_frame(scene, &body.model, 0) {
+        Ok(rendered) => Ok(Ok(rendered)),
+        Err(SceneError::NotConverged { .. }) => Ok(Err("the FE solve did not converge".into())),
+        // The load turned an element inside out on the way (Newton's steps, or the
+        // solution itself): no physical scene, another draw.
+        Err(SceneError::Fem(
+            e @ (FemError::InvertedElement { .. }
+            | FemError::NoConvergence { .. }
+            | FemError::NotPositiveDefinite { .. }),
+        )) => Ok(Err(format!("the FE solve failed ({e})"))),
+        Err(e) => Err(e),
+    }
+}
+
 /// One attempt: the scene, its rendered frame and what was drawn; or why it is redrawn.
 type Attempt = Result<(Scene, Rendered, DrawRecord), String>;
 
@@ -656,19 +673,9 @@ fn try_draw(
         model_path: sweep.model_path.clone(),
         truth_mesh: sweep.truth_mesh.clone(),
     };
-    let rendered = match render_frame(&scene, &body.model, 0) {
+    let rendered = match render_attempt(&scene, body)? {
         Ok(rendered) => rendered,
-        Err(SceneError::NotConverged { .. }) => {
-            return Ok(Err("the FE solve did not converge".into()))
-        }
-        // The load turned an element inside out on the way (Newton's steps, or the
-        // solution itself): no physical scene, another draw.
-        Err(SceneError::Fem(
-            e @ (FemError::InvertedElement { .. }
-            | FemError::NoConvergence { .. }
-            | FemError::NotPositiveDefinite { .. }),
-        )) => return Ok(Err(format!("the FE solve failed ({e})"))),
-        Err(e) => return Err(e),
+        Err(why) => return Ok(Err(why)),
     };
     let ratio = spec.validity.min_volume_ratio;
     if let Some(fault) = physical_fault(prepared, body, &scene.spec, &rendered, ratio) {
@@ -713,6 +720,13 @@ pub fn write_drawn(
     Ok((scene, record))
 }
 
+/// `path` as a file in `out` names it: relative to `out` when it can be.
+fn shown_from(out: &Path, path: &Path) -> String {
+    (super::relative_to(path, out).unwrap_or_else(|| path.to_path_buf()))
+        .display()
+        .to_string()
+}
+
 /// Draws and writes `count` scenes into `out`: `sweep.toml` (the spec with every default
 /// filled in, the seed and the count), `scene_NNNN.toml` and the recording `scene_NNNN/`
 /// per scene, and `draws.json` (what was drawn, and why attempts were redrawn).
@@ -731,13 +745,8 @@ pub fn run(
     std::fs::create_dir_all(out).map_err(|e| io(out, &e))?;
     let prepared = Prepared::new(sweep)?;
     let mut spec = sweep.spec.clone();
-    let from_out = |path: &Path| {
-        (super::relative_to(path, out).unwrap_or_else(|| path.to_path_buf()))
-            .display()
-            .to_string()
-    };
-    spec.model = from_out(&sweep.model_path);
-    let truth_mesh = sweep.truth_mesh.as_deref().map(from_out);
+    spec.model = shown_from(out, &sweep.model_path);
+    let truth_mesh = (sweep.truth_mesh.as_deref()).map(|m| shown_from(out, m));
     if let Some(t) = &mut spec.truth {
         t.mesh.clone_from(&truth_mesh);
     }
