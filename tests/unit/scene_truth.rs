@@ -287,3 +287,27 @@ fn no_estimator_reads_the_truth_model() {
     }
     assert!(offenders.is_empty(), "{offenders:?} read truth_model");
 }
+
+#[test]
+fn a_sweeps_truth_mesh_is_rendered_and_written_so_its_scene_files_load_again() {
+    use softsense::scene::sweep::{run, Sweep};
+    let dir = tempfile::tempdir().unwrap();
+    let (mesh, _) = reversed_robot_mesh(dir.path());
+    let file = dir.path().join("sweep.toml");
+    let model = robot_model().display().to_string();
+    let truth = "[truth]\nmesh = \"reversed.vtu\"\nyoung_factor = [0.9, 1.1]\n";
+    std::fs::write(&file, format!("model = {model:?}\n{truth}")).unwrap();
+    let sweep = Sweep::load(&file).unwrap();
+    let out = dir.path().join("out");
+    let records = run(&sweep, &out, 1, 5, |_, _| {}).unwrap();
+    let drawn = records[0].truth.as_ref().expect("a drawn truth");
+    assert!((0.9..=1.1).contains(&drawn.young_factor), "{drawn:?}");
+    // The scene file names the mesh from its own folder, and loads again.
+    let scene = Scene::load(&out.join("scene_0000.toml")).unwrap();
+    let canon = |p: &Path| std::fs::canonicalize(p).unwrap();
+    assert_eq!(canon(scene.truth_mesh.as_deref().unwrap()), canon(&mesh));
+    assert_eq!(scene.spec.truth.unwrap().young_factor, drawn.young_factor);
+    let text = std::fs::read_to_string(out.join("scene_0000/truth.json")).unwrap();
+    let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(json["truth_model"]["mesh"], "../../reversed.vtu");
+}
