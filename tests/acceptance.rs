@@ -25,3 +25,5 @@ mod mutation_fuzz;
 mod recording_folder;
 #[path = "acceptance/sense_places.rs"]
 mod sense_places;
+#[path = "acceptance/sense_reference.rs"]
+mod sense_reference;

@@ -131,6 +131,40 @@ pub struct SenseArgs {
     /// (their folder names), e.g. to compare one camera against all on the same frames.
     #[arg(long, value_name = "NAME,...", value_delimiter = ',')]
     pub cameras: Option<Vec<String>>,
+    /// Take the first N frames, which must show the body unloaded, as the reference (a
+    /// tare): the model's unloaded surface is matched to what the cameras see there, and
+    /// later frames are sensed relative to it. A real body's rest shape and sag differ
+    /// from its model's (another modulus, another mesh, a base that gives); without a
+    /// reference that difference is read as force (docs/sensing.md, "A reference from
+    /// unloaded frames"). The reference frames are sensed too and marked "reference"; a
+    /// contact seen in one is refused.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub reference_frames: usize,
+    /// A frame that carries a known load, FRAME=NEWTONS (its total force's magnitude, e.g. a
+    /// weight hung from the robot): with --reference-frames, the model's Young's modulus is
+    /// scaled until that frame reads its load (the reference re-taken at each modulus),
+    /// and the modulus's uncertainty joins every force's sigma. The frame is sensed too and
+    /// marked "reference". Prints the modulus to put in the model file's [material].
+    #[arg(long, value_name = "FRAME=NEWTONS", value_parser = parse_known_load, requires = "reference_frames")]
+    pub known_load: Option<(usize, f64)>,
+}
+
+/// `FRAME=NEWTONS`.
+fn parse_known_load(s: &str) -> Result<(usize, f64), String> {
+    let (frame, load) = s
+        .split_once('=')
+        .ok_or_else(|| format!("{s:?}: expected FRAME=NEWTONS, e.g. 3=0.26"))?;
+    let frame = frame
+        .trim()
+        .parse()
+        .map_err(|e| format!("{frame:?}: {e}"))?;
+    let load: f64 = load.trim().parse().map_err(|e| format!("{load:?}: {e}"))?;
+    if !(load.is_finite() && load > 0.0) {
+        return Err(format!(
+            "{load}: the known load must be a positive number of newtons"
+        ));
+    }
+    Ok((frame, load))
 }
 
 pub fn run(args: &SenseArgs) -> CliResult {
@@ -154,6 +188,7 @@ pub fn run(args: &SenseArgs) -> CliResult {
         e => CliError::Lib(e.into()),
     })?;
     let inputs = use_recorded_inputs(rec, &mut sensor)?;
+    take_reference(args, &rig, &mut sensor)?;
     let poses: Vec<String> = (rig.cameras.iter())
         .filter_map(|c| c.recording.pose_file.as_deref())
         .map(|p| super::shown_path(p).display().to_string())
@@ -261,6 +296,54 @@ pub fn run(args: &SenseArgs) -> CliResult {
             no_robot_hint(&reports)
         )));
     }
+    Ok(())
+}
+
+/// Takes the first `--reference-frames` frames of `rig` as the sensor's reference, and says
+/// how far the body sat off its model.
+fn take_reference(args: &SenseArgs, rig: &Rig, sensor: &mut Sensor) -> CliResult {
+    let n = args.reference_frames;
+    if n == 0 {
+        return Ok(());
+    }
+    if n >= rig.frames.len() {
+        return Err(CliError::Usage(format!(
+            "--reference-frames {n}: the recording has {} frames; the reference must leave some to sense",
+            rig.frames.len()
+        )));
+    }
+    let frames: Vec<usize> = rig.frames[..n].to_vec();
+    if let Some((frame, load)) = args.known_load {
+        if !rig.frames.contains(&frame) || frames.contains(&frame) {
+            return Err(CliError::Usage(format!(
+                "--known-load {frame}={load}: frame {frame} is not a frame of the recording after the reference frames"
+            )));
+        }
+        let fit = (sensor.calibrate_modulus(rig, &frames, frame, load, &Default::default()))
+            .map_err(|e| CliError::Lib(e.into()))?;
+        let units = sensor.model.units.pressure;
+        eprintln!(
+            "modulus: {:.4} times the model file's ({} rounds{}): young = {:.6e} in the model file's units ({:.4e} Pa), known to {:.2}%",
+            fit.factor,
+            fit.rounds.len(),
+            if fit.converged { "" } else { ", not converged" },
+            fit.young / units,
+            fit.young,
+            100.0 * fit.relative_sigma
+        );
+    }
+    let tare = match sensor.tare() {
+        Some(tare) => tare,
+        None => (sensor.take_reference(rig, &frames, Default::default()))
+            .map_err(|e| CliError::Lib(e.into()))?,
+    };
+    eprintln!(
+        "reference: frames {:?}: the body sits {:.3} mm RMS off the model's unloaded surface (a node at most {:.3} mm); {:.3} mm RMS is left, the depth noise and detail finer than the mesh",
+        frames,
+        tare.rms_before * 1e3,
+        tare.largest_offset() * 1e3,
+        tare.rms_after * 1e3
+    );
     Ok(())
 }
 

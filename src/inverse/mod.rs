@@ -25,6 +25,7 @@ pub mod locations;
 pub mod lsq;
 pub mod qp;
 pub mod sensing;
+pub mod tare;
 pub mod uncertainty;
 
 pub use candidate::{loads_of, total_force, Candidate};
@@ -32,6 +33,7 @@ pub use dense::{DenseInputs, DenseParams, DenseView};
 pub use linearise::LinearisationPoint;
 pub use locations::{choose_locations, Alternative, LocationChoice};
 pub use sensing::{estimate, FrameEstimate, FrameInputs, FrameParams, LoopTimings, Start};
+pub use tare::{Tare, TareFit, TareParams};
 pub use uncertainty::SharedPoints;
 
 use thiserror::Error;

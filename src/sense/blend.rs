@@ -159,6 +159,28 @@ impl ForceEstimate {
     }
 }
 
+impl ForceEstimate {
+    /// Takes in a reference's noise and a stiffness known to a relative one-sigma
+    /// `relative`: the covariance is scaled by `reference` (1 + 1/N for a reference of N
+    /// frames, whose noise enters every frame sensed against it: its share is 1/N of a
+    /// frame's, as for the markers' reference), and, as the stiffness scales the whole
+    /// force, gains relative² F Fᵀ. `(1, 0)` changes nothing.
+    pub(super) fn add_model_error(&mut self, reference: f64, relative: f64) {
+        if reference == 1.0 && relative <= 0.0 {
+            return;
+        }
+        let f = self.force;
+        for (r, row) in self.covariance.iter_mut().enumerate() {
+            for (c, v) in row.iter_mut().enumerate() {
+                *v = reference * *v + relative * relative * f[r] * f[c];
+            }
+        }
+        let c = &self.covariance;
+        self.sigma = magnitude_sigma(self.force, &ROBOT_AXES, &|r, q| c[r][q]);
+        self.sigma_max = largest_sigma(c);
+    }
+}
+
 /// The force of candidates `cands` with intensities `forces` (N).
 pub(super) fn force_of(cands: &[Candidate], forces: &[f64]) -> [f64; 3] {
     total_force(&loads_of(cands, forces))

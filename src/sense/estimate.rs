@@ -86,6 +86,7 @@ impl Sensor {
     ) -> (FrameReport, Option<Track>) {
         let t0 = std::time::Instant::now();
         let mut report = FrameReport::empty(frame, FrameStatus::Sensed);
+        report.reference = self.reference_frames.contains(&frame);
         report.robot_points = obs.robot.len();
         report.object_points = obs.objects.len();
         report.cameras = obs.cameras.clone();
@@ -107,7 +108,16 @@ impl Sensor {
         }
         report.timings = obs.timings;
         let track = match self.estimate_frame(obs, inputs, prev, want_track, &mut report) {
-            Ok(track) => track.filter(|_| report.reliable),
+            Ok(track) => {
+                let reference = self
+                    .tare
+                    .as_ref()
+                    .map_or(1.0, |t| 1.0 + 1.0 / t.frames as f64);
+                for f in &mut report.forces {
+                    f.add_model_error(reference, self.params.model_error);
+                }
+                track.filter(|_| report.reliable)
+            }
             Err(status) => {
                 report.status = status;
                 None
@@ -137,10 +147,11 @@ impl Sensor {
         let features = self.features_near(&free.solution.positions, &contacts);
         report.features = features.len();
         let clock = std::time::Instant::now();
-        let registrar = Registrar::new(&obs.robot);
+        let robot = self.tared_points(obs, &free.solution.positions);
+        let registrar = Registrar::new(&robot);
         let dense_on = self.params.registration.is_dense(contacts.len());
         let views = if dense_on {
-            self.dense_views(obs)
+            self.dense_views(obs, &robot)
         } else {
             Vec::new()
         };
@@ -211,12 +222,12 @@ impl Sensor {
         Ok((free, contacts))
     }
 
-    /// Each camera's robot points in `obs`, subsampled, with its eye and viewing axis: the
-    /// rows of dense registration.
-    fn dense_views(&self, obs: &Observation) -> Vec<DenseView> {
+    /// Each camera's robot points (`robot`, those of `obs` or moved by the reference),
+    /// subsampled, with its eye and viewing axis: the rows of dense registration.
+    fn dense_views(&self, obs: &Observation, robot: &[[f64; 3]]) -> Vec<DenseView> {
         (obs.views.iter())
             .map(|v| {
-                let points = &obs.robot[v.robot.clone()];
+                let points = &robot[v.robot.clone()];
                 let camera = &self.cameras[v.camera];
                 DenseView {
                     points: subsample(points, self.params.dense_rows.max_points),

@@ -36,8 +36,10 @@ mod cameras;
 mod estimate;
 mod free;
 mod locate;
+mod modulus;
 mod observe;
 mod params;
+mod reference;
 mod report;
 pub mod score;
 mod stream;
@@ -48,6 +50,7 @@ pub use crate::recording::{Recording, Rig};
 pub use blend::{largest_sigma, LocationAlternative};
 pub use cameras::{CameraFrames, CameraReport, CameraState, SensorCamera};
 pub use free::SAME_INPUT;
+pub use modulus::{ModulusFit, ModulusParams, ModulusRound};
 pub use observe::{Observation, View};
 pub use params::{Registration, SenseParams, CHI2_3DOF_95};
 pub use report::{compare, ForceEstimate, FrameReport, FrameStatus, LoadError, MIN_SCORED_FORCE};
@@ -135,6 +138,40 @@ pub enum SenseError {
         /// The camera's folder.
         dir: PathBuf,
     },
+    /// A reference frame in which a contact is seen: a reference must show the body
+    /// unloaded.
+    #[error("reference frame {frame}: {contacts} contact(s) seen; a reference frame must show the body unloaded")]
+    LoadedReference {
+        /// The frame.
+        frame: usize,
+        /// Contacts seen in it.
+        contacts: usize,
+    },
+    /// The model's unloaded state at a reference frame's inputs could not be solved.
+    #[error("reference frame {frame}: the unloaded model: {source}")]
+    Reference {
+        /// The frame.
+        frame: usize,
+        /// Why.
+        source: crate::fem::FemError,
+    },
+    /// No robot point of the reference frames met the model's surface within reach.
+    #[error("reference frames {frames:?}: no robot point lies on the model's unloaded surface (within the reference's max_offset): is the camera pose right?")]
+    EmptyReference {
+        /// The frames.
+        frames: Vec<usize>,
+    },
+    /// A frame given with a known load could not calibrate the modulus.
+    #[error("known load on frame {frame}: {why}")]
+    KnownLoad {
+        /// The frame.
+        frame: usize,
+        /// Why.
+        why: String,
+    },
+    /// A modulus that is not a material's.
+    #[error("the model's modulus: {0}")]
+    Modulus(#[source] crate::fem::FemError),
     /// No camera could read the frame.
     #[error("no camera could read the frame: {}", self::cameras::joined(cameras))]
     NoCamera {
@@ -168,6 +205,10 @@ pub struct Sensor {
     /// Where the model's own cable inputs (used for frames without recorded ones) come
     /// from.
     model_inputs: ModelInputs,
+    /// The reference of unloaded frames, if taken ([`Sensor::take_reference`]).
+    tare: Option<crate::inverse::Tare>,
+    /// The frames the reference was taken from (their reports say so).
+    reference_frames: Vec<usize>,
 }
 
 /// Where the cable inputs of a frame without recorded ones come from.
@@ -234,6 +275,8 @@ impl Sensor {
             surface,
             free: FreeSolves::default(),
             model_inputs: ModelInputs::ModelFile,
+            tare: None,
+            reference_frames: Vec::new(),
         }
     }
 

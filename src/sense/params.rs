@@ -82,6 +82,10 @@ pub struct SenseParams {
     pub registration: Registration,
     /// The dense rows' tunables (their noise model among them).
     pub dense_rows: crate::inverse::DenseParams,
+    /// Relative one-sigma of the model's stiffness (0: none): each force's covariance gains
+    /// (model_error·F)(model_error·F)ᵀ, as a modulus off by that fraction scales every
+    /// force. [`Sensor::calibrate_modulus`](super::Sensor::calibrate_modulus) sets it.
+    pub model_error: f64,
 }
 
 impl Default for SenseParams {
@@ -129,6 +133,7 @@ impl Default for SenseParams {
             track_radius: 0.005,
             registration: Registration::Auto,
             dense_rows: crate::inverse::DenseParams::default(),
+            model_error: 0.0,
         }
     }
 }

@@ -122,6 +122,11 @@ pub struct LoadError {
 pub struct FrameReport {
     /// Frame number.
     pub frame: usize,
+    /// Whether the frame is one of the sensor's reference frames
+    /// ([`Sensor::take_reference`](super::Sensor::take_reference)): it reads near zero by
+    /// construction, so it says nothing about accuracy.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub reference: bool,
     /// Outcome.
     #[serde(flatten)]
     pub status: FrameStatus,
@@ -191,6 +196,7 @@ impl FrameReport {
     pub fn empty(frame: usize, status: FrameStatus) -> Self {
         Self {
             frame,
+            reference: false,
             status,
             robot_points: 0,
             object_points: 0,
