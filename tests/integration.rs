@@ -45,5 +45,7 @@ mod sense_probe;
 mod sense_tip_weight;
 #[path = "integration/sense_track.rs"]
 mod sense_track;
+#[path = "integration/sensor_fit.rs"]
+mod sensor_fit;
 #[path = "integration/sweep.rs"]
 mod sweep;

@@ -61,6 +61,8 @@ mod register;
 mod scene;
 #[path = "unit/scene_cameras.rs"]
 mod scene_cameras;
+#[path = "unit/scene_sensor.rs"]
+mod scene_sensor;
 #[path = "unit/scene_truth.rs"]
 mod scene_truth;
 #[path = "unit/segment.rs"]

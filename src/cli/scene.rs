@@ -153,6 +153,13 @@ the model's own) and the example frame:
   edge_jump = 0.02         # a depth jump above this marks a silhouette edge...
   edge_hole_probability = 0.5  # ...whose pixels become holes with this probability
   color_sigma = 3.0        # colour noise per channel
+                           # opt-in artefacts, off by default (fitted values: docs/sensor.md)
+  depth_sigma_floor = 0.0  # sigma floor added to depth_k * z^2 (m)
+  depth_sigma_incidence = 0.0  # sigma times 1 + g (1/cos(incidence) - 1)
+  depth_step_k = 0.0       # quantisation step max(depth_unit, depth_step_k * z^2)
+  hole_probability = 0.0   # random dropout of any pixel
+  flying_probability = 0.0 # a depth-edge pixel mixes with its neighbour across the edge
+  flying_spread = 1.0      # mixing fraction uniform in 1/2 +- spread/2
 
   [markers]                # optional: painted marker discs that move with the surface
   colour = [30, 60, 230]   # sRGB 0-255 (keep it unlike the robot's and the probe's)

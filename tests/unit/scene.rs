@@ -143,13 +143,21 @@ fn a_model_path_relative_to_the_recording_leads_back_to_the_model_file() {
 fn a_sensor_model_out_of_range_is_refused_by_name() {
     assert_eq!(SensorModel::default().validate(), Ok(()));
     type Spoil = fn(&mut SensorModel);
-    let cases: [(&str, Spoil); 6] = [
+    let cases: [(&str, Spoil); 12] = [
         ("depth_unit", |s| s.depth_unit = 0.0),
         ("depth_k", |s| s.depth_k = -0.001),
         ("grazing_deg", |s| s.grazing_deg = 95.0),
         ("edge_jump", |s| s.edge_jump = f64::NAN),
         ("edge_hole_probability", |s| s.edge_hole_probability = 1.5),
         ("color_sigma", |s| s.color_sigma = f64::INFINITY),
+        ("depth_sigma_floor", |s| s.depth_sigma_floor = -1e-5),
+        ("depth_sigma_incidence", |s| {
+            s.depth_sigma_incidence = f64::NAN
+        }),
+        ("depth_step_k", |s| s.depth_step_k = -0.003),
+        ("hole_probability", |s| s.hole_probability = 1.01),
+        ("flying_probability", |s| s.flying_probability = -0.1),
+        ("flying_spread", |s| s.flying_spread = 2.0),
     ];
     for (name, spoil) in cases {
         let mut s = SensorModel::default();

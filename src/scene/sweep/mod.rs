@@ -650,6 +650,7 @@ fn try_draw(
     record.more_cameras = draw_more_cameras(r, &spec.camera, record.azimuth_deg);
     let mut sensor = spec.sensor.clone();
     sensor.depth_k *= CameraSpec::default().fx / cam.fx;
+    sensor.depth_step_k *= CameraSpec::default().fx / cam.fx;
     let cameras = rig_cameras(&record, &cam, *target)?;
     let scene = Scene {
         spec: SceneSpec {
