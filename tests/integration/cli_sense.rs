@@ -526,3 +526,74 @@ fn sense_reads_a_pcl_grabber_folder_with_a_given_pose_and_reports_each_frames_st
     assert_eq!(statuses.len(), 3, "{stdout}");
     assert!(statuses.iter().all(|s| s == "\"no_robot\""), "{statuses:?}");
 }
+
+#[test]
+fn a_reference_frame_in_which_a_contact_is_seen_is_refused() {
+    let out = sense(&["clouds/scenes/probe_press", "--reference-frames", "1"]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("reference frame 0") && err.contains("unloaded"),
+        "{err}"
+    );
+    assert!(out.stdout.is_empty());
+}
+
+#[test]
+fn a_reference_of_every_frame_or_a_known_load_without_a_reference_is_a_usage_error() {
+    for args in [
+        &["clouds/scenes/tip_weight", "--reference-frames", "4"][..],
+        &["clouds/scenes/tip_weight", "--known-load", "1=0.26"][..],
+        &[
+            "clouds/scenes/tip_weight",
+            "--reference-frames",
+            "1",
+            "--known-load",
+            "1=-2",
+        ][..],
+        &[
+            "clouds/scenes/tip_weight",
+            "--reference-frames",
+            "1",
+            "--known-load",
+            "0=0.26",
+        ][..],
+    ] {
+        let out = sense(args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains("--reference-frames") || err.contains("--known-load"),
+            "{err}"
+        );
+    }
+}
+
+#[test]
+fn sense_with_a_reference_and_a_known_load_marks_those_frames_and_keeps_the_model_modulus_on_its_own_body(
+) {
+    let out = sense(&[
+        "clouds/scenes/tip_weight",
+        "--json",
+        "--reference-frames",
+        "1",
+        "--known-load",
+        "1=0.26",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    // The bundled scene is rendered from the model: the modulus stays.
+    assert!(err.contains("modulus: 1.00"), "{err}");
+    assert!(err.contains("reference: frames [0]"), "{err}");
+    let reports = answers(&out);
+    let marked: Vec<bool> = (reports.iter())
+        .map(|r| r["reference"].as_bool().unwrap_or(false))
+        .collect();
+    assert_eq!(marked, [true, true, false, false]);
+    for r in &reports[2..] {
+        for e in r["errors"].as_array().unwrap() {
+            let error = e["force_error"].as_f64().unwrap();
+            assert!(error < 0.02, "frame {}: {error}", r["frame"]);
+        }
+    }
+}
