@@ -291,8 +291,9 @@ class FrameReport:
     "no_features", "unreadable", "not_solved", "too_many_contacts") with ``detail``, the
     forces, the warnings, the registration residual (m), for a recording of several
     cameras each camera's part (``cameras``: name and status "seen", "missing" or
-    "unreadable"; empty for one camera) and, for generated recordings, the errors against
-    the truth."""
+    "unreadable"; empty for one camera), whether it is one of the sensor's ``reference``
+    frames (it then reads near zero by construction) and, for generated recordings, the
+    errors against the truth."""
 
     frame: int
     status: str
@@ -303,6 +304,7 @@ class FrameReport:
     reliable: bool
     errors: Optional[List[Dict[str, Any]]]
     cameras: List[Dict[str, Any]] = field(default_factory=list)
+    reference: bool = False
     raw: Dict[str, Any] = field(repr=False, default_factory=dict)
 
     @classmethod
@@ -318,6 +320,7 @@ class FrameReport:
             reliable=d["reliable"],
             errors=d["errors"],
             cameras=list(d.get("cameras", [])),
+            reference=bool(d.get("reference", False)),
             raw=d,
         )
 
@@ -330,8 +333,11 @@ class Sensor:
     """The sensing chain for one model and one recording (``softsense sense``).
 
     Options are the command line's: ``features`` (surface feature points), ``registration``
-    ("auto", "features" or "dense"), ``robot_color`` (sRGB triple), ``max_contacts``. The
-    recording's cable inputs are used as the command line uses them.
+    ("auto", "features" or "dense"), ``robot_color`` (sRGB triple), ``max_contacts``,
+    ``reference_frames`` (the first N frames, unloaded, as the reference: later frames are
+    sensed relative to them) and ``known_load`` ((frame, newtons): the modulus calibrated
+    so that frame reads its load). The recording's cable inputs are used as the command
+    line uses them.
     """
 
     def __init__(self, model: Model, recording: "Recording", **options: Any) -> None:

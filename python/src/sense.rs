@@ -102,14 +102,54 @@ fn json_of(rec: &Rig, mut report: FrameReport) -> PyResult<String> {
     serde_json::to_string(&report).map_err(error)
 }
 
+/// The first `n` frames of `rec` as the sensor's reference, and with `known_load` the
+/// modulus calibrated on that frame, as `softsense sense --reference-frames
+/// --known-load` does.
+fn take_reference(
+    sensor: &mut Sen,
+    rec: &Rig,
+    n: usize,
+    known_load: Option<(usize, f64)>,
+) -> PyResult<()> {
+    if n == 0 {
+        return match known_load {
+            Some(_) => Err(error("known_load needs reference_frames")),
+            None => Ok(()),
+        };
+    }
+    if n >= rec.frames.len() {
+        return Err(error(format!(
+            "reference_frames {n}: the recording has {} frames; the reference must leave some to sense",
+            rec.frames.len()
+        )));
+    }
+    let frames = &rec.frames[..n];
+    match known_load {
+        Some((frame, _)) if !rec.frames.contains(&frame) || frames.contains(&frame) => Err(error(
+            format!("known_load: frame {frame} is not a frame after the reference frames"),
+        )),
+        Some((frame, load)) => sensor
+            .calibrate_modulus(rec, frames, frame, load, &Default::default())
+            .map(|_| ())
+            .map_err(error),
+        None => sensor
+            .take_reference(rec, frames, Default::default())
+            .map(|_| ())
+            .map_err(error),
+    }
+}
+
 #[pymethods]
 impl Sensor {
     /// A sensor for `recording` with `model`, with `softsense sense`'s options: `features`
     /// (surface feature points), `registration` ("auto", "features" or "dense"),
-    /// `robot_color` (sRGB), `max_contacts`. The recording's cable inputs are used as the
-    /// command line uses them (recorded, else its calibration's, else the model's).
+    /// `robot_color` (sRGB), `max_contacts`, `reference_frames` (the first N frames, unloaded,
+    /// as the reference) and `known_load` ((frame, newtons): the modulus calibrated on it).
+    /// The recording's cable inputs are used as the command line uses them (recorded, else
+    /// its calibration's, else the model's).
     #[new]
-    #[pyo3(signature = (model, recording, features=None, registration="auto", robot_color=(40, 200, 60), max_contacts=None))]
+    #[pyo3(signature = (model, recording, features=None, registration="auto", robot_color=(40, 200, 60), max_contacts=None, reference_frames=0, known_load=None))]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         model: &Model,
         recording: &Recording,
@@ -117,6 +157,8 @@ impl Sensor {
         registration: &str,
         robot_color: (u8, u8, u8),
         max_contacts: Option<usize>,
+        reference_frames: usize,
+        known_load: Option<(usize, f64)>,
     ) -> PyResult<Self> {
         let rec = recording.0.clone();
         let registration = match registration {
@@ -140,6 +182,7 @@ impl Sensor {
             ))
         })?;
         sensor.use_recording_inputs(rec.shared()).map_err(error)?;
+        take_reference(&mut sensor, &rec, reference_frames, known_load)?;
         Ok(Sensor { sensor, rec })
     }
 

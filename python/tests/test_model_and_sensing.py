@@ -56,6 +56,21 @@ def test_sensing_gives_the_command_lines_forces_bit_for_bit(root, cli):
     assert f.force.shape == (3,) and f.covariance.shape == (3, 3) and f.sigma > 0
 
 
+def test_a_reference_and_a_known_load_give_the_command_lines_answers(root, cli):
+    scene = root / "clouds" / "scenes" / "tip_weight"
+    rec = softsense.Recording.open(scene)
+    model = softsense.Model.load(rec.model_path)
+    sensor = softsense.Sensor(model, rec, reference_frames=1, known_load=(1, 0.26))
+    ours = sensor.sense_all()
+    lines = run_cli(cli, "sense", str(scene), "--json", "--reference-frames", "1", "--known-load", "1=0.26").stdout.splitlines()
+    theirs = [json.loads(line) for line in lines]
+    assert [r.reference for r in ours] == [True, True, False, False]
+    for r, t in zip(ours, theirs):
+        assert [f.to_dict() for f in r.forces] == t["forces"]
+    with pytest.raises(softsense.SoftsenseError, match="known_load needs reference_frames"):
+        softsense.Sensor(model, rec, known_load=(1, 0.26))
+
+
 def test_errors_are_exceptions_with_the_command_lines_messages(root, tmp_path):
     with pytest.raises(softsense.SoftsenseError, match="no frames"):
         softsense.Recording.open(tmp_path)
