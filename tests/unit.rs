@@ -69,6 +69,8 @@ mod scene_truth;
 mod segment;
 #[path = "unit/segment_geometric.rs"]
 mod segment_geometric;
+#[path = "unit/sense_hold.rs"]
+mod sense_hold;
 
 #[path = "unit/calibrate.rs"]
 mod calibrate;

@@ -6,8 +6,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 use softsense::fem::model::Model;
 use softsense::recording::RecordingError;
 use softsense::sense::{
-    compare, default_window, median_timings, FrameReport, FrameStatus, LoadError, Observation,
-    Recording, Rig, SenseError, SenseParams, SenseResult, Sensor, StageTimings, View,
+    compare, default_window, median_timings, FrameReport, FrameStatus, Hold, HoldParams, LoadError,
+    Observation, Recording, Rig, SenseError, SenseParams, SenseResult, Sensor, StageTimings, View,
 };
 use std::path::PathBuf;
 
@@ -147,6 +147,16 @@ pub struct SenseArgs {
     /// marked "reference". Prints the modulus to put in the model file's [material].
     #[arg(long, value_name = "FRAME=NEWTONS", value_parser = parse_known_load, requires = "reference_frames")]
     pub known_load: Option<(usize, f64)>,
+    /// Fuse each force over the frames its load is held (a weight left hanging, a probe
+    /// pressed and kept still): while every force of the stream stays within 5 mm of where
+    /// it was and within its noise of the fused force (chi-square of 3 at 95%), the frames'
+    /// forces are fused by their inverse covariances, and the fused sigma shrinks as
+    /// 1/sqrt(n) down to what every frame shares (the reference's noise and the modulus's
+    /// uncertainty). A force that moves or changes starts a new hold; a failed, unreliable
+    /// or reference frame ends it. Each frame then also prints its fused forces ("held";
+    /// JSON "held": since, frames, force, magnitude, sigma, covariance).
+    #[arg(long)]
+    pub hold: bool,
 }
 
 /// `FRAME=NEWTONS`.
@@ -221,8 +231,15 @@ pub fn run(args: &SenseArgs) -> CliResult {
         args.window.unwrap_or_else(default_window)
     };
     let clock = std::time::Instant::now();
+    let mut hold = (args.hold).then(|| {
+        let frames = sensor.tare().map_or(0, |t| t.frames);
+        Hold::new(HoldParams::default(), frames, sensor.params.model_error)
+    });
     let each = |obs: &SenseResult<Observation>, mut report: FrameReport| -> Result<(), Halt> {
         let frame = report.frame;
+        if let Some(hold) = &mut hold {
+            hold.push(&mut report);
+        }
         if let Some(t) = rec.truth_of(frame) {
             report.errors = Some(compare(&report, t));
         }
@@ -489,6 +506,18 @@ fn print_human(r: &FrameReport) -> CliResult {
                 alts.join(", ")
             )?;
         }
+    }
+    for h in &r.held {
+        outln!(
+            "  held since frame {} ({} frames fused): |F| = {:.3} ± {:.3} N, F = ({:.3}, {:.3}, {:.3}) N",
+            h.since,
+            h.frames,
+            h.magnitude,
+            h.sigma,
+            h.force[0],
+            h.force[1],
+            h.force[2]
+        )?;
     }
     if !r.actuators.is_empty() {
         let a: Vec<String> = r

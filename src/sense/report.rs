@@ -122,6 +122,10 @@ pub struct LoadError {
 pub struct FrameReport {
     /// Frame number.
     pub frame: usize,
+    /// The forces fused over the frames their load was held, this one included
+    /// ([`Hold`](super::Hold); `sense --hold`), when this frame continues or starts a hold.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub held: Vec<super::HeldForce>,
     /// Whether the frame is one of the sensor's reference frames
     /// ([`Sensor::take_reference`](super::Sensor::take_reference)): it reads near zero by
     /// construction, so it says nothing about accuracy.
@@ -196,6 +200,7 @@ impl FrameReport {
     pub fn empty(frame: usize, status: FrameStatus) -> Self {
         Self {
             frame,
+            held: Vec::new(),
             reference: false,
             status,
             robot_points: 0,
