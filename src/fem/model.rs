@@ -528,12 +528,12 @@ fn check_finite(spec: &ModelSpec) -> FemResult<()> {
 /// The formulation a model file names (default corotational).
 fn parse_formulation(name: Option<&str>) -> FemResult<Formulation> {
     match name {
-        None | Some("corotational") | Some("large") => Ok(Formulation::Corotational),
-        Some("small-strain") | Some("linear") => Ok(Formulation::SmallStrain),
-        Some("neo-hookean") => Ok(Formulation::NeoHookean),
-        Some(f) => Err(FemError::Model(format!(
-            "unknown formulation {f:?}: use \"corotational\", \"small-strain\" or \"neo-hookean\""
-        ))),
+        None => Ok(Formulation::Corotational),
+        Some(f) => Formulation::from_name(f).ok_or_else(|| {
+            FemError::Model(format!(
+                "unknown formulation {f:?}: use \"corotational\", \"small-strain\" or \"neo-hookean\""
+            ))
+        }),
     }
 }
 

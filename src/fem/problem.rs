@@ -24,6 +24,28 @@ pub enum Formulation {
     NeoHookean,
 }
 
+impl Formulation {
+    /// The formulation a model file names: `"corotational"` (or `"large"`), `"small-strain"`
+    /// (or `"linear"`), `"neo-hookean"`; `None` for any other name.
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "corotational" | "large" => Some(Self::Corotational),
+            "small-strain" | "linear" => Some(Self::SmallStrain),
+            "neo-hookean" => Some(Self::NeoHookean),
+            _ => None,
+        }
+    }
+
+    /// The name model files write for it.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::SmallStrain => "small-strain",
+            Self::Corotational => "corotational",
+            Self::NeoHookean => "neo-hookean",
+        }
+    }
+}
+
 /// A point attached to the mesh: a weighted sum of (up to) four nodes.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct MappedPoint {
