@@ -1,9 +1,9 @@
 //! `[truth]`: the body a scene's frames are rendered from, when it is not the model. Without
 //! it, the frames come from the very FE model that later inverts them (the "inverse
-//! crime"). With it, the robot is rendered with another modulus, Poisson ratio, element law
-//! or mesh of the same shape, while the recording still names the model: `truth.json`'s
-//! `model_path` and `material` are the model's, and its `truth_model` says what the body
-//! was, for reports only (the estimator never reads it).
+//! crime"). With it, the robot is rendered with another modulus, Poisson ratio, element law,
+//! mesh of the same shape or a compliant base, while the recording still names the model:
+//! `truth.json`'s `model_path` and `material` are the model's, and its `truth_model` says
+//! what the body was, for reports only (the estimator never reads it).
 //!
 //! One table, [`Truth`], over its numbers: a scene file's `[truth]` is a [`TruthSpec`]
 //! (numbers); a sweep file's is a [`TruthRanges`] (numbers or ranges), drawn per scene on a
@@ -51,13 +51,17 @@ pub struct Truth<V> {
     /// model file's units and placement); default the model's mesh.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mesh: Option<String>,
+    /// A compliant base: its total stiffness (N/m, each axis), shared by the model's fixed
+    /// nodes as springs to their rest positions; default the model's base (clamped).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub base_stiffness: Option<V>,
 }
 
 /// A scene file's `[truth]`.
 pub type TruthSpec = Truth<f64>;
 
-/// A sweep file's `[truth]`: `young_factor` and `poisson` as a number or a range drawn per
-/// scene; `formulation` and `mesh` the same for every scene.
+/// A sweep file's `[truth]`: `young_factor`, `poisson` and `base_stiffness` as a number or
+/// a range drawn per scene; `formulation` and `mesh` the same for every scene.
 pub type TruthRanges = Truth<Ranged>;
 
 /// A number of a [`Truth`]: one value ([`f64`]) or what a sweep draws one from ([`Ranged`]).
@@ -128,6 +132,13 @@ fn formulation(name: &str) -> SceneResult<Formulation> {
     }
 }
 
+fn check_stiffness(field: &str, k: f64) -> SceneResult<()> {
+    match k > 0.0 && k.is_finite() {
+        true => Ok(()),
+        false => Err(bad(field, k, "must be > 0 and finite (N/m)")),
+    }
+}
+
 impl<V: TruthValue> Truth<V> {
     /// Checks every field; the error names the first bad one.
     pub fn check(&self) -> SceneResult<()> {
@@ -143,13 +154,16 @@ impl<V: TruthValue> Truth<V> {
                 return Err(bad("truth.mesh", "\"\"", "must name a file"));
             }
         }
+        if let Some(k) = self.base_stiffness {
+            k.check_with("truth.base_stiffness", check_stiffness)?;
+        }
         Ok(())
     }
 }
 
 impl TruthSpec {
     /// The body: `on_mesh` (the model, or the model on the truth's mesh: [`on_mesh`]) with
-    /// this truth's modulus, Poisson ratio and element law; `nominal` is the model's
+    /// this truth's modulus, Poisson ratio, element law and base; `nominal` is the model's
     /// material.
     pub fn body(&self, on_mesh: &Model, nominal: &Material) -> SceneResult<Model> {
         self.check()?;
@@ -158,6 +172,9 @@ impl TruthSpec {
         body.problem.material = Material::new(nominal.young() * self.young_factor, nu)?;
         if let Some(f) = &self.formulation {
             body.problem.formulation = formulation(f)?;
+        }
+        if let Some(k) = self.base_stiffness {
+            body.problem.base_stiffness = Some(k);
         }
         Ok(body)
     }
@@ -171,6 +188,7 @@ impl TruthSpec {
             poisson: m.poisson(),
             formulation: body.problem.formulation.name().into(),
             mesh,
+            base_stiffness: body.problem.base_stiffness,
         }
     }
 }
@@ -261,6 +279,7 @@ impl TruthRanges {
             poisson: self.poisson.map(|p| p.at(u(2))),
             formulation: self.formulation.clone(),
             mesh: (mesh.map(|m| m.display().to_string())).or_else(|| self.mesh.clone()),
+            base_stiffness: self.base_stiffness.map(|k| k.at(u(3))),
         }
     }
 }
