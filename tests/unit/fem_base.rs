@@ -224,3 +224,22 @@ fn a_model_files_base_stiffness_is_read_in_its_units_and_a_bad_one_refused() {
         assert!(e.contains("base_stiffness"), "{bad}: {e}");
     }
 }
+
+#[test]
+fn a_clone_with_other_base_nodes_is_checked_again() {
+    // The springs' nodes are not held, so the shared setup must still see them change: a
+    // line of base nodes cannot stop the column turning about it.
+    let p = column(Formulation::Corotational, Some(800.0));
+    p.solve_static(&NewtonParams::default()).unwrap();
+    let mut line = p.clone();
+    line.fixed = line
+        .mesh
+        .nodes_in_box([-1.0, -1e-9, -1e-9], [1.0, 1e-9, 1e-9]);
+    assert!(matches!(
+        line.solver().map(|_| ()),
+        Err(softsense::fem::FemError::Singular(_))
+    ));
+    let mut missing = p.clone();
+    missing.fixed.push(10_000);
+    assert!(missing.solver().is_err(), "a base node outside the mesh");
+}
