@@ -22,6 +22,8 @@ mod io_ply;
 #[path = "unit/io_malformed.rs"]
 mod io_malformed;
 
+#[path = "unit/fem_base.rs"]
+mod fem_base;
 #[path = "unit/fem_compliance.rs"]
 mod fem_compliance;
 #[path = "unit/fem_element.rs"]

@@ -97,6 +97,7 @@ the other keys show their defaults:
   # poisson = [0.40, 0.49]       # likewise; default the model's
   # formulation = \"neo-hookean\"  # the same for every scene
   # mesh = \"fine/robot.vtu\"      # relative to this file; the same for every scene
+  # base_stiffness = [1.0e5, 1.0e6]  # N/m, likewise: a slightly compliant base
 
 Examples:
   softsense scene sweep tools/sweeps/robot_one_probe.toml /tmp/sw --count 100 --seed 7
@@ -178,6 +179,8 @@ the model's own) and the example frame:
                            # this file; the model file's units): points move by position,
                            # node indices to the nearest node. A 2x finer robot:
                            # python3 tools/mesh/gen_meshes.py DIR --robot-h 4.4 --only robot
+  # base_stiffness = 1.0e5  # N/m, each axis: the base on springs of this total
+                           # stiffness, shared by the model's fixed nodes (default clamped)
 
   [[occluders]]            # optional, any number: a sphere hiding part of the view
   center = [0.1, -0.2, 0.2]

@@ -1,7 +1,7 @@
-//! Model files (TOML): mesh, placement, units, material, mass, gravity, fixed nodes,
-//! cables, loads, effectors and force points. Values are written in the file's units
-//! (`units = "SI"` or `"mm-kg-s"` as SOFA scenes: mm, kg, s, hence mN and kPa) and
-//! converted to SI on load.
+//! Model files (TOML): mesh, placement, units, material, mass, gravity, fixed nodes (clamped,
+//! or on springs: `base_stiffness`), cables, loads, effectors and force points. Values are
+//! written in the file's units (`units = "SI"` or `"mm-kg-s"` as SOFA scenes: mm, kg, s,
+//! hence mN and kPa) and converted to SI on load.
 //!
 //! ```
 //! let text = r#"
@@ -55,6 +55,11 @@ pub struct ModelSpec {
     /// Fixed-node selections.
     #[serde(default)]
     pub fixed: Vec<FixedSpec>,
+    /// Total stiffness of a compliant base (force unit per length unit: N/m in both unit
+    /// systems, each axis), shared equally by all fixed nodes as springs to their rest
+    /// positions; absent (default), the fixed nodes are clamped.
+    #[serde(default)]
+    pub base_stiffness: Option<f64>,
     /// Cable actuators.
     #[serde(default)]
     pub cables: Vec<CableSpec>,
@@ -366,6 +371,7 @@ impl Model {
         let material = Material::new(spec.material.young * u.pressure, spec.material.poisson)?;
         let mut p = Problem::new(mesh, material, formulation);
         p.fixed = fixed_nodes(&spec.fixed, &p.mesh, &u);
+        p.base_stiffness = base_stiffness(spec.base_stiffness, &u)?;
         if let Some(m) = &spec.mass {
             p.density = density(m, quality.volume, &u)?;
         }
@@ -489,6 +495,7 @@ fn check_finite(spec: &ModelSpec) -> FemResult<()> {
         add("mass.density".into(), m.density.as_slice());
     }
     add("gravity".into(), spec.gravity.as_ref().map_or(&[], |v| v));
+    add("base_stiffness".into(), spec.base_stiffness.as_slice());
     for (i, f) in spec.fixed.iter().enumerate() {
         if let Some([lo, hi]) = &f.r#box {
             add(format!("fixed[{i}].box[0]"), lo);
@@ -528,12 +535,12 @@ fn check_finite(spec: &ModelSpec) -> FemResult<()> {
 /// The formulation a model file names (default corotational).
 fn parse_formulation(name: Option<&str>) -> FemResult<Formulation> {
     match name {
-        None | Some("corotational") | Some("large") => Ok(Formulation::Corotational),
-        Some("small-strain") | Some("linear") => Ok(Formulation::SmallStrain),
-        Some("neo-hookean") => Ok(Formulation::NeoHookean),
-        Some(f) => Err(FemError::Model(format!(
-            "unknown formulation {f:?}: use \"corotational\", \"small-strain\" or \"neo-hookean\""
-        ))),
+        None => Ok(Formulation::Corotational),
+        Some(f) => Formulation::from_name(f).ok_or_else(|| {
+            FemError::Model(format!(
+                "unknown formulation {f:?}: use \"corotational\", \"small-strain\" or \"neo-hookean\""
+            ))
+        }),
     }
 }
 
@@ -551,6 +558,16 @@ fn fixed_nodes(specs: &[FixedSpec], mesh: &TetMesh, u: &Units) -> Vec<usize> {
     fixed.sort_unstable();
     fixed.dedup();
     fixed
+}
+
+/// The base stiffness in N/m from file units, refused unless positive.
+fn base_stiffness(k: Option<f64>, u: &Units) -> FemResult<Option<f64>> {
+    match k {
+        Some(k) if !(k > 0.0) => Err(FemError::Model(format!(
+            "base_stiffness = {k}: must be positive (leave it out for a clamped base)"
+        ))),
+        k => Ok(k.map(|k| k * u.force / u.length)),
+    }
 }
 
 /// The node of `nodes` nearest to `p` (the first of equals; 0 for no nodes).

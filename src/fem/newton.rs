@@ -89,7 +89,8 @@ pub struct Solution {
     pub positions: Vec<[f64; 3]>,
     /// Node displacements from rest.
     pub displacement: Vec<[f64; 3]>,
-    /// External nodal forces at equilibrium (loads, gravity, cables; reactions at fixed nodes excluded).
+    /// External nodal forces at equilibrium (loads, gravity, cables; reactions at fixed
+    /// nodes and base springs excluded).
     pub external_force: Vec<[f64; 3]>,
     /// Cable tensions (N), in model order.
     pub cable_tension: Vec<f64>,

@@ -24,6 +24,28 @@ pub enum Formulation {
     NeoHookean,
 }
 
+impl Formulation {
+    /// The formulation a model file names: `"corotational"` (or `"large"`), `"small-strain"`
+    /// (or `"linear"`), `"neo-hookean"`; `None` for any other name.
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "corotational" | "large" => Some(Self::Corotational),
+            "small-strain" | "linear" => Some(Self::SmallStrain),
+            "neo-hookean" => Some(Self::NeoHookean),
+            _ => None,
+        }
+    }
+
+    /// The name model files write for it.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::SmallStrain => "small-strain",
+            Self::Corotational => "corotational",
+            Self::NeoHookean => "neo-hookean",
+        }
+    }
+}
+
 /// A point attached to the mesh: a weighted sum of (up to) four nodes.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct MappedPoint {
@@ -81,8 +103,11 @@ pub struct Problem {
     pub material: Material,
     /// Small-strain, corotational or Neo-Hookean.
     pub formulation: Formulation,
-    /// Fixed nodes (removed from the system).
+    /// Fixed nodes: clamped (removed from the system), or on springs with `base_stiffness`.
     pub fixed: Vec<usize>,
+    /// Total stiffness of a compliant base (N/m, each axis), shared equally by the fixed
+    /// nodes, each tied to its rest position by a linear spring; `None` (default) clamps them.
+    pub base_stiffness: Option<f64>,
     /// Nodes held at a prescribed displacement (removed from the system as well).
     pub prescribed: Vec<(usize, [f64; 3])>,
     /// Mass density (kg/m^3) for gravity.
@@ -108,6 +133,7 @@ impl Problem {
             material,
             formulation,
             fixed: Vec::new(),
+            base_stiffness: None,
             prescribed: Vec::new(),
             density: 0.0,
             gravity: [0.0; 3],
@@ -118,17 +144,27 @@ impl Problem {
         }
     }
 
-    /// Fixed and prescribed nodes, sorted, without repeats.
+    /// The nodes removed from the system: fixed ones (unless on springs) and prescribed
+    /// ones, sorted, without repeats.
     pub fn held_nodes(&self) -> Vec<usize> {
-        let mut v: Vec<usize> = self
-            .fixed
-            .iter()
-            .copied()
-            .chain(self.prescribed.iter().map(|p| p.0))
-            .collect();
-        v.sort_unstable();
-        v.dedup();
-        v
+        let clamped = match self.base_stiffness {
+            None => &self.fixed[..],
+            Some(_) => &[],
+        };
+        sorted_nodes(clamped, &self.prescribed)
+    }
+
+    /// The nodes that stop rigid motion: fixed ones (clamped or on springs) and prescribed
+    /// ones, sorted, without repeats.
+    pub fn support_nodes(&self) -> Vec<usize> {
+        sorted_nodes(&self.fixed, &self.prescribed)
+    }
+
+    /// The stiffness of each base spring (N/m, each axis): `base_stiffness` over the number
+    /// of fixed nodes; `None` for a clamped base (or no fixed nodes).
+    pub fn node_spring_stiffness(&self) -> Option<f64> {
+        let k = self.base_stiffness?;
+        (!self.fixed.is_empty()).then(|| k / self.fixed.len() as f64)
     }
 
     /// Node positions at rest, with prescribed nodes moved to their prescribed place.
@@ -146,12 +182,13 @@ impl Problem {
     pub fn check_supports(&self) -> FemResult<()> {
         let n = self.mesh.num_nodes();
         let held = self.held_nodes();
-        if held.is_empty() {
+        let supports = self.support_nodes();
+        if supports.is_empty() {
             return Err(FemError::Singular(
                 "no fixed nodes: rigid motions are free".into(),
             ));
         }
-        if let Some(&v) = held.iter().find(|&&v| v >= n) {
+        if let Some(&v) = supports.iter().find(|&&v| v >= n) {
             return Err(FemError::Model(format!(
                 "fixed node {v} does not exist ({n} nodes)"
             )));
@@ -193,7 +230,8 @@ impl Problem {
         }
         let mut fixed_by_root: std::collections::BTreeMap<usize, Vec<[f64; 3]>> =
             Default::default();
-        for &v in &held {
+        // Springs in x, y and z on nodes spanning a plane stop rigid motion as clamps do.
+        for &v in &supports {
             let r = find(&mut parent, v);
             fixed_by_root
                 .entry(r)
@@ -319,6 +357,14 @@ impl Problem {
         self.solver()?
             .solve_static_observed(params, None, step_done)
     }
+}
+
+/// `a` and the nodes of `b`, sorted, without repeats.
+fn sorted_nodes(a: &[usize], b: &[(usize, [f64; 3])]) -> Vec<usize> {
+    let mut v: Vec<usize> = a.iter().copied().chain(b.iter().map(|p| p.0)).collect();
+    v.sort_unstable();
+    v.dedup();
+    v
 }
 
 fn spans_plane(pts: &[[f64; 3]], scale: f64) -> bool {

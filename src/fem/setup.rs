@@ -26,6 +26,8 @@ pub struct SolverSetup {
     nodes: Vec<[f64; 3]>,
     tets: Vec<[usize; 4]>,
     held: Vec<usize>,
+    /// The nodes the support check passed with (held ones and a compliant base's).
+    supports: Vec<usize>,
     groups: Vec<Vec<usize>>,
     pub(super) rest: Arc<Vec<TetRest>>,
     pub(super) dofs: Arc<DofMap>,
@@ -90,6 +92,7 @@ impl SolverSetup {
             nodes: problem.mesh.nodes_in_rest.clone(),
             tets: problem.mesh.tets.clone(),
             held,
+            supports: problem.support_nodes(),
             groups,
             rest: Arc::new(rest),
             dofs: Arc::new(dofs),
@@ -100,11 +103,13 @@ impl SolverSetup {
         })
     }
 
-    /// Whether this setup was made for `problem`'s mesh, held nodes and cable attachments.
+    /// Whether this setup was made for `problem`'s mesh, held nodes, supports (a compliant
+    /// base's nodes are checked, not held) and cable attachments.
     pub fn fits(&self, problem: &Problem) -> bool {
         self.nodes == problem.mesh.nodes_in_rest
             && self.tets == problem.mesh.tets
             && self.held == problem.held_nodes()
+            && self.supports == problem.support_nodes()
             && self.groups == cable_groups(problem)
     }
 }

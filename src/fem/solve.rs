@@ -109,6 +109,13 @@ impl<'p> Solver<'p> {
                 "prescribed displacement of node {v} is invalid"
             )));
         }
+        if let Some(k) = problem.base_stiffness {
+            if !(k > 0.0 && k.is_finite()) {
+                return Err(FemError::Model(format!(
+                    "base stiffness {k} N/m must be positive and finite"
+                )));
+            }
+        }
         Ok(Self {
             problem,
             dofs: setup.dofs.clone(),

@@ -26,6 +26,7 @@ pub struct SolverState {
     material: Material,
     formulation: Formulation,
     young_scale: Vec<f64>,
+    base_stiffness: Option<f64>,
     l_values: Arc<Pooled<f64>>,
     values: Vec<f64>,
     internal_force: Vec<f64>,
@@ -59,6 +60,7 @@ impl<'p> Solver<'p> {
         let reusable = state.material == problem.material
             && state.formulation == problem.formulation
             && state.young_scale == problem.young_scale
+            && state.base_stiffness == problem.base_stiffness
             && state.values.len() == setup.pattern.nnz()
             && state.l_values.len() == setup.symbolic.len_val();
         if !reusable {
@@ -83,6 +85,7 @@ impl<'p> Solver<'p> {
             material: self.problem.material,
             formulation: self.problem.formulation,
             young_scale: self.problem.young_scale.clone(),
+            base_stiffness: self.problem.base_stiffness,
             l_values: self.l_values,
             values: self.values,
             internal_force: self.internal_force,
@@ -130,7 +133,7 @@ impl<'p> Solver<'p> {
     /// of the previous assembly the element states are reused (the same values, bit for
     /// bit): with the same tangent they are only scattered again, and the rotated tangent
     /// after a consistent one is built from the stored rotations (no polar decomposition),
-    /// leaving the element states as they were.
+    /// leaving the element states as they were. A compliant base's springs are in both.
     pub fn assemble(&mut self, x: &[[f64; 3]], tangent: Tangent) -> FemResult<()> {
         let same_x = self.elements.len() == self.rest.len()
             && self.elements_at.len() == x.len()
@@ -140,23 +143,45 @@ impl<'p> Solver<'p> {
                 .flatten()
                 .zip(x.iter().flatten())
                 .all(|(a, b)| a.to_bits() == b.to_bits());
-        if same_x {
-            if tangent == self.elements_tangent {
-                self.scatter_elements();
-                return Ok(());
-            }
-            if tangent == Tangent::Definite && self.problem.formulation == Formulation::Corotational
-            {
-                self.scatter_rotated();
-                return Ok(());
+        let rotated =
+            tangent == Tangent::Definite && self.problem.formulation == Formulation::Corotational;
+        if same_x && tangent == self.elements_tangent {
+            self.scatter_elements();
+        } else if same_x && rotated {
+            self.scatter_rotated();
+        } else {
+            self.evaluate(x, tangent)?;
+            self.scatter_elements();
+            // `evaluate` emptied it (a failed evaluation leaves no reusable states).
+            self.elements_at.extend_from_slice(x);
+            self.elements_tangent = tangent;
+        }
+        self.add_base_stiffness();
+        Ok(())
+    }
+
+    /// Adds the base springs' stiffness k I to the fixed nodes' diagonal blocks of K.
+    fn add_base_stiffness(&mut self) {
+        let Some(k) = self.problem.node_spring_stiffness() else {
+            return;
+        };
+        let block = [[k, 0.0, 0.0], [0.0, k, 0.0], [0.0, 0.0, k]];
+        for &v in &self.problem.fixed {
+            (self.pattern).add_block(&self.dofs, v, v, &block, &mut self.values);
+        }
+    }
+
+    /// Adds the base springs' forces k (x − X) at the fixed nodes to the internal forces.
+    fn add_base_forces(&mut self, x: &[[f64; 3]]) {
+        let Some(k) = self.problem.node_spring_stiffness() else {
+            return;
+        };
+        let rest = &self.problem.mesh.nodes_in_rest;
+        for &v in &self.problem.fixed {
+            for c in 0..3 {
+                self.internal_force[3 * v + c] += k * (x[v][c] - rest[v][c]);
             }
         }
-        self.evaluate(x, tangent)?;
-        self.scatter_elements();
-        // `evaluate` emptied it (a failed evaluation leaves no reusable states).
-        self.elements_at.extend_from_slice(x);
-        self.elements_tangent = tangent;
-        Ok(())
     }
 
     /// Evaluates every element at `x` (forces, stress, rotation, `tangent`) into
@@ -216,6 +241,7 @@ impl<'p> Solver<'p> {
             }
         }
         self.elements = Arc::new(states);
+        self.add_base_forces(x);
         Ok(())
     }
 

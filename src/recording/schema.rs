@@ -179,6 +179,9 @@ pub struct TruthModel {
     pub formulation: String,
     /// Its mesh file (relative to the recording's folder when it can be), or the model's.
     pub mesh: String,
+    /// Its base's total stiffness (N/m, each axis) when compliant; absent: clamped.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub base_stiffness: Option<f64>,
 }
 
 /// How the calibration ended.

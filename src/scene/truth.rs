@@ -1,13 +1,14 @@
 //! `[truth]`: the body a scene's frames are rendered from, when it is not the model. Without
 //! it, the frames come from the very FE model that later inverts them (the "inverse
-//! crime"). With it, the robot is rendered with another modulus, Poisson ratio, element law
-//! or mesh of the same shape, while the recording still names the model: `truth.json`'s
-//! `model_path` and `material` are the model's, and its `truth_model` says what the body
-//! was, for reports only (the estimator never reads it).
+//! crime"). With it, the robot is rendered with another modulus, Poisson ratio, element law,
+//! mesh of the same shape or a compliant base, while the recording still names the model:
+//! `truth.json`'s `model_path` and `material` are the model's, and its `truth_model` says
+//! what the body was, for reports only (the estimator never reads it).
 //!
-//! A scene file's `[truth]` is a [`TruthSpec`]; a sweep file's is a [`TruthRanges`], drawn
-//! per scene on a stream of its own, so that adding `[truth]` to a sweep keeps every
-//! scene's camera and probes.
+//! One table, [`Truth`], over its numbers: a scene file's `[truth]` is a [`TruthSpec`]
+//! (numbers); a sweep file's is a [`TruthRanges`] (numbers or ranges), drawn per scene on a
+//! stream of its own, so that adding `[truth]` to a sweep keeps every scene's camera and
+//! probes.
 //!
 //! ```
 //! use softsense::scene::truth::{TruthRanges, TruthSpec};
@@ -28,28 +29,61 @@ use crate::recording::schema::TruthModel;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-/// A scene file's `[truth]`: how the rendered body differs from the model. Every field
-/// left out is the model's.
+/// A `[truth]` table: how the rendered body differs from the model, each number a `V`
+/// ([`TruthValue`]: a number in a scene file, a number or a range in a sweep file). Every
+/// field left out is the model's.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct TruthSpec {
+#[serde(
+    deny_unknown_fields,
+    bound(deserialize = "V: TruthValue + Deserialize<'de>")
+)]
+pub struct Truth<V> {
     /// The body's Young's modulus over the model's (1; within 0-10, exclusive of 0).
     #[serde(default = "one")]
-    pub young_factor: f64,
+    pub young_factor: V,
     /// The body's Poisson ratio (in (-1, 0.5)); default the model's.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub poisson: Option<f64>,
+    pub poisson: Option<V>,
     /// The body's element law, "corotational" or "neo-hookean"; default the model's.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub formulation: Option<String>,
-    /// Another volume mesh of the same body (relative to the scene file; in the model
-    /// file's units and placement); default the model's mesh.
+    /// Another volume mesh of the same body (relative to the file it is written in; in the
+    /// model file's units and placement); default the model's mesh.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mesh: Option<String>,
+    /// A compliant base: its total stiffness (N/m, each axis), shared by the model's fixed
+    /// nodes as springs to their rest positions; default the model's base (clamped).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub base_stiffness: Option<V>,
 }
 
-fn one() -> f64 {
-    1.0
+/// A scene file's `[truth]`.
+pub type TruthSpec = Truth<f64>;
+
+/// A sweep file's `[truth]`: `young_factor`, `poisson` and `base_stiffness` as a number or
+/// a range drawn per scene; `formulation` and `mesh` the same for every scene.
+pub type TruthRanges = Truth<Ranged>;
+
+/// A number of a [`Truth`]: one value ([`f64`]) or what a sweep draws one from ([`Ranged`]).
+pub trait TruthValue: Copy {
+    /// The value 1 (`young_factor`'s default).
+    fn one() -> Self;
+    /// Checks the value (each end of a range, and their order) with `check`.
+    fn check_with(self, field: &str, check: fn(&str, f64) -> SceneResult<()>) -> SceneResult<()>;
+}
+
+impl TruthValue for f64 {
+    fn one() -> Self {
+        1.0
+    }
+
+    fn check_with(self, field: &str, check: fn(&str, f64) -> SceneResult<()>) -> SceneResult<()> {
+        check(field, self)
+    }
+}
+
+fn one<V: TruthValue>() -> V {
+    V::one()
 }
 
 /// The largest accepted `young_factor`.
@@ -85,11 +119,11 @@ fn check_poisson(field: &str, nu: f64) -> SceneResult<()> {
     }
 }
 
-/// The element law a `[truth]` names.
+/// The element law a `[truth]` names: corotational or Neo-Hookean (small strain is not a
+/// body, only a model's simplification).
 fn formulation(name: &str) -> SceneResult<Formulation> {
-    match name {
-        "corotational" => Ok(Formulation::Corotational),
-        "neo-hookean" => Ok(Formulation::NeoHookean),
+    match Formulation::from_name(name) {
+        Some(f) if f != Formulation::SmallStrain && name == f.name() => Ok(f),
         _ => Err(bad(
             "truth.formulation",
             format!("{name:?}"),
@@ -98,37 +132,38 @@ fn formulation(name: &str) -> SceneResult<Formulation> {
     }
 }
 
-/// The name of an element law, as model files write it.
-fn formulation_name(f: Formulation) -> &'static str {
-    match f {
-        Formulation::SmallStrain => "small-strain",
-        Formulation::Corotational => "corotational",
-        Formulation::NeoHookean => "neo-hookean",
+fn check_stiffness(field: &str, k: f64) -> SceneResult<()> {
+    match k > 0.0 && k.is_finite() {
+        true => Ok(()),
+        false => Err(bad(field, k, "must be > 0 and finite (N/m)")),
     }
 }
 
-fn check_mesh_name(mesh: Option<&str>) -> SceneResult<()> {
-    match mesh {
-        Some(m) if m.trim().is_empty() => Err(bad("truth.mesh", "\"\"", "must name a file")),
-        _ => Ok(()),
-    }
-}
-
-impl TruthSpec {
+impl<V: TruthValue> Truth<V> {
     /// Checks every field; the error names the first bad one.
     pub fn check(&self) -> SceneResult<()> {
-        check_factor("truth.young_factor", self.young_factor)?;
+        (self.young_factor).check_with("truth.young_factor", check_factor)?;
         if let Some(nu) = self.poisson {
-            check_poisson("truth.poisson", nu)?;
+            nu.check_with("truth.poisson", check_poisson)?;
         }
         if let Some(f) = &self.formulation {
             formulation(f)?;
         }
-        check_mesh_name(self.mesh.as_deref())
+        if let Some(m) = &self.mesh {
+            if m.trim().is_empty() {
+                return Err(bad("truth.mesh", "\"\"", "must name a file"));
+            }
+        }
+        if let Some(k) = self.base_stiffness {
+            k.check_with("truth.base_stiffness", check_stiffness)?;
+        }
+        Ok(())
     }
+}
 
+impl TruthSpec {
     /// The body: `on_mesh` (the model, or the model on the truth's mesh: [`on_mesh`]) with
-    /// this truth's modulus, Poisson ratio and element law; `nominal` is the model's
+    /// this truth's modulus, Poisson ratio, element law and base; `nominal` is the model's
     /// material.
     pub fn body(&self, on_mesh: &Model, nominal: &Material) -> SceneResult<Model> {
         self.check()?;
@@ -137,6 +172,9 @@ impl TruthSpec {
         body.problem.material = Material::new(nominal.young() * self.young_factor, nu)?;
         if let Some(f) = &self.formulation {
             body.problem.formulation = formulation(f)?;
+        }
+        if let Some(k) = self.base_stiffness {
+            body.problem.base_stiffness = Some(k);
         }
         Ok(body)
     }
@@ -148,8 +186,9 @@ impl TruthSpec {
             young_factor: self.young_factor,
             young: m.young(),
             poisson: m.poisson(),
-            formulation: formulation_name(body.problem.formulation).into(),
+            formulation: body.problem.formulation.name().into(),
             mesh,
+            base_stiffness: body.problem.base_stiffness,
         }
     }
 }
@@ -204,9 +243,14 @@ impl Ranged {
         let [lo, hi] = self.bounds();
         lo + (hi - lo) * u
     }
+}
 
-    /// Checks both ends with `check`, and that they are in order.
-    fn check(self, field: &str, check: fn(&str, f64) -> SceneResult<()>) -> SceneResult<()> {
+impl TruthValue for Ranged {
+    fn one() -> Self {
+        Ranged::Fixed(1.0)
+    }
+
+    fn check_with(self, field: &str, check: fn(&str, f64) -> SceneResult<()>) -> SceneResult<()> {
         let [lo, hi] = self.bounds();
         check(field, lo)?;
         check(field, hi)?;
@@ -221,48 +265,11 @@ impl Ranged {
     }
 }
 
-/// A sweep file's `[truth]`: `young_factor` and `poisson` as a number or a range drawn per
-/// scene; `formulation` and `mesh` as in a scene file, the same for every scene.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct TruthRanges {
-    /// The body's Young's modulus over the model's (1), e.g. `[0.85, 1.15]`.
-    #[serde(default = "one_drawn")]
-    pub young_factor: Ranged,
-    /// The body's Poisson ratio; default the model's.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub poisson: Option<Ranged>,
-    /// The body's element law, "corotational" or "neo-hookean"; default the model's.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub formulation: Option<String>,
-    /// Another volume mesh of the same body (relative to the sweep file); default the
-    /// model's.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub mesh: Option<String>,
-}
-
-fn one_drawn() -> Ranged {
-    Ranged::Fixed(1.0)
-}
-
 /// The attempt key of the truth's draws: no attempt of a scene uses it, so the camera,
 /// probes and occluder of a scene do not depend on whether its sweep has a `[truth]`.
 const TRUTH_STREAM: u64 = u64::MAX;
 
 impl TruthRanges {
-    /// Checks every field; the error names the first bad one.
-    pub fn check(&self) -> SceneResult<()> {
-        self.young_factor
-            .check("truth.young_factor", check_factor)?;
-        if let Some(p) = self.poisson {
-            p.check("truth.poisson", check_poisson)?;
-        }
-        if let Some(f) = &self.formulation {
-            formulation(f)?;
-        }
-        check_mesh_name(self.mesh.as_deref())
-    }
-
     /// Scene `index`'s truth in a sweep of seed `seed` (`mesh`: the mesh path to write in
     /// it, resolved; default this file's as written).
     pub fn draw(&self, seed: u64, index: usize, mesh: Option<&Path>) -> TruthSpec {
@@ -272,6 +279,7 @@ impl TruthRanges {
             poisson: self.poisson.map(|p| p.at(u(2))),
             formulation: self.formulation.clone(),
             mesh: (mesh.map(|m| m.display().to_string())).or_else(|| self.mesh.clone()),
+            base_stiffness: self.base_stiffness.map(|k| k.at(u(3))),
         }
     }
 }

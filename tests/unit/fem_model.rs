@@ -88,3 +88,41 @@ fn model_files_name_the_formulation_and_an_unknown_one_is_an_error_listing_the_c
         "{err}"
     );
 }
+
+#[test]
+fn formulation_names_read_back_and_aliases_name_the_same_law() {
+    for f in [
+        Formulation::SmallStrain,
+        Formulation::Corotational,
+        Formulation::NeoHookean,
+    ] {
+        assert_eq!(Formulation::from_name(f.name()), Some(f));
+    }
+    assert_eq!(
+        Formulation::from_name("large"),
+        Some(Formulation::Corotational)
+    );
+    assert_eq!(
+        Formulation::from_name("linear"),
+        Some(Formulation::SmallStrain)
+    );
+    assert_eq!(Formulation::from_name("Neo-Hookean"), None);
+}
+
+#[test]
+fn a_model_on_another_mesh_reads_its_own_mesh_only_for_node_indices() {
+    // The model file's own mesh is missing: by position alone it is never read; a
+    // `fixed.nodes` needs it, and the error names it.
+    let root = common::project_root();
+    let robot = std::fs::read_to_string(root.join("meshes/models/robot.toml")).unwrap();
+    let text = robot.replace("path = \"../robot.vtu\"", "path = \"missing.vtu\"");
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("model.toml");
+    std::fs::write(&file, &text).unwrap();
+    let other = root.join("meshes/robot.vtu");
+    let m = Model::load_on_mesh(&file, &other).unwrap();
+    assert!(!m.problem.fixed.is_empty());
+    std::fs::write(&file, format!("{text}\n[[fixed]]\nnodes = [0]\n")).unwrap();
+    let e = Model::load_on_mesh(&file, &other).unwrap_err().to_string();
+    assert!(e.contains("missing.vtu"), "{e}");
+}

@@ -311,3 +311,64 @@ fn a_sweeps_truth_mesh_is_rendered_and_written_so_its_scene_files_load_again() {
     let json: serde_json::Value = serde_json::from_str(&text).unwrap();
     assert_eq!(json["truth_model"]["mesh"], "../../reversed.vtu");
 }
+
+#[test]
+fn a_compliant_base_truth_lowers_the_body_and_is_recorded() {
+    // 1e5 N/m under the robot's 4.9 N and the cable: the base sinks, the tip drops more.
+    let problem = Model::load(&robot_model(), None).unwrap().problem;
+    let (rest, base) = (&problem.mesh.nodes_in_rest, &problem.fixed);
+    let (model, soft) = (solved(""), solved("[truth]\nbase_stiffness = 1.0e5\n"));
+    let (m, s) = (tip_drop(&model, rest), tip_drop(&soft, rest));
+    assert!(
+        (1.01..1.1).contains(&(s / m)),
+        "tip drop {s} m against {m} m"
+    );
+    let sinks = base.iter().map(|&v| rest[v][2] - soft[0][v][2]);
+    let sink = sinks.sum::<f64>() / base.len() as f64;
+    assert!(sink > 1e-5, "the base sinks {sink} m");
+    assert!(base.iter().all(|&v| model[0][v] == rest[v]), "clamped");
+    let dir = tempfile::tempdir().unwrap();
+    let file = scene_file(dir.path(), "[truth]\nbase_stiffness = 1.0e5\n");
+    let scene = Scene::load(&file).unwrap();
+    let truth = generate(&scene, &dir.path().join("out"), |_, _| {}).unwrap();
+    let t = truth.truth_model.expect("a truth_model");
+    assert_eq!((t.young_factor, t.base_stiffness), (1.0, Some(1.0e5)));
+}
+
+#[test]
+fn a_bad_base_stiffness_is_refused_by_name() {
+    for line in [
+        "base_stiffness = 0.0",
+        "base_stiffness = -1.0e5",
+        "base_stiffness = inf",
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let e = Scene::load(&scene_file(dir.path(), &format!("[truth]\n{line}\n"))).unwrap_err();
+        assert_eq!(field_of(e), "truth.base_stiffness", "{line}");
+    }
+}
+
+#[test]
+fn a_sweeps_base_stiffness_is_drawn_in_its_range_on_the_truths_own_stream() {
+    use softsense::scene::truth::{TruthRanges, TruthSpec};
+    let with: TruthRanges =
+        toml::from_str("young_factor = [0.9, 1.1]\nbase_stiffness = [1.0e5, 1.0e6]").unwrap();
+    let without: TruthRanges = toml::from_str("young_factor = [0.9, 1.1]").unwrap();
+    assert!(with.check().is_ok());
+    let mut drawn = Vec::new();
+    for index in 0..8 {
+        let (a, b): (TruthSpec, TruthSpec) =
+            (with.draw(3, index, None), without.draw(3, index, None));
+        let k = a.base_stiffness.expect("drawn");
+        assert!((1.0e5..=1.0e6).contains(&k), "{k}");
+        // Adding the base leaves the other draws as they were.
+        assert_eq!(a.young_factor, b.young_factor);
+        drawn.push(k);
+    }
+    assert!(drawn.windows(2).any(|w| w[0] != w[1]), "{drawn:?}");
+    let bad: TruthRanges = toml::from_str("base_stiffness = [1.0e6, 1.0e5]").unwrap();
+    match bad.check() {
+        Err(SceneError::BadTruth { field, .. }) => assert_eq!(field, "truth.base_stiffness"),
+        other => panic!("{other:?}"),
+    }
+}
