@@ -23,8 +23,9 @@ Each marker is bound to the model's surface at the mean of its entries in the fi
 taken in the model's free equilibrium (gravity and cable inputs, no loads): those frames \
 should show the body unloaded. The reference's noise is common to every later frame and is \
 included in sigma (its share is 1/N of a frame's); --reference binds at exact positions \
-instead. Per frame, markers that are missing or moved \
-more than the hidden threshold since their last accepted position lose their 3 rows; the \
+instead. Per frame, markers that are missing or farther \
+than the hidden threshold from where they are expected (their last accepted position moved \
+by their nearest accepted neighbours' displacement) lose their 3 rows; the \
 forces are solved at all candidates together, and candidates whose force exceeds 5 sigma \
 and 20% of the largest are reported as found, neighbours (--group-radius-mm) merged at their \
 weighted centre. A force found at several neighbouring candidates lies between them: it is \
@@ -75,7 +76,8 @@ pub struct MarkersArgs {
     /// One sigma of a marker coordinate (mm).
     #[arg(long, default_value_t = 0.1)]
     sigma_mm: f64,
-    /// A marker that jumps more than this between frames is hidden (mm).
+    /// A marker farther than this from where it is expected (its last accepted position
+    /// moved by its nearest accepted neighbours' displacement in the frame) is hidden (mm).
     #[arg(long, default_value_t = 5.0)]
     hidden_jump_mm: f64,
     /// Found candidates closer than this are one located force (mm); a force found at

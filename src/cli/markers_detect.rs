@@ -47,7 +47,8 @@ pub struct DetectArgs {
     /// Fewest pixels of a marker blob.
     #[arg(long, default_value_t = 8)]
     min_pixels: usize,
-    /// A detection farther than this from a marker's last position is another marker (mm).
+    /// A detection farther than this from where a marker is expected (its last position
+    /// moved by its nearest matched neighbours' displacement) is another marker (mm).
     #[arg(long, default_value_t = 10.0)]
     max_jump_mm: f64,
     /// Reference layout (softsense track file): the marker names and starting positions.

@@ -18,12 +18,16 @@
 //!    r its ray with z = 1) against πr²: a blob outside `area_range` is a marker partly
 //!    hidden (its centre would be off) or two merged, and is left out.
 //!
-//! Across frames ([`track_detections`]): a detection takes the identity of the nearest
-//! marker's last position (closest pairs first), within `max_jump`; with a reference layout
+//! Across frames ([`track_detections`]): a detection takes the identity of the marker
+//! whose expected position is nearest (closest pairs first), within `max_jump`; a marker is
+//! expected at its last position moved by the displacement of the markers already matched
+//! in the frame ([`super::motion`]), so markers that move with the body keep their
+//! identities beyond `max_jump`; with a reference layout
 //! the markers are the reference's and start at its positions, else the first frame's
 //! detections are the markers (named `m0`, `m1`, ... in image order) and a later
 //! unmatched detection is a new marker. A marker not detected in a frame is a missing entry.
 
+use super::motion::MotionTracker;
 use super::tracks::{MarkerTracks, TrackFrame};
 use super::{MarkersError, MarkersResult};
 use crate::camera::PinholeIntrinsics;
@@ -47,8 +51,9 @@ pub struct DetectParams {
     pub radius: f64,
     /// A blob's area on the surface must be within this range of πr² (default [0.6, 1.6]).
     pub area_range: [f64; 2],
-    /// A detection farther than this from a marker's last position is not that marker (m;
-    /// default 0.01).
+    /// A detection farther than this from where a marker is expected (its last position
+    /// moved by its matched neighbours' displacement, [`super::motion`]) is not that marker
+    /// (m; default 0.01).
     pub max_jump: f64,
 }
 
@@ -306,44 +311,34 @@ pub fn detect_frame(
 }
 
 /// Identities across frames (see the module docs): `frames` are (frame number, that
-/// frame's detected positions); `reference` the marker names and positions to start from.
-/// Returns the tracks and the number of detections left unassigned (only with a
-/// reference: without one they start new markers).
+/// frame's detected positions); `reference` the marker names and positions to start from;
+/// `max_jump` (m) how far from its expected position ([`super::motion`]: its last position
+/// moved by the displacement of the markers already matched in this frame) a detection may
+/// be and still be that marker. Returns the tracks and the number of detections left
+/// unassigned (only with a reference: without one they start new markers).
 pub fn track_detections(
     frames: &[(u64, Vec<[f64; 3]>)],
     reference: Option<&MarkerTracks>,
     max_jump: f64,
 ) -> (MarkerTracks, usize) {
     let mut names: Vec<String> = Vec::new();
-    let mut last: Vec<Option<[f64; 3]>> = Vec::new();
+    let mut tracker = MotionTracker::new(0);
     if let Some(r) = reference {
         names = r.names.clone();
-        last = (0..names.len())
+        tracker = MotionTracker::new(names.len());
+        let start: Vec<Option<[f64; 3]>> = (0..names.len())
             .map(|m| r.frames.iter().find_map(|f| f.positions[m]))
             .collect();
+        tracker.record(&start);
     }
     let mut out = Vec::with_capacity(frames.len());
     let mut dropped = 0;
     for (frame, detected) in frames {
-        let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
-        for (m, l) in last.iter().enumerate() {
-            let Some(l) = l else { continue };
-            for (j, p) in detected.iter().enumerate() {
-                let d = norm(sub(*p, *l));
-                if d <= max_jump {
-                    pairs.push((d, m, j));
-                }
-            }
-        }
-        pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let mut positions: Vec<Option<[f64; 3]>> = vec![None; names.len()];
+        let matched = tracker.match_step(detected, |_| 0..detected.len(), max_jump);
+        let mut positions: Vec<Option<[f64; 3]>> =
+            matched.iter().map(|j| j.map(|j| detected[j])).collect();
         let mut used = vec![false; detected.len()];
-        for (_, m, j) in pairs {
-            if positions[m].is_none() && !used[j] {
-                positions[m] = Some(detected[j]);
-                used[j] = true;
-            }
-        }
+        matched.iter().flatten().for_each(|&j| used[j] = true);
         for (j, p) in detected.iter().enumerate() {
             if used[j] {
                 continue;
@@ -352,15 +347,11 @@ pub fn track_detections(
                 dropped += 1;
             } else {
                 names.push(format!("m{}", names.len()));
+                tracker.add_marker();
                 positions.push(Some(*p));
-                last.push(None);
             }
         }
-        for (l, p) in last.iter_mut().zip(&positions) {
-            if p.is_some() {
-                *l = *p;
-            }
-        }
+        tracker.record(&positions);
         out.push(TrackFrame {
             frame: *frame,
             positions,

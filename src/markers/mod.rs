@@ -4,6 +4,8 @@
 //!
 //! - [`tracks`]: marker track files (softsense's `frame,marker,x,y,z` CSV and OptiTrack
 //!   Motive CSV exports) and the hidden-marker rule ([`tracks::flag_hidden`]).
+//! - [`motion`]: where a marker is expected in a new frame, from the motion of its
+//!   neighbours ([`motion::MotionTracker`]), for the hidden-marker rule and detection.
 //! - [`bind`]: markers at their nearest surface-triangle point ([`BoundMarker`]); candidate
 //!   force locations snapped to surface nodes with their allowed directions
 //!   ([`CandidateLocation`]).
@@ -39,6 +41,7 @@ pub mod calib;
 pub mod detect;
 pub mod layout;
 pub mod locate;
+pub mod motion;
 pub mod refine;
 pub mod solve;
 pub mod tracks;
@@ -224,8 +227,9 @@ pub type MarkersResult<T> = std::result::Result<T, MarkersError>;
 pub struct MarkersParams {
     /// One-sigma noise of each tracked marker coordinate (m; default 1e-4, OptiTrack's 0.1 mm).
     pub sigma: f64,
-    /// A marker that moved more than this since its last accepted position is hidden (m;
-    /// default 0.005; the thesis's 4.7.1 threshold, which it does not quantify).
+    /// A marker farther than this from where it is expected is hidden: its last accepted
+    /// position moved by its accepted neighbours' displacement ([`motion`]) (m; default
+    /// 0.005; the thesis's 4.7.1 threshold, which it does not quantify).
     pub hidden_jump: f64,
     /// Largest distance from a marker to the surface when binding it (m; default 0.005).
     pub max_bind_distance: f64,

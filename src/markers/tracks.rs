@@ -6,34 +6,34 @@ pub use crate::recording::tracks::{
     MarkerTracks, TrackFrame, TracksError,
 };
 
+use super::motion::MotionTracker;
 use super::MarkersParams;
 
-/// The hidden markers of each frame (frames x markers): missing, or moved more than
-/// `params.hidden_jump` from the marker's last accepted position (thesis 4.7.1: a tracker
-/// that swapped or lost a marker reports a point far from where the marker was). A
-/// marker's first visible position is accepted as it is.
+/// The hidden markers of each frame (frames x markers): missing, or more than
+/// `params.hidden_jump` from where the marker is expected (thesis 4.7.1: a tracker that
+/// swapped or lost a marker reports a point far from where the marker should be). The
+/// expected position is the marker's last accepted position moved by the displacement of
+/// its neighbours accepted in the same frame, closest first
+/// ([`super::motion::MotionTracker`]): a marker that moves with the body under a large load
+/// is kept, one that jumps off the body's motion is hidden. A marker's first visible
+/// position is accepted as it is.
 pub fn flag_hidden(tracks: &MarkerTracks, params: &MarkersParams) -> Vec<Vec<bool>> {
-    let mut last: Vec<Option<[f64; 3]>> = vec![None; tracks.names.len()];
+    let n = tracks.names.len();
+    let mut tracker = MotionTracker::new(n);
     let mut out = Vec::with_capacity(tracks.frames.len());
     for f in &tracks.frames {
-        let flags = f
-            .positions
-            .iter()
-            .zip(last.iter_mut())
-            .map(|(p, l)| match (p, *l) {
-                (None, _) => true,
-                (Some(p), Some(q))
-                    if crate::math::norm(crate::math::sub(*p, q)) > params.hidden_jump =>
-                {
-                    true
-                }
-                (Some(p), _) => {
-                    *l = Some(*p);
-                    false
-                }
+        let points: Vec<[f64; 3]> = f.positions.iter().map(|p| p.unwrap_or([0.0; 3])).collect();
+        let matched =
+            tracker.match_step(&points, |m| f.positions[m].map(|_| m), params.hidden_jump);
+        let accepted: Vec<Option<[f64; 3]>> = (0..n)
+            .map(|m| match (f.positions[m], tracker.last_position(m)) {
+                (Some(p), None) => Some(p),
+                (Some(p), Some(_)) if matched[m].is_some() => Some(p),
+                _ => None,
             })
             .collect();
-        out.push(flags);
+        tracker.record(&accepted);
+        out.push(accepted.iter().map(Option::is_none).collect());
     }
     out
 }

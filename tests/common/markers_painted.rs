@@ -3,7 +3,7 @@
 //! from the detected tracks and from the generator's true marker positions.
 use softsense::fem::model::Model;
 use softsense::markers::detect::{detect_recording, DetectParams};
-use softsense::markers::tracks::{read_tracks, MarkerTracks};
+use softsense::markers::tracks::{flag_hidden, read_tracks, MarkerTracks};
 use softsense::markers::{
     bind_markers, CandidateLocation, Directions, MarkerSensor, MarkersParams,
 };
@@ -23,12 +23,25 @@ pub struct PaintedFrame {
     pub exact: Vec<f64>,
     /// One σ of each detected estimate from `sigma` (N).
     pub sigma: Vec<f64>,
+    /// Detected markers hidden by [`flag_hidden`] (the expected-position rule) and left out
+    /// of `detected`.
+    pub hidden: usize,
+    /// From the detected markers with the raw 5 mm jump rule of before issue 51 item 4
+    /// ([`raw_jump_hidden`]) in place of [`flag_hidden`].
+    pub detected_raw: Vec<f64>,
+    /// Detected markers the raw jump rule hides.
+    pub hidden_raw: usize,
 }
 
 impl PaintedFrame {
     /// Relative error of each detected estimate.
     pub fn detected_errors(&self) -> Vec<f64> {
         rel(&self.detected, &self.applied)
+    }
+
+    /// Relative error of each detected estimate with the raw jump rule.
+    pub fn detected_raw_errors(&self) -> Vec<f64> {
+        rel(&self.detected_raw, &self.applied)
     }
 
     /// Relative error of each estimate from the true marker positions.
@@ -78,14 +91,45 @@ fn sensor(model: &Model, tracks: &MarkerTracks, points: &[[f64; 3]], sigma: f64)
     s
 }
 
-/// The forces along -z at each candidate, frame by frame after the first.
-fn solve(s: &MarkerSensor, tracks: &MarkerTracks) -> Vec<(Vec<f64>, Vec<f64>)> {
+/// The hidden-marker rule before issue 51 item 4, kept to measure against: a marker more
+/// than `jump` (m) from its last accepted position is hidden.
+pub fn raw_jump_hidden(tracks: &MarkerTracks, jump: f64) -> Vec<Vec<bool>> {
+    let mut last: Vec<Option<[f64; 3]>> = vec![None; tracks.names.len()];
+    let mut out = Vec::new();
+    for f in &tracks.frames {
+        let flags = (f.positions.iter().zip(last.iter_mut()))
+            .map(|(p, l)| match (p, *l) {
+                (None, _) => true,
+                (Some(p), Some(q))
+                    if (0..3).map(|k| (p[k] - q[k]).powi(2)).sum::<f64>() > jump * jump =>
+                {
+                    true
+                }
+                (Some(p), _) => {
+                    *l = Some(*p);
+                    false
+                }
+            })
+            .collect();
+        out.push(flags);
+    }
+    out
+}
+
+/// The forces along -z at each candidate, frame by frame after the first, with the markers
+/// flagged in `hidden` (frames x markers) left out.
+fn solve(
+    s: &MarkerSensor,
+    tracks: &MarkerTracks,
+    hidden: &[Vec<bool>],
+) -> Vec<(Vec<f64>, Vec<f64>)> {
     let mut previous = None;
     let mut out = Vec::new();
-    for f in &tracks.frames[1..] {
-        let est = s
-            .solve_frame(f.frame, &f.positions, previous.as_ref())
-            .unwrap();
+    for (f, flags) in tracks.frames.iter().zip(hidden).skip(1) {
+        let seen: Vec<Option<[f64; 3]>> = (f.positions.iter().zip(flags))
+            .map(|(p, h)| if *h { None } else { *p })
+            .collect();
+        let est = s.solve_frame(f.frame, &seen, previous.as_ref()).unwrap();
         assert_eq!(
             est.status,
             softsense::markers::MarkersStatus::Converged,
@@ -109,9 +153,17 @@ pub fn painted_pairs_scene() -> Scene {
     Scene::load(&root.join("tests/fixtures/markers/painted_sheet_pairs.toml")).unwrap()
 }
 
+/// `tests/fixtures/markers/painted_sheet_pairs_other_camera.toml`: the same sheet and
+/// loads seen by a camera from the side (+x) instead of the front.
+pub fn painted_pairs_other_camera_scene() -> Scene {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    Scene::load(&root.join("tests/fixtures/markers/painted_sheet_pairs_other_camera.toml")).unwrap()
+}
+
 /// Generates `scene` (frame 0 unloaded, every later frame with weights at the same
-/// points), detects its markers and solves the weights from them; `sigma` is the marker
-/// noise assumed for the reported σ (m).
+/// points), detects its markers, flags the hidden ones (as `softsense markers` does) and
+/// solves the weights from the others; `sigma` is the marker noise assumed for the reported
+/// σ (m). The same with the raw 5 mm jump rule, and from the true marker positions.
 pub fn forces_from_painted(scene: &Scene, sigma: f64) -> Vec<PaintedFrame> {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("frames");
@@ -128,14 +180,26 @@ pub fn forces_from_painted(scene: &Scene, sigma: f64) -> Vec<PaintedFrame> {
     let (detected, _, dropped) = detect_recording(&rec, &DetectParams::default(), None).unwrap();
     assert_eq!(dropped, 0);
     let truth = read_tracks(&out.join(softsense::scene::MARKERS_TRUTH)).unwrap();
-    let from_detected = solve(&sensor(&model, &detected, &points, sigma), &detected);
-    let from_truth = solve(&sensor(&model, &truth, &points, sigma), &truth);
-    (applied.into_iter().zip(from_detected).zip(from_truth))
-        .map(|((applied, (detected, sigma)), (exact, _))| PaintedFrame {
+    let s = sensor(&model, &detected, &points, sigma);
+    let params = MarkersParams::default();
+    let (hidden, hidden_raw) = (
+        flag_hidden(&detected, &params),
+        raw_jump_hidden(&detected, params.hidden_jump),
+    );
+    let from_detected = solve(&s, &detected, &hidden);
+    let from_raw = solve(&s, &detected, &hidden_raw);
+    let none = vec![vec![false; truth.names.len()]; truth.frames.len()];
+    let from_truth = solve(&sensor(&model, &truth, &points, sigma), &truth, &none);
+    let count = |h: &[bool]| h.iter().filter(|h| **h).count();
+    (applied.into_iter().enumerate())
+        .map(|(i, applied)| PaintedFrame {
             applied,
-            detected,
-            exact,
-            sigma,
+            detected: from_detected[i].0.clone(),
+            exact: from_truth[i].0.clone(),
+            sigma: from_detected[i].1.clone(),
+            hidden: count(&hidden[i + 1]),
+            detected_raw: from_raw[i].0.clone(),
+            hidden_raw: count(&hidden_raw[i + 1]),
         })
         .collect()
 }
