@@ -60,6 +60,9 @@ the other keys show their defaults:
   model = \"../meshes/models/robot.toml\"  # FE model, relative to this file
   table_half = 0.3         # table under the robot's lowest point (0: none)
   # young = 180000.0       # optional Young's modulus override (Pa)
+  reference_frames = 0     # unloaded frames (same camera, body, cables) written before
+                           # each scene's loaded frame, 0-16: sense them as a tare
+                           # with `sense --reference-frames N`
 
   [camera]
   distance = [0.4, 0.6]          # from the target (m)

@@ -40,6 +40,10 @@ Rules:
   sigma         over located loads: the magnitude error within 1/2/3 sigma (Gaussian:
                 68.3/95.4/99.7%), and the squared Mahalanobis distance e' C^-1 e of the
                 3-D error (Gaussian: median 2.37, 95% below 7.815)
+  reference     a frame sense took as its reference (--reference-frames; \"reference\":
+                true) is not scored
+  unloaded      a frame whose truth has no load: \"force above 2 sigma\" when some
+                estimate's magnitude exceeds twice its sigma (its estimates are phantoms)
 
 Every silent miss is listed with its recording and frame. Recordings of a sweep (its
 draws.json beside them) are also scored by how far the camera's azimuth is from the
@@ -254,7 +258,7 @@ fn pc(share: f64) -> String {
 
 fn summary_lines(s: &Summary) -> Vec<String> {
     let cover = s.sigma_coverage.map(pc);
-    vec![
+    let mut lines = vec![
         format!("frames                       {} ({} sensed, {} flagged)", s.frames, s.sensed, s.flagged_frames),
         format!("located within {:.0} mm         {}", LOCATED * 1e3, pct(s.located, s.loads)),
         format!("3-D force within {:.0}%         {}", WITHIN * 100.0, pct(s.within, s.loads)),
@@ -271,7 +275,14 @@ fn summary_lines(s: &Summary) -> Vec<String> {
             pc(s.within_ellipsoid95)
         ),
         format!("time per frame               median {:.0} ms", s.median_ms),
-    ]
+    ];
+    if s.unloaded_frames > 0 {
+        lines.push(format!(
+            "unloaded frames: force above 2 sigma {}",
+            pct(s.unloaded_above_2sigma, s.unloaded_frames)
+        ));
+    }
+    lines
 }
 
 fn print_text(s: &Score, recordings: usize) -> CliResult {

@@ -13,7 +13,11 @@
 //!   along the error; and an estimate of an unflagged frame matched to no true load
 //!   (a phantom);
 //! - sigma coverage: the magnitude error against `sigma` (1, 2, 3 σ) and the squared
-//!   Mahalanobis distance eᵀ C⁻¹ e of the 3-D error, over located loads.
+//!   Mahalanobis distance eᵀ C⁻¹ e of the 3-D error, over located loads;
+//! - a frame `sense` took as its reference (`"reference": true`) reads near zero by
+//!   construction and is not scored;
+//! - an *unloaded* frame (truth with no load) is *above 2σ* when some estimate's magnitude
+//!   exceeds twice its `sigma`; its estimates are phantoms as in any frame.
 
 use super::{CameraState, FrameStatus, CHI2_3DOF_95};
 use crate::math::median;
@@ -47,6 +51,9 @@ pub struct SensedFrame {
     /// Time of the frame (ms).
     #[serde(default)]
     pub ms: f64,
+    /// One of the frames `sense` took as its reference (`--reference-frames`): not scored.
+    #[serde(default)]
+    pub reference: bool,
     /// Each camera's part, for a recording of several cameras (absent for one).
     #[serde(default)]
     pub cameras: Vec<SensedCamera>,
@@ -174,6 +181,25 @@ pub struct Summary {
     pub within_ellipsoid95: f64,
     /// Median time per frame (ms).
     pub median_ms: f64,
+    /// Frames whose truth has no load (reference frames left out); written out only when
+    /// some.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub unloaded_frames: usize,
+    /// Unloaded frames with an estimate whose magnitude exceeds twice its sigma.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub unloaded_above_2sigma: usize,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
+}
+
+/// Whether `f` has an estimate whose magnitude exceeds twice its sigma.
+fn above_2sigma(f: &SensedFrame) -> bool {
+    f.forces.iter().any(|g| {
+        let m = g.force.iter().map(|c| c * c).sum::<f64>().sqrt();
+        m > 2.0 * g.sigma
+    })
 }
 
 /// Everything `score` prints.
@@ -277,6 +303,10 @@ fn summarise(frames: &[(&SensedFrame, Vec<LoadScore>, Vec<Phantom>)]) -> Summary
     let mut m2: Vec<f64> = located.iter().filter_map(|l| l.mahalanobis2).collect();
     let inside95 = m2.iter().filter(|&&d| d <= CHI2_3DOF_95).count();
     let phantoms = frames.iter().map(|f| f.2.len()).sum::<usize>();
+    let unloaded: Vec<&SensedFrame> = (frames.iter())
+        .filter(|f| f.1.is_empty())
+        .map(|f| f.0)
+        .collect();
     let silent_phantoms = frames
         .iter()
         .flat_map(|f| &f.2)
@@ -305,15 +335,17 @@ fn summarise(frames: &[(&SensedFrame, Vec<LoadScore>, Vec<Phantom>)]) -> Summary
         within_ellipsoid95: share(inside95, m2.len()),
         median_mahalanobis2: median(&mut m2),
         median_ms: median(&mut frames.iter().map(|f| f.0.ms).collect::<Vec<_>>()),
+        unloaded_frames: unloaded.len(),
+        unloaded_above_2sigma: unloaded.iter().filter(|f| above_2sigma(f)).count(),
     }
 }
 
 /// Scores every frame of every recording: `(recording name, its sense lines)`. Frames
-/// without truth (`errors` absent) are left out.
+/// without truth (`errors` absent) and reference frames are left out.
 pub fn score(recordings: &[(String, Vec<SensedFrame>)]) -> Score {
     let mut frames = Vec::new();
     for (name, lines) in recordings {
-        for f in lines.iter().filter(|f| f.errors.is_some()) {
+        for f in lines.iter().filter(|f| f.errors.is_some() && !f.reference) {
             let (l, p) = score_frame(name, f);
             frames.push((f, l, p));
         }
@@ -333,5 +365,48 @@ pub fn score(recordings: &[(String, Vec<SensedFrame>)]) -> Score {
         by_loads,
         loads: frames.iter().flat_map(|f| f.1.clone()).collect(),
         phantoms: frames.iter().flat_map(|f| f.2.clone()).collect(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A `sense --json` line: `forces` as (magnitude along z, sigma), `loads` true loads
+    /// along z, each matched to the estimate of the same index.
+    fn line(frame: usize, reference: bool, forces: &[(f64, f64)], loads: &[f64]) -> SensedFrame {
+        let forces = (forces.iter())
+            .map(|&(m, s)| format!(r#"{{"force":[0,0,{m}],"sigma":{s},"covariance":[[{v},0,0],[0,{v},0],[0,0,{v}]]}}"#, v = s * s))
+            .collect::<Vec<_>>()
+            .join(",");
+        let errors = (loads.iter().enumerate())
+            .map(|(i, m)| format!(r#"{{"truth_force":[0,0,{m}],"estimate":{i},"location_error":0.001,"force_error":0.01}}"#))
+            .collect::<Vec<_>>()
+            .join(",");
+        let text = format!(
+            r#"{{"frame":{frame},"reference":{reference},"status":"sensed","reliable":true,"forces":[{forces}],"errors":[{errors}],"ms":10}}"#
+        );
+        serde_json::from_str(&text).unwrap()
+    }
+
+    #[test]
+    fn reference_frames_are_not_scored_and_unloaded_frames_are_held_to_two_sigma() {
+        let frames = vec![
+            // The reference: not scored, whatever it reads.
+            line(0, true, &[(0.5, 0.01)], &[]),
+            line(1, true, &[], &[]),
+            // Unloaded: one reads 0.03 N with sigma 0.01 (above 2 sigma), one 0.01 N.
+            line(2, false, &[(0.03, 0.01)], &[]),
+            line(3, false, &[(0.01, 0.01)], &[]),
+            line(4, false, &[(0.5, 0.01)], &[0.5]),
+        ];
+        let s = score(&[("r".into(), frames)]);
+        assert_eq!(s.all.frames, 3);
+        assert_eq!(s.all.loads, 1);
+        assert_eq!((s.all.unloaded_frames, s.all.unloaded_above_2sigma), (2, 1));
+        // The unloaded frames' estimates are phantoms, as in any frame.
+        assert_eq!(s.all.phantoms, 2);
+        let json = serde_json::to_value(&s.by_loads[1].1).unwrap();
+        assert!(json.get("unloaded_frames").is_none(), "{json}");
     }
 }

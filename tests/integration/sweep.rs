@@ -318,3 +318,51 @@ fn a_sweeps_truth_is_drawn_per_scene_and_leaves_its_cameras_and_probes_alone() {
         other => panic!("not refused by name: {:?}", other.err()),
     }
 }
+
+#[test]
+fn a_sweep_with_reference_frames_writes_that_many_unloaded_frames_before_the_loaded_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let camera = "[camera]\ndistance = [0.45, 0.55]\n";
+    let plain = sweep_file(dir.path(), camera);
+    assert_eq!(plain.spec.reference_frames, 0);
+    let with_ref = sweep_file(dir.path(), &format!("reference_frames = 2\n{camera}"));
+    let prepared = Prepared::new(&plain).unwrap();
+    let write = |sweep: &Sweep, name: &str| {
+        let out = dir.path().join(name);
+        let (scene, _) =
+            softsense::scene::sweep::write_drawn(sweep, &prepared, 6, 0, &out).unwrap();
+        let truth: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("truth.json")).unwrap())
+                .unwrap();
+        let loads: Vec<usize> = (truth["frames"].as_array().unwrap().iter())
+            .map(|f| f["loads"].as_array().unwrap().len())
+            .collect();
+        (scene, loads, out)
+    };
+    // The default: one loaded frame per scene, as before.
+    let (a, loads, out) = write(&plain, "plain");
+    assert_eq!(loads, [1]);
+    assert!(!out.join("depth_0001.png").exists());
+    // Two unloaded frames first, of the same camera and cable inputs, then the same load.
+    let (b, loads, out) = write(&with_ref, "reference");
+    assert_eq!(loads, [0, 0, 1]);
+    assert!((0..3).all(|i| out.join(format!("depth_{i:04}.png")).is_file()));
+    assert_eq!(a.spec.camera.eye, b.spec.camera.eye);
+    assert!(b
+        .spec
+        .frames
+        .iter()
+        .all(|f| f.cables.len() == a.spec.frames[0].cables.len()));
+    let at = |s: &softsense::scene::Scene, i: usize| s.spec.frames[i].loads[0].at;
+    assert_eq!(at(&a, 0), at(&b, 2));
+    // Each frame is rendered at its own index: the unloaded frames differ in their noise.
+    let depth = |i: usize| std::fs::read(out.join(format!("depth_{i:04}.png"))).unwrap();
+    assert_ne!(depth(0), depth(1));
+    // The written sweep file keeps the option, and leaves it out when 0.
+    assert!(toml::to_string(&with_ref.spec)
+        .unwrap()
+        .contains("reference_frames = 2"));
+    assert!(!toml::to_string(&plain.spec)
+        .unwrap()
+        .contains("reference_frames"));
+}

@@ -24,7 +24,9 @@ mod spec;
 
 use serde::{Deserialize, Serialize};
 use spec::stream;
-pub use spec::{CameraRanges, OccluderRanges, ProbeRanges, Sweep, SweepSpec, Validity};
+pub use spec::{
+    CameraRanges, OccluderRanges, ProbeRanges, Sweep, SweepSpec, Validity, MAX_REFERENCE_FRAMES,
+};
 use std::borrow::Cow;
 use std::path::Path;
 
@@ -706,6 +708,29 @@ pub fn write_drawn(
         record,
     } = draw_body(sweep, prepared, &body, seed, index)?;
     scene.model_path = sweep.model_path.clone();
+    let unloaded = sweep.spec.reference_frames;
+    if unloaded > 0 {
+        // The unloaded frames first, then the loaded one, every frame rendered at its own
+        // index so no two share their sensor noise.
+        let loaded = scene.spec.frames.clone();
+        let cables = loaded.first().map_or_else(Vec::new, |f| f.cables.clone());
+        scene.spec.frames = (0..unloaded)
+            .map(|_| FrameInput {
+                cables: cables.clone(),
+                loads: Vec::new(),
+            })
+            .chain(loaded)
+            .collect();
+        super::write_recording(
+            &scene,
+            &prepared.model,
+            &body.model,
+            dir,
+            |i| render_frame(&scene, &body.model, i),
+            |_, _| {},
+        )?;
+        return Ok((scene, record));
+    }
     let mut once = Some(rendered);
     super::write_recording(
         &scene,

@@ -43,6 +43,20 @@ pub struct SweepSpec {
     /// scene; none: the model).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub truth: Option<TruthRanges>,
+    /// Unloaded frames written before each scene's loaded frame (frames, 0, at most
+    /// [`MAX_REFERENCE_FRAMES`]): no loads, the same camera, body and cable inputs, so a
+    /// scene can be sensed with `sense --reference-frames N` (or fewer, the rest sensed as
+    /// unloaded frames). 0 writes the one loaded frame per scene, as before; written out
+    /// only when not 0.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub reference_frames: usize,
+}
+
+/// Most unloaded frames a sweep writes before each scene's loaded frame.
+pub const MAX_REFERENCE_FRAMES: usize = 16;
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 fn default_table() -> f64 {
@@ -210,7 +224,7 @@ impl SweepSpec {
     /// Checks every range; the error names the first bad field.
     pub fn check(&self) -> Result<(), String> {
         let (c, p) = (&self.camera, &self.probes);
-        let checks: [(bool, &str); 14] = [
+        let checks: [(bool, &str); 15] = [
             (
                 range_ok(c.distance, 0.05, 20.0),
                 "camera.distance: [lo, hi] within 0.05-20 m",
@@ -266,6 +280,10 @@ impl SweepSpec {
             (
                 self.table_half.is_finite() && self.table_half >= 0.0,
                 "table_half: >= 0",
+            ),
+            (
+                self.reference_frames <= MAX_REFERENCE_FRAMES,
+                "reference_frames: 0-16",
             ),
         ];
         if let Some((_, what)) = checks.iter().find(|c| !c.0) {
