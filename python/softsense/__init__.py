@@ -335,8 +335,9 @@ class Sensor:
     Options are the command line's: ``features`` (surface feature points), ``registration``
     ("auto", "features" or "dense"), ``robot_color`` (sRGB triple), ``max_contacts``,
     ``reference_frames`` (the first N frames, unloaded, as the reference: later frames are
-    sensed relative to them) and ``known_load`` ((frame, newtons): the modulus calibrated
-    so that frame reads its load). The recording's cable inputs are used as the command
+    sensed relative to them), ``known_load`` ((frame, newtons): the modulus calibrated
+    so that frame reads its load) and ``modulus_from_sag`` (the modulus from the reference
+    frames' sag under the model's gravity and density). The recording's cable inputs are used as the command
     line uses them.
     """
 

@@ -110,12 +110,17 @@ fn take_reference(
     rec: &Rig,
     n: usize,
     known_load: Option<(usize, f64)>,
+    sag: bool,
 ) -> PyResult<()> {
     if n == 0 {
-        return match known_load {
-            Some(_) => Err(error("known_load needs reference_frames")),
-            None => Ok(()),
+        return match (known_load, sag) {
+            (Some(_), _) => Err(error("known_load needs reference_frames")),
+            (None, true) => Err(error("modulus_from_sag needs reference_frames")),
+            (None, false) => Ok(()),
         };
+    }
+    if sag && known_load.is_some() {
+        return Err(error("give known_load or modulus_from_sag, not both"));
     }
     if n >= rec.frames.len() {
         return Err(error(format!(
@@ -132,6 +137,10 @@ fn take_reference(
             .calibrate_modulus(rec, frames, frame, load, &Default::default())
             .map(|_| ())
             .map_err(error),
+        None if sag => sensor
+            .fit_modulus_from_sag(rec, frames, Default::default())
+            .map(|_| ())
+            .map_err(error),
         None => sensor
             .take_reference(rec, frames, Default::default())
             .map(|_| ())
@@ -144,11 +153,12 @@ impl Sensor {
     /// A sensor for `recording` with `model`, with `softsense sense`'s options: `features`
     /// (surface feature points), `registration` ("auto", "features" or "dense"),
     /// `robot_color` (sRGB), `max_contacts`, `reference_frames` (the first N frames, unloaded,
-    /// as the reference) and `known_load` ((frame, newtons): the modulus calibrated on it).
+    /// as the reference), `known_load` ((frame, newtons): the modulus calibrated on it) and
+    /// `modulus_from_sag` (the modulus from the reference frames' sag).
     /// The recording's cable inputs are used as the command line uses them (recorded, else
     /// its calibration's, else the model's).
     #[new]
-    #[pyo3(signature = (model, recording, features=None, registration="auto", robot_color=(40, 200, 60), max_contacts=None, reference_frames=0, known_load=None))]
+    #[pyo3(signature = (model, recording, features=None, registration="auto", robot_color=(40, 200, 60), max_contacts=None, reference_frames=0, known_load=None, modulus_from_sag=false))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         model: &Model,
@@ -159,6 +169,7 @@ impl Sensor {
         max_contacts: Option<usize>,
         reference_frames: usize,
         known_load: Option<(usize, f64)>,
+        modulus_from_sag: bool,
     ) -> PyResult<Self> {
         let rec = recording.0.clone();
         let registration = match registration {
@@ -182,7 +193,13 @@ impl Sensor {
             ))
         })?;
         sensor.use_recording_inputs(rec.shared()).map_err(error)?;
-        take_reference(&mut sensor, &rec, reference_frames, known_load)?;
+        take_reference(
+            &mut sensor,
+            &rec,
+            reference_frames,
+            known_load,
+            modulus_from_sag,
+        )?;
         Ok(Sensor { sensor, rec })
     }
 

@@ -157,6 +157,12 @@ pub struct SenseArgs {
     /// JSON "held": since, frames, force, magnitude, sigma, covariance).
     #[arg(long)]
     pub hold: bool,
+    /// With --reference-frames, find the model's Young's modulus from the body's own
+    /// weight: the reference frames' sag against the model's sag under its gravity and
+    /// density (the model's density must be the body's). No known load is needed; a wrong
+    /// density, or a shape the cables bend differently, is read as modulus.
+    #[arg(long, requires = "reference_frames", conflicts_with = "known_load")]
+    pub modulus_from_sag: bool,
 }
 
 /// `FRAME=NEWTONS`.
@@ -347,6 +353,19 @@ fn take_reference(args: &SenseArgs, rig: &Rig, sensor: &mut Sensor) -> CliResult
             fit.young / units,
             fit.young,
             100.0 * fit.relative_sigma
+        );
+    }
+    if args.modulus_from_sag {
+        let fit = (sensor.fit_modulus_from_sag(rig, &frames, Default::default()))
+            .map_err(|e| CliError::Lib(e.into()))?;
+        let units = sensor.model.units.pressure;
+        eprintln!(
+            "modulus from the sag: {:.4} times the model file's ({} rounds{}): young = {:.6e} in the model file's units ({:.4e} Pa)",
+            fit.factor,
+            fit.rounds.len(),
+            if fit.converged { "" } else { ", not converged" },
+            fit.young / units,
+            fit.young
         );
     }
     let tare = match sensor.tare() {

@@ -43,7 +43,7 @@ impl Default for TareParams {
 /// triangle's index, the barycentric weights of the hit and the outward normal, and the
 /// point's offset from the surface along that normal (m). `None` when it misses, meets a
 /// face turned away, or more obliquely than `min_cos`.
-fn surface_hit(
+pub(crate) fn surface_hit(
     bvh: &Bvh,
     triangles: &[[usize; 3]],
     x: &[[f64; 3]],

@@ -21,25 +21,45 @@ fn tip_weight_with(truth: &str) -> (tempfile::TempDir, Recording) {
     generated_recording(&body)
 }
 
+/// How the modulus is found after the reference.
+#[derive(Clone, Copy, PartialEq)]
+enum Modulus {
+    /// The model's.
+    Model,
+    /// From the 0.26 N frame.
+    KnownLoad,
+    /// From the reference frames' sag.
+    Sag,
+}
+
 /// The unloaded frame 2's force against its one-sigma, and the scored weights' relative
-/// errors (3-D force), with the reference and, when `calibrate`, the known weight.
-fn sensed(rec: &Recording, calibrate: bool) -> (f64, f64, Vec<f64>) {
+/// errors (3-D force), with the reference and the modulus found as `modulus` says.
+fn sensed(rec: &Recording, modulus: Modulus) -> (f64, f64, Vec<f64>) {
     let mut sensor: Sensor = sensor_for(rec, SenseParams::default());
-    if calibrate {
-        let fit = sensor
-            .calibrate_modulus(rec, &[0, 1], 3, 0.26, &ModulusParams::default())
-            .unwrap();
-        eprintln!(
-            "modulus factor {:.4} ({} rounds), ±{:.2}%",
-            fit.factor,
-            fit.rounds.len(),
-            100.0 * fit.relative_sigma
-        );
-        assert!(fit.converged);
-    } else {
-        sensor
-            .take_reference(rec, &[0, 1], Default::default())
-            .unwrap();
+    match modulus {
+        Modulus::KnownLoad => {
+            let fit = sensor
+                .calibrate_modulus(rec, &[0, 1], 3, 0.26, &ModulusParams::default())
+                .unwrap();
+            eprintln!(
+                "modulus factor {:.4} ({} rounds)",
+                fit.factor,
+                fit.rounds.len()
+            );
+            assert!(fit.converged);
+        }
+        Modulus::Sag => {
+            let fit = (sensor.fit_modulus_from_sag(rec, &[0, 1], Default::default())).unwrap();
+            eprintln!(
+                "modulus from the sag {:.4} ({} rounds)",
+                fit.factor,
+                fit.rounds.len()
+            );
+            assert!(fit.converged);
+        }
+        Modulus::Model => {
+            (sensor.take_reference(rec, &[0, 1], Default::default())).unwrap();
+        }
     }
     let report = |frame: usize| {
         let obs = sensor.observe(rec, frame).unwrap();
@@ -65,14 +85,14 @@ fn sensed(rec: &Recording, calibrate: bool) -> (f64, f64, Vec<f64>) {
 #[test]
 fn a_body_fifteen_percent_stiffer_than_its_model_reads_zero_unloaded_after_a_reference() {
     let (_dir, rec) = tip_weight_with("young_factor = 1.15");
-    let (magnitude, sigma, _) = sensed(&rec, false);
+    let (magnitude, sigma, _) = sensed(&rec, Modulus::Model);
     assert!(magnitude <= 2.0 * sigma, "{magnitude} N at sigma {sigma} N");
 }
 
 #[test]
 fn a_body_fifteen_percent_stiffer_reads_its_weights_within_three_percent_after_one_known_weight() {
     let (_dir, rec) = tip_weight_with("young_factor = 1.15");
-    let (magnitude, sigma, errors) = sensed(&rec, true);
+    let (magnitude, sigma, errors) = sensed(&rec, Modulus::KnownLoad);
     assert!(magnitude <= 2.0 * sigma, "{magnitude} N at sigma {sigma} N");
     assert!(errors.iter().all(|&e| e <= 0.03), "{errors:?}");
 }
@@ -82,7 +102,16 @@ fn a_neo_hookean_body_ten_percent_softer_reads_its_weights_within_three_percent_
 ) {
     let (_dir, rec) =
         tip_weight_with("young_factor = 0.9\nformulation = \"neo-hookean\"\npoisson = 0.43");
-    let (magnitude, sigma, errors) = sensed(&rec, true);
+    let (magnitude, sigma, errors) = sensed(&rec, Modulus::KnownLoad);
+    assert!(magnitude <= 2.0 * sigma, "{magnitude} N at sigma {sigma} N");
+    assert!(errors.iter().all(|&e| e <= 0.03), "{errors:?}");
+}
+
+#[test]
+fn a_body_fifteen_percent_stiffer_reads_its_weights_within_three_percent_with_the_modulus_from_its_sag(
+) {
+    let (_dir, rec) = tip_weight_with("young_factor = 1.15");
+    let (magnitude, sigma, errors) = sensed(&rec, Modulus::Sag);
     assert!(magnitude <= 2.0 * sigma, "{magnitude} N at sigma {sigma} N");
     assert!(errors.iter().all(|&e| e <= 0.03), "{errors:?}");
 }

@@ -597,3 +597,23 @@ fn sense_with_a_reference_and_a_known_load_marks_those_frames_and_keeps_the_mode
         }
     }
 }
+
+#[test]
+fn sense_finds_the_models_own_modulus_from_the_sag_of_its_own_body() {
+    let out = sense(&[
+        "clouds/scenes/tip_weight",
+        "--reference-frames",
+        "1",
+        "--modulus-from-sag",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let factor: f64 = err
+        .split("modulus from the sag: ")
+        .nth(1)
+        .and_then(|s| s.split_whitespace().next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("{err}"));
+    // The bundled scene is rendered from the model: its sag is the model's.
+    assert!((factor - 1.0).abs() < 0.01, "{factor}");
+}
