@@ -63,6 +63,8 @@ the other keys show their defaults:
   reference_frames = 0     # unloaded frames (same camera, body, cables) written before
                            # each scene's loaded frame, 0-16: sense them as a tare
                            # with `sense --reference-frames N`
+  held_frames = 1          # times each scene's loaded frame is written (1-64), each
+                           # with its own noise: `sense --hold`, `score --held`
 
   [camera]
   distance = [0.4, 0.6]          # from the target (m)

@@ -20,6 +20,10 @@ pub struct ScoreArgs {
     /// Print the score as one JSON object (every load and phantom listed) on stdout.
     #[arg(long)]
     json: bool,
+    /// Score only each recording's last frame, by the forces fused over the frames its
+    /// load was held (sensed with `sense --hold`; a sweep with `held_frames`).
+    #[arg(long)]
+    held: bool,
 }
 
 const LONG: &str = "\
@@ -44,6 +48,9 @@ Rules:
                 true) is not scored
   unloaded      a frame whose truth has no load: \"force above 2 sigma\" when some
                 estimate's magnitude exceeds twice its sigma (its estimates are phantoms)
+  --held        only each recording's last frame is scored, by its forces fused over
+                the frames the load was held (`sense --hold`); a last frame that ended
+                the hold (failed or unreliable) is scored as it is, flagged
 
 Every silent miss is listed with its recording and frame. Recordings of a sweep (its
 draws.json beside them) are also scored by how far the camera's azimuth is from the
@@ -56,7 +63,10 @@ Examples:
   softsense scene sweep tools/sweeps/robot_one_probe.toml /tmp/sw --count 100 --seed 7
   for d in /tmp/sw/scene_*/; do softsense sense \"$d\" --json > \"$d/sense.json\"; done
   softsense score /tmp/sw
-  softsense score /tmp/sw --json | jq '.all'";
+  softsense score /tmp/sw --json | jq '.all'
+  # a load held over 10 frames (held_frames = 10 in the sweep file):
+  for d in /tmp/sh/scene_*/; do softsense sense \"$d\" --hold --json > \"$d/sense.json\"; done
+  softsense score /tmp/sh --held";
 
 /// The recordings named on the command line, sweep folders expanded.
 fn expand(paths: &[PathBuf]) -> Result<Vec<PathBuf>, CliError> {
@@ -142,6 +152,15 @@ pub fn run(args: &ScoreArgs) -> CliResult {
             read_recording(d, &args.sense_file)?,
         ));
     }
+    let mut fused = Vec::new();
+    if args.held {
+        for (name, lines) in &mut recordings {
+            let last = softsense::sense::score::held_last(lines)
+                .ok_or_else(|| CliError::Result(format!("{name}: no frame to score for --held")))?;
+            fused.push(last.1 as f64);
+            *lines = vec![last.0];
+        }
+    }
     let s = score(&recordings);
     let by_azimuth = azimuth_groups(&dirs, &recordings);
     let by_cameras = camera_groups(&recordings);
@@ -156,9 +175,22 @@ pub fn run(args: &ScoreArgs) -> CliResult {
             .map(|(n, g)| serde_json::json!({"cameras": n, "summary": g}))
             .collect();
         v["by_cameras"] = serde_json::Value::Array(groups);
+        if args.held {
+            // Per recording, frames its last frame's forces fused (0: it ended the hold).
+            v["held_frames_fused"] = serde_json::json!(fused);
+        }
         return super::print_json(&v);
     }
     print_text(&s, dirs.len())?;
+    if args.held {
+        let ended = fused.iter().filter(|&&n| n == 0.0).count();
+        outln!(
+            "held: last frames scored by their fused forces; frames fused median {} (min {}); {ended} of {} ended the hold (scored unfused, flagged)",
+            softsense::math::median(&mut fused.clone()),
+            fused.iter().cloned().fold(f64::INFINITY, f64::min),
+            fused.len()
+        )?;
+    }
     for (n, g) in &by_cameras {
         outln!("frames sensed from {n} camera(s):")?;
         for l in summary_lines(g) {

@@ -57,6 +57,20 @@ pub struct SensedFrame {
     /// Each camera's part, for a recording of several cameras (absent for one).
     #[serde(default)]
     pub cameras: Vec<SensedCamera>,
+    /// The forces fused over the frames their load was held (`sense --hold`), one per
+    /// force of the frame; empty without `--hold` or when the frame ended the hold.
+    #[serde(default)]
+    pub held: Vec<SensedHeld>,
+}
+
+/// One held force as `sense --json --hold` prints it.
+#[derive(Clone, Debug, Deserialize)]
+pub struct SensedHeld {
+    /// Frames fused, this one included.
+    pub frames: usize,
+    /// The fused force, its magnitude sigma and covariance, as in [`SensedForce`].
+    #[serde(flatten)]
+    pub fused: SensedForce,
 }
 
 /// One camera's part in a frame as `sense --json` prints it.
@@ -340,6 +354,32 @@ fn summarise(frames: &[(&SensedFrame, Vec<LoadScore>, Vec<Phantom>)]) -> Summary
     }
 }
 
+/// The frame that ends a recording's hold, scored by its fused forces (`score --held`):
+/// the last scored frame of `lines`, each force replaced by its [`SensedHeld`] and each
+/// error measured again against the fused force. A last frame with no fused forces (it
+/// failed or was unreliable, which ended the hold) is kept as it is; it is flagged.
+/// Returns that frame and how many frames its forces fused (0 when none).
+pub fn held_last(lines: &[SensedFrame]) -> Option<(SensedFrame, usize)> {
+    let last = lines
+        .iter()
+        .rev()
+        .find(|f| f.errors.is_some() && !f.reference)?;
+    let mut f = last.clone();
+    if f.held.is_empty() || f.held.len() != f.forces.len() {
+        return Some((f, 0));
+    }
+    let fused = f.held.iter().map(|h| h.frames).min().unwrap_or(0);
+    f.forces = f.held.iter().map(|h| h.fused.clone()).collect();
+    for e in f.errors.iter_mut().flatten() {
+        if let Some(g) = e.estimate.and_then(|i| f.forces.get(i)) {
+            let truth = crate::math::norm(e.truth_force);
+            let d = crate::math::sub(g.force, e.truth_force);
+            e.force_error = crate::math::norm(d) / truth.max(f64::MIN_POSITIVE);
+        }
+    }
+    Some((f, fused))
+}
+
 /// Scores every frame of every recording: `(recording name, its sense lines)`. Frames
 /// without truth (`errors` absent) and reference frames are left out.
 pub fn score(recordings: &[(String, Vec<SensedFrame>)]) -> Score {
@@ -408,5 +448,28 @@ mod tests {
         assert_eq!(s.all.phantoms, 2);
         let json = serde_json::to_value(&s.by_loads[1].1).unwrap();
         assert!(json.get("unloaded_frames").is_none(), "{json}");
+    }
+
+    #[test]
+    fn a_held_score_takes_the_last_frame_by_its_fused_force_and_measures_its_error_again() {
+        let mut last = line(3, false, &[(0.52, 0.02)], &[0.5]);
+        let held = r#"{"frames":2,"force":[0,0,0.505],"sigma":0.01,"covariance":[[1e-4,0,0],[0,1e-4,0],[0,0,1e-4]]}"#;
+        last.held = vec![serde_json::from_str(held).unwrap()];
+        let lines = vec![
+            line(0, true, &[], &[]),
+            line(1, false, &[(0.1, 0.02)], &[0.5]),
+            last.clone(),
+        ];
+        let (f, fused) = held_last(&lines).unwrap();
+        assert_eq!((f.frame, fused), (3, 2));
+        assert_eq!(f.forces[0].force, [0.0, 0.0, 0.505]);
+        let e = f.errors.as_ref().unwrap()[0].force_error;
+        assert!((e - 0.01).abs() < 1e-12, "{e}");
+        // A last frame that ended the hold is kept as it was, with 0 frames fused.
+        let mut ended = lines.clone();
+        ended[2].held.clear();
+        let (f, fused) = held_last(&ended).unwrap();
+        assert_eq!((f.forces[0].force, fused), ([0.0, 0.0, 0.52], 0));
+        assert!(held_last(&lines[..1]).is_none());
     }
 }

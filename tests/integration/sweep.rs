@@ -366,3 +366,43 @@ fn a_sweep_with_reference_frames_writes_that_many_unloaded_frames_before_the_loa
         .unwrap()
         .contains("reference_frames"));
 }
+
+#[test]
+fn a_sweep_with_held_frames_writes_the_same_load_that_many_times_each_with_its_own_noise() {
+    let dir = tempfile::tempdir().unwrap();
+    let camera = "[camera]\ndistance = [0.45, 0.55]\n";
+    let plain = sweep_file(dir.path(), camera);
+    assert_eq!(plain.spec.held_frames, 1);
+    let held = sweep_file(
+        dir.path(),
+        &format!("reference_frames = 1\nheld_frames = 3\n{camera}"),
+    );
+    let prepared = Prepared::new(&plain).unwrap();
+    let out = dir.path().join("held");
+    let (scene, _) = softsense::scene::sweep::write_drawn(&held, &prepared, 6, 0, &out).unwrap();
+    let loads: Vec<usize> = scene.spec.frames.iter().map(|f| f.loads.len()).collect();
+    assert_eq!(loads, [0, 1, 1, 1]);
+    let at = |i: usize| scene.spec.frames[i].loads[0].at;
+    assert_eq!(at(1), at(3));
+    let depth = |i: usize| std::fs::read(out.join(format!("depth_{i:04}.png"))).unwrap();
+    assert_ne!(depth(1), depth(2));
+    assert!(toml::to_string(&held.spec)
+        .unwrap()
+        .contains("held_frames = 3"));
+    assert!(!toml::to_string(&plain.spec)
+        .unwrap()
+        .contains("held_frames"));
+    // Out of range is refused naming the key.
+    let bad = dir.path().join("bad.toml");
+    let model = root().join("meshes/models/robot.toml");
+    std::fs::write(
+        &bad,
+        format!(
+            "model = {:?}\nheld_frames = 0\n",
+            model.display().to_string()
+        ),
+    )
+    .unwrap();
+    let err = Sweep::load(&bad).unwrap_err().to_string();
+    assert!(err.contains("held_frames"), "{err}");
+}

@@ -708,19 +708,18 @@ pub fn write_drawn(
         record,
     } = draw_body(sweep, prepared, &body, seed, index)?;
     scene.model_path = sweep.model_path.clone();
-    let unloaded = sweep.spec.reference_frames;
-    if unloaded > 0 {
-        // The unloaded frames first, then the loaded one, every frame rendered at its own
-        // index so no two share their sensor noise.
+    let (unloaded, held) = (sweep.spec.reference_frames, sweep.spec.held_frames);
+    if unloaded > 0 || held > 1 {
+        // The unloaded frames first, then the loaded one as many times as it is held,
+        // every frame rendered at its own index so no two share their sensor noise.
         let loaded = scene.spec.frames.clone();
         let cables = loaded.first().map_or_else(Vec::new, |f| f.cables.clone());
-        scene.spec.frames = (0..unloaded)
-            .map(|_| FrameInput {
-                cables: cables.clone(),
-                loads: Vec::new(),
-            })
-            .chain(loaded)
-            .collect();
+        let unloaded_frames = (0..unloaded).map(|_| FrameInput {
+            cables: cables.clone(),
+            loads: Vec::new(),
+        });
+        let held_frames = (0..held).flat_map(|_| loaded.iter().cloned());
+        scene.spec.frames = unloaded_frames.chain(held_frames).collect();
         super::write_recording(
             &scene,
             &prepared.model,

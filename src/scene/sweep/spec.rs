@@ -50,6 +50,18 @@ pub struct SweepSpec {
     /// only when not 0.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub reference_frames: usize,
+    /// Times each scene's loaded frame is written (frames, 1, at most
+    /// [`MAX_HELD_FRAMES`]): the same load held over that many frames, each with its own
+    /// sensor noise, for `sense --hold` and `score --held`. Written out only when not 1.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub held_frames: usize,
+}
+
+/// Most frames a sweep holds each scene's load over.
+pub const MAX_HELD_FRAMES: usize = 64;
+
+fn one() -> usize {
+    1
 }
 
 /// Most unloaded frames a sweep writes before each scene's loaded frame.
@@ -224,7 +236,7 @@ impl SweepSpec {
     /// Checks every range; the error names the first bad field.
     pub fn check(&self) -> Result<(), String> {
         let (c, p) = (&self.camera, &self.probes);
-        let checks: [(bool, &str); 15] = [
+        let checks: [(bool, &str); 16] = [
             (
                 range_ok(c.distance, 0.05, 20.0),
                 "camera.distance: [lo, hi] within 0.05-20 m",
@@ -284,6 +296,10 @@ impl SweepSpec {
             (
                 self.reference_frames <= MAX_REFERENCE_FRAMES,
                 "reference_frames: 0-16",
+            ),
+            (
+                (1..=MAX_HELD_FRAMES).contains(&self.held_frames),
+                "held_frames: 1-64",
             ),
         ];
         if let Some((_, what)) = checks.iter().find(|c| !c.0) {
