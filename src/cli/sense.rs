@@ -122,8 +122,9 @@ pub struct SenseArgs {
     /// What the deformed FE surface is registered against. `dense`: every robot point the
     /// camera sees (up to 4000, evenly subsampled), each with its own depth noise;
     /// `features`: 300-600 feature points, each the mean of a 5 mm disc of points; `auto`:
-    /// dense for a frame with one seen contact, features otherwise (two contacts are
-    /// located better from features, tip weights are held by them). Dense costs about
+    /// dense for a frame with one seen contact, and with several after a reference
+    /// (`--reference-frames`), features otherwise (without a reference two contacts were
+    /// located better from features; tip weights are held by them). Dense costs about
     /// 85 ms per frame; docs/dense-registration.md has the sweeps behind the rule.
     #[arg(long, value_enum, default_value_t = RegistrationArg::Auto)]
     pub registration: RegistrationArg,
@@ -758,7 +759,8 @@ fn picture(
 /// `--registration`'s values ([`softsense::sense::Registration`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum RegistrationArg {
-    /// Dense for a frame with one seen contact, features otherwise.
+    /// Dense for a frame with one seen contact (or several, after a reference),
+    /// features otherwise.
     Auto,
     /// The feature points.
     Features,

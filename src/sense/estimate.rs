@@ -149,7 +149,7 @@ impl Sensor {
         let clock = std::time::Instant::now();
         let robot = self.tared_points(obs, &free.solution.positions);
         let registrar = Registrar::new(&robot);
-        let dense_on = self.params.registration.is_dense(contacts.len());
+        let dense_on = (self.params.registration).is_dense(contacts.len(), self.tare.is_some());
         let views = if dense_on {
             self.dense_views(obs, &robot)
         } else {
