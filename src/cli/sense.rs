@@ -345,28 +345,21 @@ fn take_reference(args: &SenseArgs, rig: &Rig, sensor: &mut Sensor) -> CliResult
         }
         let fit = (sensor.calibrate_modulus(rig, &frames, frame, load, &Default::default()))
             .map_err(|e| CliError::Lib(e.into()))?;
-        let units = sensor.model.units.pressure;
-        eprintln!(
-            "modulus: {:.4} times the model file's ({} rounds{}): young = {:.6e} in the model file's units ({:.4e} Pa), known to {:.2}%",
-            fit.factor,
-            fit.rounds.len(),
-            if fit.converged { "" } else { ", not converged" },
-            fit.young / units,
-            fit.young,
-            100.0 * fit.relative_sigma
-        );
+        let known = format!(", known to {:.2}%", 100.0 * fit.relative_sigma);
+        let rounds = (fit.rounds.len(), fit.converged);
+        print_modulus("modulus", sensor, fit.factor, fit.young, rounds, &known);
     }
     if args.modulus_from_sag {
         let fit = (sensor.fit_modulus_from_sag(rig, &frames, Default::default()))
             .map_err(|e| CliError::Lib(e.into()))?;
-        let units = sensor.model.units.pressure;
-        eprintln!(
-            "modulus from the sag: {:.4} times the model file's ({} rounds{}): young = {:.6e} in the model file's units ({:.4e} Pa)",
+        let rounds = (fit.rounds.len(), fit.converged);
+        print_modulus(
+            "modulus from the sag",
+            sensor,
             fit.factor,
-            fit.rounds.len(),
-            if fit.converged { "" } else { ", not converged" },
-            fit.young / units,
-            fit.young
+            fit.young,
+            rounds,
+            "",
         );
     }
     let tare = match sensor.tare() {
@@ -382,6 +375,25 @@ fn take_reference(args: &SenseArgs, rig: &Rig, sensor: &mut Sensor) -> CliResult
         tare.rms_after * 1e3
     );
     Ok(())
+}
+
+/// Prints a fitted modulus: its factor over the model file's, the rounds `(count,
+/// converged)`, and the value to put in the model file (in its units) and in Pa.
+fn print_modulus(
+    what: &str,
+    sensor: &Sensor,
+    factor: f64,
+    young: f64,
+    rounds: (usize, bool),
+    tail: &str,
+) {
+    let units = sensor.model.units.pressure;
+    let converged = if rounds.1 { "" } else { ", not converged" };
+    eprintln!(
+        "{what}: {factor:.4} times the model file's ({} rounds{converged}): young = {:.6e} in the model file's units ({young:.4e} Pa){tail}",
+        rounds.0,
+        young / units,
+    );
 }
 
 /// The recording folder: one camera (with `--pose` applied) or several.

@@ -113,7 +113,11 @@ fn in_robot_frame(axes: &[[f64; 3]], cov: &dyn Fn(usize, usize) -> f64) -> [[f64
 /// projected on the force's direction, Σ_kl p_k p_l cov(k, l) with p_k = a_k·F / |F|. A
 /// zero force has no direction, so its magnitude is taken as uncertain as the least
 /// certain direction: the largest σ over all of them ([`largest_sigma`]).
-fn magnitude_sigma(force: [f64; 3], axes: &[[f64; 3]], cov: &dyn Fn(usize, usize) -> f64) -> f64 {
+pub(super) fn magnitude_sigma(
+    force: [f64; 3],
+    axes: &[[f64; 3]],
+    cov: &dyn Fn(usize, usize) -> f64,
+) -> f64 {
     let magnitude = norm(force);
     if magnitude > 0.0 {
         let p: Vec<f64> = axes.iter().map(|a| dot(*a, force) / magnitude).collect();

@@ -5,6 +5,7 @@
 //! reference's noise and the model's stiffness, which fusion cannot average away). A force
 //! that moves or changes beyond its noise starts a new hold.
 
+use super::blend::magnitude_sigma;
 use super::params::CHI2_3DOF_95;
 use super::{largest_sigma, FrameReport, FrameStatus};
 use crate::math::{dist, norm};
@@ -179,13 +180,8 @@ impl Hold {
                 let force = [f[0], f[1], f[2]];
                 let magnitude = norm(force);
                 let sigma_max = largest_sigma(&covariance);
-                let sigma = match magnitude > 0.0 {
-                    true => {
-                        let u = f / magnitude;
-                        (u.transpose() * c * u)[0].max(0.0).sqrt()
-                    }
-                    false => sigma_max,
-                };
+                let axes = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+                let sigma = magnitude_sigma(force, &axes, &|r, q| covariance[r][q]);
                 Some(HeldForce {
                     since: self.since,
                     frames: self.frames,

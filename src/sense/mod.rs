@@ -53,7 +53,7 @@ pub use blend::{largest_sigma, LocationAlternative};
 pub use cameras::{CameraFrames, CameraReport, CameraState, SensorCamera};
 pub use free::SAME_INPUT;
 pub use hold::{HeldForce, Hold, HoldParams};
-pub use modulus::{ModulusFit, ModulusParams, ModulusRound};
+pub use modulus::{KnownLoadProblem, ModulusFit, ModulusParams, ModulusRound};
 pub use observe::{Observation, View};
 pub use params::{Registration, SenseParams, CHI2_3DOF_95};
 pub use report::{compare, ForceEstimate, FrameReport, FrameStatus, LoadError, MIN_SCORED_FORCE};
@@ -171,7 +171,7 @@ pub enum SenseError {
         /// The frame.
         frame: usize,
         /// Why.
-        why: String,
+        why: KnownLoadProblem,
     },
     /// A modulus that is not a material's.
     #[error("the model's modulus: {0}")]

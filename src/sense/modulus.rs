@@ -43,6 +43,31 @@ pub struct ModulusRound {
     pub sigma: f64,
 }
 
+/// Why a frame of known load could not calibrate the modulus
+/// ([`SenseError::KnownLoad`]).
+#[derive(Clone, Debug, PartialEq)]
+pub enum KnownLoadProblem {
+    /// The known load is not a positive number of newtons.
+    NotPositive(f64),
+    /// The frame could not be sensed.
+    NotSensed(FrameStatus),
+    /// The frame reads no force.
+    NoForce,
+}
+
+impl std::fmt::Display for KnownLoadProblem {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::NotPositive(load) => write!(
+                f,
+                "the known load must be a positive number of newtons, not {load}"
+            ),
+            Self::NotSensed(status) => write!(f, "{status:?}"),
+            Self::NoForce => write!(f, "it reads no force: is the load on it?"),
+        }
+    }
+}
+
 /// The modulus found by [`Sensor::calibrate_modulus`]; the sensor keeps it.
 #[derive(Clone, Debug, Serialize)]
 pub struct ModulusFit {
@@ -86,10 +111,8 @@ impl Sensor {
         params: &ModulusParams,
     ) -> SenseResult<ModulusFit> {
         if !(load.is_finite() && load > 0.0) {
-            return Err(SenseError::KnownLoad {
-                frame,
-                why: format!("the known load must be a positive number of newtons, not {load}"),
-            });
+            let why = KnownLoadProblem::NotPositive(load);
+            return Err(SenseError::KnownLoad { frame, why });
         }
         let nominal = self.model.problem.material.young();
         let inputs = source.camera_recording(0).inputs_of(frame);
@@ -102,9 +125,9 @@ impl Sensor {
             let obs = self.observe(source, frame)?;
             let report = self.sense(frame, &obs, inputs.as_ref());
             let why = match &report.status {
-                FrameStatus::Sensed if report.forces.is_empty() => Some("no force was read".into()),
+                FrameStatus::Sensed if report.forces.is_empty() => Some(KnownLoadProblem::NoForce),
                 FrameStatus::Sensed => None,
-                other => Some(format!("{other:?}")),
+                other => Some(KnownLoadProblem::NotSensed(other.clone())),
             };
             if let Some(why) = why {
                 return Err(SenseError::KnownLoad { frame, why });
@@ -124,10 +147,8 @@ impl Sensor {
                 sigma,
             });
             if read <= 0.0 {
-                return Err(SenseError::KnownLoad {
-                    frame,
-                    why: "it reads no force: is the load on it?".into(),
-                });
+                let why = KnownLoadProblem::NoForce;
+                return Err(SenseError::KnownLoad { frame, why });
             }
             if (read / load - 1.0).abs() <= params.tolerance {
                 converged = true;
