@@ -3,7 +3,8 @@
 //! within its noise of the fused estimate, the frames' forces are fused by their inverse
 //! covariances, and the fused σ shrinks as 1/√n, down to what every frame shares (the
 //! reference's noise and the model's stiffness, which fusion cannot average away). A force
-//! that moves or changes beyond its noise starts a new hold.
+//! that moves or changes beyond its noise starts a new hold once the next frame confirms
+//! it; a single frame that disagrees is left out.
 
 use super::blend::magnitude_sigma;
 use super::params::CHI2_3DOF_95;
@@ -62,6 +63,14 @@ struct Sums {
     location: [f64; 3],
 }
 
+/// One hold's sums: its first frame, frames fused, and each force's sums.
+#[derive(Clone, Debug, Default)]
+struct Run {
+    since: usize,
+    frames: usize,
+    forces: Vec<Sums>,
+}
+
 /// The running fusion of a stream's frames, in frame order ([`Hold::push`]).
 #[derive(Clone, Debug)]
 pub struct Hold {
@@ -70,9 +79,11 @@ pub struct Hold {
     /// is 1 + 1/N (1 without a reference), `model_error` is ε.
     reference: f64,
     model_error: f64,
-    since: usize,
-    frames: usize,
-    forces: Vec<Sums>,
+    /// The hold the latest frame belongs to.
+    current: Run,
+    /// The hold one frame before, when that frame disagreed with it or could not be used:
+    /// it resumes if the next frame agrees with it again.
+    interrupted: Option<Run>,
 }
 
 impl Hold {
@@ -87,31 +98,41 @@ impl Hold {
                 n => 1.0 + 1.0 / n as f64,
             },
             model_error,
-            since: 0,
-            frames: 0,
-            forces: Vec::new(),
+            current: Run::default(),
+            interrupted: None,
         }
     }
 
     /// Takes the next frame of the stream and sets its [`FrameReport::held`]: the fused
-    /// forces when its load is the one held (or this frame starts a new hold). A frame
-    /// that failed, is unreliable or is a reference frame ends the hold and gets none.
+    /// forces when its load is the one held (or this frame starts a new hold). A hold
+    /// outlasts one frame that disagrees with it or cannot be used (failed, unreliable, a
+    /// reference frame: it gets none), and resumes if the frame after agrees with it
+    /// again; two such frames in a row end it. The frame-to-frame scatter of a force's
+    /// direction often exceeds its 3-D covariance, so a single frame is not taken as a
+    /// change of load (with a restart on every disagreeing frame, 10-frame holds broke
+    /// after 2-3 frames).
     pub fn push(&mut self, report: &mut FrameReport) {
         let usable = matches!(report.status, FrameStatus::Sensed)
             && report.reliable
             && !report.reference
             && !report.forces.is_empty();
         let Some(own) = usable.then(|| self.own_noise(report)).flatten() else {
-            self.forces.clear();
-            self.frames = 0;
+            let run = std::mem::take(&mut self.current);
+            self.interrupted = (run.frames > 0).then_some(run);
             return;
         };
-        if !self.continues(report) {
-            self.forces = vec![];
-            self.frames = 0;
-            self.since = report.frame;
+        let resumes = (self.interrupted.as_ref()).is_some_and(|run| self.continues(run, report));
+        if resumes {
+            self.current = self.interrupted.take().unwrap_or_default();
+        } else if !self.continues(&self.current, report) {
+            let run = std::mem::take(&mut self.current);
+            self.interrupted = (run.frames > 0).then_some(run);
+            self.current.since = report.frame;
+        } else {
+            self.interrupted = None;
         }
-        let first = self.forces.is_empty();
+        let run = &mut self.current;
+        let first = run.forces.is_empty();
         for (k, (f, c0)) in report.forces.iter().zip(&own).enumerate() {
             let inv = c0.try_inverse().unwrap_or_else(Matrix3::zeros);
             let add = Sums {
@@ -120,16 +141,16 @@ impl Hold {
                 location: f.location,
             };
             if first {
-                self.forces.push(add);
+                run.forces.push(add);
             } else {
-                let s = &mut self.forces[k];
+                let s = &mut run.forces[k];
                 s.information += add.information;
                 s.weighted += add.weighted;
                 s.location = f.location;
             }
         }
-        self.frames += 1;
-        report.held = self.fused();
+        run.frames += 1;
+        report.held = self.fused(&self.current);
     }
 
     /// Each force's own noise C0 = (C − ε² F Fᵀ) / reference, `None` if one is singular.
@@ -147,11 +168,11 @@ impl Hold {
 
     /// Whether `report`'s forces are the held ones: as many, each within the radius of
     /// where it was and within its noise of the fused force.
-    fn continues(&self, report: &FrameReport) -> bool {
-        if self.forces.is_empty() || self.forces.len() != report.forces.len() {
+    fn continues(&self, run: &Run, report: &FrameReport) -> bool {
+        if run.forces.is_empty() || run.forces.len() != report.forces.len() {
             return false;
         }
-        let fused = self.fused();
+        let fused = self.fused(run);
         (report.forces.iter().zip(&fused)).all(|(f, h)| {
             let c = Matrix3::from_fn(|r, q| f.covariance[r][q] + h.covariance[r][q]);
             let d = Vector3::from(f.force) - Vector3::from(h.force);
@@ -163,10 +184,10 @@ impl Hold {
 
     /// The fused forces: the frames' own noise fused, plus what every frame shares (the
     /// reference's share of a frame's own noise, and ε² F Fᵀ).
-    fn fused(&self) -> Vec<HeldForce> {
-        let n = self.frames.max(1) as f64;
+    fn fused(&self, run: &Run) -> Vec<HeldForce> {
+        let n = run.frames.max(1) as f64;
         let e2 = self.model_error * self.model_error;
-        (self.forces.iter())
+        (run.forces.iter())
             .filter_map(|s| {
                 let fused_own = s.information.try_inverse()?;
                 let f = fused_own * s.weighted;
@@ -183,8 +204,8 @@ impl Hold {
                 let axes = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
                 let sigma = magnitude_sigma(force, &axes, &|r, q| covariance[r][q]);
                 Some(HeldForce {
-                    since: self.since,
-                    frames: self.frames,
+                    since: run.since,
+                    frames: run.frames,
                     force,
                     magnitude,
                     sigma,

@@ -1,6 +1,7 @@
 //! Fusion over held frames (`sense::Hold`) on reports made by hand: the fused force is the
 //! inverse-covariance mean, its σ shrinks as 1/√n down to what every frame shares, and a
-//! change beyond the noise, a moved force or a bad frame starts over.
+//! change beyond the noise, a moved force or a bad frame starts over once the next frame
+//! does not return to the hold.
 
 use softsense::sense::{ForceEstimate, FrameReport, FrameStatus, Hold, HoldParams};
 
@@ -84,6 +85,33 @@ fn a_load_that_changes_beyond_its_noise_starts_a_new_hold() {
     let mut r = report(10, [0.0, 0.52, 0.0], 0.002, [0.05, 0.0, 0.1]);
     hold.push(&mut r);
     assert_eq!((r.held[0].since, r.held[0].frames), (10, 1));
+    // A second frame at the new load confirms the change: the new hold goes on.
+    let mut r = report(11, [0.0, 0.52, 0.0], 0.002, [0.05, 0.0, 0.1]);
+    hold.push(&mut r);
+    assert_eq!((r.held[0].since, r.held[0].frames), (10, 2));
+    assert!((r.held[0].force[1] - 0.52).abs() < 1e-12);
+}
+
+#[test]
+fn one_frame_that_disagrees_does_not_end_a_hold_that_the_next_frame_agrees_with() {
+    let mut hold = Hold::new(HoldParams::default(), 0, 0.0);
+    held_ten(&mut hold, 0.0);
+    let mut odd = report(10, [0.0, 0.52, 0.0], 0.002, [0.05, 0.0, 0.1]);
+    hold.push(&mut odd);
+    assert_eq!((odd.held[0].since, odd.held[0].frames), (10, 1));
+    let mut back = report(11, [0.0, 0.5, 0.0], 0.002, [0.05, 0.0, 0.1]);
+    hold.push(&mut back);
+    // The odd frame is left out: eleven frames at 0.5 N fused.
+    assert_eq!((back.held[0].since, back.held[0].frames), (0, 11));
+    assert!((back.held[0].force[1] - 0.5).abs() < 1e-12);
+    // Likewise one unreliable frame.
+    let mut bad = report(12, [0.0, 0.5, 0.0], 0.002, [0.05, 0.0, 0.1]);
+    bad.reliable = false;
+    hold.push(&mut bad);
+    assert!(bad.held.is_empty());
+    let mut next = report(13, [0.0, 0.5, 0.0], 0.002, [0.05, 0.0, 0.1]);
+    hold.push(&mut next);
+    assert_eq!((next.held[0].since, next.held[0].frames), (0, 12));
 }
 
 #[test]
@@ -97,7 +125,18 @@ fn a_force_that_moved_or_a_frame_that_is_unreliable_ends_the_hold() {
     bad.reliable = false;
     hold.push(&mut bad);
     assert!(bad.held.is_empty());
+    // Two frames in a row that do not continue the first hold end it: the moved force
+    // and the unreliable frame. The next frame at the moved place joins the moved one.
     let mut next = report(12, [0.0, 0.5, 0.0], 0.002, [0.05, 0.01, 0.1]);
     hold.push(&mut next);
-    assert_eq!((next.held[0].since, next.held[0].frames), (12, 1));
+    assert_eq!((next.held[0].since, next.held[0].frames), (10, 2));
+    // Two unusable frames in a row end every hold.
+    for k in [13, 14] {
+        let mut bad = report(k, [0.0, 0.5, 0.0], 0.002, [0.05, 0.01, 0.1]);
+        bad.reliable = false;
+        hold.push(&mut bad);
+    }
+    let mut after = report(15, [0.0, 0.5, 0.0], 0.002, [0.05, 0.01, 0.1]);
+    hold.push(&mut after);
+    assert_eq!((after.held[0].since, after.held[0].frames), (15, 1));
 }
