@@ -13,6 +13,8 @@ mod cameras;
 mod control;
 #[path = "acceptance/explain_hidden.rs"]
 mod explain_hidden;
+#[path = "acceptance/explain_truth.rs"]
+mod explain_truth;
 #[path = "acceptance/markers_layout.rs"]
 mod markers_layout;
 #[path = "acceptance/markers_locate.rs"]

@@ -82,6 +82,8 @@ mod calibrate_pso;
 mod contact;
 #[path = "unit/discrepancy.rs"]
 mod discrepancy;
+#[path = "unit/discrepancy_truth.rs"]
+mod discrepancy_truth;
 
 #[path = "unit/render.rs"]
 mod render;

@@ -6,9 +6,11 @@ use clap::Args;
 use softsense::discrepancy::data::load_frames;
 use softsense::discrepancy::generate::{generate_dataset, layout, DatasetSpec, EFFECT_TYPES};
 use softsense::discrepancy::report::{describe, write_report};
+use softsense::discrepancy::truth::parse_truth;
 use softsense::discrepancy::{explain, DiscrepancyParams, Explanation, Outcome};
 use softsense::fem::model::Model;
 use softsense::render::discrepancy::{recorded_image_size, write_discrepancy_pictures};
+use softsense::scene::truth::TruthRanges;
 use std::path::{Path, PathBuf};
 
 /// Find where the model and the recorded frames disagree, name the missing effect, add it
@@ -137,6 +139,7 @@ fn report_model_text(model: &Path) -> Result<String, CliError> {
 /// Generate a hidden-effect dataset: OUT_DIR/frames (what `explain` reads) and
 /// OUT_DIR/truth_hidden.json (the truth, never read by `explain`).
 #[derive(Args, Debug)]
+#[command(after_help = HIDDEN_HELP)]
 pub struct HiddenArgs {
     /// Output folder.
     out_dir: PathBuf,
@@ -155,6 +158,35 @@ pub struct HiddenArgs {
     /// Number of frames.
     #[arg(long, default_value_t = 8)]
     frames: usize,
+    /// Render the frames from a body that is not the model (the hidden effects go on top
+    /// of it): a preset (modulus, neo-hookean), [truth] keys inline
+    /// ('young_factor = 1.1, formulation = "neo-hookean"') or a TOML file with them.
+    /// Default: the model itself.
+    #[arg(long, value_name = "TRUTH", value_parser = truth_arg)]
+    truth: Option<TruthRanges>,
+}
+
+const HIDDEN_HELP: &str = "\
+--truth: the keys of a scene file's [truth] table (docs/accuracy.md, truth that is not the model):
+  young_factor    the body's Young's modulus over the model's (default 1), in (0, 10]
+  poisson         the body's Poisson ratio (default the model's), in (-1, 0.5)
+  formulation     \"corotational\" or \"neo-hookean\" (default the model's)
+  mesh            another volume mesh of the same robot (relative to the TOML file)
+  base_stiffness  a compliant base, total N/m along each axis (default clamped)
+A number may be a range [lo, hi], drawn from --seed. Presets:
+  modulus         young_factor = [0.85, 1.15]
+  neo-hookean     formulation = \"neo-hookean\"
+The body drawn is written to truth_hidden.json (truth_model), which explain never reads.
+
+Examples:
+  softsense hidden /tmp/nh --model meshes/models/robot.toml --truth neo-hookean --effects gravity
+  softsense hidden /tmp/m --model meshes/models/robot.toml --truth 'young_factor = 1.1'
+  python3 tools/mesh/gen_meshes.py /tmp/fine --robot-h 4.4 --only robot
+  softsense hidden /tmp/f --model meshes/models/robot.toml --truth 'mesh = \"/tmp/fine/robot.vtu\"'";
+
+/// `--truth`'s parser: [`parse_truth`], its error as clap shows it.
+fn truth_arg(s: &str) -> Result<TruthRanges, String> {
+    parse_truth(s).map_err(|e| e.to_string())
 }
 
 /// Runs `hidden`.
@@ -165,6 +197,7 @@ pub fn run_hidden(args: &HiddenArgs) -> CliResult {
         seed: args.seed,
         effects: args.effects.clone(),
         magnitude: args.magnitude,
+        truth: args.truth.clone(),
         ..Default::default()
     };
     let (frames, truth) = layout(&args.out_dir);

@@ -1,14 +1,17 @@
 //! Hidden-effect datasets on the scene generator: a truth model equal to the nominal one
-//! plus hidden effects with random parameters, frames under varied cable inputs, the truth
+//! (or, with [`DatasetSpec::truth`], a body that is not the model: [`super::truth`]) plus
+//! hidden effects with random parameters, frames under varied cable inputs, the truth
 //! written to a separate file the workflow never reads.
 
 use super::effects::{apply_model, rotation, rotation_vector, tet_legs, Effect, EffectKind};
 use super::{load_candidates, DiscrepancyError, DiscrepancyResult};
 use crate::fem::model::Model;
 use crate::math::rand::{normal, uniform};
+use crate::recording::schema::TruthModel;
 use crate::recording::RecordingWriter;
 use crate::scene::camera::CameraSpec;
 use crate::scene::sensor::SensorModel;
+use crate::scene::truth::TruthRanges;
 use crate::scene::{render_frame, CableInput, FrameInput, LoadInput, LoadKind, Scene, SceneSpec};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -67,6 +70,11 @@ pub struct DatasetSpec {
     pub sensor: SensorModel,
     /// Range of the recorded cable tensions (N).
     pub tension: [f64; 2],
+    /// The body the frames are rendered from when it is not the model: a scene file's
+    /// `[truth]` keys (numbers, or ranges `[lo, hi]` drawn from `seed`), its mesh path
+    /// absolute. Default none: the model itself ([`super::truth::parse_truth`] reads it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub truth: Option<TruthRanges>,
 }
 
 impl Default for DatasetSpec {
@@ -80,6 +88,7 @@ impl Default for DatasetSpec {
             camera: small_camera(),
             sensor: SensorModel::default(),
             tension: [0.0, 2.0],
+            truth: None,
         }
     }
 }
@@ -105,6 +114,10 @@ pub struct DatasetTruth {
     pub hidden: Vec<Hidden>,
     /// The inputs actually applied per frame (recorded ones differ by any actuator offset).
     pub applied: Vec<FrameInput>,
+    /// The body the frames were rendered from, when it is not the model (`spec.truth`
+    /// drawn); the hidden effects are on top of it. Absent: the model.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub truth_model: Option<TruthModel>,
 }
 
 impl DatasetTruth {
@@ -284,7 +297,14 @@ pub fn generate_dataset(
         .map(|e| draw(e, &mut rng, spec.magnitude, &nominal, spec.frames))
         .collect::<DiscrepancyResult<Vec<_>>>()?;
     let recorded = recorded_inputs(spec, &nominal, &mut rng);
-    let world = true_world(spec, &nominal, &hidden, &recorded)?;
+    // The truth's draws are on a stream of their own (as a sweep's), so a dataset with a
+    // `--truth` hides the same effects under the same inputs as one without.
+    let drawn = (spec.truth.as_ref()).map(|t| t.draw(spec.seed, 0, None));
+    let body = match &drawn {
+        Some(t) => super::truth::truth_body(&spec.model, &nominal, t)?,
+        None => nominal.clone(),
+    };
+    let world = true_world(spec, &nominal, &body, &hidden, &recorded)?;
     render_frames(spec, &world, &writer)?;
     let recorded_cam = spec.camera.camera().ok_or_else(|| {
         DiscrepancyError::Data(
@@ -300,6 +320,7 @@ pub fn generate_dataset(
     let truth = DatasetTruth {
         spec: spec.clone(),
         hidden,
+        truth_model: (drawn.as_ref()).map(|t| t.record(&body, mesh_shown(t, &spec.model))),
         applied: world.applied,
     };
     crate::recording::write_json(truth_path, &truth)?;
@@ -350,22 +371,35 @@ fn recorded_inputs(spec: &DatasetSpec, nominal: &Model, rng: &mut Rng) -> Vec<Fr
         .collect()
 }
 
-/// The true world: the hidden effects applied to the nominal model, the recorded inputs
-/// and the recorded camera.
+/// The truth's mesh file as `truth_hidden.json` names it: its own, or the model's.
+fn mesh_shown(t: &crate::scene::truth::TruthSpec, model: &Path) -> String {
+    (t.mesh.clone())
+        .or_else(|| {
+            Model::mesh_file(model)
+                .ok()
+                .map(|m| m.display().to_string())
+        })
+        .unwrap_or_default()
+}
+
+/// The true world: the hidden effects applied to the body (the nominal model, or the
+/// `--truth` body), the recorded inputs and the recorded camera.
 fn true_world(
     spec: &DatasetSpec,
     nominal: &Model,
+    body: &Model,
     hidden: &[Hidden],
     recorded: &[FrameInput],
 ) -> DiscrepancyResult<TrueWorld> {
     let mut w = TrueWorld {
-        model: nominal.clone(),
+        model: body.clone(),
         applied: recorded.to_vec(),
         camera: spec.camera.clone(),
         depth: (0.0, 0.0),
         stiffening: None,
     };
-    let legs = tet_legs(&nominal.problem);
+    // The legs of the body's own tetrahedra: its mesh may not be the model's.
+    let legs = tet_legs(&body.problem);
     for h in hidden {
         match h {
             Hidden::Library(e) => match e.kind {
@@ -381,7 +415,10 @@ fn true_world(
                     w.camera = true_camera(&w.camera, [p[0], p[1], p[2]], [p[3], p[4], p[5]])?;
                 }
                 EffectKind::Depth => w.depth = (e.params[0], e.params[1]),
-                _ => apply_model(&mut w.model.problem, std::slice::from_ref(e), &legs)?,
+                _ => {
+                    let e = super::truth::onto_body(e, nominal, body);
+                    apply_model(&mut w.model.problem, std::slice::from_ref(&e), &legs)?
+                }
             },
             Hidden::VaryingLoad { node, forces } => {
                 let at = nominal.problem.mesh.nodes_in_rest[*node];

@@ -27,7 +27,7 @@
 //! statistics), `fit` (linear and exact fits), `select` (the choice between effects),
 //! `holdout` (split, confirmation), [`explanation`](Explanation) (what is reported),
 //! [`effects`], [`features`], [`data`] (frames folder), [`generate`] (hidden-effect
-//! datasets), [`report`] (report folder; its pictures are drawn by
+//! datasets), [`truth`] (their body when it is not the model), [`report`] (report folder; its pictures are drawn by
 //! [`crate::render::discrepancy`]).
 //!
 //! ```
@@ -49,6 +49,7 @@ mod params;
 pub mod report;
 mod residual;
 mod select;
+pub mod truth;
 mod workflow;
 
 pub use explanation::{
@@ -74,6 +75,14 @@ pub enum DiscrepancyError {
         path: String,
         /// What went wrong.
         message: String,
+    },
+    /// `hidden --truth`'s value cannot be used (it names the value and why).
+    #[error("--truth {arg:?}: {problem}")]
+    Truth {
+        /// The value as given.
+        arg: String,
+        /// What is wrong with it.
+        problem: String,
     },
     /// The recording or the parameters are inconsistent.
     #[error("discrepancy: {0}")]

@@ -48,6 +48,12 @@ pub struct DiscrepancyParams {
     /// floor or with more than two effects (0: none); default 6.
     // The pairs are the best by the joint linear fit.
     pub pair_candidates: usize,
+    /// An answer is "explained" only while at least this share of the scored residual rows
+    /// (features measured in the held-out frames) is still measured with the effects; below
+    /// it the verdict is "unexplained residual"; default 0.5.
+    // An effect that moves the model or the points off the measured surface (a depth
+    // scale of 1.9) leaves no rows, so χ² = 0: it explains the data away, not the data.
+    pub min_rows_kept: f64,
 }
 
 impl Default for DiscrepancyParams {
@@ -71,6 +77,7 @@ impl Default for DiscrepancyParams {
             refine_candidates: 5,
             huber: 3.0,
             pair_candidates: 6,
+            min_rows_kept: 0.5,
         }
     }
 }

@@ -152,11 +152,21 @@ impl<'a> Workflow<'a> {
     }
 }
 
-/// The answer from the statistics `eval` (last entry: all regions) with the effects kept.
-fn outcome(eval: &[RegionStats], z_significant: f64, fitted: &[FittedEffect]) -> Outcome {
+/// The answer from the statistics `eval` (last entry: all regions) with the effects kept;
+/// `rows_before`: the scored rows without any effect. Effects under which fewer than
+/// `params.min_rows_kept` of those rows are still measured explain nothing.
+fn outcome(
+    eval: &[RegionStats],
+    rows_before: usize,
+    params: &DiscrepancyParams,
+    fitted: &[FittedEffect],
+) -> Outcome {
+    let z_significant = params.z_significant;
     let regions = significant(eval, z_significant);
     let overall_ok = eval.last().is_some_and(|a| a.z <= z_significant);
-    if regions.is_empty() && overall_ok {
+    let rows = eval.last().map_or(0, |a| a.n) as f64;
+    let measured = rows >= params.min_rows_kept * rows_before as f64;
+    if regions.is_empty() && overall_ok && measured {
         if fitted.is_empty() {
             Outcome::NoMissingEffect
         } else {
@@ -216,7 +226,12 @@ pub fn explain(
     } else {
         after.clone()
     };
-    let outcome = outcome(&eval, params.z_significant, &fitted);
+    let rows_before = if hold.is_empty() {
+        wf.chi2(&res0, train).1
+    } else {
+        wf.chi2(&res0, hold).1
+    };
+    let outcome = outcome(&eval, rows_before, params, &fitted);
     let pick = |r: &[Vec<Residual>]| hold.iter().map(|&i| r[i].clone()).collect::<Vec<_>>();
     Ok(Explanation {
         outcome,
@@ -242,4 +257,50 @@ pub fn evaluate(
     let [train, hold] = split_frames(rec.frames.len(), params.holdout);
     let res = wf.all_residuals(effects)?;
     Ok([wf.stats(&res, &train), wf.stats(&res, &hold)])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn stats(n: usize, z: f64) -> Vec<RegionStats> {
+        vec![RegionStats {
+            region: "all".into(),
+            n,
+            chi2: n as f64,
+            z,
+            rms: 1e-4,
+            noise_rms: 1e-4,
+        }]
+    }
+
+    fn depth() -> FittedEffect {
+        FittedEffect {
+            effect: Effect {
+                kind: EffectKind::Depth,
+                params: vec![0.86, -0.054],
+            },
+            name: EffectKind::Depth.name(),
+            sigma: vec![0.0, 0.0],
+        }
+    }
+
+    #[test]
+    fn an_effect_that_leaves_the_features_unmeasured_explains_nothing() {
+        let p = DiscrepancyParams::default();
+        let e = [depth()];
+        // At the floor with the rows kept: explained.
+        let kept = outcome(&stats(900, 0.0), 1000, &p, &e);
+        assert!(matches!(kept, Outcome::Explained { .. }), "{kept:?}");
+        // At the floor because the rows are gone (χ² = 0 over none): not explained.
+        for n in [0, 400] {
+            let lost = outcome(&stats(n, 0.0), 1000, &p, &e);
+            assert!(
+                matches!(lost, Outcome::UnexplainedResidual { .. }),
+                "{n}: {lost:?}"
+            );
+        }
+        let none = outcome(&stats(1000, 0.0), 1000, &p, &[]);
+        assert!(matches!(none, Outcome::NoMissingEffect), "{none:?}");
+    }
 }

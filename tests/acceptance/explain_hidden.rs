@@ -10,6 +10,15 @@ use softsense::fem::model::Model;
 use std::path::PathBuf;
 
 fn run(effects: &[&str], seed: u64) -> (Explanation, Vec<Hidden>) {
+    run_on(effects, seed, None)
+}
+
+/// [`run`] with the frames rendered from `truth` (`hidden --truth`'s value) when given.
+pub(crate) fn run_on(
+    effects: &[&str],
+    seed: u64,
+    truth: Option<&str>,
+) -> (Explanation, Vec<Hidden>) {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let model_path = root.join("meshes/models/robot.toml");
     let dir = tempfile::tempdir().unwrap();
@@ -18,6 +27,7 @@ fn run(effects: &[&str], seed: u64) -> (Explanation, Vec<Hidden>) {
         model: model_path.clone(),
         seed,
         effects: effects.iter().map(|s| s.to_string()).collect(),
+        truth: truth.map(|t| softsense::discrepancy::truth::parse_truth(t).unwrap()),
         ..Default::default()
     };
     let truth = generate_dataset(&spec, &frames, &truth_path).unwrap();

@@ -381,3 +381,39 @@ fn rgbd_convert_of_a_real_frame_equals_pcls_pcd() {
     let pcl = read_cloud(format!("{s}.pcd")).unwrap();
     assert_same_cloud(&read_cloud(&out).unwrap(), &pcl);
 }
+
+#[test]
+fn hidden_truth_is_refused_naming_the_bad_key_and_its_help_lists_the_keys() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("ds");
+    let out = out.to_str().unwrap();
+    for (truth, says) in [
+        ("young_factor = -1", "truth.young_factor"),
+        ("stiffer", "is not a preset (modulus, neo-hookean)"),
+    ] {
+        let o = softsense(&[
+            "hidden",
+            out,
+            "--model",
+            "meshes/models/robot.toml",
+            "--truth",
+            truth,
+        ]);
+        assert!(!o.status.success(), "{truth}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains(says), "{truth}: {err}");
+        assert!(!dir.path().join("ds").exists(), "{truth}: nothing written");
+    }
+    let o = softsense(&["hidden", "--help"]);
+    let help = String::from_utf8_lossy(&o.stdout);
+    for key in [
+        "young_factor",
+        "formulation",
+        "mesh",
+        "base_stiffness",
+        "neo-hookean",
+        "modulus",
+    ] {
+        assert!(help.contains(key), "hidden --help lacks {key}");
+    }
+}
