@@ -27,7 +27,8 @@ use camera::{camera_of, draw_camera, draw_more_cameras, rig_cameras};
 
 use serde::{Deserialize, Serialize};
 pub use spec::{
-    CameraRanges, OccluderRanges, ProbeRanges, Sweep, SweepSpec, Validity, MAX_REFERENCE_FRAMES,
+    CameraRanges, OccluderRanges, ProbeRanges, Sweep, SweepSpec, Validity, MAX_HELD_FRAMES,
+    MAX_REFERENCE_FRAMES,
 };
 use std::borrow::Cow;
 use std::path::Path;
