@@ -176,7 +176,7 @@ const HIDDEN_HELP: &str = "\
 A number may be a range [lo, hi], drawn from --seed. Presets:
   modulus         young_factor = [0.85, 1.15]
   neo-hookean     formulation = \"neo-hookean\"
-The body drawn is written to truth_hidden.json (truth_model), which explain never reads.
+The body drawn is written to truth_hidden.json, which explain never reads.
 
 Examples:
   softsense hidden /tmp/nh --model meshes/models/robot.toml --truth neo-hookean --effects gravity
