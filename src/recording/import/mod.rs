@@ -20,6 +20,10 @@
 //!   reprojected into the colour image, nearest surface wins. The extrinsic is the
 //!   RealSense streams' `<stream>/tf/<reference>` transforms; a bag without them is
 //!   reprojected with the identity, and the summary warns.
+//! - **Checks**: camera infos must match their images' size, fit the memory
+//!   budget and have a finite `K` with positive focal lengths, or the import is refused
+//!   before anything is allocated or written; an implausible transform is warned and
+//!   replaced by the identity; frames without a valid depth pixel are warned.
 //!
 //! ```no_run
 //! use softsense::recording::import::{import, ImportParams};
@@ -29,6 +33,7 @@
 //! ```
 
 mod align;
+mod checks;
 mod frames;
 pub mod mcap;
 pub mod msg;
