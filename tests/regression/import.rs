@@ -242,3 +242,36 @@ fn frames_without_a_valid_depth_pixel_were_written_without_a_warning() {
         "{w}"
     );
 }
+
+/// Until 2026-11-29 an lz4 chunk was decompressed whatever it declared or expanded to:
+/// a few kilobytes of LZ4 can stand for gigabytes. The declared size is now held to the
+/// memory budget, and a chunk expanding past its declared size is refused.
+#[test]
+fn an_lz4_chunk_was_decompressed_without_a_look_at_its_declared_size() {
+    let dir = tempfile::tempdir().unwrap();
+    let depth = (
+        "/cam/depth/image_rect_raw",
+        "sensor_msgs/Image",
+        image_msg(Wire::Ros1, 0, [80, 60], "16UC1", &[0; 9600]),
+    );
+    let bag = dir.path().join("zip.bag");
+    let bytes = rosbag1(&[depth], "lz4");
+    std::fs::write(&bag, &bytes).unwrap();
+    let (code, err) = run_import(
+        &bag,
+        &dir.path().join("a"),
+        &[("SOFTSENSE_MAX_MEMORY", "8K")],
+    );
+    assert_eq!(code, Some(1), "{err}");
+    for part in ["zip.bag", "lz4 chunk declares", "memory limit"] {
+        assert!(err.contains(part), "{part}: {err}");
+    }
+    // The chunk header's uncompressed size made a lie: 100 bytes.
+    let at = bytes.windows(5).position(|w| w == b"size=").unwrap() + 5;
+    let mut lying = bytes.clone();
+    lying[at..at + 4].copy_from_slice(&100u32.to_le_bytes());
+    std::fs::write(&bag, &lying).unwrap();
+    let (code, err) = run_import(&bag, &dir.path().join("b"), &[]);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains("more than the 100 bytes"), "{err}");
+}
