@@ -1215,3 +1215,6 @@ fn the_diamonds_base_below_the_table_gave_phantom_contacts_of_150_newtons() {
         report.forces
     );
 }
+
+#[path = "regression/import.rs"]
+mod import;

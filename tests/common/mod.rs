@@ -1,6 +1,7 @@
 //! Shared helpers for the test binaries: real-data location and skip policy.
 #![allow(dead_code)]
 
+pub mod bags;
 pub mod batch;
 pub mod corpus;
 pub mod markers;

@@ -6,100 +6,9 @@ use softsense::recording::import::{import, pair, Bag, ImportError, ImportParams}
 use softsense::recording::Recording;
 use std::path::Path;
 
+use crate::common::bags::*;
+
 // ---- message serialisation (the layouts the readers must undo) ----
-
-/// Little-endian writer of ROS 1 (packed) or CDR (aligned, after a 4-byte header) fields.
-struct Ser {
-    buf: Vec<u8>,
-    wire: Wire,
-}
-
-impl Ser {
-    fn new(wire: Wire) -> Self {
-        let buf = match wire {
-            Wire::Ros1 => vec![],
-            Wire::Cdr => vec![0, 1, 0, 0],
-        };
-        Self { buf, wire }
-    }
-    fn align(&mut self, n: usize) {
-        if self.wire == Wire::Cdr {
-            while (self.buf.len() - 4) % n != 0 {
-                self.buf.push(0);
-            }
-        }
-    }
-    fn u8(&mut self, v: u8) -> &mut Self {
-        self.buf.push(v);
-        self
-    }
-    fn u32(&mut self, v: u32) -> &mut Self {
-        self.align(4);
-        self.buf.extend(v.to_le_bytes());
-        self
-    }
-    fn f64(&mut self, v: f64) -> &mut Self {
-        self.align(8);
-        self.buf.extend(v.to_le_bytes());
-        self
-    }
-    fn f32(&mut self, v: f32) -> &mut Self {
-        self.align(4);
-        self.buf.extend(v.to_le_bytes());
-        self
-    }
-    fn string(&mut self, s: &str) -> &mut Self {
-        let nul = usize::from(self.wire == Wire::Cdr);
-        self.u32((s.len() + nul) as u32);
-        self.buf.extend(s.as_bytes());
-        if nul == 1 {
-            self.buf.push(0);
-        }
-        self
-    }
-    fn bytes(&mut self, b: &[u8]) -> &mut Self {
-        self.u32(b.len() as u32);
-        self.buf.extend(b);
-        self
-    }
-    fn header(&mut self, stamp_ns: i64, frame: &str) -> &mut Self {
-        if self.wire == Wire::Ros1 {
-            self.u32(7);
-        }
-        self.u32((stamp_ns / 1_000_000_000) as u32);
-        self.u32((stamp_ns % 1_000_000_000) as u32);
-        self.string(frame)
-    }
-}
-
-fn image_msg(wire: Wire, stamp_ns: i64, size: [u32; 2], encoding: &str, data: &[u8]) -> Vec<u8> {
-    let mut s = Ser::new(wire);
-    let step = data.len() as u32 / size[1];
-    s.header(stamp_ns, "cam")
-        .u32(size[1])
-        .u32(size[0])
-        .string(encoding);
-    s.u8(0).u32(step).bytes(data);
-    s.buf
-}
-
-fn info_msg(wire: Wire, size: [u32; 2], k: [f64; 9]) -> Vec<u8> {
-    let mut s = Ser::new(wire);
-    // A 1-character frame id puts the doubles off their 8-byte alignment in CDR.
-    s.header(0, "c")
-        .u32(size[1])
-        .u32(size[0])
-        .string("plumb_bob");
-    s.u32(5);
-    for _ in 0..5 {
-        s.f64(0.0);
-    }
-    for v in k.into_iter().chain([0.0; 21]) {
-        s.f64(v);
-    }
-    s.u32(0).u32(0).u32(0).u32(0).u32(0).u32(0).u8(0);
-    s.buf
-}
 
 fn float32_msg(wire: Wire, v: f32) -> Vec<u8> {
     let mut s = Ser::new(wire);
@@ -146,85 +55,6 @@ fn a_truncated_message_is_an_error_at_every_cut() {
 }
 
 // ---- rosbag v1 ----
-
-fn field(name: &str, value: &[u8]) -> Vec<u8> {
-    let mut f = ((name.len() + 1 + value.len()) as u32)
-        .to_le_bytes()
-        .to_vec();
-    f.extend(name.as_bytes());
-    f.push(b'=');
-    f.extend(value);
-    f
-}
-
-fn record(fields: &[Vec<u8>], data: &[u8]) -> Vec<u8> {
-    let header: Vec<u8> = fields.concat();
-    let mut r = (header.len() as u32).to_le_bytes().to_vec();
-    r.extend(header);
-    r.extend((data.len() as u32).to_le_bytes());
-    r.extend(data);
-    r
-}
-
-/// A rosbag v1 with one chunk (`compression`) of `messages` (topic, type, stamp, data).
-fn rosbag1(messages: &[(&str, &str, Vec<u8>)], compression: &str) -> Vec<u8> {
-    let mut topics: Vec<(&str, &str)> = vec![];
-    let mut chunk = vec![];
-    for (topic, ty, data) in messages {
-        let conn = match topics.iter().position(|t| t == &(*topic, *ty)) {
-            Some(c) => c,
-            None => {
-                topics.push((topic, ty));
-                let c = topics.len() - 1;
-                let inner = [
-                    field("topic", topic.as_bytes()),
-                    field("type", ty.as_bytes()),
-                ];
-                chunk.extend(record(
-                    &[
-                        field("op", &[7]),
-                        field("conn", &(c as u32).to_le_bytes()),
-                        field("topic", topic.as_bytes()),
-                    ],
-                    &inner.concat(),
-                ));
-                c
-            }
-        };
-        chunk.extend(record(
-            &[
-                field("op", &[2]),
-                field("conn", &(conn as u32).to_le_bytes()),
-                field("time", &[0; 8]),
-            ],
-            data,
-        ));
-    }
-    let size = chunk.len() as u32;
-    let chunk = match compression {
-        "lz4" => {
-            use std::io::Write;
-            let mut e = lz4_flex::frame::FrameEncoder::new(vec![]);
-            e.write_all(&chunk).unwrap();
-            e.finish().unwrap()
-        }
-        _ => chunk,
-    };
-    let mut bag = b"#ROSBAG V2.0\n".to_vec();
-    bag.extend(record(
-        &[field("op", &[3]), field("index_pos", &[0; 8])],
-        &[b' '; 16],
-    ));
-    bag.extend(record(
-        &[
-            field("op", &[5]),
-            field("compression", compression.as_bytes()),
-            field("size", &size.to_le_bytes()),
-        ],
-        &chunk,
-    ));
-    bag
-}
 
 fn read_topics(path: &Path) -> Result<Vec<(String, String, usize)>, ImportError> {
     let mut seen = vec![];
@@ -296,70 +126,6 @@ fn a_bz2_chunk_and_a_file_that_is_no_bag_are_clear_errors() {
 
 // ---- MCAP ----
 
-fn mcap_record(op: u8, content: &[u8]) -> Vec<u8> {
-    let mut r = vec![op];
-    r.extend((content.len() as u64).to_le_bytes());
-    r.extend(content);
-    r
-}
-
-fn mstr(s: &str) -> Vec<u8> {
-    let mut v = (s.len() as u32).to_le_bytes().to_vec();
-    v.extend(s.as_bytes());
-    v
-}
-
-/// An MCAP file with one chunk (`compression`) of `messages`.
-fn mcap(messages: &[(&str, &str, Vec<u8>)], compression: &str) -> Vec<u8> {
-    let mut topics: Vec<(&str, &str)> = vec![];
-    let mut inner = vec![];
-    for (topic, ty, data) in messages {
-        let id = match topics.iter().position(|t| t == &(*topic, *ty)) {
-            Some(c) => c as u16 + 1,
-            None => {
-                topics.push((topic, ty));
-                let id = topics.len() as u16;
-                let schema = [
-                    id.to_le_bytes().to_vec(),
-                    mstr(ty),
-                    mstr("ros2msg"),
-                    mstr(""),
-                ]
-                .concat();
-                inner.extend(mcap_record(3, &schema));
-                let channel = [
-                    id.to_le_bytes().to_vec(),
-                    id.to_le_bytes().to_vec(),
-                    mstr(topic),
-                    mstr("cdr"),
-                    vec![0; 4],
-                ]
-                .concat();
-                inner.extend(mcap_record(4, &channel));
-                id
-            }
-        };
-        let msg = [id.to_le_bytes().to_vec(), vec![0; 4 + 8 + 8], data.clone()].concat();
-        inner.extend(mcap_record(5, &msg));
-    }
-    let chunk = [
-        vec![0; 16],
-        (inner.len() as u64).to_le_bytes().to_vec(),
-        vec![0; 4],
-        mstr(compression),
-        (inner.len() as u64).to_le_bytes().to_vec(),
-        inner,
-    ]
-    .concat();
-    let mut file = b"\x89MCAP0\r\n".to_vec();
-    file.extend(mcap_record(1, &[mstr("ros2"), mstr("test")].concat()));
-    file.extend(mcap_record(6, &chunk));
-    file.extend(mcap_record(0x0F, &[0; 4]));
-    file.extend(mcap_record(2, &[0; 20]));
-    file.extend(b"\x89MCAP0\r\n");
-    file
-}
-
 #[test]
 fn an_mcap_bag_folder_gives_its_cdr_messages_and_refuses_zstd_chunks() {
     let dir = tempfile::tempdir().unwrap();
@@ -404,10 +170,6 @@ fn each_depth_frame_takes_the_nearest_colour_frame_once_within_the_tolerance() {
         pair(&depth, &colour, 30 * ms),
         [Some(0), None, None, Some(1)]
     );
-}
-
-fn pixels_u16(v: &[u16]) -> Vec<u8> {
-    v.iter().flat_map(|x| x.to_le_bytes()).collect()
 }
 
 #[test]

@@ -180,14 +180,6 @@ fn a_corrupt_truncated_or_tableless_db3_is_an_error_naming_the_file() {
 
 // ---- RealSense depth-to-colour extrinsic ----
 
-fn transform_msg(translation: [f64; 3], rotation: [f64; 4]) -> Vec<u8> {
-    let mut s = Ser::new(Wire::Ros1);
-    for v in translation.into_iter().chain(rotation) {
-        s.f64(v);
-    }
-    s.buf
-}
-
 #[test]
 fn a_realsense_extrinsic_shifts_the_reprojected_depth_by_its_baseline() {
     let dir = tempfile::tempdir().unwrap();
@@ -224,18 +216,7 @@ fn a_realsense_extrinsic_shifts_the_reprojected_depth_by_its_baseline() {
         ],
         k,
     );
-    messages.extend([
-        (
-            "/device_0/sensor_0/Depth_0/image/data",
-            "sensor_msgs/Image",
-            image_msg(w, 0, [4, 3], "16UC1", &pixels_u16(&[1000; 12])),
-        ),
-        (
-            "/device_0/sensor_1/Color_0/image/data",
-            "sensor_msgs/Image",
-            image_msg(w, 0, [4, 3], "rgb8", &[5; 36]),
-        ),
-    ]);
+    messages.extend(realsense_4x3_frame());
     messages.extend(tf);
     let bag = dir.path().join("tf.bag");
     std::fs::write(&bag, rosbag1(&messages, "none")).unwrap();

@@ -12,18 +12,33 @@ use crate::camera::PinholeIntrinsics;
 use nalgebra::{Isometry3, Point3, Quaternion, Translation3, UnitQuaternion};
 use std::collections::HashMap;
 
-fn isometry(t: &Transform) -> Option<Isometry3<f64>> {
+/// Farthest a stream may sit from its reference: the streams of one device are
+/// centimetres apart, so metres mean a corrupt or wrongly scaled transform.
+pub const MAX_TRANSLATION_M: f64 = 10.0;
+
+/// The transform `t` (on `topic`) as an isometry, or why it is implausible: rotation not
+/// a finite unit quaternion, translation not finite or `MAX_TRANSLATION_M` or more.
+fn isometry(topic: &str, t: &Transform) -> Result<Isometry3<f64>, String> {
     let [x, y, z, w] = t.rotation;
     let q = Quaternion::new(w, x, y, z);
-    // A zero or non-finite quaternion is no rotation: refuse it rather than guess.
-    if !(q.norm() > 1e-9 && q.coords.iter().chain(&t.translation).all(|v| v.is_finite())) {
-        return None;
-    }
     let [tx, ty, tz] = t.translation;
-    Some(Isometry3::from_parts(
-        Translation3::new(tx, ty, tz),
-        UnitQuaternion::from_quaternion(q),
-    ))
+    let shift = Translation3::new(tx, ty, tz);
+    let problem = if !q.coords.iter().all(|v| v.is_finite()) || (q.norm() - 1.0).abs() > 1e-3 {
+        format!("rotation {:?} is not a finite unit quaternion", t.rotation)
+    } else if !shift.vector.iter().all(|v| v.is_finite())
+        || shift.vector.norm() >= MAX_TRANSLATION_M
+    {
+        format!(
+            "translation {:?} m is not finite and under {MAX_TRANSLATION_M} m",
+            t.translation
+        )
+    } else {
+        return Ok(Isometry3::from_parts(
+            shift,
+            UnitQuaternion::from_quaternion(q),
+        ));
+    };
+    Err(format!("geometry_msgs/Transform on {topic}: {problem}"))
 }
 
 /// The stream a RealSense image topic belongs to (`/device_0/sensor_0/Depth_0`).
@@ -34,28 +49,33 @@ fn stream_of(image_topic: &str) -> &str {
 }
 
 /// `colour_from_depth` from the RealSense `tf` topics `tfs` (topic → transform), when both
-/// image topics' streams have one to the same reference; `None` otherwise.
+/// image topics' streams have one to the same reference; `Ok(None)` otherwise, and an
+/// error naming the topic when one of the two transforms is implausible.
 pub fn realsense_colour_from_depth(
     tfs: &HashMap<String, Transform>,
     depth_topic: &str,
     colour_topic: &str,
-) -> Option<Isometry3<f64>> {
-    let to_reference = |image_topic: &str| -> HashMap<&str, &Transform> {
+) -> Result<Option<Isometry3<f64>>, String> {
+    let to_reference = |image_topic: &str| -> HashMap<&str, (&str, &Transform)> {
         let stream = stream_of(image_topic);
         tfs.iter()
             .filter_map(|(topic, t)| {
                 let (s, reference) = topic.rsplit_once("/tf/")?;
-                (s == stream).then_some((reference, t))
+                (s == stream).then_some((reference, (topic.as_str(), t)))
             })
             .collect()
     };
     let (depth, colour) = (to_reference(depth_topic), to_reference(colour_topic));
     let mut shared: Vec<&&str> = depth.keys().filter(|r| colour.contains_key(**r)).collect();
     shared.sort();
-    let reference = shared.first()?;
-    let depth_from_reference = isometry(depth[**reference])?;
-    let colour_from_reference = isometry(colour[**reference])?;
-    Some(colour_from_reference * depth_from_reference.inverse())
+    let Some(reference) = shared.first() else {
+        return Ok(None);
+    };
+    let (topic, t) = depth[**reference];
+    let depth_from_reference = isometry(topic, t)?;
+    let (topic, t) = colour[**reference];
+    let colour_from_reference = isometry(topic, t)?;
+    Ok(Some(colour_from_reference * depth_from_reference.inverse()))
 }
 
 /// Whether `x` moves points by less than a micrometre (or a microradian).

@@ -1,8 +1,8 @@
 //! From a bag's messages to frames: choosing the topics, pairing depth with colour,
 //! converting pixels and writing the recording (the rules are in the module docs above).
 
-use super::align;
 use super::msg::{self, CameraInfo};
+use super::{align, checks};
 use super::{Bag, BagMessage, ImportError};
 use crate::camera::PinholeIntrinsics;
 use crate::recording::RecordingWriter;
@@ -188,9 +188,10 @@ impl Scan {
         given: Option<&str>,
         image: &str,
         option: &str,
-    ) -> Result<&CameraInfo, ImportError> {
+    ) -> Result<(&str, &CameraInfo), ImportError> {
         if let Some(t) = given {
-            return (self.infos.get(t))
+            return (self.infos.get_key_value(t))
+                .map(|(t, i)| (t.as_str(), i))
                 .ok_or_else(|| self.topic_error(format!("no sensor_msgs/CameraInfo topic {t}")));
         }
         let common = |t: &str| {
@@ -203,17 +204,12 @@ impl Scan {
             .infos
             .iter()
             .max_by_key(|(t, _)| (common(t), std::cmp::Reverse(t.to_string())));
-        best.map(|(_, i)| i).ok_or_else(|| {
+        best.map(|(t, i)| (t.as_str(), i)).ok_or_else(|| {
             self.topic_error(format!(
                 "no sensor_msgs/CameraInfo for {image} (the intrinsics): give {option}"
             ))
         })
     }
-}
-
-/// `[fx, fy, cx, cy]` of a camera info.
-fn focal(info: &CameraInfo) -> [f64; 4] {
-    [info.k[0], info.k[4], info.k[2], info.k[5]]
 }
 
 /// The median difference of consecutive sorted stamps, nanoseconds.
@@ -415,7 +411,7 @@ fn plan(s: &Scan, p: &ImportParams, summary: &mut ImportSummary) -> Result<Plan,
         "colour",
         "--colour-topic",
     )?;
-    let depth_info = s.info_topic(
+    let (depth_info_topic, depth_info) = s.info_topic(
         p.depth_info_topic.as_deref(),
         &depth_topic,
         "--depth-info-topic",
@@ -460,28 +456,29 @@ fn plan(s: &Scan, p: &ImportParams, summary: &mut ImportSummary) -> Result<Plan,
             "depth unit {written_unit} m: must be positive"
         )));
     }
-    // A camera info of size 0x0 (some drivers leave it unset) takes its image's size.
-    let camera = |i: &CameraInfo, topic: &str| {
-        let [width, height] = match [i.width as usize, i.height as usize] {
-            [0, 0] => s.sizes[topic],
-            size => size,
-        };
-        let [fx, fy, cx, cy] = focal(i);
-        PinholeIntrinsics {
-            width: width as u32,
-            height: height as u32,
-            fx,
-            fy,
-            cx,
-            cy,
-        }
-    };
-    let depth_camera = camera(depth_info, &depth_topic);
+    let depth_camera = checks::camera(
+        depth_info,
+        depth_info_topic,
+        &depth_topic,
+        s.sizes[&depth_topic],
+        "--depth-info-topic",
+    )?;
     let (mut align_to, mut colour_from_depth) = (None, None);
     if let Some(c) = &colour_topic {
-        let colour_info = s.info_topic(p.colour_info_topic.as_deref(), c, "--colour-info-topic")?;
-        let colour_camera = camera(colour_info, c);
-        colour_from_depth = align::realsense_colour_from_depth(&s.tfs, &depth_topic, c);
+        let option = "--colour-info-topic";
+        let (info_topic, colour_info) = s.info_topic(p.colour_info_topic.as_deref(), c, option)?;
+        let colour_camera = checks::camera(colour_info, info_topic, c, s.sizes[c], option)?;
+        // An implausible extrinsic is warned and replaced by the identity, as a bag without
+        // one is: the images are intact, the streams of one device sit centimetres apart,
+        // and no option supplies the transform, so refusing would lose the recording.
+        colour_from_depth = align::realsense_colour_from_depth(&s.tfs, &depth_topic, c)
+            .unwrap_or_else(|problem| {
+                summary.warnings.push(format!(
+                    "{problem}: it was ignored and depth and colour taken as one camera \
+                     (identity extrinsic); re-export the bag to keep the true transform"
+                ));
+                None
+            });
         let moved = colour_from_depth.is_some_and(|x| !align::is_identity(&x));
         if colour_camera != depth_camera || moved {
             align_to = Some(colour_camera);
@@ -511,17 +508,22 @@ struct FrameWriter<'a> {
     waiting_colour: HashMap<usize, Vec<[u8; 3]>>,
     depth_seen: usize,
     colour_seen: usize,
+    /// Written frames without a valid depth pixel.
+    no_depth: Vec<usize>,
 }
 
 impl FrameWriter<'_> {
     fn write(
-        &self,
+        &mut self,
         number: usize,
         depth: Vec<u16>,
         rgb: Option<&[[u8; 3]]>,
         summary: &mut ImportSummary,
     ) -> Result<(), ImportError> {
         let [w, h] = self.size.map(|x| x as u32);
+        if depth.iter().all(|&d| d == 0) {
+            self.no_depth.push(number);
+        }
         match rgb {
             Some(rgb) => {
                 self.writer.write_frame(number, [w, h], depth, rgb)?;
@@ -610,6 +612,11 @@ pub fn import(
             problem: format!("{}: {problem}", bag_path.display()),
             present,
         },
+        // The camera checks name the topic; the file is named here.
+        ImportError::Message { what, reason } => ImportError::Message {
+            what,
+            reason: format!("{reason} (in {})", bag_path.display()),
+        },
         e => e,
     })?;
     let writer = RecordingWriter::create(out)?;
@@ -631,6 +638,7 @@ pub fn import(
         waiting_colour: HashMap::new(),
         depth_seen: 0,
         colour_seen: 0,
+        no_depth: Vec::new(),
     };
     let wire = bag.wire();
     bag.for_each(&mut |m: BagMessage<'_>| {
@@ -650,6 +658,7 @@ pub fn import(
         }
     })?;
     summary.dropped_depth.sort_unstable();
+    frames.no_depth.sort_unstable();
     summary.depth_topic = plan.depth_topic.clone();
     summary.colour_topic = plan.colour_topic.clone();
     summary.depth_unit = plan.written_unit;
@@ -661,6 +670,10 @@ pub fn import(
                 .into(),
         );
     }
+    summary.warnings.extend(checks::no_depth_warning(
+        &frames.no_depth,
+        &plan.depth_topic,
+    ));
     if summary.aligned && plan.colour_from_depth.is_none() {
         summary.warnings.push(
             "depth and colour cameras differ: depth was reprojected into the colour camera \

@@ -109,7 +109,7 @@ fn chunk_records(content: &[u8]) -> Result<Vec<u8>, ImportError> {
     let records = f.take(len)?;
     let out = match compression.as_str() {
         "" => records.to_vec(),
-        "lz4" => super::lz4_frame(records)?,
+        "lz4" => super::lz4_frame(records, Some(size))?,
         _ => return Err(ImportError::Compression { compression }),
     };
     if out.len() as u64 != size {

@@ -20,6 +20,10 @@
 //!   reprojected into the colour image, nearest surface wins. The extrinsic is the
 //!   RealSense streams' `<stream>/tf/<reference>` transforms; a bag without them is
 //!   reprojected with the identity, and the summary warns.
+//! - **Checks**: camera infos must match their images' size, fit the memory
+//!   budget and have a finite `K` with positive focal lengths, or the import is refused
+//!   before anything is allocated or written; an implausible transform is warned and
+//!   replaced by the identity; frames without a valid depth pixel are warned.
 //!
 //! ```no_run
 //! use softsense::recording::import::{import, ImportParams};
@@ -29,6 +33,7 @@
 //! ```
 
 mod align;
+mod checks;
 mod frames;
 pub mod mcap;
 pub mod msg;
@@ -304,13 +309,28 @@ fn read_body(r: &mut impl Read, len: u64, at: u64) -> Result<Vec<u8>, ImportErro
     }
 }
 
-/// Decompresses an LZ4 frame (rosbag's and MCAP's `lz4` chunks).
-fn lz4_frame(data: &[u8]) -> Result<Vec<u8>, ImportError> {
+/// Decompresses an LZ4 frame (rosbag's and MCAP's `lz4` chunks) that its chunk header
+/// says holds `declared` bytes. A few kilobytes of LZ4 can declare or expand to gigabytes,
+/// so the declared size is held to the memory budget before decoding, and decoding stops
+/// past it (or past the budget, when the header declares none).
+fn lz4_frame(data: &[u8], declared: Option<u64>) -> Result<Vec<u8>, ImportError> {
+    let limit = crate::io::limits::max_bytes();
+    if let Some(n) = declared {
+        crate::io::limits::check("bytes uncompressed", n, 1)
+            .map_err(|e| ImportError::Read(format!("an lz4 chunk {e}")))?;
+    }
+    let bound = declared.unwrap_or(limit);
     let mut out = Vec::new();
     lz4_flex::frame::FrameDecoder::new(data)
+        .take(bound.saturating_add(1))
         .read_to_end(&mut out)
         .map_err(|e| ImportError::Corrupt {
             reason: format!("lz4 chunk: {e}"),
         })?;
+    if out.len() as u64 > bound {
+        return Err(ImportError::Corrupt {
+            reason: format!("an lz4 chunk decompresses to more than the {bound} bytes it may hold"),
+        });
+    }
     Ok(out)
 }

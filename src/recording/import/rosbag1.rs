@@ -157,7 +157,7 @@ fn decompress(chunk: &Record) -> Result<Vec<u8>, ImportError> {
     let compression = String::from_utf8_lossy(chunk.field("compression").unwrap_or(b"none"));
     match compression.as_ref() {
         "none" => Ok(chunk.data.clone()),
-        "lz4" => super::lz4_frame(&chunk.data),
+        "lz4" => super::lz4_frame(&chunk.data, chunk.u32_field("size").ok().map(u64::from)),
         other => Err(ImportError::Compression {
             compression: other.to_string(),
         }),
