@@ -221,17 +221,10 @@ pub fn explain(
     } = search.select(&res0, &mut steps)?;
     let after = wf.stats(&res, scored);
     let fitted = wf.fitted_effects(&kept, &cov_kept);
-    let eval = if hold.is_empty() {
-        wf.stats(&res, train)
-    } else {
-        after.clone()
-    };
-    let rows_before = if hold.is_empty() {
-        wf.chi2(&res0, train).1
-    } else {
-        wf.chi2(&res0, hold).1
-    };
-    let outcome = outcome(&eval, rows_before, params, &fitted);
+    // `before` and `after` are over the scored frames already: their last entry (all
+    // regions) holds the rows the verdict weighs.
+    let rows_before = before.last().map_or(0, |a| a.n);
+    let outcome = outcome(&after, rows_before, params, &fitted);
     let pick = |r: &[Vec<Residual>]| hold.iter().map(|&i| r[i].clone()).collect::<Vec<_>>();
     Ok(Explanation {
         outcome,
