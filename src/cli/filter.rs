@@ -8,7 +8,9 @@ use softsense::filter::{
     VoxelGridParams, VoxelMode,
 };
 use softsense::io::{read_cloud, write_cloud, Encoding};
-use softsense::pipeline::{list_frames, list_rgbd_frames, run_sequence, ChainParams, Pipeline};
+use softsense::pipeline::{
+    list_frames, list_rgbd_frames, run_sequence, ChainParams, Pipeline, StageTiming,
+};
 use std::io::IsTerminal;
 use std::path::PathBuf;
 
@@ -52,8 +54,8 @@ pub struct FilterArgs {
     /// curvature, label, r, g or b; repeatable, e.g. --crop z:0:0.54 --crop x:-0.13:0.13.
     #[arg(long, value_name = "FIELD:MIN:MAX", value_parser = parse_crop)]
     pub crop: Vec<PassThroughParams>,
-    /// Voxel-grid leaf size in metres, e.g. 0.005.
-    #[arg(long, value_name = "LEAF")]
+    /// Voxel-grid leaf size in metres, e.g. 0.005 (5 mm).
+    #[arg(long, value_name = "LEAF", allow_negative_numbers = true, value_parser = parse_leaf)]
     pub voxel: Option<f64>,
     /// Voxel grid of PCL (origin-anchored, truncated colours) or Open3D (min-anchored).
     #[arg(long, value_enum, default_value = "pcl")]
@@ -84,6 +86,17 @@ pub struct FilterArgs {
     /// holds .pcd/.ply files; a directory without cloud files is read this way anyway.
     #[arg(long)]
     pub rgbd: bool,
+}
+
+/// A voxel leaf: a positive, finite length in metres.
+fn parse_leaf(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
+        Ok(v) => Err(format!(
+            "the leaf is a positive length in metres, e.g. 0.005 for 5 mm (got {v})"
+        )),
+        Err(e) => Err(format!("{e}: give a length in metres, e.g. 0.005")),
+    }
 }
 
 fn parse_crop(s: &str) -> Result<PassThroughParams, String> {
@@ -263,5 +276,26 @@ pub fn run(args: &FilterArgs) -> CliResult {
             args.output.display()
         );
     }
+    warn_coarse_voxel(args, cloud.len(), &out.timings);
     Ok(())
+}
+
+/// Warns when the voxel grid kept under 1% of the points it was given: a leaf meant in
+/// millimetres but read in metres (`--voxel 5`) leaves a handful of points, silently.
+fn warn_coarse_voxel(args: &FilterArgs, points_in: usize, timings: &[StageTiming]) {
+    let Some(leaf) = args.voxel else { return };
+    let Some(at) = timings.iter().position(|t| t.stage == "voxel") else {
+        return;
+    };
+    let before = match at {
+        0 => points_in,
+        _ => timings[at - 1].points_out,
+    };
+    let after = timings[at].points_out;
+    if before >= 1000 && after * 100 < before {
+        eprintln!(
+            "warning: --voxel {leaf} kept {after} of {before} points: the leaf is in metres \
+             (0.005 is 5 mm); give a smaller leaf if this was not meant"
+        );
+    }
 }

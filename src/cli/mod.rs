@@ -47,8 +47,13 @@ pub enum CliError {
 impl CliError {
     /// The process exit code for this error.
     pub fn exit_code(&self) -> u8 {
+        use softsense::{fem::FemError, recording::RecordingError, Error};
         match self {
             CliError::Usage(_) => 2,
+            // A path of the wrong kind (a file for a folder, arguments swapped) is a usage
+            // error, wherever the library found it.
+            CliError::Lib(Error::Recording(RecordingError::NotAFolder { .. }))
+            | CliError::Lib(Error::Fem(FemError::NotAModel { .. })) => 2,
             CliError::Lib(_) | CliError::Result(_) | CliError::Other(_) => 1,
         }
     }

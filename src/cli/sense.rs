@@ -317,7 +317,7 @@ pub fn run(args: &SenseArgs) -> CliResult {
     {
         return Err(CliError::Result(format!(
             "no frame could be sensed{}",
-            no_robot_hint(&reports)
+            no_robot_hint(&reports, colourless(&rig))
         )));
     }
     Ok(())
@@ -461,10 +461,21 @@ fn model_path(args: &SenseArgs, rec: &Recording) -> Result<PathBuf, CliError> {
     }
 }
 
+/// Whether no camera has a colour image for any frame (the robot is found by its colour).
+fn colourless(rig: &Rig) -> bool {
+    rig.frames.iter().all(|&f| {
+        rig.cameras.iter().all(|c| {
+            c.recording
+                .files_of(f)
+                .map_or(true, |files| files.color.is_none())
+        })
+    })
+}
+
 /// Where every frame read had no robot, what to check: with no point at all in the box
 /// around the robot, the camera pose; with points there but too few of the robot's
-/// colour, the colour.
-fn no_robot_hint(reports: &[FrameReport]) -> String {
+/// colour, the colour, or the colour images if there are none.
+fn no_robot_hint(reports: &[FrameReport], colourless: bool) -> String {
     let read: Vec<&FrameReport> = reports
         .iter()
         .filter(|r| !matches!(r.status, FrameStatus::Unreadable(_)))
@@ -476,6 +487,11 @@ fn no_robot_hint(reports: &[FrameReport]) -> String {
         "; no point of any frame falls in the box around the robot: check the camera pose \
          (robot_from_camera maps camera coordinates to the robot's, in metres; not its \
          inverse)"
+            .into()
+    } else if colourless {
+        "; the recording has no colour images (color_NNNN.png), and softsense finds the \
+         robot by its colour: record the colour stream too (softsense import takes it by \
+         --colour-topic)"
             .into()
     } else {
         "; the box around the robot holds points, but too few of the robot's colour: check \

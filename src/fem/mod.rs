@@ -59,6 +59,15 @@ pub enum FemError {
         /// The largest distance allowed (m).
         max_distance: f64,
     },
+    /// A path given as a model file that is a folder or not TOML text (arguments swapped,
+    /// or a cloud given as the model).
+    #[error("{path}: {problem}")]
+    NotAModel {
+        /// The path given.
+        path: std::path::PathBuf,
+        /// What it is instead, and what to give.
+        problem: String,
+    },
     /// An output file could not be written (it names the file).
     #[error(transparent)]
     Write(#[from] crate::io::atomic::AtomicError),

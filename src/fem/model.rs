@@ -241,9 +241,27 @@ pub struct Model {
 
 /// Reads and parses a model file.
 fn read_spec(path: &Path) -> FemResult<ModelSpec> {
-    let text = std::fs::read_to_string(path).map_err(|source| FemError::File {
+    // Said before reading, where the OS's "Is a directory" or a UTF-8 error would not say
+    // what was given instead of a model file.
+    if path.is_dir() {
+        return Err(FemError::NotAModel {
+            path: path.to_path_buf(),
+            problem: "is a folder, not a model file (a TOML such as \
+                      meshes/models/robot.toml): if it is the recording, the arguments may \
+                      be in the wrong order (see --help)"
+                .into(),
+        });
+    }
+    let text = std::fs::read(path).map_err(|source| FemError::File {
         path: path.display().to_string(),
         source,
+    })?;
+    let text = String::from_utf8(text).map_err(|_| FemError::NotAModel {
+        path: path.to_path_buf(),
+        problem: "is not a model file: a model file is TOML text (as \
+                  meshes/models/robot.toml), and this file is binary (a cloud or a mesh? \
+                  a mesh is named by the model file's `mesh.path`)"
+            .into(),
     })?;
     toml::from_str(&text).map_err(|e| FemError::Model(format!("{}: {e}", path.display())))
 }

@@ -58,8 +58,44 @@ pub fn list_frames(dir: &Path) -> Result<(Layout, Vec<FrameFiles>), RecordingErr
     })
 }
 
+/// Why `dir` cannot be a recording folder, if it cannot: a file (named by what its
+/// extension says it is) or nothing there.
+pub(super) fn not_a_folder(dir: &Path) -> Option<RecordingError> {
+    if dir.is_dir() {
+        return None;
+    }
+    let ext = dir
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase());
+    let problem = match (dir.exists(), ext.as_deref()) {
+        (false, _) => "no such folder: a recording is a folder of depth and colour \
+                       frames (docs/recording-format.md)"
+            .to_string(),
+        (true, Some("toml")) => format!(
+            "is a TOML file, not a recording folder: if it is a scene, render it first \
+             (softsense scene generate {} OUT), then give OUT",
+            dir.display()
+        ),
+        (true, Some("bag" | "mcap" | "db3")) => format!(
+            "is a bag, not a recording folder: import it first (softsense import {} OUT), \
+             then give OUT",
+            dir.display()
+        ),
+        (true, _) => "is a file, not a recording folder: give the folder that holds the \
+                      depth and colour frames (docs/recording-format.md)"
+            .to_string(),
+    };
+    Some(RecordingError::NotAFolder {
+        path: dir.to_path_buf(),
+        problem,
+    })
+}
+
 /// Sorted names of the files (not folders) in `dir`.
 fn file_names(dir: &Path) -> Result<Vec<String>, RecordingError> {
+    if let Some(e) = not_a_folder(dir) {
+        return Err(e);
+    }
     let entries = std::fs::read_dir(dir).map_err(|source| crate::io::IoError::Os {
         path: dir.to_path_buf(),
         source,

@@ -106,6 +106,14 @@ pub enum RecordingError {
         /// The other.
         second: PathBuf,
     },
+    /// A recording path that is a file or is not there.
+    #[error("{path}: {problem}")]
+    NotAFolder {
+        /// The path given as the recording.
+        path: PathBuf,
+        /// What it is instead, and what to give.
+        problem: String,
+    },
     /// A folder whose frames are in camera sub-folders, given where one camera's are read.
     #[error(
         "{path} is a {n}-camera recording (cameras {names}): this reads one-camera \

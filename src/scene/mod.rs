@@ -387,12 +387,21 @@ pub(crate) fn frame_problem(
     let rest = problem.mesh.nodes_in_rest.clone();
     let mut nodes_of_loads = Vec::new();
     for (k, l) in frame.loads.iter().enumerate() {
-        if !(l.force.iter().all(|f| f.is_finite())
-            && l.at.iter().all(|f| f.is_finite())
-            && l.radius > 0.0)
-        {
+        let bad = if !l.at.iter().all(|f| f.is_finite()) {
+            Some(format!("at = {:?} must be finite (metres)", l.at))
+        } else if !l.force.iter().all(|f| f.is_finite()) {
+            Some(format!("force = {:?} must be finite (newtons)", l.force))
+        } else if !(l.radius > 0.0 && l.radius.is_finite()) {
+            Some(format!(
+                "radius = {} must be positive and finite (metres, e.g. 0.004)",
+                l.radius
+            ))
+        } else {
+            None
+        };
+        if let Some(bad) = bad {
             return Err(SceneError::Spec(format!(
-                "frame {index}, load {k}: non-finite at or force, or radius <= 0"
+                "[[frames]] {index}, [[frames.loads]] {k}: {bad}"
             )));
         }
         let node = nearest_surface_node(&rest, &surface.nodes, l.at)

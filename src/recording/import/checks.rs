@@ -28,6 +28,17 @@ pub fn camera(
     image_size: [usize; 2],
     option: &str,
 ) -> Result<PinholeIntrinsics, ImportError> {
+    if image_size.contains(&0) {
+        return Err(ImportError::Message {
+            what: "sensor_msgs/Image",
+            reason: format!(
+                "on {image_topic}: the first image is {}x{} pixels, with nothing to import: \
+                 give the topic of a camera that records images with --depth-topic or \
+                 --colour-topic",
+                image_size[0], image_size[1]
+            ),
+        });
+    }
     // A camera info of size 0x0 (some drivers leave it unset) takes its image's size.
     let [width, height] = match [info.width as usize, info.height as usize] {
         [0, 0] => image_size,

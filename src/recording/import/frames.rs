@@ -149,10 +149,21 @@ impl Scan {
         option: &str,
     ) -> Result<Option<String>, ImportError> {
         if let Some(t) = given {
-            return match self.stamps.contains_key(t) {
-                true => Ok(Some(t.to_string())),
-                false => Err(self.topic_error(format!("no sensor_msgs/Image topic {t}"))),
-            };
+            if !self.stamps.contains_key(t) {
+                return Err(
+                    self.topic_error(format!("{option} {t}: no sensor_msgs/Image topic {t}"))
+                );
+            }
+            // A depth topic given for colour (or the reverse) pairs a stream with itself
+            // and writes no frame; say so here, naming the encoding.
+            let encoding = self.encodings.get(t).map_or("", |e| e.as_str());
+            if !encodings.split(", ").any(|x| x == encoding) {
+                return Err(self.topic_error(format!(
+                    "{option} {t}: its images are `{encoding}`, not a {kind} encoding \
+                     ({encodings}): give the {kind} image topic"
+                )));
+            }
+            return Ok(Some(t.to_string()));
         }
         let mut found: Vec<&String> = (self.encodings.iter())
             .filter(|(_, e)| encodings.split(", ").any(|x| x == e.as_str()))
@@ -592,8 +603,18 @@ impl FrameWriter<'_> {
 }
 
 /// Imports the bag `bag_path` into a new recording folder `out` (see the module docs for
-/// the rules); `progress(done, total)` is called after each depth frame.
+/// the rules); `progress(done, total)` is called after each depth frame. Every error names
+/// the bag.
 pub fn import(
+    bag_path: &Path,
+    out: &Path,
+    params: &ImportParams,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<ImportSummary, ImportError> {
+    import_bag(bag_path, out, params, progress).map_err(|e| e.in_bag(bag_path))
+}
+
+fn import_bag(
     bag_path: &Path,
     out: &Path,
     params: &ImportParams,

@@ -137,6 +137,37 @@ pub enum ImportError {
     /// A parameter out of range.
     #[error("{0}")]
     Params(String),
+    /// An error found inside a bag, with the bag named (the readers see bytes, not paths).
+    #[error("{path}: {source}")]
+    InBag {
+        /// The bag (file or folder) given.
+        path: PathBuf,
+        /// What is wrong inside it.
+        source: Box<ImportError>,
+    },
+}
+
+impl ImportError {
+    /// This error naming the bag `path`, unless it names a file already.
+    pub fn in_bag(self, path: &Path) -> Self {
+        match self {
+            e @ (ImportError::Truncated { .. }
+            | ImportError::Corrupt { .. }
+            | ImportError::Compression { .. }
+            | ImportError::Message { .. }
+            | ImportError::Encoding { .. }
+            | ImportError::Read(_)) => {
+                if e.to_string().contains(&path.display().to_string()) {
+                    return e;
+                }
+                ImportError::InBag {
+                    path: path.to_path_buf(),
+                    source: Box::new(e),
+                }
+            }
+            e => e,
+        }
+    }
 }
 
 fn list_topics(present: &[(String, String)]) -> String {
