@@ -275,3 +275,30 @@ fn an_lz4_chunk_was_decompressed_without_a_look_at_its_declared_size() {
     assert_eq!(code, Some(1), "{err}");
     assert!(err.contains("more than the 100 bytes"), "{err}");
 }
+
+/// A rosbag chunk that decompressed (or, uncompressed, held) fewer bytes than its header
+/// declared was taken as it was: the records it lost were dropped without a word.
+#[test]
+fn a_rosbag_chunk_shorter_than_its_declared_size_was_accepted() {
+    let dir = tempfile::tempdir().unwrap();
+    let depth = (
+        "/cam/depth/image_rect_raw",
+        "sensor_msgs/Image",
+        image_msg(Wire::Ros1, 0, [80, 60], "16UC1", &[0; 9600]),
+    );
+    for compression in ["lz4", "none"] {
+        let bytes = rosbag1(std::slice::from_ref(&depth), compression);
+        let at = bytes.windows(5).position(|w| w == b"size=").unwrap() + 5;
+        let declared = u32::from_le_bytes(bytes[at..at + 4].try_into().unwrap());
+        let mut lying = bytes.clone();
+        lying[at..at + 4].copy_from_slice(&(declared + 7).to_le_bytes());
+        let bag = dir.path().join(format!("{compression}.bag"));
+        std::fs::write(&bag, &lying).unwrap();
+        let (code, err) = run_import(&bag, &dir.path().join(compression), &[]);
+        assert_eq!(code, Some(1), "{compression}: {err}");
+        let says = format!("chunk of {declared} bytes, its header says {}", declared + 7);
+        for part in [format!("{compression}.bag"), says] {
+            assert!(err.contains(&part), "{compression}: {part}: {err}");
+        }
+    }
+}

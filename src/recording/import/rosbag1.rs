@@ -155,11 +155,22 @@ fn handle(
 
 fn decompress(chunk: &Record) -> Result<Vec<u8>, ImportError> {
     let compression = String::from_utf8_lossy(chunk.field("compression").unwrap_or(b"none"));
-    match compression.as_ref() {
-        "none" => Ok(chunk.data.clone()),
-        "lz4" => super::lz4_frame(&chunk.data, chunk.u32_field("size").ok().map(u64::from)),
-        other => Err(ImportError::Compression {
-            compression: other.to_string(),
+    let size = chunk.u32_field("size").ok().map(u64::from);
+    let out = match compression.as_ref() {
+        "none" => chunk.data.clone(),
+        "lz4" => super::lz4_frame(&chunk.data, size)?,
+        other => {
+            return Err(ImportError::Compression {
+                compression: other.to_string(),
+            })
+        }
+    };
+    // A chunk shorter than its header says has lost records; taking it would drop frames
+    // without a word.
+    match size {
+        Some(n) if out.len() as u64 != n => Err(ImportError::Corrupt {
+            reason: format!("chunk of {} bytes, its header says {n}", out.len()),
         }),
+        _ => Ok(out),
     }
 }
