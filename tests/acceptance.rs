@@ -23,6 +23,8 @@ mod markers_locate;
 mod markers_sensitivity;
 #[path = "acceptance/mutation_fuzz.rs"]
 mod mutation_fuzz;
+#[path = "acceptance/mutation_fuzz_inputs.rs"]
+mod mutation_fuzz_inputs;
 #[path = "acceptance/recording_folder.rs"]
 mod recording_folder;
 #[path = "acceptance/sense_places.rs"]

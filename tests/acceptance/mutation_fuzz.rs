@@ -7,13 +7,13 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
 
 /// Cases per parser.
-const CASES: usize = 1000;
+pub(crate) const CASES: usize = 1000;
 
 /// splitmix64: a tiny seeded generator, so a failing case can be replayed by its number.
-struct Rng(u64);
+pub(crate) struct Rng(pub(crate) u64);
 
 impl Rng {
-    fn next(&mut self) -> u64 {
+    pub(crate) fn next(&mut self) -> u64 {
         self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
         let mut z = self.0;
         z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
@@ -21,13 +21,13 @@ impl Rng {
         z ^ (z >> 31)
     }
 
-    fn below(&mut self, n: usize) -> usize {
+    pub(crate) fn below(&mut self, n: usize) -> usize {
         (self.next() % n.max(1) as u64) as usize
     }
 }
 
 /// One to three random edits of `valid`.
-fn mutate(valid: &[u8], rng: &mut Rng) -> Vec<u8> {
+pub(crate) fn mutate(valid: &[u8], rng: &mut Rng) -> Vec<u8> {
     let mut b = valid.to_vec();
     for _ in 0..1 + rng.below(3) {
         let n = b.len();
@@ -99,10 +99,23 @@ fn fuzz(
     seed: u64,
     read: &dyn Fn(&Path) -> Result<(), String>,
 ) -> (usize, Vec<String>) {
+    let make = |case: usize, rng: &mut Rng| mutate(&valid[case % valid.len()], rng);
+    fuzz_with(label, &make, work, seed, read)
+}
+
+/// Runs `read` on `CASES` files made by `make(case, rng)` and written to `work`,
+/// returning the cases run and a line per panic (each panicking file kept for replay).
+pub(crate) fn fuzz_with(
+    label: &str,
+    make: &dyn Fn(usize, &mut Rng) -> Vec<u8>,
+    work: &Path,
+    seed: u64,
+    read: &dyn Fn(&Path) -> Result<(), String>,
+) -> (usize, Vec<String>) {
     let mut rng = Rng(seed);
     let mut panics = Vec::new();
     for case in 0..CASES {
-        let bytes = mutate(&valid[case % valid.len()], &mut rng);
+        let bytes = make(case, &mut rng);
         std::fs::write(work, &bytes).unwrap();
         if catch_unwind(AssertUnwindSafe(|| read(work))).is_err() {
             // Kept outside the test's temporary folder, which goes at the end.

@@ -296,7 +296,10 @@ fn a_rosbag_chunk_shorter_than_its_declared_size_was_accepted() {
         std::fs::write(&bag, &lying).unwrap();
         let (code, err) = run_import(&bag, &dir.path().join(compression), &[]);
         assert_eq!(code, Some(1), "{compression}: {err}");
-        let says = format!("chunk of {declared} bytes, its header says {}", declared + 7);
+        let says = format!(
+            "chunk of {declared} bytes, its header says {}",
+            declared + 7
+        );
         for part in [format!("{compression}.bag"), says] {
             assert!(err.contains(&part), "{compression}: {part}: {err}");
         }

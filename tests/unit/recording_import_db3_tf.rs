@@ -5,38 +5,6 @@ use super::*;
 
 // ---- ROS 2 sqlite3 (.db3) ----
 
-/// A ROS 2 sqlite3 bag holding `messages`, with rosbag2's schema, at `path`.
-fn db3(path: &Path, messages: &[(&str, &str, Vec<u8>)]) {
-    let db = rusqlite::Connection::open(path).unwrap();
-    db.execute_batch(
-        "CREATE TABLE topics(id INTEGER PRIMARY KEY, name TEXT NOT NULL, type TEXT NOT NULL,
-             serialization_format TEXT NOT NULL, offered_qos_profiles TEXT NOT NULL);
-         CREATE TABLE messages(id INTEGER PRIMARY KEY, topic_id INTEGER NOT NULL,
-             timestamp INTEGER NOT NULL, data BLOB NOT NULL);",
-    )
-    .unwrap();
-    let mut topics: Vec<&str> = vec![];
-    for (i, (topic, ty, data)) in messages.iter().enumerate() {
-        let id = match topics.iter().position(|t| t == topic) {
-            Some(p) => p + 1,
-            None => {
-                topics.push(topic);
-                db.execute(
-                    "INSERT INTO topics VALUES (?1, ?2, ?3, 'cdr', '')",
-                    rusqlite::params![topics.len(), topic, ty],
-                )
-                .unwrap();
-                topics.len()
-            }
-        };
-        db.execute(
-            "INSERT INTO messages(topic_id, timestamp, data) VALUES (?1, ?2, ?3)",
-            rusqlite::params![id, i, data],
-        )
-        .unwrap();
-    }
-}
-
 /// The `CameraInfo` messages of two 4x3 cameras with the same `k`.
 fn infos(
     w: Wire,
