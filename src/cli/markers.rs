@@ -5,6 +5,7 @@ use clap::{Args, Subcommand};
 use softsense::fem::model::Model;
 use softsense::markers::bind::read_candidates;
 use softsense::markers::calib::{read_calibration, rigid_fit_covariance, MarkerCalibration};
+use softsense::markers::reference::reference_positions;
 use softsense::markers::tracks::{flag_hidden, read_motive, read_tracks, MarkerTracks};
 use softsense::markers::{
     bind_markers, locate_forces, refine_located, CandidateLocation, LocatedForce, MarkerFrame,
@@ -124,10 +125,17 @@ pub enum MarkersCommand {
 /// `names` when it is not empty).
 pub(crate) fn load_candidates(
     model: &Model,
+    model_file: &std::path::Path,
     path: Option<&std::path::Path>,
     names: &[String],
 ) -> Result<Vec<CandidateLocation>, CliError> {
     let mesh = &model.problem.mesh;
+    if path.is_none() && model.force_points.is_empty() {
+        return Err(CliError::Usage(format!(
+            "{}: the model has no force points: give --candidates FILE (CSV name,x,y,z,directions), or add [[force_points]] to the model file (name, at in its units, and normal = true or a direction; as in meshes/models/robot.toml)",
+            model_file.display()
+        )));
+    }
     if let Some(missing) = names
         .iter()
         .find(|n| !model.force_points.iter().any(|e| &e.name == *n))
@@ -145,11 +153,6 @@ pub(crate) fn load_candidates(
             .map(|e| CandidateLocation::from_force_point(e, mesh))
             .collect(),
     };
-    if candidates.is_empty() {
-        return Err(CliError::Usage(
-            "no candidates: give --candidates or [[force_points]] in the model".into(),
-        ));
-    }
     Ok(candidates)
 }
 
@@ -201,8 +204,13 @@ pub fn run(args: &MarkersArgs) -> CliResult {
     let (tracks, calibration) = tracks_in_model_frame(tracks_path, args.calibration.as_deref())?;
     let model = Model::load(model_path, None).map_err(|e| CliError::Lib(e.into()))?;
     let mesh = &model.problem.mesh;
-    let candidates = load_candidates(&model, args.candidates.as_deref(), &args.force_points)?;
-    let (first, counts) = reference_positions(&tracks, args)?;
+    let candidates = load_candidates(
+        &model,
+        model_path,
+        args.candidates.as_deref(),
+        &args.force_points,
+    )?;
+    let (first, counts) = bound_positions(&tracks, args, &params)?;
     let surface = mesh.surface();
     // The first frame shows the body unloaded: the model's free equilibrium, not its rest.
     let free = (model.problem.without_loads())
@@ -342,10 +350,12 @@ fn tracks_in_model_frame(
 
 /// Where each marker is bound (m, model frame) and how many measured frames that
 /// position averages (0: exact, from `--reference`): the mean of its visible entries in
-/// the first `--reference-frames` frames, else its first visible entry.
-fn reference_positions(
+/// the first `--reference-frames` frames, else its first visible entry (refused when one of
+/// those frames is loaded: [`reference_positions`]).
+fn bound_positions(
     tracks: &MarkerTracks,
     args: &MarkersArgs,
+    params: &MarkersParams,
 ) -> Result<(Vec<[f64; 3]>, Vec<usize>), CliError> {
     if let Some(path) = &args.reference {
         let reference = read_any_tracks(path)?;
@@ -364,29 +374,21 @@ fn reference_positions(
             .collect::<Result<Vec<_>, _>>()?;
         return Ok((positions, vec![0; tracks.names.len()]));
     }
-    let head = &tracks.frames[..args.reference_frames.min(tracks.frames.len())];
-    let mut positions = Vec::with_capacity(tracks.names.len());
-    let mut counts = Vec::with_capacity(tracks.names.len());
-    for (m, name) in tracks.names.iter().enumerate() {
-        let seen: Vec<[f64; 3]> = head.iter().filter_map(|f| f.positions[m]).collect();
-        let (p, n) = if seen.is_empty() {
-            let p = (tracks.frames.iter())
-                .find_map(|f| f.positions[m])
-                .ok_or_else(|| {
-                    CliError::Result(format!(
-                        "marker {name} is never visible: it cannot be bound"
-                    ))
-                })?;
-            (p, 1)
-        } else {
-            let mean =
-                [0, 1, 2].map(|a| seen.iter().map(|p| p[a]).sum::<f64>() / seen.len() as f64);
-            (mean, seen.len())
-        };
-        positions.push(p);
-        counts.push(n);
+    let reference = reference_positions(tracks, args.reference_frames, params)
+        .map_err(reference_error)?;
+    Ok((reference.positions, reference.counts))
+}
+
+/// A reference that the arguments cannot give (too many frames, a loaded one among them)
+/// is a usage error; the rest are the library's.
+pub(crate) fn reference_error(e: softsense::markers::MarkersError) -> CliError {
+    use softsense::markers::MarkersError as E;
+    match e {
+        E::ReferenceFramesTooMany { .. } | E::ReferenceFrameLoaded { .. } => {
+            CliError::Usage(e.to_string())
+        }
+        e => CliError::Lib(e.into()),
     }
-    Ok((positions, counts))
 }
 
 /// The located forces spread over more than one found candidate (a force between
