@@ -6,8 +6,9 @@ use indicatif::{ProgressBar, ProgressStyle};
 use softsense::fem::model::Model;
 use softsense::recording::RecordingError;
 use softsense::sense::{
-    compare, default_window, median_timings, FrameReport, FrameStatus, Hold, HoldParams, LoadError,
-    Observation, Recording, Rig, SenseError, SenseParams, SenseResult, Sensor, StageTimings, View,
+    compare, default_window, median_timings, CameraState, FrameReport, FrameStatus, Hold,
+    HoldParams, LoadError, Observation, Recording, Rig, SenseError, SenseParams, SenseResult,
+    Sensor, StageTimings, View, COLOUR_HINT, POSE_HINT,
 };
 use std::path::PathBuf;
 
@@ -472,15 +473,20 @@ fn no_robot_hint(reports: &[FrameReport]) -> String {
     if read.is_empty() || !read.iter().all(|r| r.status == FrameStatus::NoRobot) {
         return String::new();
     }
-    if read.iter().all(|r| r.robot_points + r.object_points == 0) {
-        "; no point of any frame falls in the box around the robot: check the camera pose \
-         (robot_from_camera maps camera coordinates to the robot's, in metres; not its \
-         inverse)"
-            .into()
+    // A rig's cameras without a robot kept their points out of the frame's counts.
+    let in_box = |r: &FrameReport| {
+        let left_out: usize = (r.cameras.iter())
+            .map(|c| match c.state {
+                CameraState::NoRobot { object_points } => object_points,
+                _ => 0,
+            })
+            .sum();
+        r.robot_points + r.object_points + left_out
+    };
+    if read.iter().all(|r| in_box(r) == 0) {
+        format!("; no point of any frame falls in the box around the robot: {POSE_HINT}")
     } else {
-        "; the box around the robot holds points, but too few of the robot's colour: check \
-         --robot-color"
-            .into()
+        format!("; the box around the robot holds points, but too few of the robot's colour: {COLOUR_HINT}")
     }
 }
 
