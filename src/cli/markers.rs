@@ -11,7 +11,7 @@ use softsense::markers::{
     bind_markers, locate_forces, refine_located, CandidateLocation, LocatedForce, MarkerFrame,
     MarkerSensor, MarkersParams,
 };
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Forces at candidate locations from marker tracks and an FE model.
 #[derive(Args, Debug)]
@@ -22,7 +22,8 @@ the model file's cable inputs).\n\n\
 Each marker is bound to the model's surface at the mean of its entries in the first \
 --reference-frames frames (1 by default; else at its first visible entry), the surface \
 taken in the model's free equilibrium (gravity and cable inputs, no loads): those frames \
-should show the body unloaded. The reference's noise is common to every later frame and is \
+must show the body unloaded; more frames than the file has, or one whose markers moved more \
+than twice what --sigma-mm explains (a loaded frame), is refused. The reference's noise is common to every later frame and is \
 included in sigma (its share is 1/N of a frame's); --reference binds at exact positions \
 instead. Per frame, markers that are missing or farther \
 than the hidden threshold from where they are expected (their last accepted position moved \
@@ -39,8 +40,8 @@ TRACKS is softsense's CSV `frame,marker,x,y,z` (metres, model frame; a hidden ma
 empty x,y,z) or an OptiTrack Motive CSV export (detected by its `Frame,Time` header; \
 millimetres unless its header says otherwise). The tracker frame is taken as the model \
 frame, unless --calibration maps it (`softsense markers calibrate`). Candidates come from --candidates (CSV `name,x,y,z,directions`, metres, directions \
-`normal` or `3d`, each snapped to the nearest surface node) or else the model's \
-[[force_points]].",
+`normal` or `3d`, each snapped to the nearest surface node; one more than 5 mm off the \
+surface is refused) or else the model's [[force_points]].",
     after_help = "Examples:\n  \
 softsense markers tracks.csv meshes/models/sheet.toml --candidates candidates.csv\n  \
 softsense markers take.csv meshes/models/robot.toml --json | jq .located\n  \
@@ -91,6 +92,7 @@ pub struct MarkersArgs {
     accumulate: usize,
     /// The first N frames show the body unloaded: each marker is bound at the mean of its
     /// entries there, and that reference's noise (1/N of a frame's) is in the forces' sigma.
+    /// At most the file's frames; a loaded frame among them is refused.
     #[arg(long, value_name = "N", default_value_t = 1)]
     reference_frames: usize,
     /// Bind the markers at this track file's first frame instead, taken as exact (model
@@ -374,18 +376,19 @@ fn bound_positions(
             .collect::<Result<Vec<_>, _>>()?;
         return Ok((positions, vec![0; tracks.names.len()]));
     }
+    let tracks_path = args.tracks.as_deref().unwrap_or(Path::new("TRACKS"));
     let reference = reference_positions(tracks, args.reference_frames, params)
-        .map_err(reference_error)?;
+        .map_err(|e| reference_error(tracks_path, e))?;
     Ok((reference.positions, reference.counts))
 }
 
-/// A reference that the arguments cannot give (too many frames, a loaded one among them)
-/// is a usage error; the rest are the library's.
-pub(crate) fn reference_error(e: softsense::markers::MarkersError) -> CliError {
+/// A reference that the arguments cannot give from the track file `path` (too many frames,
+/// a loaded one among them) is a usage error; the rest are the library's.
+pub(crate) fn reference_error(path: &Path, e: softsense::markers::MarkersError) -> CliError {
     use softsense::markers::MarkersError as E;
     match e {
         E::ReferenceFramesTooMany { .. } | E::ReferenceFrameLoaded { .. } => {
-            CliError::Usage(e.to_string())
+            CliError::Usage(format!("{}: {e}", path.display()))
         }
         e => CliError::Lib(e.into()),
     }

@@ -4,9 +4,9 @@ use super::markers::{read_any_tracks, reference_error};
 use super::{print_json, CliError, CliResult};
 use clap::Args;
 use softsense::fem::model::Model;
+use softsense::markers::calib::{fit_robot_from_tracker, write_calibration};
 use softsense::markers::reference::check_reference_frames;
 use softsense::markers::{bind_markers, MarkersParams};
-use softsense::markers::calib::{fit_robot_from_tracker, write_calibration};
 use std::path::PathBuf;
 
 /// Fit the tracker-to-robot transform to the markers' rest positions (thesis 3.3).
@@ -15,7 +15,8 @@ use std::path::PathBuf;
     long_about = "Fits robot_from_tracker, the rigid transform from the tracker's frame to \
 the model's, to the markers at rest (thesis 3.3 calibrates with markers): each marker's \
 tracked position (the mean of its entries in the first --reference-frames frames, which \
-must show the body unloaded) against its position on the model (POSITIONS, a track file \
+must show the body unloaded: one whose markers moved more than twice what --sigma-mm \
+explains is refused) against its position on the model (POSITIONS, a track file \
 in the model frame such as `markers layout --csv` writes, snapped onto the surface of the \
 model's free equilibrium). Least squares (Kabsch); markers are matched by name. Needs at \
 least 3 markers not on one line. Prints the transform and the residual per marker; --out \
@@ -82,7 +83,8 @@ pub fn run(args: &CalibrateArgs) -> CliResult {
         sigma: args.sigma_mm * 1e-3,
         ..Default::default()
     };
-    check_reference_frames(&tracks, args.reference_frames, &params).map_err(reference_error)?;
+    check_reference_frames(&tracks, args.reference_frames, &params)
+        .map_err(|e| reference_error(&args.tracks, e))?;
     let head = &tracks.frames[..args.reference_frames];
     let first = positions.frames.first();
     let (mut names, mut tracked, mut placed) = (Vec::new(), Vec::new(), Vec::new());

@@ -36,8 +36,10 @@ use std::path::PathBuf;
 /// pose; the inputs and truth at the top, as `scene generate` writes a scene with
 /// [[cameras]]) is sensed as one: all cameras' robot points in the robot frame are
 /// registered together, each with its own camera's depth noise, and the contacts come
-/// from all of them. A camera without a frame, or whose frame cannot be read, is left out
-/// of that frame and named in its report ("cameras"); the others are sensed.
+/// from all of them. A camera without a frame, whose frame cannot be read, or that shows
+/// no robot point (no_robot: check its pose) is left out of that frame and named in its
+/// report ("cameras"); the others are sensed. Camera folders that are one folder (a
+/// symlink) are one camera, with a warning.
 ///
 /// Where no contact is seen (a weight hanging by a string), the model's force points
 /// ([[force_points]] in the model file) are the candidate locations. Where one is seen,

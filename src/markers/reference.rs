@@ -44,9 +44,9 @@ pub fn reference_positions(
         let seen: Vec<[f64; 3]> = (0..frames).filter_map(|k| accepted(k, m)).collect();
         if seen.is_empty() {
             let first = (tracks.frames.iter()).find_map(|f| f.positions[m]);
-            positions.push(first.ok_or_else(|| MarkersError::MarkerNeverVisible {
-                name: name.clone(),
-            })?);
+            positions.push(
+                first.ok_or_else(|| MarkersError::MarkerNeverVisible { name: name.clone() })?,
+            );
             counts.push(1);
             continue;
         }
