@@ -20,8 +20,8 @@
 //!   centre of each group of found candidates (4.11-4.13, Corollary 2).
 //! - [`calib`]: the tracker-to-robot transform fitted to the markers' rest positions
 //!   ([`calib::fit_robot_from_tracker`]).
-//! - [`reference`]: where each marker is bound, from the first frames, refused when one
-//!   of them is loaded ([`reference::reference_positions`]).
+//! - [`reference`](mod@reference): where each marker is bound, from the first frames,
+//!   refused when one of them is loaded ([`reference::reference_positions`]).
 //! - [`refine`]: a located force moved to the nearby surface node where one force explains
 //!   the markers best ([`refine::refine_located`]).
 //!

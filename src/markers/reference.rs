@@ -100,7 +100,7 @@ fn check_unloaded(
             }
         }
         let moved = (sum / n.max(1) as f64).sqrt();
-        if n > 0 && !(moved <= LOADED_RATIO * expected) {
+        if n > 0 && (moved.is_nan() || moved > LOADED_RATIO * expected) {
             return Err(MarkersError::ReferenceFrameLoaded {
                 frame: tracks.frames[k].frame,
                 index: k,
