@@ -152,26 +152,31 @@ fn sheet_candidates() -> PathBuf {
     project_root().join("clouds/markers/sheet/candidates.csv")
 }
 
+/// `softsense markers TRACKS sheet.toml EXTRA...` gives the message `name`.
+fn assert_on_sheet(name: &str, tracks: &Path, extra: &[&str]) {
+    let model = sheet_model();
+    let mut args = vec!["markers", path(tracks), path(&model)];
+    args.extend(extra);
+    assert_cli(name, &args);
+}
+
+/// [`assert_on_sheet`] with `--candidates cand.csv` holding `text`, next to `tracks`.
+fn assert_with_candidates(name: &str, tracks: &Path, text: &str) {
+    let cand = tracks.with_file_name("cand.csv");
+    std::fs::write(&cand, text).unwrap();
+    assert_on_sheet(name, tracks, &["--candidates", path(&cand)]);
+}
+
 /// `--reference-frames 100` on a 3-frame file averaged the loaded frames 1 and 2 into the
 /// reference without a word, and frame 0's force flipped sign.
 #[test]
 fn reference_frames_100_on_a_3_frame_file_averaged_its_loaded_frames_into_the_reference() {
     let dir = tempfile::tempdir().unwrap();
     let tracks = sheet_tracks(dir.path(), 3);
-    let (model, candidates) = (sheet_model(), sheet_candidates());
+    let candidates = sheet_candidates();
     let run = |n: &str, name: &str| {
-        assert_cli(
-            name,
-            &[
-                "markers",
-                path(&tracks),
-                path(&model),
-                "--candidates",
-                path(&candidates),
-                "--reference-frames",
-                n,
-            ],
-        )
+        let extra = ["--candidates", path(&candidates), "--reference-frames", n];
+        assert_on_sheet(name, &tracks, &extra)
     };
     run("100", "reference frames beyond the file");
     // As many frames as there are is no better when some are loaded.
@@ -183,19 +188,9 @@ fn reference_frames_100_on_a_3_frame_file_averaged_its_loaded_frames_into_the_re
 fn a_candidate_3_m_off_the_body_was_snapped_to_a_node_and_reported_found_there() {
     let dir = tempfile::tempdir().unwrap();
     let tracks = sheet_tracks(dir.path(), 2);
-    let cand = dir.path().join("cand.csv");
     let text = std::fs::read_to_string(sheet_candidates()).unwrap();
-    std::fs::write(&cand, text + "far,3.0,0.0,0.004,normal\n").unwrap();
-    assert_cli(
-        "a candidate off the surface",
-        &[
-            "markers",
-            path(&tracks),
-            path(&sheet_model()),
-            "--candidates",
-            path(&cand),
-        ],
-    );
+    let text = text + "far,3.0,0.0,0.004,normal\n";
+    assert_with_candidates("a candidate off the surface", &tracks, &text);
 }
 
 /// A header-only tracks file (`markers detect` writes one when it finds nothing) exited 0
@@ -205,21 +200,11 @@ fn a_candidate_3_m_off_the_body_was_snapped_to_a_node_and_reported_found_there()
 fn a_header_only_tracks_file_exited_0_and_printed_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let tracks = dir.path().join("tracks.csv");
-    let model = sheet_model();
     std::fs::write(&tracks, "frame,marker,x,y,z\n").unwrap();
-    let args = ["markers", path(&tracks), path(&model)];
-    assert_cli("a header-only tracks file", &args);
+    assert_on_sheet("a header-only tracks file", &tracks, &[]);
     let tracks = sheet_tracks(dir.path(), 1);
-    let cand = dir.path().join("cand.csv");
-    std::fs::write(&cand, "name,x,y,z,directions\n").unwrap();
-    let args = [
-        "markers",
-        path(&tracks),
-        path(&model),
-        "--candidates",
-        path(&cand),
-    ];
-    assert_cli("a header-only candidates file", &args);
+    let text = "name,x,y,z,directions\n";
+    assert_with_candidates("a header-only candidates file", &tracks, text);
 }
 
 /// Motive's `Length Units,Inches` gave "unknown length unit Some(\"inches\")".
