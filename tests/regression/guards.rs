@@ -330,4 +330,12 @@ fn a_rig_camera_with_a_wrong_pose_reported_seen_with_0_robot_points_and_no_warni
         "a rig camera that sees no robot",
         &report.warnings.join("\n"),
     );
+    // With no camera on the robot the frame is the one-camera no_robot, not an error.
+    std::fs::write(out.join("front/camera_pose.json"), away).unwrap();
+    let rig = Rig::open(&out).unwrap();
+    let sensor = rig_sensor(&rig);
+    let obs = sensor.observe(&rig, 0).unwrap();
+    assert!(obs.views.is_empty() && obs.robot.is_empty());
+    let report = sensor.sense(0, &obs, rig.inputs_of(0).as_ref());
+    assert_eq!(report.status, FrameStatus::NoRobot);
 }
