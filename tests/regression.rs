@@ -1219,5 +1219,7 @@ fn the_diamonds_base_below_the_table_gave_phantom_contacts_of_150_newtons() {
 #[path = "regression/import.rs"]
 mod import;
 
+#[path = "regression/guards.rs"]
+mod guards;
 #[path = "regression/messages.rs"]
 mod messages;

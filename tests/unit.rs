@@ -57,6 +57,8 @@ mod markers_calib;
 mod markers_detect;
 #[path = "unit/markers_layout.rs"]
 mod markers_layout;
+#[path = "unit/markers_reference.rs"]
+mod markers_reference;
 #[path = "unit/register.rs"]
 mod register;
 #[path = "unit/scene.rs"]

@@ -290,8 +290,8 @@ class FrameReport:
     """What sensing found in one frame: its ``status`` ("sensed", "no_robot",
     "no_features", "unreadable", "not_solved", "too_many_contacts") with ``detail``, the
     forces, the warnings, the registration residual (m), for a recording of several
-    cameras each camera's part (``cameras``: name and status "seen", "missing" or
-    "unreadable"; empty for one camera), whether it is one of the sensor's ``reference``
+    cameras each camera's part (``cameras``: name and status "seen", "no_robot" (read, no
+    robot point: check its pose), "missing" or "unreadable"; empty for one camera), whether it is one of the sensor's ``reference``
     frames (it then reads near zero by construction) and, for generated recordings, the
     errors against the truth."""
 

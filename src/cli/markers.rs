@@ -5,12 +5,13 @@ use clap::{Args, Subcommand};
 use softsense::fem::model::Model;
 use softsense::markers::bind::read_candidates;
 use softsense::markers::calib::{read_calibration, rigid_fit_covariance, MarkerCalibration};
+use softsense::markers::reference::reference_positions;
 use softsense::markers::tracks::{flag_hidden, read_motive, read_tracks, MarkerTracks};
 use softsense::markers::{
     bind_markers, locate_forces, refine_located, CandidateLocation, LocatedForce, MarkerFrame,
     MarkerSensor, MarkersParams,
 };
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Forces at candidate locations from marker tracks and an FE model.
 #[derive(Args, Debug)]
@@ -21,7 +22,8 @@ the model file's cable inputs).\n\n\
 Each marker is bound to the model's surface at the mean of its entries in the first \
 --reference-frames frames (1 by default; else at its first visible entry), the surface \
 taken in the model's free equilibrium (gravity and cable inputs, no loads): those frames \
-should show the body unloaded. The reference's noise is common to every later frame and is \
+must show the body unloaded; more frames than the file has, or one whose markers moved more \
+than twice what --sigma-mm explains (a loaded frame), is refused. The reference's noise is common to every later frame and is \
 included in sigma (its share is 1/N of a frame's); --reference binds at exact positions \
 instead. Per frame, markers that are missing or farther \
 than the hidden threshold from where they are expected (their last accepted position moved \
@@ -38,8 +40,8 @@ TRACKS is softsense's CSV `frame,marker,x,y,z` (metres, model frame; a hidden ma
 empty x,y,z) or an OptiTrack Motive CSV export (detected by its `Frame,Time` header; \
 millimetres unless its header says otherwise). The tracker frame is taken as the model \
 frame, unless --calibration maps it (`softsense markers calibrate`). Candidates come from --candidates (CSV `name,x,y,z,directions`, metres, directions \
-`normal` or `3d`, each snapped to the nearest surface node) or else the model's \
-[[force_points]].",
+`normal` or `3d`, each snapped to the nearest surface node; one more than 5 mm off the \
+surface is refused) or else the model's [[force_points]].",
     after_help = "Examples:\n  \
 softsense markers tracks.csv meshes/models/sheet.toml --candidates candidates.csv\n  \
 softsense markers take.csv meshes/models/robot.toml --json | jq .located\n  \
@@ -90,6 +92,7 @@ pub struct MarkersArgs {
     accumulate: usize,
     /// The first N frames show the body unloaded: each marker is bound at the mean of its
     /// entries there, and that reference's noise (1/N of a frame's) is in the forces' sigma.
+    /// At most the file's frames; a loaded frame among them is refused.
     #[arg(long, value_name = "N", default_value_t = 1)]
     reference_frames: usize,
     /// Bind the markers at this track file's first frame instead, taken as exact (model
@@ -124,10 +127,17 @@ pub enum MarkersCommand {
 /// `names` when it is not empty).
 pub(crate) fn load_candidates(
     model: &Model,
+    model_file: &std::path::Path,
     path: Option<&std::path::Path>,
     names: &[String],
 ) -> Result<Vec<CandidateLocation>, CliError> {
     let mesh = &model.problem.mesh;
+    if path.is_none() && model.force_points.is_empty() {
+        return Err(CliError::Usage(format!(
+            "{}: the model has no force points: give --candidates FILE (CSV name,x,y,z,directions), or add [[force_points]] to the model file (name, at in its units, and normal = true or a direction; as in meshes/models/robot.toml)",
+            model_file.display()
+        )));
+    }
     if let Some(missing) = names
         .iter()
         .find(|n| !model.force_points.iter().any(|e| &e.name == *n))
@@ -145,11 +155,6 @@ pub(crate) fn load_candidates(
             .map(|e| CandidateLocation::from_force_point(e, mesh))
             .collect(),
     };
-    if candidates.is_empty() {
-        return Err(CliError::Usage(
-            "no candidates: give --candidates or [[force_points]] in the model".into(),
-        ));
-    }
     Ok(candidates)
 }
 
@@ -201,8 +206,13 @@ pub fn run(args: &MarkersArgs) -> CliResult {
     let (tracks, calibration) = tracks_in_model_frame(tracks_path, args.calibration.as_deref())?;
     let model = Model::load(model_path, None).map_err(|e| CliError::Lib(e.into()))?;
     let mesh = &model.problem.mesh;
-    let candidates = load_candidates(&model, args.candidates.as_deref(), &args.force_points)?;
-    let (first, counts) = reference_positions(&tracks, args)?;
+    let candidates = load_candidates(
+        &model,
+        model_path,
+        args.candidates.as_deref(),
+        &args.force_points,
+    )?;
+    let (first, counts) = bound_positions(&tracks, args, &params)?;
     let surface = mesh.surface();
     // The first frame shows the body unloaded: the model's free equilibrium, not its rest.
     let free = (model.problem.without_loads())
@@ -342,10 +352,12 @@ fn tracks_in_model_frame(
 
 /// Where each marker is bound (m, model frame) and how many measured frames that
 /// position averages (0: exact, from `--reference`): the mean of its visible entries in
-/// the first `--reference-frames` frames, else its first visible entry.
-fn reference_positions(
+/// the first `--reference-frames` frames, else its first visible entry (refused when one of
+/// those frames is loaded: [`reference_positions`]).
+fn bound_positions(
     tracks: &MarkerTracks,
     args: &MarkersArgs,
+    params: &MarkersParams,
 ) -> Result<(Vec<[f64; 3]>, Vec<usize>), CliError> {
     if let Some(path) = &args.reference {
         let reference = read_any_tracks(path)?;
@@ -364,29 +376,22 @@ fn reference_positions(
             .collect::<Result<Vec<_>, _>>()?;
         return Ok((positions, vec![0; tracks.names.len()]));
     }
-    let head = &tracks.frames[..args.reference_frames.min(tracks.frames.len())];
-    let mut positions = Vec::with_capacity(tracks.names.len());
-    let mut counts = Vec::with_capacity(tracks.names.len());
-    for (m, name) in tracks.names.iter().enumerate() {
-        let seen: Vec<[f64; 3]> = head.iter().filter_map(|f| f.positions[m]).collect();
-        let (p, n) = if seen.is_empty() {
-            let p = (tracks.frames.iter())
-                .find_map(|f| f.positions[m])
-                .ok_or_else(|| {
-                    CliError::Result(format!(
-                        "marker {name} is never visible: it cannot be bound"
-                    ))
-                })?;
-            (p, 1)
-        } else {
-            let mean =
-                [0, 1, 2].map(|a| seen.iter().map(|p| p[a]).sum::<f64>() / seen.len() as f64);
-            (mean, seen.len())
-        };
-        positions.push(p);
-        counts.push(n);
+    let tracks_path = args.tracks.as_deref().unwrap_or(Path::new("TRACKS"));
+    let reference = reference_positions(tracks, args.reference_frames, params)
+        .map_err(|e| reference_error(tracks_path, e))?;
+    Ok((reference.positions, reference.counts))
+}
+
+/// A reference that the arguments cannot give from the track file `path` (too many frames,
+/// a loaded one among them) is a usage error; the rest are the library's.
+pub(crate) fn reference_error(path: &Path, e: softsense::markers::MarkersError) -> CliError {
+    use softsense::markers::MarkersError as E;
+    match e {
+        E::ReferenceFramesTooMany { .. } | E::ReferenceFrameLoaded { .. } => {
+            CliError::Usage(format!("{}: {e}", path.display()))
+        }
+        e => CliError::Lib(e.into()),
     }
-    Ok((positions, counts))
 }
 
 /// The located forces spread over more than one found candidate (a force between

@@ -95,6 +95,13 @@ pub fn run(args: &DetectArgs) -> CliResult {
         .map_err(|e| CliError::Lib(e.into()))?;
     let (tracks, detections, dropped) =
         detect_recording(&rec, &params, reference.as_ref()).map_err(|e| CliError::Lib(e.into()))?;
+    if tracks.names.is_empty() {
+        // The tracks hold only their header, which `markers` refuses: say why here.
+        eprintln!(
+            "warning: {}: no marker found in any frame: check --colour and --max-angle-deg",
+            args.recording.display()
+        );
+    }
     let truth_path = rec.dir.join(softsense::scene::MARKERS_TRUTH);
     let errors = match truth_path.exists() {
         true => {

@@ -62,7 +62,7 @@ pub fn run(args: &LayoutArgs) -> CliResult {
         ));
     }
     let model = Model::load(&args.model, None).map_err(|e| CliError::Lib(e.into()))?;
-    let candidates = load_candidates(&model, args.candidates.as_deref(), &[])?;
+    let candidates = load_candidates(&model, &args.model, args.candidates.as_deref(), &[])?;
     let params = LayoutParams {
         markers: args.markers,
         max_exchange_passes: args.max_exchange_passes,

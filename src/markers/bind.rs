@@ -11,6 +11,7 @@ use crate::fem::constraint::{ConstraintRow, RowKind};
 use crate::fem::mesh::{Surface, TetMesh};
 use crate::fem::model::Effector;
 use crate::fem::solve::MappedPoint;
+use crate::geometry::triangle::point_triangle_distance2;
 use crate::inverse::Candidate;
 use crate::io::InFile;
 use crate::math::{norm, sub};
@@ -119,8 +120,16 @@ impl CandidateLocation {
     }
 }
 
+/// A candidate farther than this from the model's rest surface is refused (m): a force
+/// there would be put on the nearest surface node and reported as found at it, though the
+/// file meant somewhere else (a point in millimetres, or in another frame). The markers'
+/// binding allows the same 5 mm ([`super::MarkersParams::max_bind_distance`]).
+pub const MAX_CANDIDATE_DISTANCE: f64 = 0.005;
+
 /// Reads a candidate file: CSV `name,x,y,z,directions` (m, model frame; directions `normal`
-/// or `3d`), each point snapped to its nearest surface node.
+/// or `3d`), each point snapped to its nearest surface node. A file without candidates, or
+/// with candidates farther than [`MAX_CANDIDATE_DISTANCE`] from the surface, is an error
+/// naming the file (and the candidates).
 pub fn read_candidates(path: &Path, mesh: &TetMesh) -> MarkersResult<Vec<CandidateLocation>> {
     let text = std::fs::read_to_string(path).map_err(|source| MarkersError::File {
         path: path.display().to_string(),
@@ -133,6 +142,7 @@ pub fn read_candidates(path: &Path, mesh: &TetMesh) -> MarkersResult<Vec<Candida
 pub fn parse_candidates(text: &str, mesh: &TetMesh) -> MarkersResult<Vec<CandidateLocation>> {
     let surface = mesh.surface();
     let mut out = Vec::new();
+    let mut off = Vec::new();
     for (i, l) in text.lines().enumerate() {
         let cells: Vec<&str> = l.split(',').map(str::trim).collect();
         if l.trim().is_empty() || (i == 0 && cells[0].eq_ignore_ascii_case("name")) {
@@ -166,9 +176,36 @@ pub fn parse_candidates(text: &str, mesh: &TetMesh) -> MarkersResult<Vec<Candida
                 })
             }
         };
+        let distance = surface_distance(&mesh.nodes_in_rest, &surface, p);
+        if distance.is_nan() || distance > MAX_CANDIDATE_DISTANCE {
+            off.push(format!(
+                "{} (line {}, {:.1} mm)",
+                cells[0],
+                i + 1,
+                1e3 * distance
+            ));
+        }
         out.push(CandidateLocation::snapped(
             cells[0], mesh, &surface, p, directions,
         )?);
     }
+    if !off.is_empty() {
+        return Err(MarkersError::CandidatesOffSurface {
+            candidates: off.join(", "),
+            max_distance: MAX_CANDIDATE_DISTANCE,
+        });
+    }
+    if out.is_empty() {
+        return Err(MarkersError::NoCandidates);
+    }
     Ok(out)
+}
+
+/// The distance from `p` to the surface with nodes at `x` (m).
+fn surface_distance(x: &[[f64; 3]], surface: &Surface, p: [f64; 3]) -> f64 {
+    // PERF: brute force over the triangles, as the markers' binding; a few candidates.
+    (surface.triangles.iter())
+        .map(|t| point_triangle_distance2(p, x[t[0]], x[t[1]], x[t[2]]))
+        .fold(f64::INFINITY, f64::min)
+        .sqrt()
 }

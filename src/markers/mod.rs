@@ -20,6 +20,8 @@
 //!   centre of each group of found candidates (4.11-4.13, Corollary 2).
 //! - [`calib`]: the tracker-to-robot transform fitted to the markers' rest positions
 //!   ([`calib::fit_robot_from_tracker`]).
+//! - [`reference`](mod@reference): where each marker is bound, from the first frames,
+//!   refused when one of them is loaded ([`reference::reference_positions`]).
 //! - [`refine`]: a located force moved to the nearby surface node where one force explains
 //!   the markers best ([`refine::refine_located`]).
 //!
@@ -42,6 +44,7 @@ pub mod detect;
 pub mod layout;
 pub mod locate;
 pub mod motion;
+pub mod reference;
 pub mod refine;
 pub mod solve;
 pub mod tracks;
@@ -96,6 +99,45 @@ pub enum MarkersError {
         line: usize,
         /// The cell as written (lower-cased).
         cell: String,
+    },
+    /// Candidates farther than [`bind::MAX_CANDIDATE_DISTANCE`] from the model's surface.
+    #[error("candidates off the model's surface (more than {:.1} mm from it): {candidates}; give candidates on the body, in metres in the model frame", 1e3 * max_distance)]
+    CandidatesOffSurface {
+        /// Each one's name, line and distance, `, `-separated.
+        candidates: String,
+        /// The largest distance accepted (m).
+        max_distance: f64,
+    },
+    /// A candidate file without a candidate line.
+    #[error("no candidates: the file has no line name,x,y,z,directions (m, model frame; directions normal or 3d)")]
+    NoCandidates,
+    /// More reference frames asked for than the tracks have (or none).
+    #[error("--reference-frames {asked}: the tracks have {frames} frames; the reference is the first frames, which must show the body unloaded: give from 1 to the number of unloaded frames at the start")]
+    ReferenceFramesTooMany {
+        /// Reference frames asked for.
+        asked: usize,
+        /// Frames in the tracks.
+        frames: usize,
+    },
+    /// A reference frame whose markers moved more than the noise explains: a loaded frame.
+    #[error("--reference-frames {asked}: frame {frame} is loaded: its markers moved {:.3} mm RMS from their first reference position, more than {} times the {:.3} mm the noise (--sigma-mm) explains; give --reference-frames {index} (the frames before it), or a larger --sigma-mm if the body did not move", 1e3 * moved, reference::LOADED_RATIO, 1e3 * expected)]
+    ReferenceFrameLoaded {
+        /// The frame's number as written.
+        frame: u64,
+        /// Its index in the tracks (the unloaded frames before it).
+        index: usize,
+        /// Reference frames asked for.
+        asked: usize,
+        /// Its markers' RMS distance from their first reference position (m).
+        moved: f64,
+        /// What the noise explains (m): √6 σ.
+        expected: f64,
+    },
+    /// A marker with no position in any frame.
+    #[error("marker {name} is never visible in the tracks: it cannot be bound to the model (leave it out of the file)")]
+    MarkerNeverVisible {
+        /// Its name.
+        name: String,
     },
     /// An error in a file, with the file's name.
     #[error("{path}: {source}")]

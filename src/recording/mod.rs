@@ -370,7 +370,7 @@ impl Recording {
     pub fn open(dir: &Path) -> RecordingResult<Self> {
         let (layout, files) = match list_frames(dir) {
             Err(RecordingError::NoFrames { path }) => {
-                let cameras = rig::camera_folders(dir)?;
+                let (cameras, _) = rig::camera_folders(dir)?;
                 return Err(match cameras.is_empty() {
                     true => RecordingError::NoFrames { path },
                     false => RecordingError::SeveralCameras {

@@ -69,10 +69,12 @@ struct SharedCalibration {
 type CameraListing = (String, (Layout, Vec<FrameFiles>));
 
 /// The sub-folders of `dir` with frames, by name (sorted), each with its layout and frame
-/// files. A sub-folder with frames that cannot be listed (no camera file, two layouts) is
-/// an error naming the camera; one without any frames is not a camera. Hidden folders
-/// (`.name`) are skipped.
-pub(super) fn camera_folders(dir: &Path) -> RecordingResult<Vec<CameraListing>> {
+/// files, and a warning per sub-folder left out as another's folder. A sub-folder with
+/// frames that cannot be listed (no camera file, two layouts) is an error naming the
+/// camera; one without any frames is not a camera. Hidden folders (`.name`) are skipped.
+/// Sub-folders that resolve to the same folder (a symlink to another camera's) are one
+/// camera: read as several, the same pixels would count as independent views.
+pub(super) fn camera_folders(dir: &Path) -> RecordingResult<(Vec<CameraListing>, Vec<String>)> {
     let entries = std::fs::read_dir(dir).map_err(|source| crate::io::IoError::Os {
         path: dir.to_path_buf(),
         source,
@@ -84,6 +86,7 @@ pub(super) fn camera_folders(dir: &Path) -> RecordingResult<Vec<CameraListing>> 
         .filter(|(name, _)| !name.starts_with('.'))
         .collect();
     subs.sort();
+    let (subs, warnings) = one_per_folder(subs);
     let mut out = Vec::new();
     for (name, path) in subs {
         match list_frames(&path) {
@@ -92,7 +95,43 @@ pub(super) fn camera_folders(dir: &Path) -> RecordingResult<Vec<CameraListing>> 
             Err(e) => return Err(camera_error(&name, e)),
         }
     }
-    Ok(out)
+    Ok((out, warnings))
+}
+
+/// `subs` (name, path; sorted by name) with one entry per folder they resolve to: the one
+/// that is not a symlink, else the first by name; a warning for each left out.
+fn one_per_folder(subs: Vec<(String, PathBuf)>) -> (Vec<(String, PathBuf)>, Vec<String>) {
+    let real = |p: &Path| std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf());
+    let linked = |p: &Path| std::fs::symlink_metadata(p).is_ok_and(|m| m.file_type().is_symlink());
+    let resolved: Vec<PathBuf> = subs.iter().map(|(_, p)| real(p)).collect();
+    let mut keep = vec![true; subs.len()];
+    let mut warnings = Vec::new();
+    for i in 0..subs.len() {
+        let same: Vec<usize> = (0..subs.len())
+            .filter(|&j| resolved[j] == resolved[i])
+            .collect();
+        if same.len() < 2 || same[0] != i {
+            continue;
+        }
+        let kept = *same
+            .iter()
+            .find(|&&j| !linked(&subs[j].1))
+            .unwrap_or(&same[0]);
+        for &j in same.iter().filter(|&&j| j != kept) {
+            keep[j] = false;
+            warnings.push(format!(
+                "cameras {} and {} are the same folder ({}): read once, as camera {}",
+                subs[kept].0,
+                subs[j].0,
+                resolved[j].display(),
+                subs[kept].0
+            ));
+        }
+    }
+    let subs = (subs.into_iter().zip(keep))
+        .filter_map(|(s, k)| k.then_some(s))
+        .collect();
+    (subs, warnings)
 }
 
 fn camera_error(name: &str, e: RecordingError) -> RecordingError {
@@ -108,19 +147,22 @@ impl Rig {
     /// sub-folder with frames as one camera, with `inputs.json`/`actuators.json`,
     /// `truth.json` and `calibration.json` (cable inputs and model; no pose) read from the
     /// top. No camera anywhere is [`RecordingError::NoFrames`]; a camera that cannot be
-    /// read is [`RecordingError::Camera`], naming it.
+    /// read is [`RecordingError::Camera`], naming it. Sub-folders that resolve to the same
+    /// folder (symlinks) are one camera, with a warning.
     pub fn open(dir: &Path) -> RecordingResult<Self> {
         let listed = match list_frames(dir) {
             Err(RecordingError::NoFrames { path }) => {
                 let cameras = camera_folders(dir)?;
-                if cameras.is_empty() {
+                if cameras.0.is_empty() {
                     return Err(RecordingError::NoFrames { path });
                 }
                 cameras
             }
             _ => return Self::one_folder(dir),
         };
+        let (listed, same_folder) = listed;
         let mut shared = Shared::read(dir)?;
+        shared.warnings.extend(same_folder);
         let calibration = shared_calibration(dir, listed.len())?;
         let mut cameras = Vec::with_capacity(listed.len());
         for (name, (layout, files)) in listed {

@@ -9,7 +9,10 @@
 //! OptiTrack Motive exports (`read_motive_str`) have a few header rows (the first holds
 //! `Length Units`, a `Name` row the marker names, a `Position`/`Rotation` row which columns
 //! are positions), then `Frame,Time,...` and X, Y, Z triplets per marker; empty cells are a
-//! hidden marker. Lengths are millimetres unless the header says otherwise.
+//! hidden marker. Lengths are millimetres unless the header says otherwise (millimetres,
+//! centimetres, metres or inches).
+//!
+//! A file with no frame is an error ([`TracksError::NoFrames`]).
 
 use crate::io::InFile;
 use std::path::Path;
@@ -45,6 +48,15 @@ pub enum TracksError {
     /// A file could not be written (it names the file).
     #[error(transparent)]
     Write(#[from] crate::io::atomic::AtomicError),
+    /// A track file with a header but no frame.
+    #[error("no frames: the file has a header and no marker positions (`markers detect` writes this when it finds no marker; check its --colour and --max-angle-deg)")]
+    NoFrames,
+    /// A Motive export whose `Length Units` is not one softsense reads.
+    #[error("line 1: Length Units {unit:?}: expected Millimeters, Centimeters, Meters or Inches (re-export from Motive in one of them)")]
+    LengthUnit {
+        /// The unit as written.
+        unit: String,
+    },
 }
 
 impl crate::io::InFile for TracksError {
@@ -198,6 +210,15 @@ pub fn read_tracks_str(text: &str) -> TracksResult<MarkerTracks> {
         .frames
         .iter_mut()
         .for_each(|f| f.positions.resize(n, None));
+    no_frames_is_an_error(tracks)
+}
+
+/// `tracks`, or an error when it has no frame: a header alone (what `markers detect` writes
+/// when it finds no marker) would otherwise be sensed as nothing, with exit status 0.
+fn no_frames_is_an_error(tracks: MarkerTracks) -> TracksResult<MarkerTracks> {
+    if tracks.frames.is_empty() {
+        return Err(TracksError::NoFrames);
+    }
     Ok(tracks)
 }
 
@@ -241,7 +262,11 @@ fn motive_scale(first_line: &str) -> TracksResult<f64> {
         Some("millimeters" | "millimetres" | "mm") => Ok(1e-3),
         Some("centimeters" | "centimetres" | "cm") => Ok(1e-2),
         Some("meters" | "metres" | "m") => Ok(1.0),
-        other => Err(parse_err(1, format!("unknown length unit {other:?}"))),
+        // Motive offers inches among its export units.
+        Some("inches" | "inch" | "in") => Ok(0.0254),
+        _ => Err(TracksError::LengthUnit {
+            unit: cells.get(i + 1).unwrap_or(&"").to_string(),
+        }),
     }
 }
 
@@ -320,5 +345,5 @@ pub fn read_motive_str(text: &str) -> TracksResult<MarkerTracks> {
         }
         frames.push(TrackFrame { frame, positions });
     }
-    Ok(MarkerTracks { names, frames })
+    no_frames_is_an_error(MarkerTracks { names, frames })
 }

@@ -3,12 +3,21 @@
 //! in the robot frame, are registered together, each dense row with its own camera's ray
 //! and depth noise; contacts come from the union of their points (so two cameras seeing one
 //! contact give one contact); a camera without the frame, or whose frame cannot be read,
-//! is left out of that frame ([`CameraReport`]) while the others are sensed.
+//! is left out of that frame ([`CameraReport`]) while the others are sensed, and so is a
+//! camera that shows no robot point (a wrong pose: [`CameraState::NoRobot`]).
 
 use super::{Recording, SenseError, SenseResult, Sensor};
 use crate::math::pose::Pose;
 use crate::recording::{FrameInput, Rig};
 use serde::{Deserialize, Serialize};
+
+/// What to check when a camera puts no point in the box around the robot (one camera's
+/// frames, or one camera of a rig).
+pub const POSE_HINT: &str = "check the camera pose (robot_from_camera maps camera coordinates \
+     to the robot's, in metres; not its inverse)";
+
+/// What to check when the box around the robot holds points but none of the robot's colour.
+pub const COLOUR_HINT: &str = "check --robot-color";
 
 /// One camera of a [`Sensor`].
 #[derive(Clone, Debug)]
@@ -82,6 +91,13 @@ pub enum CameraState {
         /// Its object points in the crop.
         object_points: usize,
     },
+    /// Read, but with no robot point in the box around the robot: its pose (or the robot's
+    /// colour) is wrong for it. Left out of the frame, with its points: a pose that misses
+    /// the robot would put the objects it sees in the wrong place too.
+    NoRobot {
+        /// Its points in the box around the robot, none of the robot's colour.
+        object_points: usize,
+    },
     /// The camera has no such frame.
     Missing,
     /// The frame's files could not be read (the message says why).
@@ -117,6 +133,16 @@ impl std::fmt::Display for CameraReport {
             } => write!(
                 f,
                 "{}: robot {robot_points} pts, objects {object_points} pts",
+                self.name
+            ),
+            CameraState::NoRobot { object_points: 0 } => write!(
+                f,
+                "{}: no point in the box around the robot: {}",
+                self.name, POSE_HINT
+            ),
+            CameraState::NoRobot { object_points } => write!(
+                f,
+                "{}: none of its {object_points} points in the box around the robot is of the robot's colour: {COLOUR_HINT}, or {POSE_HINT}",
                 self.name
             ),
             CameraState::Missing => write!(f, "{}: no such frame", self.name),

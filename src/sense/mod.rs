@@ -50,7 +50,7 @@ mod track;
 
 pub use crate::recording::{Recording, Rig};
 pub use blend::{largest_sigma, LocationAlternative};
-pub use cameras::{CameraFrames, CameraReport, CameraState, SensorCamera};
+pub use cameras::{CameraFrames, CameraReport, CameraState, SensorCamera, COLOUR_HINT, POSE_HINT};
 pub use free::SAME_INPUT;
 pub use hold::{HeldForce, Hold, HoldParams};
 pub use modulus::{KnownLoadProblem, ModulusFit, ModulusParams, ModulusRound};

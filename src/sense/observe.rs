@@ -51,8 +51,9 @@ pub struct View {
 impl Sensor {
     /// Reads `frame` of every camera of `source` that has it, cropped to the robot's box
     /// and split by the colour model. With one camera, its error is the frame's; with
-    /// several, a camera without the frame or with unreadable files is left out and named
-    /// in [`Observation::cameras`], and the frame fails only when no camera could read it.
+    /// several, a camera without the frame, with unreadable files or without a robot point
+    /// ([`CameraState::NoRobot`]) is left out and named in [`Observation::cameras`], and the
+    /// frame fails only when no camera could read it.
     pub fn observe(&self, source: &impl CameraFrames, frame: usize) -> SenseResult<Observation> {
         self.check_cameras(source)?;
         let shared = source.camera_recording(0);
@@ -81,6 +82,13 @@ impl Sensor {
                 let pose = &camera.robot_from_camera;
                 let (robot, objects) = (obs.robot.len(), obs.objects.len());
                 match observe(rec, frame, pose, &self.params, self.bounds, &mut obs) {
+                    Ok(()) if obs.robot.len() == robot => {
+                        // Its objects are as misplaced as its robot: leave the view out.
+                        obs.views.pop();
+                        let object_points = obs.objects.len() - objects;
+                        obs.objects.truncate(objects);
+                        CameraState::NoRobot { object_points }
+                    }
                     Ok(()) => {
                         obs.views.last_mut().expect("a view was added").camera = k;
                         CameraState::Seen {
@@ -98,7 +106,10 @@ impl Sensor {
                 state,
             });
         }
-        if obs.views.is_empty() {
+        // Cameras that read the frame but saw no robot make a frame without a robot, as one
+        // camera's would; a frame no camera could read is an error.
+        let read = (obs.cameras.iter()).any(|c| matches!(c.state, CameraState::NoRobot { .. }));
+        if obs.views.is_empty() && !read {
             return Err(SenseError::NoCamera {
                 cameras: obs.cameras,
             });

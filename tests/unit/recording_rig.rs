@@ -179,3 +179,36 @@ fn a_pose_at_the_top_of_a_rig_is_refused_but_its_cable_calibration_is_shared() {
         assert!((calibrated[0].shortening - 0.02).abs() < 1e-12);
     }
 }
+
+#[cfg(unix)]
+#[test]
+fn camera_folders_that_resolve_to_the_same_folder_are_one_camera_with_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    two_camera_rig(dir.path());
+    // `a_copy` sorts first but is the link: the real folder keeps its name.
+    std::os::unix::fs::symlink(dir.path().join("left"), dir.path().join("a_copy")).unwrap();
+    std::os::unix::fs::symlink(dir.path().join("right"), dir.path().join("z_copy")).unwrap();
+    let rig = Rig::open(dir.path()).unwrap();
+    assert_eq!(rig.camera_names(), ["left", "right"]);
+    let warned: Vec<&String> = (rig.warnings.iter())
+        .filter(|w| w.contains("same folder"))
+        .collect();
+    assert_eq!(warned.len(), 2, "{:?}", rig.warnings);
+    assert!(warned[0].contains("cameras left and a_copy"), "{warned:?}");
+    assert!(warned[1].contains("cameras right and z_copy"), "{warned:?}");
+    // Two links to one folder outside the rig: the first by name is kept.
+    let outside = tempfile::tempdir().unwrap();
+    camera_folder(&outside.path().join("cam"), &[0], 1000.0);
+    std::fs::write(outside.path().join("cam/camera_pose.json"), POSE).unwrap();
+    let rig_dir = tempfile::tempdir().unwrap();
+    for name in ["b", "a"] {
+        std::os::unix::fs::symlink(outside.path().join("cam"), rig_dir.path().join(name)).unwrap();
+    }
+    let rig = Rig::open(rig_dir.path()).unwrap();
+    assert_eq!(rig.camera_names(), ["a"]);
+    assert!(
+        rig.warnings.iter().any(|w| w.contains("cameras a and b")),
+        "{:?}",
+        rig.warnings
+    );
+}
