@@ -120,10 +120,11 @@ fn sense_rerun_without_the_rerun_feature_is_a_usage_error_that_says_how_to_get_i
 
 #[test]
 fn sense_on_a_missing_or_empty_folder_fails_with_a_message() {
+    // A path that is not there is a usage error (exit 2), as clap's own are.
     let out = sense(&["no/such/folder"]);
-    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("no/such/folder"), "{err}");
+    assert!(err.contains("no/such/folder: no such folder"), "{err}");
     let empty = tempfile::tempdir().unwrap();
     let out = sense(&[empty.path().to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(1));
