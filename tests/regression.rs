@@ -1218,3 +1218,6 @@ fn the_diamonds_base_below_the_table_gave_phantom_contacts_of_150_newtons() {
 
 #[path = "regression/import.rs"]
 mod import;
+
+#[path = "regression/outputs.rs"]
+mod outputs;

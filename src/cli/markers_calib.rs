@@ -35,7 +35,8 @@ pub struct CalibrateArgs {
     /// The first N frames show the body unloaded; each marker's tracked position is their mean.
     #[arg(long, value_name = "N", default_value_t = 1)]
     reference_frames: usize,
-    /// Write the calibration here (JSON: robot_from_tracker as a row-major 4x4, residuals).
+    /// Write the calibration here (JSON: robot_from_tracker as a row-major 4x4, residuals);
+    /// never one of the input files.
     #[arg(long)]
     out: Option<PathBuf>,
     /// Print the calibration as JSON on stdout.
@@ -49,6 +50,9 @@ pub fn run(args: &CalibrateArgs) -> CliResult {
         return Err(CliError::Usage(
             "--reference-frames must be at least 1 frame".into(),
         ));
+    }
+    if let Some(out) = &args.out {
+        super::check_output_file(out, &[&args.tracks, &args.model, &args.positions])?;
     }
     let lib = |e: softsense::markers::MarkersError| CliError::Lib(e.into());
     let tracks = read_any_tracks(&args.tracks)?;

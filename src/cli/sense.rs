@@ -219,8 +219,13 @@ pub fn run(args: &SenseArgs) -> CliResult {
         sensor.features.len()
     );
     if let Some(dir) = &args.render {
+        super::check_files_dir(dir, &[], &[])?;
         std::fs::create_dir_all(dir)
             .map_err(|e| CliError::Result(format!("{}: {e}", dir.display())))?;
+    }
+    if let Some(path) = &args.rerun {
+        let named = [Some(&model_path), args.pose.as_ref()];
+        super::rerun_out::check_path(path, &rig, named.into_iter().flatten())?;
     }
     let mut rerun = match &args.rerun {
         Some(path) => Some(super::rerun_out::RerunOut::create(path, &sensor, &rig)?),
