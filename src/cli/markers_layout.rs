@@ -63,8 +63,9 @@ pub fn run(args: &LayoutArgs) -> CliResult {
         ));
     }
     if let Some(out) = &args.csv {
-        let inputs: Vec<&std::path::Path> =
-            std::iter::once(args.model.as_path()).chain(args.candidates.as_deref()).collect();
+        let inputs: Vec<&std::path::Path> = std::iter::once(args.model.as_path())
+            .chain(args.candidates.as_deref())
+            .collect();
         super::check_output_file(out, &inputs)?;
     }
     let model = Model::load(&args.model, None).map_err(|e| CliError::Lib(e.into()))?;

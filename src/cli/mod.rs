@@ -171,7 +171,7 @@ pub fn segment_error(input: &std::path::Path, e: softsense::segment::SegmentErro
 /// Refuses an output path that is the input file (or, for a sequence, the input folder):
 /// the command would write over what it reads.
 pub fn refuse_output_over_input(input: &std::path::Path, output: &std::path::Path) -> CliResult {
-    check_output_file(output, &[input])
+    softsense::io::outputs::check_not_input(output, &[input]).map_err(output_error)
 }
 
 /// The files commands read from the recording folder `dir` (those that exist): its

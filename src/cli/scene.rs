@@ -124,6 +124,11 @@ format plus depth_scale), camera_pose.json, actuators.json and truth.json (every
 location and parameter used; `sense` reports its errors against it), and with [markers]
 markers_truth.csv (the painted markers' true positions per frame).
 
+OUT_DIR is new or empty; one that holds a recording is replaced whole with --force (no
+stale frame of the old one is left), and one holding other files, or the scene or model
+file, is refused. The frames are written beside OUT_DIR and renamed into place at the end:
+a run that fails leaves nothing.
+
 The scene file (TOML; lengths in metres, forces in newtons, robot frame). Only `model` and
 `frames` are required. Below, the other keys show their defaults, except `young` (default:
 the model's own) and the example frame:

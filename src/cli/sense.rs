@@ -185,6 +185,9 @@ fn parse_known_load(s: &str) -> Result<(usize, f64), String> {
 }
 
 pub fn run(args: &SenseArgs) -> CliResult {
+    if let Some(dir) = &args.render {
+        super::check_files_dir(dir, &[], &[])?;
+    }
     let rig = open_rig(args)?;
     let rec = rig.shared();
     for w in &rig.warnings {
@@ -219,7 +222,6 @@ pub fn run(args: &SenseArgs) -> CliResult {
         sensor.features.len()
     );
     if let Some(dir) = &args.render {
-        super::check_files_dir(dir, &[], &[])?;
         std::fs::create_dir_all(dir)
             .map_err(|e| CliError::Result(format!("{}: {e}", dir.display())))?;
     }

@@ -158,6 +158,12 @@ pub fn check_file(output: &Path, inputs: &[&Path]) -> Result<(), OutputsError> {
             path: output.to_path_buf(),
         });
     }
+    check_not_input(output, inputs)
+}
+
+/// Refuses `output` (a file, or a folder of a sequence) when it resolves to one of
+/// `inputs`.
+pub fn check_not_input(output: &Path, inputs: &[&Path]) -> Result<(), OutputsError> {
     let out = resolved(output);
     match inputs.iter().find(|i| resolved(i) == out) {
         Some(input) => Err(OutputsError::OverInput {
@@ -301,12 +307,20 @@ impl StagedDir {
         &self.tmp
     }
 
-    /// Puts the written folder in place of the target: an old target (which [`check_dir`]
-    /// allowed: empty, or a recording to replace) is removed once the new one is in place.
+    /// Puts the written folder in place of the target: into an empty target its files are
+    /// moved (the folder stays, a shell's working directory with it); a recording to
+    /// replace (which [`check_dir`] allowed) is removed once the new one is in place.
     pub fn commit(mut self) -> Result<(), OutputsError> {
         let target = self.target.clone();
         match std::fs::symlink_metadata(&target) {
             Err(_) => std::fs::rename(&self.tmp, &target).map_err(os(&target))?,
+            Ok(_) if names(&target).is_ok_and(|n| n.is_empty()) => {
+                for name in names(&self.tmp).map_err(os(&self.tmp))? {
+                    let to = target.join(&name);
+                    std::fs::rename(self.tmp.join(&name), &to).map_err(os(&to))?;
+                }
+                std::fs::remove_dir(&self.tmp).map_err(os(&self.tmp))?;
+            }
             Ok(_) => {
                 let old = self.tmp.with_file_name(old_name(&self.tmp));
                 std::fs::rename(&target, &old).map_err(os(&target))?;
@@ -460,6 +474,24 @@ mod tests {
         staged.commit().unwrap();
         assert_eq!(names(&target).unwrap(), ["depth_0000.png"]);
         assert_eq!(names(dir.path()).unwrap(), ["rec"]);
+    }
+
+    #[test]
+    fn a_commit_into_an_empty_folder_keeps_the_folder() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("rec");
+        std::fs::create_dir(&target).unwrap();
+        #[cfg(unix)]
+        let inode = || std::os::unix::fs::MetadataExt::ino(&std::fs::metadata(&target).unwrap());
+        #[cfg(unix)]
+        let before = inode();
+        let staged = StagedDir::new(&target).unwrap();
+        touch(&staged.path().join("depth_0000.png"));
+        staged.commit().unwrap();
+        assert_eq!(names(&target).unwrap(), ["depth_0000.png"]);
+        assert_eq!(names(dir.path()).unwrap(), ["rec"]);
+        #[cfg(unix)]
+        assert_eq!(inode(), before);
     }
 
     #[test]

@@ -13,12 +13,20 @@ pub const MESSAGES: &[(&str, i32, &[&str])] = &[
     (
         "output is an input",
         2,
-        &["is the input", "give another output path", "never writes over"],
+        &[
+            "is the input",
+            "give another output path",
+            "never writes over",
+        ],
     ),
     (
         "output folder holds a recording",
         2,
-        &["already holds a recording", "new or empty folder", "--force"],
+        &[
+            "already holds a recording",
+            "new or empty folder",
+            "--force",
+        ],
     ),
     (
         "output folder holds other files",
@@ -30,8 +38,16 @@ pub const MESSAGES: &[(&str, i32, &[&str])] = &[
         2,
         &["holds the input", "another output folder"],
     ),
-    ("output folder is a file", 2, &["is a file", "folder's path"]),
-    ("output file is a folder", 2, &["is a folder", "give a file path"]),
+    (
+        "output folder is a file",
+        2,
+        &["is a file", "folder's path"],
+    ),
+    (
+        "output file is a folder",
+        2,
+        &["is a folder", "give a file path"],
+    ),
     (
         "regenerated file not written by softsense",
         1,
@@ -109,12 +125,23 @@ fn scene_generate_into_an_existing_recording_overwrote_frame_0_and_left_frames_1
     assert!(snapshot(&rec) == before, "the recording is untouched");
     // With --force the new recording replaces the old one whole: no stale frame.
     let run = run_cli(&["scene", "generate", s(&scene), s(&rec), "--force"]);
-    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
     let depth: Vec<String> = (names(&rec).into_iter())
         .filter(|n| n.starts_with("depth_"))
         .collect();
-    assert_eq!(depth, ["depth_0000.png", "depth_0001.png", "depth_0002.png"]);
-    assert_eq!(names(parent.path()), ["rec"], "no temporary or old folder left");
+    assert_eq!(
+        depth,
+        ["depth_0000.png", "depth_0001.png", "depth_0002.png"]
+    );
+    assert_eq!(
+        names(parent.path()),
+        ["rec"],
+        "no temporary or old folder left"
+    );
 }
 
 /// `--force` replaces a recording, never a folder that holds what the command reads.
@@ -245,12 +272,32 @@ fn bag_failing_at_frame_1(dir: &Path) -> std::path::PathBuf {
     };
     let colour = |stamp| image_msg(w, stamp, [80, 60], "rgb8", &[9; 80 * 60 * 3]);
     let messages = vec![
-        ("/cam/depth/camera_info", "sensor_msgs/msg/CameraInfo", info_msg(w, [80, 60], k)),
-        ("/cam/color/camera_info", "sensor_msgs/msg/CameraInfo", info_msg(w, [80, 60], k)),
-        ("/cam/depth/image_rect_raw", "sensor_msgs/msg/Image", depth(0, [80, 60])),
+        (
+            "/cam/depth/camera_info",
+            "sensor_msgs/msg/CameraInfo",
+            info_msg(w, [80, 60], k),
+        ),
+        (
+            "/cam/color/camera_info",
+            "sensor_msgs/msg/CameraInfo",
+            info_msg(w, [80, 60], k),
+        ),
+        (
+            "/cam/depth/image_rect_raw",
+            "sensor_msgs/msg/Image",
+            depth(0, [80, 60]),
+        ),
         ("/cam/color/image_raw", "sensor_msgs/msg/Image", colour(0)),
-        ("/cam/depth/image_rect_raw", "sensor_msgs/msg/Image", depth(100_000_000, [40, 30])),
-        ("/cam/color/image_raw", "sensor_msgs/msg/Image", colour(100_000_000)),
+        (
+            "/cam/depth/image_rect_raw",
+            "sensor_msgs/msg/Image",
+            depth(100_000_000, [40, 30]),
+        ),
+        (
+            "/cam/color/image_raw",
+            "sensor_msgs/msg/Image",
+            colour(100_000_000),
+        ),
     ];
     let bag = dir.join("run.mcap");
     std::fs::write(&bag, mcap(&messages, "")).unwrap();
@@ -310,15 +357,30 @@ fn regenerating_a_batch_item_deleted_a_users_file_in_its_folder() {
     let out = dir.path().join("out");
     let batch = || run_cli(&["batch", s(&manifest), "--out", s(&out)]);
     let run = batch();
-    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
     let rec = out.join("recordings/calib");
     std::fs::write(rec.join("notes.txt"), "mine").unwrap();
     std::fs::remove_file(out.join("results/calib.json")).unwrap();
     let run = batch();
-    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
-    assert_eq!(std::fs::read_to_string(rec.join("notes.txt")).unwrap(), "mine");
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert_eq!(
+        std::fs::read_to_string(rec.join("notes.txt")).unwrap(),
+        "mine"
+    );
     assert!(rec.join("depth_0000.png").exists());
-    assert_eq!(names(&out.join("recordings")), ["calib"], "no temporary left");
+    assert_eq!(
+        names(&out.join("recordings")),
+        ["calib"],
+        "no temporary left"
+    );
     // A file of the user's where the new recording puts one: the item fails, naming it,
     // and the file stays.
     std::fs::remove_file(rec.join("depth_0000.png")).unwrap();
@@ -337,5 +399,8 @@ fn regenerating_a_batch_item_deleted_a_users_file_in_its_folder() {
         assert!(result.contains(w), "{w}: {result}");
     }
     assert!(result.contains("depth_0000.png"), "{result}");
-    assert_eq!(std::fs::read_to_string(rec.join("depth_0000.png")).unwrap(), "mine");
+    assert_eq!(
+        std::fs::read_to_string(rec.join("depth_0000.png")).unwrap(),
+        "mine"
+    );
 }
