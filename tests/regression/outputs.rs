@@ -414,33 +414,19 @@ fn a_terminated_scene_generate_left_its_half_written_folder() {
     let dir = tempfile::tempdir().unwrap();
     let scene = project_root().join("clouds/scenes/probe_press.toml");
     let out = dir.path().join("rec");
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_softsense"))
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_softsense"))
         .args(["scene", "generate", s(&scene), s(&out)])
         .stderr(std::process::Stdio::null())
         .spawn()
         .unwrap();
     // Signal once the staged folder holds a frame; if the run ends first, what is
     // checked below still holds, only without a signal.
-    let started = std::time::Instant::now();
-    let mut signalled = false;
-    while started.elapsed() < std::time::Duration::from_secs(60) {
-        if child.try_wait().unwrap().is_some() {
-            break;
-        }
+    let (signalled, status) = crate::common::terminate_when(child, || {
         let staged = names(dir.path())
             .into_iter()
             .find(|n| n.starts_with(".rec.tmp"));
-        if staged.is_some_and(|n| dir.path().join(n).join("depth_0000.png").exists()) {
-            let kill = std::process::Command::new("kill")
-                .args(["-TERM", &child.id().to_string()])
-                .status()
-                .unwrap();
-            signalled = kill.success();
-            break;
-        }
-        std::thread::sleep(std::time::Duration::from_millis(5));
-    }
-    let status = child.wait().unwrap();
+        staged.is_some_and(|n| dir.path().join(n).join("depth_0000.png").exists())
+    });
     match signalled && status.code() == Some(143) {
         true => assert_eq!(names(dir.path()), Vec::<String>::new()),
         false => assert_eq!(names(dir.path()), ["rec"], "{status:?}"),
