@@ -5,8 +5,8 @@
 //! pushes along the inward normal tilted by up to 15 degrees, 0.3-0.8 N.
 //!
 //! Run: `cargo run --release --example make_probe_scenes`, then
-//! `softsense scene generate clouds/scenes/probe_side.toml clouds/scenes/probe_side` (and the
-//! same for two_probes).
+//! `softsense scene generate clouds/scenes/probe_side.toml clouds/scenes/probe_side --force`
+//! (and the same for two_probes).
 use softsense::fem::model::Model;
 use softsense::register::vertex_normals;
 use softsense::scene::camera::CameraSpec;
@@ -115,7 +115,7 @@ fn main() {
     let header = |what: &str, seed: u64| {
         format!(
             "# {what}\n# Made by `cargo run --example make_probe_scenes` (fixed seed); regenerate the frames:\n\
-             # softsense scene generate clouds/scenes/<name>.toml clouds/scenes/<name>\n\
+             # softsense scene generate clouds/scenes/<name>.toml clouds/scenes/<name> --force\n\
              model = \"../../meshes/models/robot.toml\"\nseed = {seed}\n\n[sensor]\nenabled = true\n\
              depth_k = 0.002        # sigma = k z^2: 0.5 mm at 0.5 m\ncolor_sigma = 3.0\n"
         )

@@ -550,7 +550,7 @@ fn a_terminated_convert_left_its_temporary_file_behind() {
     let input = dir.path().join("big.pcd");
     write_line_cloud(&input, 1_500_000);
     let output = dir.path().join("big.xyz");
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_softsense"))
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_softsense"))
         .args(["convert", input.to_str().unwrap(), output.to_str().unwrap()])
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::null())
@@ -558,23 +558,8 @@ fn a_terminated_convert_left_its_temporary_file_behind() {
         .unwrap();
     // Signal as soon as the temporary appears; if the run ends first, what is checked
     // below still holds, only without a signal.
-    let started = std::time::Instant::now();
-    let mut signalled = false;
-    while started.elapsed() < std::time::Duration::from_secs(60) {
-        if child.try_wait().unwrap().is_some() {
-            break;
-        }
-        if !temporaries_in(dir.path()).is_empty() {
-            let kill = std::process::Command::new("kill")
-                .args(["-TERM", &child.id().to_string()])
-                .status()
-                .unwrap();
-            signalled = kill.success();
-            break;
-        }
-        std::thread::sleep(std::time::Duration::from_millis(1));
-    }
-    let status = child.wait().unwrap();
+    let (signalled, status) =
+        common::terminate_when(child, || !temporaries_in(dir.path()).is_empty());
     if signalled {
         assert!(matches!(status.code(), Some(143) | Some(0)), "{status:?}");
     }
@@ -1223,3 +1208,5 @@ mod import;
 mod guards;
 #[path = "regression/messages.rs"]
 mod messages;
+#[path = "regression/outputs.rs"]
+mod outputs;

@@ -3,6 +3,7 @@
 
 use super::manifest::{Item, SenseOptions, Source};
 use crate::fem::model::Model;
+use crate::io::outputs::StagedDir;
 use crate::scene::sweep::{self, Prepared, Sweep};
 use crate::scene::{generate, Scene};
 use crate::sense::{compare, FrameReport, Rig, SenseParams, Sensor};
@@ -20,30 +21,35 @@ pub fn run_item(item: &Item, out: &Path, window: usize) -> Result<Vec<FrameRepor
         Source::Recording { path } => (path.clone(), None),
         Source::Scene { spec } => {
             let scene = Scene::load(spec).map_err(|e| e.to_string())?;
-            let dir = fresh_dir(out, &item.id)?;
-            generate(&scene, &dir, |_, _| {}).map_err(|e| format!("{}: {e}", spec.display()))?;
-            (dir, Some(scene.model_path))
+            let staged = staged_dir(out, &item.id)?;
+            generate(&scene, staged.path(), |_, _| {})
+                .map_err(|e| format!("{}: {e}", spec.display()))?;
+            (commit(staged, out, &item.id)?, Some(scene.model_path))
         }
         Source::SweepScene { spec, seed, index } => {
             let sweep = Sweep::load(spec).map_err(|e| e.to_string())?;
             let prepared = Prepared::new(&sweep).map_err(|e| format!("{}: {e}", spec.display()))?;
-            let dir = fresh_dir(out, &item.id)?;
-            sweep::write_drawn(&sweep, &prepared, *seed, *index, &dir)
+            let staged = staged_dir(out, &item.id)?;
+            sweep::write_drawn(&sweep, &prepared, *seed, *index, staged.path())
                 .map_err(|e| format!("{}: {e}", spec.display()))?;
-            (dir, Some(sweep.model_path))
+            (commit(staged, out, &item.id)?, Some(sweep.model_path))
         }
     };
     sense_recording(&dir, &item.options, model.as_deref(), window)
 }
 
-/// An empty `OUT/recordings/ID`: what an interrupted run left there is removed.
-fn fresh_dir(out: &Path, id: &str) -> Result<PathBuf, String> {
-    let dir = recording_dir(out, id);
-    if dir.exists() {
-        std::fs::remove_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-    }
-    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-    Ok(dir)
+/// The folder `OUT/recordings/ID` is generated in: a new one beside it, so a failed or
+/// interrupted item leaves the old recording (or none) there, never half of one.
+fn staged_dir(out: &Path, id: &str) -> Result<StagedDir, String> {
+    StagedDir::new(&recording_dir(out, id)).map_err(|e| e.to_string())
+}
+
+/// Puts the generated recording at `OUT/recordings/ID`: the files an earlier run of the
+/// item wrote there are replaced, and any other file (the user's) is kept, since batch
+/// never deletes a file it did not write ([`StagedDir::commit_keeping`]).
+fn commit(staged: StagedDir, out: &Path, id: &str) -> Result<PathBuf, String> {
+    staged.commit_keeping().map_err(|e| e.to_string())?;
+    Ok(recording_dir(out, id))
 }
 
 /// Senses every frame of the recording `dir` with `options`, as `softsense sense` does

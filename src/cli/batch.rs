@@ -33,7 +33,10 @@ use std::path::PathBuf;
 /// files only): {"id", "item" (what was sensed, with which options), "status" ("done", or
 /// "failed" with "error"), "sensed" (frames sensed), "frames" (one object per frame, as
 /// `sense --json` prints it), "seconds"}. Scene and sweep items write their generated
-/// recording to OUT/recordings/ID/.
+/// recording to OUT/recordings/ID/: generated beside it and moved in when whole, with
+/// the list of its files (OUT/recordings/ID/.softsense-written). Generating an item again
+/// replaces only the files on that list: batch never deletes a file it did not write, and
+/// an item whose new file would replace one of yours fails, naming it.
 ///
 /// Run the same command again to resume: items with a complete result file of the same
 /// item are skipped (their count is printed), the rest run. Items that failed keep their

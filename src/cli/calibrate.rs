@@ -73,6 +73,7 @@ pub fn run(args: &CalibrateArgs) -> CliResult {
     if rig.is_one_folder() {
         let start = start_pose(args.start.as_deref(), &args.scene_dir)?;
         let out = (args.out.clone()).unwrap_or_else(|| args.scene_dir.join("calibration.json"));
+        check_out(args, &out)?;
         let rec = &rig.cameras[0].recording;
         let (cal, written, _) = calibrate_camera(args, rec, &model, &params, &start, &out)?;
         return finish(args, &cal, &written);
@@ -196,6 +197,17 @@ type Calibrated = (String, Calibration, serde_json::Value, Vec<[f64; 3]>);
 /// Two cameras see the same surface where the other's 10 nearest points are within this
 /// (m): a few point spacings at 0.5 m.
 const AGREEMENT_RADIUS: f64 = 0.004;
+
+/// Refuses an `out` that is a file calibrate reads: a frame, the camera files, the model
+/// or the start pose. calibration.json itself is calibrate's own output, written again.
+fn check_out(args: &CalibrateArgs, out: &Path) -> CliResult {
+    let start = (args.start.clone()).unwrap_or_else(|| args.scene_dir.join("rough_pose.json"));
+    let mut inputs = super::recording_files(&args.scene_dir);
+    inputs.retain(|p| !p.ends_with("calibration.json"));
+    inputs.extend([args.model.clone(), start]);
+    let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+    super::check_output_file(out, &inputs)
+}
 
 /// The rough start pose: `start`, else DIR/rough_pose.json.
 fn start_pose(start: Option<&Path>, dir: &Path) -> Result<Iso3, CliError> {

@@ -65,6 +65,10 @@ pub fn run_control(args: &ControlArgs) -> CliResult {
     } else {
         ProgressBar::hidden()
     };
+    if let Some(out) = &args.out {
+        let written = ["trajectory.csv", "run.json"];
+        super::check_files_dir(out, &written, &[&args.scenario])?;
+    }
     let result = run(&scenario, &mut |k, _| bar.set_position(k as u64));
     bar.finish_and_clear();
     let r = result.map_err(|e| CliError::Result(format!("{}: {e}", args.scenario.display())))?;

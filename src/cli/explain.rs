@@ -41,8 +41,24 @@ pub struct ExplainArgs {
     json: bool,
 }
 
+/// The files of `explain --out`'s report.
+const REPORT_FILES: [&str; 6] = [
+    "index.md",
+    "explanation.json",
+    "effects.json",
+    "model_updated.toml",
+    "residual_before_after.png",
+    "criterion.png",
+];
+
 /// Runs `explain`.
 pub fn run(args: &ExplainArgs) -> CliResult {
+    if let Some(out) = &args.out {
+        let mut inputs = super::recording_files(&args.frames_dir);
+        inputs.push(args.model.clone());
+        let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+        super::check_files_dir(out, &REPORT_FILES, &inputs)?;
+    }
     let model = Model::load(&args.model, None).map_err(softsense::Error::from)?;
     let color = softsense::segment::robot_color::RobotColorModel::with_reference(args.robot_color);
     let rec = load_frames(&args.frames_dir, &color).map_err(softsense::Error::from)?;
@@ -141,8 +157,11 @@ fn report_model_text(model: &Path) -> Result<String, CliError> {
 #[derive(Args, Debug)]
 #[command(after_help = HIDDEN_HELP)]
 pub struct HiddenArgs {
-    /// Output folder.
+    /// Output folder: new or empty (written beside it and renamed into place when done,
+    /// so a failed run leaves nothing).
     out_dir: PathBuf,
+    #[arg(long, help = super::FORCE_HELP)]
+    force: bool,
     /// Nominal model file (e.g. meshes/models/robot.toml in this repository).
     #[arg(long)]
     model: PathBuf,
@@ -200,8 +219,11 @@ pub fn run_hidden(args: &HiddenArgs) -> CliResult {
         truth: args.truth.clone(),
         ..Default::default()
     };
-    let (frames, truth) = layout(&args.out_dir);
+    let staged = super::staged_output_dir(&args.out_dir, &[&args.model], args.force)?;
+    let (frames, truth) = layout(staged.path());
     generate_dataset(&spec, &frames, &truth).map_err(softsense::Error::from)?;
+    staged.commit().map_err(super::output_error)?;
+    let (frames, truth) = layout(&args.out_dir);
     eprintln!(
         "wrote {} frames to {}, truth to {}",
         args.frames,

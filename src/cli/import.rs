@@ -46,9 +46,12 @@ pub struct ImportArgs {
     /// The bag: a .bag file, a ROS 2 bag folder, or an .mcap or .db3 file.
     #[arg(value_name = "BAG")]
     pub bag: PathBuf,
-    /// The recording folder to write (new or empty).
+    /// The recording folder to write: new or empty (written beside it and renamed into
+    /// place when done, so a failed import leaves nothing).
     #[arg(value_name = "OUT_DIR")]
     pub out: PathBuf,
+    #[arg(long, help = super::FORCE_HELP)]
+    pub force: bool,
     /// Depth image topic [default: the one with a depth encoding].
     #[arg(long, value_name = "TOPIC")]
     pub depth_topic: Option<String>,
@@ -87,7 +90,7 @@ pub fn run(args: &ImportArgs) -> CliResult {
     positive(args.pair_tolerance, "--pair-tolerance")?;
     positive(args.depth_unit, "--depth-unit")?;
     positive(args.float_depth_unit, "--float-depth-unit")?;
-    super::refuse_output_over_input(&args.bag, &args.out)?;
+    let staged = super::staged_output_dir(&args.out, &[&args.bag], args.force)?;
     let params = ImportParams {
         depth_topic: args.depth_topic.clone(),
         colour_topic: args.colour_topic.clone(),
@@ -102,12 +105,16 @@ pub fn run(args: &ImportArgs) -> CliResult {
         ProgressStyle::with_template("{bar:40} {pos}/{len} depth frames {elapsed}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    let summary = import(&args.bag, &args.out, &params, &mut |done, total| {
+    let summary = import(&args.bag, staged.path(), &params, &mut |done, total| {
         bar.set_length(total as u64);
         bar.set_position(done as u64);
     })
     .map_err(softsense::Error::from)?;
     bar.finish_and_clear();
+    // No frame: the folder is not made (`staged` is dropped, its folder removed).
+    if summary.frames_written > 0 {
+        staged.commit().map_err(super::output_error)?;
+    }
     if args.json {
         let v = serde_json::to_value(&summary).map_err(|e| CliError::Result(e.to_string()))?;
         print_json(&v)?;

@@ -252,6 +252,7 @@ pub fn run(args: &MarkersArgs) -> CliResult {
         })
         .collect();
     if let Some(dir) = &args.render {
+        super::check_files_dir(dir, &[], &[])?;
         std::fs::create_dir_all(dir)
             .map_err(|e| CliError::Result(format!("{}: {e}", dir.display())))?;
     }

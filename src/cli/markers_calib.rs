@@ -41,7 +41,8 @@ pub struct CalibrateArgs {
     /// than this noise explains is loaded, and refused.
     #[arg(long, default_value_t = 0.1)]
     sigma_mm: f64,
-    /// Write the calibration here (JSON: robot_from_tracker as a row-major 4x4, residuals).
+    /// Write the calibration here (JSON: robot_from_tracker as a row-major 4x4, residuals);
+    /// never one of the input files.
     #[arg(long)]
     out: Option<PathBuf>,
     /// Print the calibration as JSON on stdout.
@@ -71,6 +72,9 @@ pub fn run(args: &CalibrateArgs) -> CliResult {
             "--sigma-mm {}: must be a positive number of millimetres",
             args.sigma_mm
         )));
+    }
+    if let Some(out) = &args.out {
+        super::check_output_file(out, &[&args.tracks, &args.model, &args.positions])?;
     }
     let lib = |e: softsense::markers::MarkersError| CliError::Lib(e.into());
     let tracks = read_any_tracks(&args.tracks)?;

@@ -54,7 +54,8 @@ pub struct DetectArgs {
     /// Reference layout (softsense track file): the marker names and starting positions.
     #[arg(long)]
     reference: Option<PathBuf>,
-    /// Write the tracks here (else they are printed on stdout).
+    /// Write the tracks here (else they are printed on stdout); never a file the command
+    /// reads (a frame, the camera or truth files, --reference).
     #[arg(long)]
     out: Option<PathBuf>,
     /// Print a JSON summary on stdout (with --out).
@@ -88,6 +89,12 @@ pub fn run(args: &DetectArgs) -> CliResult {
     params
         .validate()
         .map_err(|e| CliError::Usage(e.to_string()))?;
+    if let Some(out) = &args.out {
+        let mut inputs = super::recording_files(&args.recording);
+        inputs.extend(args.reference.clone());
+        let inputs: Vec<&std::path::Path> = inputs.iter().map(PathBuf::as_path).collect();
+        super::check_output_file(out, &inputs)?;
+    }
     let rec = Recording::open(&args.recording).map_err(|e| CliError::Lib(e.into()))?;
     let reference = (args.reference.as_deref())
         .map(read_tracks)

@@ -42,7 +42,8 @@ pub struct LayoutArgs {
     /// Pool nodes nearer than this to a candidate are left out (mm).
     #[arg(long, default_value_t = 5.0)]
     clearance_mm: f64,
-    /// Write the layout as a track file (frame 0, free equilibrium, m).
+    /// Write the layout as a track file (frame 0, free equilibrium, m); never one of the
+    /// input files.
     #[arg(long)]
     csv: Option<PathBuf>,
     /// Print a JSON document on stdout.
@@ -60,6 +61,12 @@ pub fn run(args: &LayoutArgs) -> CliResult {
         return Err(CliError::Usage(
             "--markers and --pool-stride must be positive, --clearance-mm not negative".into(),
         ));
+    }
+    if let Some(out) = &args.csv {
+        let inputs: Vec<&std::path::Path> = std::iter::once(args.model.as_path())
+            .chain(args.candidates.as_deref())
+            .collect();
+        super::check_output_file(out, &inputs)?;
     }
     let model = Model::load(&args.model, None).map_err(|e| CliError::Lib(e.into()))?;
     let candidates = load_candidates(&model, &args.model, args.candidates.as_deref(), &[])?;

@@ -177,20 +177,73 @@ pub fn segment_error(input: &std::path::Path, e: softsense::segment::SegmentErro
 /// Refuses an output path that is the input file (or, for a sequence, the input folder):
 /// the command would write over what it reads.
 pub fn refuse_output_over_input(input: &std::path::Path, output: &std::path::Path) -> CliResult {
-    // The output may not exist yet: compare its folder's real path plus its name.
-    let real = |p: &std::path::Path| {
-        std::fs::canonicalize(p).ok().or_else(|| {
-            let parent = p.parent().filter(|d| !d.as_os_str().is_empty());
-            let dir = std::fs::canonicalize(parent.unwrap_or(std::path::Path::new("."))).ok()?;
-            Some(dir.join(p.file_name()?))
-        })
-    };
-    match (real(input), real(output)) {
-        (Some(i), Some(o)) if i == o => Err(CliError::Usage(format!(
-            "the output {} is the input: give another output path (softsense never writes over \
-             what it reads)",
-            output.display()
-        ))),
-        _ => Ok(()),
+    softsense::io::outputs::check_not_input(output, &[input]).map_err(output_error)
+}
+
+/// The files commands read from the recording folder `dir` (those that exist): its
+/// frames' images and camera files, and its pose, calibration, inputs and truth files.
+pub fn recording_files(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
+    const SIDECARS: [&str; 7] = [
+        "camera_pose.json",
+        "calibration.json",
+        "inputs.json",
+        "actuators.json",
+        "truth.json",
+        "sensor.json",
+        softsense::scene::MARKERS_TRUTH,
+    ];
+    let frames = softsense::recording::list_frames(dir)
+        .map(|(_, frames)| frames)
+        .unwrap_or_default();
+    let mut files: Vec<std::path::PathBuf> = (frames.into_iter())
+        .flat_map(|f| [Some(f.depth), f.color, Some(f.camera)])
+        .flatten()
+        .collect();
+    files.extend(SIDECARS.iter().map(|n| dir.join(n)));
+    files.retain(|f| f.exists());
+    files
+}
+
+/// An output path refused (a usage error, exit code 2) or a folder the system would not
+/// create or rename (exit code 1).
+pub fn output_error(e: softsense::io::outputs::OutputsError) -> CliError {
+    match e.is_refusal() {
+        true => CliError::Usage(e.to_string()),
+        false => CliError::Result(e.to_string()),
     }
 }
+
+/// Refuses an output file that resolves to one of `inputs`, or is a folder
+/// ([`softsense::io::outputs::check_file`]).
+pub fn check_output_file(output: &std::path::Path, inputs: &[&std::path::Path]) -> CliResult {
+    softsense::io::outputs::check_file(output, inputs).map_err(output_error)
+}
+
+/// Refuses a folder the command writes the files `written` into (beside pictures or what
+/// else it holds) when it is a file or one of `written` is an input
+/// ([`softsense::io::outputs::check_files_dir`]).
+pub fn check_files_dir(
+    dir: &std::path::Path,
+    written: &[&str],
+    inputs: &[&std::path::Path],
+) -> CliResult {
+    softsense::io::outputs::check_files_dir(dir, written, inputs).map_err(output_error)
+}
+
+/// Refuses an output folder that is a file, holds an input, holds a recording (unless
+/// `force`) or holds other files ([`softsense::io::outputs::check_dir`]), then stages it:
+/// the command writes into the returned folder's `path()` and commits it at the end.
+pub fn staged_output_dir(
+    dir: &std::path::Path,
+    inputs: &[&std::path::Path],
+    force: bool,
+) -> Result<softsense::io::outputs::StagedDir, CliError> {
+    softsense::io::outputs::check_dir(dir, inputs, force).map_err(output_error)?;
+    softsense::io::outputs::StagedDir::new(dir).map_err(output_error)
+}
+
+/// `--force`'s help, shared by the commands that write a recording folder.
+pub const FORCE_HELP: &str = "Replace an OUT_DIR that already holds a recording: the new \
+folder takes its place whole, and the old one's files (all of them) are deleted. Without it such a \
+folder is refused; a folder holding other files is refused always, and an input is never \
+written over";

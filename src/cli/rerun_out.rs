@@ -5,6 +5,21 @@ use super::CliError;
 use softsense::sense::{FrameReport, Observation, Rig, SenseResult, Sensor};
 use std::path::Path;
 
+/// Refuses an OUT.rrd that is a file the run reads: a frame, camera or truth file of one
+/// of `rig`'s folders, or one of `named` (the model, the pose file).
+pub fn check_path<'a>(
+    path: &Path,
+    rig: &Rig,
+    named: impl Iterator<Item = &'a std::path::PathBuf>,
+) -> Result<(), CliError> {
+    let mut inputs: Vec<std::path::PathBuf> = (rig.cameras.iter())
+        .flat_map(|c| super::recording_files(&c.recording.dir))
+        .collect();
+    inputs.extend(named.cloned());
+    let inputs: Vec<&Path> = inputs.iter().map(|p| p.as_path()).collect();
+    super::check_output_file(path, &inputs)
+}
+
 /// Where the frames go.
 pub struct RerunOut {
     #[cfg(feature = "rerun")]

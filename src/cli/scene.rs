@@ -20,8 +20,11 @@ enum SceneCommand {
     Generate {
         /// Scene file (TOML).
         scene: PathBuf,
-        /// Output folder (created).
+        /// Output folder: new or empty (created; written beside it and renamed into place
+        /// when done, so a failed run leaves nothing).
         out_dir: PathBuf,
+        #[arg(long, help = super::FORCE_HELP)]
+        force: bool,
     },
     /// Draw COUNT random physical scenes from the ranges in SWEEP and render each into
     /// OUT_DIR/scene_NNNN (for `sense` and `score`).
@@ -29,8 +32,11 @@ enum SceneCommand {
     Sweep {
         /// Sweep file (TOML): the ranges scenes are drawn from.
         sweep: PathBuf,
-        /// Output folder (created; must be empty or new).
+        /// Output folder: new or empty (created; written beside it and renamed into place
+        /// when done, so a failed run leaves nothing).
         out_dir: PathBuf,
+        #[arg(long, help = super::FORCE_HELP)]
+        force: bool,
         /// Number of scenes.
         #[arg(long, value_parser = super::parse_positive)]
         count: usize,
@@ -117,6 +123,11 @@ depth_NNNN.png (16-bit, in depth_unit) and color_NNNN.png, with intrinsics.json 
 format plus depth_scale), camera_pose.json, actuators.json and truth.json (every load,
 location and parameter used; `sense` reports its errors against it), and with [markers]
 markers_truth.csv (the painted markers' true positions per frame).
+
+OUT_DIR is new or empty; one that holds a recording is replaced whole with --force (no
+stale frame of the old one is left), and one holding other files, or the scene or model
+file, is refused. The frames are written beside OUT_DIR and renamed into place at the end:
+a run that fails leaves nothing.
 
 The scene file (TOML; lengths in metres, forces in newtons, robot frame). Only `model` and
 `frames` are required. Below, the other keys show their defaults, except `young` (default:
@@ -212,18 +223,27 @@ Examples:
 /// Runs the subcommand.
 pub fn run(args: SceneArgs) -> Result<(), Box<dyn std::error::Error>> {
     match args.command {
-        SceneCommand::Generate { scene, out_dir } => {
+        SceneCommand::Generate {
+            scene,
+            out_dir,
+            force,
+        } => {
             let scene_path = scene;
             let scene = Scene::load(&scene_path)?;
+            let inputs = [scene_path.as_path(), scene.model_path.as_path()];
+            let staged = super::staged_output_dir(&out_dir, &inputs, force)?;
             let bar = ProgressBar::new(scene.spec.frames.len() as u64);
             bar.set_style(
                 ProgressStyle::with_template("{bar:40} {pos}/{len} frames {elapsed}")
                     .unwrap_or_else(|_| ProgressStyle::default_bar()),
             );
             // The scene's frames and sensor come from its file: name it.
-            let truth = generate(&scene, &out_dir, |done, _| bar.set_position(done as u64))
-                .map_err(|e| format!("{}: {e}", scene_path.display()))?;
+            let truth = generate(&scene, staged.path(), |done, _| {
+                bar.set_position(done as u64)
+            })
+            .map_err(|e| format!("{}: {e}", scene_path.display()))?;
             bar.finish_and_clear();
+            staged.commit().map_err(super::output_error)?;
             for f in &truth.frames {
                 eprintln!(
                     "frame {}: {} loads, {} Newton iterations, robot/probe/table pixels {:?}",
@@ -250,7 +270,8 @@ pub fn run(args: SceneArgs) -> Result<(), Box<dyn std::error::Error>> {
             out_dir,
             count,
             seed,
-        } => run_sweep(&sweep, &out_dir, count, seed),
+            force,
+        } => run_sweep(&sweep, &out_dir, count, seed, force),
     }
 }
 
@@ -259,25 +280,21 @@ fn run_sweep(
     out: &std::path::Path,
     count: usize,
     seed: u64,
+    force: bool,
 ) -> Result<(), Box<dyn std::error::Error>> {
-    if std::fs::read_dir(out).is_ok_and(|mut d| d.next().is_some()) {
-        return Err(super::CliError::Usage(format!(
-            "{} is not empty: a sweep writes into a new or empty folder",
-            out.display()
-        ))
-        .into());
-    }
     let sweep = Sweep::load(path)?;
+    let staged = super::staged_output_dir(out, &[path, &sweep.model_path], force)?;
     let bar = ProgressBar::new(count as u64);
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} scenes {elapsed} (eta {eta})")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    let records = sweep::run(&sweep, out, count, seed, |done, _| {
+    let records = sweep::run(&sweep, staged.path(), count, seed, |done, _| {
         bar.set_position(done as u64)
     })
     .map_err(|e| format!("{}: {e}", path.display()))?;
     bar.finish_and_clear();
+    staged.commit().map_err(super::output_error)?;
     let redrawn = records.iter().filter(|r| r.attempts > 1).count();
     eprintln!(
         "wrote {} scenes to {} ({redrawn} redrawn at least once; reasons in draws.json)",

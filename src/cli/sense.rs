@@ -188,6 +188,9 @@ fn parse_known_load(s: &str) -> Result<(usize, f64), String> {
 }
 
 pub fn run(args: &SenseArgs) -> CliResult {
+    if let Some(dir) = &args.render {
+        super::check_files_dir(dir, &[], &[])?;
+    }
     let rig = open_rig(args)?;
     let rec = rig.shared();
     for w in &rig.warnings {
@@ -224,6 +227,10 @@ pub fn run(args: &SenseArgs) -> CliResult {
     if let Some(dir) = &args.render {
         std::fs::create_dir_all(dir)
             .map_err(|e| CliError::Result(format!("{}: {e}", dir.display())))?;
+    }
+    if let Some(path) = &args.rerun {
+        let named = [Some(&model_path), args.pose.as_ref()];
+        super::rerun_out::check_path(path, &rig, named.into_iter().flatten())?;
     }
     let mut rerun = match &args.rerun {
         Some(path) => Some(super::rerun_out::RerunOut::create(path, &sensor, &rig)?),

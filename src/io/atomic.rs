@@ -7,7 +7,8 @@
 //! registry, so an interrupted run removes it too ([`remove_live_temps`], called from
 //! the SIGINT/SIGTERM handler that [`install_signal_cleanup`] starts). A run killed
 //! outright (SIGKILL, power loss) cannot clean up; the next write of the same NAME
-//! removes temporaries whose process is gone.
+//! removes temporaries whose process is gone. A folder staged by
+//! [`super::outputs::StagedDir`] is listed in the same registry and removed the same ways.
 
 use std::fs::File;
 use std::io::Write;
@@ -97,8 +98,31 @@ pub fn png_bytes(image: &image::DynamicImage) -> Result<Vec<u8>, image::ImageErr
     Ok(out.into_inner())
 }
 
+/// Lists `tmp` (a staged output folder) as this process's temporary, under the
+/// registry's lock, and creates it: removed on SIGINT/SIGTERM as a temporary file is.
+pub(crate) fn create_registered_dir(tmp: &Path) -> std::io::Result<()> {
+    let mut live = live_temps();
+    std::fs::create_dir(tmp)?;
+    live.push(tmp.to_path_buf());
+    Ok(())
+}
+
+/// Takes `tmp` off the registry (it was renamed into place or removed).
+pub(crate) fn unregister(tmp: &Path) {
+    live_temps().retain(|p| p != tmp);
+}
+
+/// Removes a temporary, file or staged folder.
+fn remove_temp(p: &Path) {
+    let is_dir = std::fs::symlink_metadata(p).is_ok_and(|m| m.is_dir());
+    let _ = match is_dir {
+        true => std::fs::remove_dir_all(p),
+        false => std::fs::remove_file(p),
+    };
+}
+
 /// The temporary name for output `name` written by process `pid`.
-fn temp_name(name: &str, pid: u32) -> String {
+pub(crate) fn temp_name(name: &str, pid: u32) -> String {
     format!(".{name}.tmp{pid}")
 }
 
@@ -128,8 +152,9 @@ fn sync_dir(dir: &Path) {
     let _ = dir;
 }
 
-/// Removes `.NAME.tmpPID` files in `dir` left by processes that no longer run.
-fn remove_stale_temps(dir: &Path, name: &str) {
+/// Removes `.NAME.tmpPID` files (and staged folders) in `dir` left by processes that no
+/// longer run.
+pub(crate) fn remove_stale_temps(dir: &Path, name: &str) {
     let prefix = format!(".{name}.tmp");
     let Ok(entries) = std::fs::read_dir(dir) else {
         return;
@@ -144,7 +169,7 @@ fn remove_stale_temps(dir: &Path, name: &str) {
             continue;
         };
         if pid != std::process::id() && process_is_gone(pid) {
-            let _ = std::fs::remove_file(entry.path());
+            remove_temp(&entry.path());
         }
     }
 }
@@ -161,7 +186,7 @@ fn process_is_gone(pid: u32) -> bool {
 pub fn remove_live_temps(then_exit: Option<i32>) {
     let mut live = live_temps();
     for p in live.drain(..) {
-        let _ = std::fs::remove_file(p);
+        remove_temp(&p);
     }
     if let Some(code) = then_exit {
         std::process::exit(code);

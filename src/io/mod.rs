@@ -11,6 +11,7 @@
 pub mod atomic;
 pub mod intrinsics;
 pub mod limits;
+pub mod outputs;
 pub mod pcd;
 pub mod ply;
 pub mod rgbd;

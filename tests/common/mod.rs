@@ -156,6 +156,33 @@ pub fn largest_component_gap(a: [f64; 3], b: [f64; 3]) -> f64 {
     (0..3).fold(0.0f64, |m, k| m.max((a[k] - b[k]).abs()))
 }
 
+/// Sends SIGTERM to `child` as soon as `ready()` holds (polled for up to a minute) and
+/// waits for it: whether the signal was sent, and how the child ended. A run that ends
+/// before `ready()` holds gets no signal.
+#[cfg(unix)]
+pub fn terminate_when(
+    mut child: std::process::Child,
+    ready: impl Fn() -> bool,
+) -> (bool, std::process::ExitStatus) {
+    let started = std::time::Instant::now();
+    let mut signalled = false;
+    while started.elapsed() < std::time::Duration::from_secs(60) {
+        if child.try_wait().unwrap().is_some() {
+            break;
+        }
+        if ready() {
+            let kill = std::process::Command::new("kill")
+                .args(["-TERM", &child.id().to_string()])
+                .status()
+                .unwrap();
+            signalled = kill.success();
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    (signalled, child.wait().unwrap())
+}
+
 /// Runs the `softsense` binary with `args` and returns its output.
 pub fn run_cli(args: &[&str]) -> std::process::Output {
     std::process::Command::new(env!("CARGO_BIN_EXE_softsense"))
