@@ -233,34 +233,41 @@ fn names(dir: &Path) -> std::io::Result<Vec<String>> {
     Ok(names)
 }
 
-/// Whether a folder with these entries holds a recording: a camera or truth file, a depth
-/// image, an Open3D `depth/` folder, or (a rig, a sweep) a sub-folder that holds one.
+/// Whether a folder with these entries holds a recording: depth frames (`depth_*`,
+/// `*_depth.*`, an Open3D `depth/` folder), or (a rig, a sweep) only sub-folders that hold
+/// them and the small files written beside them. Camera and truth files alone do not
+/// count: a project folder with an `inputs.json` in it is not a recording to replace.
 fn holds_recording(dir: &Path, entries: &[String]) -> bool {
-    const SIDECARS: [&str; 9] = [
-        "intrinsics.json",
-        "intrinsics.xml",
-        "camera_intrinsic.json",
-        "camera_pose.json",
-        "calibration.json",
-        "truth.json",
-        "actuators.json",
-        "inputs.json",
-        "draws.json",
-    ];
     let own = |names: &[String]| {
         names.iter().any(|n| {
             let l = n.to_ascii_lowercase();
-            SIDECARS.contains(&l.as_str())
-                || l.starts_with("depth_")
-                || l.contains("_depth.")
-                || l == "depth"
+            l.starts_with("depth_") || l.contains("_depth.") || l == "depth"
         })
     };
-    own(entries)
-        || entries.iter().any(|n| {
-            let sub = dir.join(n);
-            sub.is_dir() && names(&sub).is_ok_and(|s| own(&s))
-        })
+    if own(entries) {
+        return true;
+    }
+    // A rig or a sweep: every entry is a recording sub-folder or one of the small files
+    // written beside them. Anything else (a home folder with one recording in it) is not
+    // a recording, so --force never deletes it.
+    let small_file = |n: &str| {
+        n == WRITTEN_LIST
+            || [".json", ".jsonl", ".toml", ".csv", ".txt", ".png"]
+                .iter()
+                .any(|e| n.to_ascii_lowercase().ends_with(e))
+    };
+    let mut has_sub = false;
+    let all = entries.iter().all(|n| {
+        let sub = dir.join(n);
+        match sub.is_dir() {
+            true => {
+                has_sub = true;
+                names(&sub).is_ok_and(|s| own(&s))
+            }
+            false => small_file(n),
+        }
+    });
+    all && has_sub
 }
 
 /// An output folder being written: the files go into a temporary folder beside the
@@ -521,11 +528,35 @@ mod tests {
     }
 
     #[test]
+    fn force_replaces_a_sweep_of_recordings_but_never_a_folder_that_also_holds_other_things() {
+        let dir = tempfile::tempdir().unwrap();
+        let sweep = dir.path().join("sweep");
+        touch(&sweep.join("scene_0000/depth_0000.png"));
+        touch(&sweep.join("scene_0001/depth_0000.png"));
+        touch(&sweep.join("draws.json"));
+        assert!(check_dir(&sweep, &[], true).is_ok());
+        assert!(check_dir(&sweep, &[], false).is_err());
+        // A home folder with one recording among other things.
+        let home = dir.path().join("home");
+        touch(&home.join("rec/depth_0000.png"));
+        touch(&home.join(".bashrc"));
+        touch(&home.join("thesis/chapter1.tex"));
+        let e = check_dir(&home, &[], true).unwrap_err();
+        assert!(matches!(e, OutputsError::NotEmpty { .. }), "{e}");
+    }
+
+    #[test]
     fn a_folder_is_checked_by_what_it_holds() {
         let dir = tempfile::tempdir().unwrap();
         let rec = dir.path().join("rec");
         assert!(check_dir(&rec, &[], false).is_ok());
         touch(&rec.join("cam0/intrinsics.json"));
+        // Camera files alone are not a recording to replace.
+        assert!(matches!(
+            check_dir(&rec, &[], true),
+            Err(OutputsError::NotEmpty { .. })
+        ));
+        touch(&rec.join("cam0/depth_0000.png"));
         assert!(matches!(
             check_dir(&rec, &[], false),
             Err(OutputsError::HoldsRecording { .. })
