@@ -389,8 +389,8 @@ impl FrameSource {
                 color,
                 intrinsics,
             } => {
-                let camera = crate::io::intrinsics::read_camera_model(intrinsics)?;
-                crate::io::rgbd::read_frame(depth, color.as_deref(), &camera)
+                let (camera, lens) = crate::io::intrinsics::read_camera_file(intrinsics)?;
+                crate::io::rgbd::read_frame_through(depth, color.as_deref(), &camera, &lens)
             }
         }
     }

@@ -22,6 +22,8 @@ mod io_ply;
 #[path = "unit/io_malformed.rs"]
 mod io_malformed;
 
+#[path = "unit/camera_lens.rs"]
+mod camera_lens;
 #[path = "unit/fem_base.rs"]
 mod fem_base;
 #[path = "unit/fem_compliance.rs"]
@@ -34,6 +36,8 @@ mod fem_mesh;
 mod fem_model;
 #[path = "unit/fem_neohookean.rs"]
 mod fem_neohookean;
+#[path = "unit/io_lens.rs"]
+mod io_lens;
 #[path = "unit/io_rgbd.rs"]
 mod io_rgbd;
 

@@ -3,7 +3,7 @@
 use super::{print_json, CliError, CliResult};
 use clap::{Args, ValueEnum};
 use serde_json::json;
-use softsense::io::intrinsics::{read_camera_model, Arithmetic};
+use softsense::io::intrinsics::{read_camera_file, Arithmetic};
 use softsense::io::{self, rgbd, CloudFormat, Encoding};
 use softsense::PointCloud;
 use std::path::PathBuf;
@@ -163,7 +163,7 @@ fn rgbd_cloud(args: &ConvertArgs, depth: &std::path::Path) -> Result<PointCloud,
         .intrinsics
         .as_ref()
         .ok_or_else(|| CliError::Usage("--depth needs --intrinsics".into()))?;
-    let mut camera = read_camera_model(intrinsics)?;
+    let (mut camera, lens) = read_camera_file(intrinsics)?;
     if let Some(s) = args.depth_scale {
         camera.params.depth_scale = s;
     }
@@ -178,7 +178,7 @@ fn rgbd_cloud(args: &ConvertArgs, depth: &std::path::Path) -> Result<PointCloud,
         .params
         .validate()
         .map_err(|e| CliError::Usage(format!("--depth-scale/--depth-trunc: {e}")))?;
-    let cloud = rgbd::read_frame(depth, args.color.as_deref(), &camera)?;
+    let cloud = rgbd::read_frame_through(depth, args.color.as_deref(), &camera, &lens)?;
     if cloud.count_finite() == 0 {
         // Almost always a unit mistake; refuse rather than write an all-NaN cloud.
         return Err(CliError::Result(format!(

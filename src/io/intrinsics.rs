@@ -6,6 +6,8 @@
 //!   `depth_trunc` metres) and whose arithmetic to reproduce ([`Arithmetic`]).
 //! - [`CameraModel`]: the two together; [`read_camera_model`] picks the reader by extension
 //!   (`.json` → [`parse_open3d_json`], `.xml` → [`parse_pcl_xml`]).
+//! - [`read_camera_file`]: the model and the [`Lens`] in front of it (JSON only: Brown-Conrady
+//!   distortion keys, or a per-pixel ray table named by `rays`; see [`parse_lens_keys`]).
 //!
 //! ```
 //! use softsense::io::intrinsics::parse_open3d_json;
@@ -20,6 +22,7 @@
 use super::rgbd_error::RgbdError;
 use super::IoError;
 pub use crate::camera::PinholeIntrinsics;
+use crate::camera::{Distortion, DistortionModel, Lens, RayTable};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -177,7 +180,28 @@ fn bad(field: &str, problem: String) -> RgbdError {
 }
 
 /// Reads a camera model from `.json` (Open3D) or `.xml` (PCL grabber) by extension.
+/// Refuses a file that gives a lens other than the pinhole (distortion, a ray table),
+/// which a caller of this pinhole-only reader would silently drop: use
+/// [`read_camera_file`].
 pub fn read_camera_model(path: impl AsRef<Path>) -> Result<CameraModel, IoError> {
+    let path = path.as_ref();
+    let (model, lens) = read_camera_file(path)?;
+    if lens != Lens::Pinhole {
+        return Err(IoError::Rgbd {
+            path: path.to_path_buf(),
+            source: bad(
+                "distortion_model/rays",
+                "gives a lens this reader cannot apply (a pinhole-only caller)".into(),
+            ),
+        });
+    }
+    Ok(model)
+}
+
+/// Reads a camera file: [`read_camera_model`]'s model and the lens in front of it (JSON:
+/// [`parse_lens_keys`]; XML: the pinhole). A ray table is read from its `.npy`, relative
+/// to the camera file's folder, and must be the intrinsics' height x width x 2.
+pub fn read_camera_file(path: impl AsRef<Path>) -> Result<(CameraModel, Lens), IoError> {
     let path = path.as_ref();
     let ext = path
         .extension()
@@ -198,7 +222,154 @@ pub fn read_camera_model(path: impl AsRef<Path>) -> Result<CameraModel, IoError>
             message: format!("not UTF-8 text: {e}"),
         })
     })?;
-    parse(text).map_err(wrap)
+    let model = parse(text).map_err(wrap)?;
+    if ext.as_deref() != Some("json") {
+        return Ok((model, Lens::Pinhole));
+    }
+    let lens = match parse_lens_keys(text).map_err(wrap)? {
+        LensKeys::Pinhole => Lens::Pinhole,
+        LensKeys::Distorted(d) => Lens::Distorted(d),
+        LensKeys::Rays(name) => {
+            let file = path.parent().unwrap_or(Path::new(".")).join(name);
+            Lens::Rays(std::sync::Arc::new(read_ray_table(
+                &file,
+                &model.intrinsics,
+            )?))
+        }
+    };
+    Ok((model, lens))
+}
+
+/// What an intrinsics JSON says about its lens.
+#[derive(Debug, Clone, PartialEq)]
+pub enum LensKeys {
+    /// No lens keys, model `none`, or every coefficient 0.
+    Pinhole,
+    /// Brown-Conrady distortion.
+    Distorted(Distortion),
+    /// A ray table, as the file names it (relative to the intrinsics file's folder).
+    Rays(String),
+}
+
+/// The optional lens keys of an intrinsics JSON:
+///
+/// - `distortion_model`: `brown_conrady` (also `plumb_bob`, OpenCV's name), or
+///   `inverse_brown_conrady` (RealSense's colour streams), or `none`; default
+///   `brown_conrady` when coefficients are given.
+/// - `distortion_coeffs`: `[k1, k2, p1, p2, k3]` as RealSense's `coeffs` and OpenCV's `D`
+///   (4 numbers: k3 = 0). All 0 is the pinhole.
+/// - `rays`: a `.npy` file of `float32` height x width x 2, the normalised ray `(x/z, y/z)`
+///   of every pixel (NaN where none); it replaces the pinhole's rays, the intrinsics still
+///   give the image size (and a pinhole for pinhole-only consumers).
+///
+/// A file may give distortion or rays, not both.
+pub fn parse_lens_keys(text: &str) -> Result<LensKeys, RgbdError> {
+    let value: serde_json::Value =
+        serde_json::from_str(text).map_err(|e| RgbdError::IntrinsicsSyntax {
+            message: e.to_string(),
+        })?;
+    let get = |k: &str| value.get(k).filter(|v| !v.is_null());
+    let model = match get("distortion_model") {
+        None => None,
+        Some(v) => Some(
+            v.as_str()
+                .ok_or_else(|| bad("distortion_model", format!("must be a string, got {v}")))?,
+        ),
+    };
+    let coeffs = match get("distortion_coeffs") {
+        None => None,
+        Some(v) => Some(coefficients(v)?),
+    };
+    let distortion = match (model, coeffs) {
+        (None, None) => None,
+        (Some(m), None) => match DistortionModel::parse(m)? {
+            None => None,
+            Some(_) => return Err(bad("distortion_coeffs", "is missing".into())),
+        },
+        (m, Some(c)) => match DistortionModel::parse(m.unwrap_or("brown_conrady"))? {
+            None if c.iter().any(|&k| k != 0.0) => {
+                return Err(bad(
+                    "distortion_coeffs",
+                    "are not all 0 but the model is none".into(),
+                ))
+            }
+            None => None,
+            // All zeros is the pinhole: its bit-identical path, not Newton's.
+            Some(_) if c.iter().all(|&k| k == 0.0) => None,
+            Some(model) => Some(Distortion::new(model, c)?),
+        },
+    };
+    let rays = match get("rays") {
+        None => None,
+        Some(v) => Some(
+            v.as_str()
+                .filter(|s| !s.is_empty())
+                .ok_or_else(|| bad("rays", format!("must be a file name, got {v}")))?
+                .to_string(),
+        ),
+    };
+    match (distortion, rays) {
+        (Some(_), Some(_)) => Err(bad(
+            "rays",
+            "and a distortion are both given (a ray table already holds the distortion)".into(),
+        )),
+        (Some(d), None) => Ok(LensKeys::Distorted(d)),
+        (None, Some(r)) => Ok(LensKeys::Rays(r)),
+        (None, None) => Ok(LensKeys::Pinhole),
+    }
+}
+
+/// `[k1, k2, p1, p2, k3]` from 4 or 5 finite numbers.
+fn coefficients(v: &serde_json::Value) -> Result<[f64; 5], RgbdError> {
+    let field = "distortion_coeffs";
+    let a = v
+        .as_array()
+        .filter(|a| a.len() == 4 || a.len() == 5)
+        .ok_or_else(|| {
+            bad(
+                field,
+                format!("must be 4 or 5 numbers (k1, k2, p1, p2, k3), got {v}"),
+            )
+        })?;
+    let mut c = [0.0; 5];
+    for (i, x) in a.iter().enumerate() {
+        c[i] = x.as_f64().filter(|x| x.is_finite()).ok_or_else(|| {
+            bad(
+                &format!("{field}[{i}]"),
+                format!("not a finite number: {x}"),
+            )
+        })?;
+    }
+    Ok(c)
+}
+
+/// Reads a ray table `.npy` of `intrinsics.height x intrinsics.width x 2`; errors name it.
+pub fn read_ray_table(path: &Path, intrinsics: &PinholeIntrinsics) -> Result<RayTable, IoError> {
+    let array = super::npy::read_npy_f32(path)?;
+    let at = |source| IoError::Rgbd {
+        path: path.to_path_buf(),
+        source,
+    };
+    let (w, h) = (intrinsics.width, intrinsics.height);
+    let [rows, cols, 2] = array.shape[..] else {
+        return Err(at(bad(
+            "rays",
+            format!(
+                "must be an array of height x width x 2, has shape {:?}",
+                array.shape
+            ),
+        )));
+    };
+    if (cols as u64, rows as u64) != (u64::from(w), u64::from(h)) {
+        let side = |n: usize| u32::try_from(n).unwrap_or(u32::MAX);
+        return Err(at(RgbdError::SizeMismatch {
+            what: "ray table vs intrinsics",
+            expected: (w, h),
+            found: (side(cols), side(rows)),
+        }));
+    }
+    let rays = array.data.chunks_exact(2).map(|r| [r[0], r[1]]).collect();
+    RayTable::new(w, h, rays).map_err(|e| at(e.into()))
 }
 
 /// Parses Open3D's `PinholeCameraIntrinsic` JSON: `{"width", "height",

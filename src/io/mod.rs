@@ -11,6 +11,7 @@
 pub mod atomic;
 pub mod intrinsics;
 pub mod limits;
+pub mod npy;
 pub mod outputs;
 pub mod pcd;
 pub mod ply;
@@ -80,6 +81,15 @@ pub enum IoError {
         /// What is wrong with it.
         #[source]
         source: xyz::XyzError,
+    },
+    /// A `.npy` array (a ray table) could not be read.
+    #[error("{path}: {source}")]
+    Npy {
+        /// The file at fault.
+        path: PathBuf,
+        /// What is wrong with it.
+        #[source]
+        source: npy::NpyError,
     },
     /// An RGB-D image pair or its intrinsics could not be used.
     #[error("{path}: {source}")]

@@ -1,7 +1,7 @@
 //! RGB-D images to organized point clouds.
 //!
 //! A depth image (16-bit, single channel, PNG or TIFF) and an optional colour image
-//! (8-bit RGB or RGBA, PNG or TIFF) of the same size become an organized cloud of
+//! (8-bit RGB or RGBA, PNG, TIFF or JPEG) of the same size become an organized cloud of
 //! `width x height` points in the camera frame (x right, y down, z forward, metres):
 //!
 //! `z = raw / depth_scale`, `x = (u − cx)·z/fx`, `y = (v − cy)·z/fy`
@@ -18,7 +18,9 @@
 //! For RGBA colour images the R, G and B channels are used and alpha is dropped. (Open3D
 //! 0.20 takes channels 0, 1 and 3, so its blue becomes the alpha; we do not copy that.)
 //!
-//! Principal entry points: [`read_frame`] (files) and [`depth_to_cloud`] (pixels).
+//! Principal entry points: [`read_frame`] (files) and [`depth_to_cloud`] (pixels); through
+//! a lens that is not the pinhole (distortion, a ray table: [`crate::camera::Lens`]),
+//! [`read_frame_through`] and [`depth_to_cloud_through`].
 //!
 //! ```
 //! use softsense::io::intrinsics::{DepthParams, PinholeIntrinsics};
@@ -33,13 +35,15 @@
 
 use super::intrinsics::{Arithmetic, CameraModel, DepthParams, PinholeIntrinsics, MAX_IMAGE_SIDE};
 use super::IoError;
+use crate::camera::Lens;
 use crate::cloud::PointCloud;
 use image::{ColorType, DynamicImage, ImageDecoder, ImageReader};
 use std::path::Path;
 
 pub use super::rgbd_error::RgbdError;
 
-/// The most decoded bytes per file byte we believe a PNG or TIFF can hold.
+/// The most decoded bytes per file byte we believe a PNG, TIFF or JPEG can hold (a flat
+/// JPEG block of 192 bytes costs about 2 bits: under 1000:1).
 const MAX_EXPANSION: u64 = 4096;
 
 /// Memory a depth pixel costs from file to written cloud: the decoded 16-bit value, the
@@ -181,7 +185,7 @@ pub fn read_depth_image(path: impl AsRef<Path>) -> Result<DepthImage, IoError> {
     }
 }
 
-/// Reads an 8-bit RGB or RGBA colour image (PNG or TIFF); RGBA keeps R, G, B.
+/// Reads an 8-bit RGB or RGBA colour image (PNG, TIFF or JPEG); RGBA keeps R, G, B.
 pub fn read_color_image(path: impl AsRef<Path>) -> Result<ColorImage, IoError> {
     let path = path.as_ref();
     let wrong = |found| RgbdError::UnsupportedColorType { found };
@@ -220,6 +224,20 @@ pub fn depth_to_cloud(
     color: Option<&[[u8; 3]]>,
     intrinsics: &PinholeIntrinsics,
     params: &DepthParams,
+) -> Result<PointCloud, RgbdError> {
+    depth_to_cloud_through(depth, color, intrinsics, params, &Lens::Pinhole)
+}
+
+/// [`depth_to_cloud`] through `lens`: the pinhole as there, else each pixel's ray from
+/// [`Lens::ray`] in `f64`, `z = raw / depth_scale`, the point `(x/z·z, y/z·z, z)` rounded
+/// to `f32` ([`Arithmetic`] only orders the pinhole's). A pixel without a ray (NaN in a
+/// ray table) gives a NaN point. Errors also if a ray table is not the image's size.
+pub fn depth_to_cloud_through(
+    depth: &[u16],
+    color: Option<&[[u8; 3]]>,
+    intrinsics: &PinholeIntrinsics,
+    params: &DepthParams,
+    lens: &Lens,
 ) -> Result<PointCloud, RgbdError> {
     intrinsics.validate()?;
     params.validate()?;
@@ -264,8 +282,16 @@ pub fn depth_to_cloud(
         true
     };
     let mut positions = Vec::with_capacity(n);
-    match params.arithmetic {
-        Arithmetic::Pcl => {
+    match (lens, params.arithmetic) {
+        (Lens::Distorted(_) | Lens::Rays(_), _) => lens_positions(
+            depth,
+            intrinsics,
+            params,
+            lens,
+            &mut dropped,
+            &mut positions,
+        )?,
+        (Lens::Pinhole, Arithmetic::Pcl) => {
             // PCL (OpenNI grabber, image grabber): everything in f32, reciprocal focal
             // lengths, and the product taken as ((u - cx) * z) * (1/fx).
             let factor = (1.0 / params.depth_scale) as f32;
@@ -285,7 +311,7 @@ pub fn depth_to_cloud(
                 }
             }
         }
-        Arithmetic::Open3d => {
+        (Lens::Pinhole, Arithmetic::Open3d) => {
             // Open3D: depth in f32 (raw / scale), back-projection in f64.
             let scale = params.depth_scale as f32;
             for (v, row) in depth.chunks_exact(w as usize).enumerate() {
@@ -323,6 +349,45 @@ pub fn depth_to_cloud(
     })
 }
 
+/// The points of `depth` through a lens that is not the pinhole (see
+/// [`depth_to_cloud_through`]); `dropped` says which raw values are no point.
+fn lens_positions(
+    depth: &[u16],
+    intrinsics: &PinholeIntrinsics,
+    params: &DepthParams,
+    lens: &Lens,
+    dropped: &mut impl FnMut(u16, f64) -> bool,
+    positions: &mut Vec<[f32; 3]>,
+) -> Result<(), RgbdError> {
+    let (w, h) = (intrinsics.width, intrinsics.height);
+    if let Lens::Rays(table) = lens {
+        if (table.width(), table.height()) != (w, h) {
+            return Err(RgbdError::SizeMismatch {
+                what: "ray table vs intrinsics",
+                expected: (w, h),
+                found: (table.width(), table.height()),
+            });
+        }
+    }
+    for (v, row) in depth.chunks_exact(w as usize).enumerate() {
+        for (u, &raw) in row.iter().enumerate() {
+            let z = f64::from(raw) / params.depth_scale;
+            let ray = match lens {
+                // The stored ray itself, not an interpolation that could round it.
+                Lens::Rays(t) => t.at(u as u32, v as u32).map(|r| r.map(f64::from)),
+                _ => lens.ray(intrinsics, u as f64, v as f64),
+            };
+            let point = match ray.filter(|r| r[0].is_finite() && r[1].is_finite()) {
+                _ if dropped(raw, z) => [f32::NAN; 3],
+                Some([x, y]) => [(x * z) as f32, (y * z) as f32, z as f32],
+                None => [f32::NAN; 3],
+            };
+            positions.push(point);
+        }
+    }
+    Ok(())
+}
+
 /// Reads a depth image, an optional colour image and converts them with `camera`.
 ///
 /// Sizes must agree: colour with depth, and both with the intrinsics unless the
@@ -332,6 +397,16 @@ pub fn read_frame(
     depth_path: impl AsRef<Path>,
     color_path: Option<&Path>,
     camera: &CameraModel,
+) -> Result<PointCloud, IoError> {
+    read_frame_through(depth_path, color_path, camera, &Lens::Pinhole)
+}
+
+/// [`read_frame`] through `lens` (from [`read_camera_file`](super::intrinsics::read_camera_file)).
+pub fn read_frame_through(
+    depth_path: impl AsRef<Path>,
+    color_path: Option<&Path>,
+    camera: &CameraModel,
+    lens: &Lens,
 ) -> Result<PointCloud, IoError> {
     let depth_path = depth_path.as_ref();
     let at = |path: &Path, source| IoError::Rgbd {
@@ -370,6 +445,12 @@ pub fn read_frame(
         }
         None => None,
     };
-    depth_to_cloud(&depth.data, color.as_deref(), &intrinsics, &camera.params)
-        .map_err(|e| at(depth_path, e))
+    depth_to_cloud_through(
+        &depth.data,
+        color.as_deref(),
+        &intrinsics,
+        &camera.params,
+        lens,
+    )
+    .map_err(|e| at(depth_path, e))
 }

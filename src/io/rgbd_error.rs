@@ -80,4 +80,7 @@ pub enum RgbdError {
         /// Pixels in the image.
         pixels: usize,
     },
+    /// The lens of an intrinsics file (distortion, ray table) cannot be built.
+    #[error("bad lens: {0}")]
+    Lens(#[from] crate::camera::LensError),
 }

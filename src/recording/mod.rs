@@ -41,7 +41,8 @@ pub use schema::{
 };
 pub use write::{write_json, RecordingWriter};
 
-use crate::io::intrinsics::{read_camera_model, CameraModel};
+use crate::camera::Lens;
+use crate::io::intrinsics::{read_camera_file, CameraModel};
 use crate::io::IoError;
 use crate::math::pose::{Pose, PoseError};
 use std::path::{Path, PathBuf};
@@ -198,6 +199,8 @@ pub struct Recording {
     pub frames: Vec<usize>,
     files: Vec<FrameFiles>,
     cameras: Vec<CameraModel>,
+    // The lens of each frame's camera file, beside `cameras`.
+    lenses: Vec<Lens>,
     /// Recorded inputs per frame (`inputs.json`, else `actuators.json`), if any.
     pub recorded: Option<RecordedInputs>,
     /// The cable inputs of the calibration (`calibration.json`'s `actuators`), if the pose
@@ -262,6 +265,7 @@ struct CameraFolder {
     layout: Layout,
     files: Vec<FrameFiles>,
     cameras: Vec<CameraModel>,
+    lenses: Vec<Lens>,
     robot_from_camera: Option<Pose>,
     pose_file: Option<PathBuf>,
     calibration: Option<CalibrationFrom>,
@@ -296,13 +300,16 @@ impl CameraFolder {
     fn read(dir: &Path, layout: Layout, mut files: Vec<FrameFiles>) -> RecordingResult<Self> {
         files.sort_by_key(|f| f.number);
         let mut cameras: Vec<CameraModel> = Vec::with_capacity(files.len());
+        let mut lenses: Vec<Lens> = Vec::with_capacity(files.len());
         for (i, f) in files.iter().enumerate() {
             let shared = i > 0 && files[i - 1].camera == f.camera;
-            let camera = match shared {
-                true => cameras[i - 1],
-                false => read_camera_model(&f.camera)?,
+            let (camera, lens) = match shared {
+                // A ray table is shared, not copied.
+                true => (cameras[i - 1], lenses[i - 1].clone()),
+                false => read_camera_file(&f.camera)?,
             };
             cameras.push(camera);
+            lenses.push(lens);
         }
         let pose_file =
             existing(dir, "calibration.json").or_else(|| existing(dir, "camera_pose.json"));
@@ -322,6 +329,7 @@ impl CameraFolder {
             layout,
             files,
             cameras,
+            lenses,
             robot_from_camera,
             pose_file,
             calibration,
@@ -412,6 +420,7 @@ impl Recording {
             frames,
             files: folder.files,
             cameras: folder.cameras,
+            lenses: folder.lenses,
             recorded: shared.recorded,
             calibrated,
             calibration_model,
@@ -476,15 +485,21 @@ impl Recording {
         Ok(&self.cameras[self.index_of(frame)?])
     }
 
+    /// The lens of `frame`'s camera file (the pinhole unless it gives distortion or rays).
+    pub fn lens_of(&self, frame: usize) -> RecordingResult<&Lens> {
+        Ok(&self.lenses[self.index_of(frame)?])
+    }
+
     /// Reads `frame` as a cloud in the camera frame (organized, coloured when the frame
-    /// has a colour image).
+    /// has a colour image), through its camera file's lens.
     pub fn read_frame(&self, frame: usize) -> RecordingResult<crate::cloud::PointCloud> {
         let i = self.index_of(frame)?;
         let f = &self.files[i];
-        Ok(crate::io::rgbd::read_frame(
+        Ok(crate::io::rgbd::read_frame_through(
             &f.depth,
             f.color.as_deref(),
             &self.cameras[i],
+            &self.lenses[i],
         )?)
     }
 

@@ -1,4 +1,5 @@
-//! The one pinhole camera: intrinsics plus its pose in the robot frame.
+//! The one pinhole camera: intrinsics plus its pose in the robot frame. What a real lens
+//! adds to the pinhole (distortion, a per-pixel ray table) is [`lens`].
 //!
 //! Camera frame: OpenCV convention (x right, y down, z forward); a point in front of the
 //! camera has `z > 0`. Pixels are 0-based: `u = fx·x/z + cx`, `v = fy·y/z + cy`, no skew.
@@ -19,8 +20,12 @@
 // `!(a < b)` is meant: a NaN must fail these checks, which `a >= b` would let through.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod lens;
+
 use crate::math::pose::{Pose, PoseError};
 use serde::{Deserialize, Serialize};
+
+pub use lens::{Distortion, DistortionModel, Lens, LensError, RayTable};
 
 /// A pinhole camera: `u = fx·x/z + cx`, `v = fy·y/z + cy`, pixels 0-based, no skew.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
