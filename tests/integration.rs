@@ -31,6 +31,8 @@ mod markers;
 mod markers_bundled;
 #[path = "integration/markers_detect.rs"]
 mod markers_detect;
+#[path = "integration/punyo_reference.rs"]
+mod punyo_reference;
 #[path = "integration/rgbd_sequence.rs"]
 mod rgbd_sequence;
 #[path = "integration/scene3d.rs"]
