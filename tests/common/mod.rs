@@ -19,6 +19,46 @@ pub fn skipped(test: &str, why: &str) {
     let _ = writeln!(std::io::stderr().lock(), "SKIPPED {test}: {why}");
 }
 
+/// Runs a project Python tool on the real data: `python3 TOOL ARGS...` with `SOFTSENSE_DATA`
+/// set, after checking that `file` (relative to the data folder) exists and that python3
+/// imports `modules` (e.g. "cv2, numpy"). `None` (with the skip said) when the data folder
+/// is unset or python3 lacks a module; panics when the data is set but `file` is missing, or
+/// the tool fails.
+pub fn run_data_tool(
+    test: &str,
+    file: &str,
+    modules: &str,
+    tool: &str,
+    args: &[&std::ffi::OsStr],
+) -> Option<std::process::Output> {
+    use std::process::Command;
+    let data = data_dir(test)?;
+    assert!(
+        data.join(file).exists(),
+        "SOFTSENSE_DATA is set but {file} is missing"
+    );
+    let ok = Command::new("python3")
+        .args(["-c", &format!("import {modules}")])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !ok {
+        skipped(test, &format!("python3 with {modules} is not available"));
+        return None;
+    }
+    let out = Command::new("python3")
+        .arg(project_root().join(tool))
+        .args(args)
+        .env("SOFTSENSE_DATA", &data)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{tool}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    Some(out)
+}
+
 /// The real third-party data folder from `SOFTSENSE_DATA`.
 ///
 /// - unset: prints why the calling test is skipped and returns `None`;

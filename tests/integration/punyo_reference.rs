@@ -3,38 +3,17 @@
 //! and cv2 (skipped, saying why, without either).
 
 use crate::common;
-use std::process::Command;
 
 #[test]
 fn the_punyo_reference_protocol_gives_the_documented_numbers() {
     let test = "the_punyo_reference_protocol_gives_the_documented_numbers";
-    let Some(data) = common::data_dir(test) else {
-        return;
-    };
-    assert!(
-        data.join("punyo/frames.json").exists(),
-        "SOFTSENSE_DATA is set but punyo/frames.json is missing"
-    );
-    let ok = Command::new("python3")
-        .args(["-c", "import cv2, numpy, scipy"])
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if !ok {
-        common::skipped(test, "python3 with numpy, scipy and cv2 is not available");
+    let dir = tempfile::tempdir().unwrap();
+    let tool = "tools/real/punyo_reference.py";
+    let args = [dir.path().as_os_str()];
+    if common::run_data_tool(test, "punyo/frames.json", "cv2, numpy, scipy", tool, &args).is_none()
+    {
         return;
     }
-    let dir = tempfile::tempdir().unwrap();
-    let out = Command::new("python3")
-        .arg(common::project_root().join("tools/real/punyo_reference.py"))
-        .arg(dir.path())
-        .env("SOFTSENSE_DATA", &data)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     let text = std::fs::read_to_string(dir.path().join("summary.json")).unwrap();
     let summary: serde_json::Value = serde_json::from_str(&text).unwrap();
     let frames = summary["frames"].as_array().unwrap();

@@ -3,41 +3,25 @@
 //! with numpy and cv2 (skipped, saying why, without either).
 
 use crate::common;
-use std::process::Command;
 
 #[test]
 fn the_punyo_rest_frame_fit_gives_the_documented_numbers() {
     let test = "the_punyo_rest_frame_fit_gives_the_documented_numbers";
-    let Some(data) = common::data_dir(test) else {
-        return;
-    };
-    assert!(
-        data.join("punyo/depth_0060.png").exists(),
-        "SOFTSENSE_DATA is set but punyo/depth_0060.png is missing"
-    );
-    let ok = Command::new("python3")
-        .args(["-c", "import cv2, numpy"])
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if !ok {
-        common::skipped(test, "python3 with numpy and cv2 is not available");
-        return;
-    }
+    let data = std::env::var_os("SOFTSENSE_DATA").unwrap_or_default();
     let dir = tempfile::tempdir().unwrap();
     let json = dir.path().join("fit.json");
-    let out = Command::new("python3")
-        .arg(common::project_root().join("tools/sensor_fit.py"))
-        .args(["--only", "punyo", "--data"])
-        .arg(&data)
-        .arg("--json")
-        .arg(&json)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let args = [
+        "--only".as_ref(),
+        "punyo".as_ref(),
+        "--data".as_ref(),
+        data.as_os_str(),
+        "--json".as_ref(),
+        json.as_os_str(),
+    ];
+    let tool = "tools/sensor_fit.py";
+    if common::run_data_tool(test, "punyo/depth_0060.png", "cv2, numpy", tool, &args).is_none() {
+        return;
+    }
     let fit: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     let p = &fit["punyo"];
