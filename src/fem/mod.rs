@@ -35,6 +35,7 @@ pub mod model;
 pub mod neohookean;
 mod newton;
 mod pool;
+pub mod prestress;
 mod problem;
 mod setup;
 pub mod solve;

@@ -120,6 +120,9 @@ pub struct Problem {
     pub cables: Vec<Cable>,
     /// Per-tetrahedron factor on Young's modulus (regional stiffness); empty means all 1.
     pub young_scale: Vec<f64>,
+    /// Per-tetrahedron initial stress (Pa; [`super::prestress`]): the stiffening of a stress
+    /// carried at rest, such as an inflated membrane's tension; empty means none.
+    pub prestress: Vec<super::prestress::Stress>,
     /// The solver setup of the first [`Problem::solver`] call, shared by clones: reused by
     /// later solvers while the mesh, held nodes and cable attachments are unchanged.
     setup_cache: Arc<OnceLock<Arc<SolverSetup>>>,
@@ -140,6 +143,7 @@ impl Problem {
             loads: Vec::new(),
             cables: Vec::new(),
             young_scale: Vec::new(),
+            prestress: Vec::new(),
             setup_cache: Arc::default(),
         }
     }

@@ -6,11 +6,12 @@ use super::assembly::eval_elements;
 use super::material::Material;
 use super::mesh::sub;
 use super::pool::Pooled;
+use super::prestress;
 use super::problem::{Formulation, Problem};
 use super::setup::SolverSetup;
 use super::solve::Solver;
 use super::tet4::{ElementState, Tangent};
-use super::FemResult;
+use super::{FemError, FemResult};
 use std::sync::Arc;
 
 /// What a [`Solver`] leaves for the next solver of a problem that differs only in its
@@ -26,6 +27,7 @@ pub struct SolverState {
     material: Material,
     formulation: Formulation,
     young_scale: Vec<f64>,
+    prestress: Vec<super::prestress::Stress>,
     base_stiffness: Option<f64>,
     l_values: Arc<Pooled<f64>>,
     values: Vec<f64>,
@@ -60,6 +62,7 @@ impl<'p> Solver<'p> {
         let reusable = state.material == problem.material
             && state.formulation == problem.formulation
             && state.young_scale == problem.young_scale
+            && state.prestress == problem.prestress
             && state.base_stiffness == problem.base_stiffness
             && state.values.len() == setup.pattern.nnz()
             && state.l_values.len() == setup.symbolic.len_val();
@@ -85,6 +88,7 @@ impl<'p> Solver<'p> {
             material: self.problem.material,
             formulation: self.problem.formulation,
             young_scale: self.problem.young_scale.clone(),
+            prestress: self.problem.prestress.clone(),
             base_stiffness: self.problem.base_stiffness,
             l_values: self.l_values,
             values: self.values,
@@ -231,6 +235,19 @@ impl<'p> Solver<'p> {
                 s.stress *= f;
             }
         }
+        if !p.prestress.is_empty() {
+            if p.prestress.len() != tets.len() {
+                return Err(FemError::Model(format!(
+                    "{} initial stresses for {} tetrahedra",
+                    p.prestress.len(),
+                    tets.len()
+                )));
+            }
+            for (e, (s, t)) in states.iter_mut().zip(tets).enumerate() {
+                let u = t.map(|a| sub(x[a], rest_nodes[a]));
+                prestress::add_to_state(&self.rest[e], &p.prestress[e], &u, s);
+            }
+        }
         self.internal_force.clear();
         self.internal_force.resize(3 * p.mesh.num_nodes(), 0.0);
         for (t, s) in tets.iter().zip(states.iter()) {
@@ -272,6 +289,9 @@ impl<'p> Solver<'p> {
                 if f != 1.0 {
                     k.iter_mut().flatten().for_each(|v| *v *= f);
                 }
+            }
+            if let Some(s0) = self.problem.prestress.get(e) {
+                prestress::add_tangent(r, s0, &mut k);
             }
             self.pattern.scatter(e, &k, &mut self.values);
         }

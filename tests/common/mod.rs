@@ -4,6 +4,7 @@
 pub mod bags;
 pub mod batch;
 pub mod corpus;
+pub mod fem;
 pub mod markers;
 pub mod markers_painted;
 pub mod markers_sensitivity;

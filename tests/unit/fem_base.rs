@@ -3,12 +3,12 @@
 //! clamped answer as the stiffness grows, a model file's key, and the compliance W as the
 //! derivative of the loaded solve; for both large-displacement formulations.
 
+use crate::common::fem::tangent_fd_error;
 use softsense::fem::constraint::{ConstraintRow, RowKind};
 use softsense::fem::material::Material;
 use softsense::fem::mesh::TetMesh;
 use softsense::fem::model::Model;
-use softsense::fem::solve::{Formulation, MappedPoint, NewtonParams, PointLoad, Problem, Solver};
-use softsense::fem::tet4::Tangent;
+use softsense::fem::solve::{Formulation, MappedPoint, NewtonParams, PointLoad, Problem};
 use softsense::math::dist;
 use std::path::PathBuf;
 
@@ -29,19 +29,6 @@ fn tip_load(p: &Problem, force: [f64; 3]) -> PointLoad {
     PointLoad { at, force }
 }
 
-/// K (upper triangle as assembled) as a dense symmetric matrix.
-fn dense_tangent(s: &Solver) -> nalgebra::DMatrix<f64> {
-    let n = s.ndof();
-    let mut k = nalgebra::DMatrix::zeros(n, n);
-    for c in 0..n {
-        for i in s.pattern.col_ptr[c]..s.pattern.col_ptr[c + 1] {
-            let r = s.pattern.row_idx[i];
-            (k[(r, c)], k[(c, r)]) = (s.values[i], s.values[i]);
-        }
-    }
-    k
-}
-
 #[test]
 fn base_springs_tangent_equals_central_differences_of_the_internal_forces() {
     for form in FORMULATIONS {
@@ -59,27 +46,7 @@ fn base_springs_tangent_equals_central_differences_of_the_internal_forces() {
             .collect();
         let mut s = p.solver().unwrap();
         assert_eq!(s.ndof(), 3 * p.mesh.num_nodes(), "base nodes are free DOFs");
-        s.assemble(&x, Tangent::Consistent).unwrap();
-        let k = dense_tangent(&s);
-        let forces = |s: &mut Solver, x: &[[f64; 3]]| {
-            s.assemble(x, Tangent::Consistent).unwrap();
-            s.dofs.gather(&s.internal_force)
-        };
-        let h = 1e-7;
-        let mut err = 0.0f64;
-        for v in 0..x.len() {
-            for c in 0..3 {
-                let d = s.dofs.dof(v, c).unwrap();
-                let (mut xp, mut xm) = (x.clone(), x.clone());
-                xp[v][c] += h;
-                xm[v][c] -= h;
-                let (fp, fm) = (forces(&mut s, &xp), forces(&mut s, &xm));
-                for r in 0..s.ndof() {
-                    err = err.max(((fp[r] - fm[r]) / (2.0 * h) - k[(r, d)]).abs());
-                }
-            }
-        }
-        let scale = k.amax();
+        let (err, scale) = tangent_fd_error(&mut s, &x);
         assert!(err < 1e-6 * scale, "{form:?}: error {err:e}, |K| {scale:e}");
     }
 }
