@@ -38,6 +38,8 @@ mod fem_model;
 mod fem_neohookean;
 #[path = "unit/fem_prestress.rs"]
 mod fem_prestress;
+#[path = "unit/inverse_pushes.rs"]
+mod inverse_pushes;
 #[path = "unit/io_lens.rs"]
 mod io_lens;
 #[path = "unit/io_rgbd.rs"]

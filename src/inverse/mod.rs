@@ -23,6 +23,7 @@ pub mod intensity;
 pub mod linearise;
 pub mod locations;
 pub mod lsq;
+pub mod pushes;
 pub mod qp;
 pub mod sensing;
 pub mod tare;
@@ -105,6 +106,35 @@ pub enum InverseError {
         actuators: usize,
         /// Candidate forces.
         forces: usize,
+    },
+    /// A push problem whose parts disagree in size.
+    #[error(
+        "push problem: {rows} compliance rows, {free} free values, {observed} observed, \
+         {sigma} sigmas; {pushes} pushes, {directions} directions, {positions} positions"
+    )]
+    PushShape {
+        /// Rows of the compliance.
+        rows: usize,
+        /// Free values given.
+        free: usize,
+        /// Observed values given.
+        observed: usize,
+        /// Sigmas given.
+        sigma: usize,
+        /// Columns of the compliance.
+        pushes: usize,
+        /// Directions given.
+        directions: usize,
+        /// Positions given.
+        positions: usize,
+    },
+    /// A push problem row whose sigma is not positive and finite.
+    #[error("push problem: row {row} has sigma {sigma} m (must be positive)")]
+    PushSigma {
+        /// The row.
+        row: usize,
+        /// Its sigma.
+        sigma: f64,
     },
     /// No feature row is visible: nothing to fit.
     #[error("intensity problem: no visible feature rows")]
