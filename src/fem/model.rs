@@ -1,5 +1,6 @@
 //! Model files (TOML): mesh, placement, units, material, mass, gravity, fixed nodes (clamped,
-//! or on springs: `base_stiffness`), cables, loads, effectors and force points. Values are
+//! or on springs: `base_stiffness`), cables, pressure cavities, loads, effectors and force
+//! points. Values are
 //! written in the file's units (`units = "SI"` or `"mm-kg-s"` as SOFA scenes: mm, kg, s,
 //! hence mN and kPa) and converted to SI on load.
 //!
@@ -21,8 +22,10 @@ use super::material::Material;
 use super::mesh::{Placement, TetMesh};
 use super::meshio::read_mesh;
 use super::solve::{
-    Cable, CableControl, Formulation, MappedPoint, NewtonParams, PointLoad, Problem,
+    Cable, CableControl, Cavity, CavityControl, Formulation, MappedPoint, NewtonParams, PointLoad,
+    Problem,
 };
+use super::surfaceio::read_triangles;
 use super::{FemError, FemResult};
 use crate::io::InFile;
 use serde::{Deserialize, Serialize};
@@ -63,6 +66,9 @@ pub struct ModelSpec {
     /// Cable actuators.
     #[serde(default)]
     pub cables: Vec<CableSpec>,
+    /// Pressure cavities (actuators after the cables).
+    #[serde(default)]
+    pub cavities: Vec<CavitySpec>,
     /// Point loads.
     #[serde(default)]
     pub loads: Vec<LoadSpec>,
@@ -133,6 +139,25 @@ pub struct CableSpec {
     pub shorten: Option<f64>,
     /// Force control: tension (force unit).
     pub force: Option<f64>,
+}
+
+/// A pressure cavity: its faces from a surface file or the mesh's boundary faces in a box.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct CavitySpec {
+    /// Name.
+    pub name: String,
+    /// Surface file (STL binary or ASCII, OBJ), in the mesh's file units and placed with
+    /// it; relative to the model file, `${VAR}` expands. Corners on mesh nodes are those
+    /// nodes, others are mapped barycentrically into the volume mesh.
+    pub surface: Option<String>,
+    /// Axis-aligned box [min, max] (after placement, file units): the mesh boundary faces
+    /// with all three nodes inside.
+    pub r#box: Option<[[f64; 3]; 2]>,
+    /// Pressure control: pressure (pressure unit: Pa for SI, kPa for mm-kg-s; default 0).
+    pub pressure: Option<f64>,
+    /// Volume control: volume change from rest (length unit cubed).
+    pub volume: Option<f64>,
 }
 
 /// A point load.
@@ -263,7 +288,20 @@ fn read_spec(path: &Path) -> FemResult<ModelSpec> {
                   a mesh is named by the model file's `mesh.path`)"
             .into(),
     })?;
-    toml::from_str(&text).map_err(|e| FemError::Model(format!("{}: {e}", path.display())))
+    let mut spec: ModelSpec =
+        toml::from_str(&text).map_err(|e| FemError::Model(format!("{}: {e}", path.display())))?;
+    // Resolved here, where the model file's folder is known, as the mesh path is.
+    for c in &mut spec.cavities {
+        if let Some(s) = &mut c.surface {
+            let p = PathBuf::from(expand_env(s).map_err(|e| e.in_file(path))?);
+            let p = match p.is_relative() {
+                true => path.parent().unwrap_or(Path::new(".")).join(p),
+                false => p,
+            };
+            *s = p.display().to_string();
+        }
+    }
+    Ok(spec)
 }
 
 /// The mesh path of `spec`, relative paths taken from the folder of the model file `path`.
@@ -399,6 +437,9 @@ impl Model {
         p.cables = (spec.cables.iter())
             .map(|c| cable(c, &p.mesh, &u, tol))
             .collect::<FemResult<_>>()?;
+        p.cavities = (spec.cavities.iter())
+            .map(|c| cavity(c, &p.mesh, &spec.placement, &u, tol))
+            .collect::<FemResult<_>>()?;
         p.loads = (spec.loads.iter())
             .map(|ld| load(ld, &p.mesh, &u, tol))
             .collect::<FemResult<_>>()?;
@@ -453,7 +494,8 @@ impl Model {
         })
     }
 
-    /// All constraint rows at positions `x`: effectors, then actuators (cables), then forces.
+    /// All constraint rows at positions `x`: effectors, then actuators (cables, then
+    /// cavities), then forces.
     pub fn rows(&self, x: &[[f64; 3]]) -> Vec<ConstraintRow> {
         let mut rows: Vec<ConstraintRow> = self
             .effectors
@@ -466,6 +508,7 @@ impl Model {
                 .iter()
                 .map(|c| ConstraintRow::cable(c, x)),
         );
+        rows.extend((self.problem.cavities.iter()).map(|c| ConstraintRow::cavity(c, x)));
         rows.extend(self.force_rows.iter().cloned());
         rows
     }
@@ -527,6 +570,14 @@ fn check_finite(spec: &ModelSpec) -> FemResult<()> {
         }
         add(format!("cables[{i}].shorten"), c.shorten.as_slice());
         add(format!("cables[{i}].force"), c.force.as_slice());
+    }
+    for (i, c) in spec.cavities.iter().enumerate() {
+        if let Some([lo, hi]) = &c.r#box {
+            add(format!("cavities[{i}].box[0]"), lo);
+            add(format!("cavities[{i}].box[1]"), hi);
+        }
+        add(format!("cavities[{i}].pressure"), c.pressure.as_slice());
+        add(format!("cavities[{i}].volume"), c.volume.as_slice());
     }
     for (i, l) in spec.loads.iter().enumerate() {
         add(format!("loads[{i}].at"), l.at.as_ref().map_or(&[], |v| v));
@@ -643,6 +694,46 @@ fn cable(c: &CableSpec, mesh: &TetMesh, u: &Units, tol: f64) -> FemResult<Cable>
         attach,
         control,
     })
+}
+
+/// A pressure cavity from its surface file or box; `tol` is how far (m) a surface corner
+/// may lie outside the mesh.
+fn cavity(
+    c: &CavitySpec,
+    mesh: &TetMesh,
+    placement: &Placement,
+    u: &Units,
+    tol: f64,
+) -> FemResult<Cavity> {
+    let control = match (c.pressure, c.volume) {
+        (Some(p), None) => CavityControl::Pressure(p * u.pressure),
+        (None, Some(v)) => CavityControl::Volume(v * u.length.powi(3)),
+        (None, None) => CavityControl::Pressure(0.0),
+        _ => {
+            return Err(FemError::Model(format!(
+                "cavity {}: give pressure or volume, not both",
+                c.name
+            )))
+        }
+    };
+    match (&c.surface, c.r#box) {
+        (Some(s), None) => {
+            let path = Path::new(s);
+            let tris: Vec<_> = (read_triangles(path)?.iter())
+                .map(|t| t.map(|p| u.point(placement.apply(p))))
+                .collect();
+            // Corners this close to a node are that node (1e-3 of the 5% tolerance).
+            Cavity::from_triangles(&c.name, &tris, mesh, 1e-3 * tol, tol, control)
+                .map_err(|e| e.in_file(path))
+        }
+        (None, Some([lo, hi])) => {
+            Cavity::from_box(&c.name, mesh, u.point(lo), u.point(hi), control)
+        }
+        _ => Err(FemError::Model(format!(
+            "cavity {}: give exactly one of surface, box",
+            c.name
+        ))),
+    }
 }
 
 /// A point load, at a located point or a node.

@@ -24,7 +24,8 @@ pub use crate::geometry::raycast;
 pub use render::{render_frame, Rendered, RenderedView, SceneView};
 pub mod sensor;
 pub use crate::recording::schema::{
-    ActuatorTruth, CableInput, FrameInput, FrameTruth, LoadInput, LoadKind, LoadTruth, ViewTruth,
+    ActuatorTruth, CableInput, CavityInput, FrameInput, FrameTruth, LoadInput, LoadKind, LoadTruth,
+    ViewTruth,
 };
 /// `truth.json` as `scene generate` writes it.
 pub type Truth = crate::recording::schema::Truth<SceneSpec>;
@@ -33,7 +34,7 @@ use crate::camera::Camera;
 use crate::fem::material::Material;
 use crate::fem::mesh::Surface;
 use crate::fem::model::Model;
-use crate::fem::solve::apply_cable_inputs;
+use crate::fem::solve::{apply_cable_inputs, apply_cavity_inputs};
 use crate::fem::solve::{MappedPoint, PointLoad, Problem};
 use crate::recording::schema::TruthModel;
 use crate::recording::RecordingWriter;
@@ -383,6 +384,7 @@ pub(crate) fn frame_problem(
         .ok_or_else(|| SceneError::Spec(format!("no frame {index}")))?;
     let mut problem = model.problem.clone();
     apply_cable_inputs(&mut problem.cables, &frame.cables)
+        .and_then(|()| apply_cavity_inputs(&mut problem.cavities, &frame.cavities))
         .map_err(|e| SceneError::Spec(format!("frame {index}: {e}")))?;
     let rest = problem.mesh.nodes_in_rest.clone();
     let mut nodes_of_loads = Vec::new();
