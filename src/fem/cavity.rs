@@ -15,11 +15,15 @@
 //! edge deformed (each band quad split in two triangles). For a closed surface the band is
 //! empty and ΔV = V(x) − V(X). Either way ΔV does not depend on the origin.
 
-use super::mesh::{cross, sub, TetMesh};
+use super::mesh::{cross, sub, Placement, TetMesh};
+use super::model::{CavitySpec, Units};
 use super::problem::MappedPoint;
 use super::solve::Solver;
+use super::surfaceio::read_triangles;
 use super::{FemError, FemResult};
+use crate::io::InFile;
 use serde::Serialize;
+use std::path::Path;
 
 /// How a cavity is driven.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -440,5 +444,46 @@ impl Cavity {
             c = Self::new(name, c.vertices, faces, rest, control)?;
         }
         Ok(c)
+    }
+}
+
+/// The cavity a model file's `[[cavities]]` entry gives, from its surface file or box; `tol` is how far (m) a surface corner
+/// may lie outside the mesh.
+pub(super) fn from_spec(
+    c: &CavitySpec,
+    mesh: &TetMesh,
+    placement: &Placement,
+    u: &Units,
+    tol: f64,
+) -> FemResult<Cavity> {
+    let control = match (c.pressure, c.volume) {
+        (Some(p), None) => CavityControl::Pressure(p * u.pressure),
+        (None, Some(v)) => CavityControl::Volume(v * u.length.powi(3)),
+        (None, None) => CavityControl::Pressure(0.0),
+        _ => {
+            return Err(FemError::Model(format!(
+                "cavity {}: give pressure or volume, not both",
+                c.name
+            )))
+        }
+    };
+    match (&c.surface, c.r#box) {
+        (Some(s), None) => {
+            let path = Path::new(s);
+            let tris: Vec<_> = (read_triangles(path)?.iter())
+                .map(|t| t.map(|p| placement.apply(p).map(|c| c * u.length)))
+                .collect();
+            // Corners this close to a node are that node (1e-3 of the 5% tolerance).
+            Cavity::from_triangles(&c.name, &tris, mesh, 1e-3 * tol, tol, control)
+                .map_err(|e| e.in_file(path))
+        }
+        (None, Some([lo, hi])) => {
+            let (lo, hi) = (lo.map(|c| c * u.length), hi.map(|c| c * u.length));
+            Cavity::from_box(&c.name, mesh, lo, hi, control)
+        }
+        _ => Err(FemError::Model(format!(
+            "cavity {}: give exactly one of surface, box",
+            c.name
+        ))),
     }
 }

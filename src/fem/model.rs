@@ -22,10 +22,8 @@ use super::material::Material;
 use super::mesh::{Placement, TetMesh};
 use super::meshio::read_mesh;
 use super::solve::{
-    Cable, CableControl, Cavity, CavityControl, Formulation, MappedPoint, NewtonParams, PointLoad,
-    Problem,
+    Cable, CableControl, Formulation, MappedPoint, NewtonParams, PointLoad, Problem,
 };
-use super::surfaceio::read_triangles;
 use super::{FemError, FemResult};
 use crate::io::InFile;
 use serde::{Deserialize, Serialize};
@@ -66,6 +64,9 @@ pub struct ModelSpec {
     /// Cable actuators.
     #[serde(default)]
     pub cables: Vec<CableSpec>,
+    /// Regions of another Young's modulus (e.g. PneuNet's strain-limiting layer).
+    #[serde(default)]
+    pub regions: Vec<RegionSpec>,
     /// Pressure cavities (actuators after the cables).
     #[serde(default)]
     pub cavities: Vec<CavitySpec>,
@@ -139,6 +140,16 @@ pub struct CableSpec {
     pub shorten: Option<f64>,
     /// Force control: tension (force unit).
     pub force: Option<f64>,
+}
+
+/// A region of another Young's modulus: the tetrahedra whose centroid is in the box.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RegionSpec {
+    /// Axis-aligned box [min, max] (after placement, file units).
+    pub r#box: [[f64; 3]; 2],
+    /// Young's modulus there (the file's pressure unit, as `material.young`).
+    pub young: f64,
 }
 
 /// A pressure cavity: its faces from a surface file or the mesh's boundary faces in a box.
@@ -437,8 +448,9 @@ impl Model {
         p.cables = (spec.cables.iter())
             .map(|c| cable(c, &p.mesh, &u, tol))
             .collect::<FemResult<_>>()?;
+        p.young_scale = young_scale(spec, &p.mesh, &u)?;
         p.cavities = (spec.cavities.iter())
-            .map(|c| cavity(c, &p.mesh, &spec.placement, &u, tol))
+            .map(|c| super::cavity::from_spec(c, &p.mesh, &spec.placement, &u, tol))
             .collect::<FemResult<_>>()?;
         p.loads = (spec.loads.iter())
             .map(|ld| load(ld, &p.mesh, &u, tol))
@@ -696,44 +708,41 @@ fn cable(c: &CableSpec, mesh: &TetMesh, u: &Units, tol: f64) -> FemResult<Cable>
     })
 }
 
-/// A pressure cavity from its surface file or box; `tol` is how far (m) a surface corner
-/// may lie outside the mesh.
-fn cavity(
-    c: &CavitySpec,
-    mesh: &TetMesh,
-    placement: &Placement,
-    u: &Units,
-    tol: f64,
-) -> FemResult<Cavity> {
-    let control = match (c.pressure, c.volume) {
-        (Some(p), None) => CavityControl::Pressure(p * u.pressure),
-        (None, Some(v)) => CavityControl::Volume(v * u.length.powi(3)),
-        (None, None) => CavityControl::Pressure(0.0),
-        _ => {
-            return Err(FemError::Model(format!(
-                "cavity {}: give pressure or volume, not both",
-                c.name
-            )))
-        }
-    };
-    match (&c.surface, c.r#box) {
-        (Some(s), None) => {
-            let path = Path::new(s);
-            let tris: Vec<_> = (read_triangles(path)?.iter())
-                .map(|t| t.map(|p| u.point(placement.apply(p))))
-                .collect();
-            // Corners this close to a node are that node (1e-3 of the 5% tolerance).
-            Cavity::from_triangles(&c.name, &tris, mesh, 1e-3 * tol, tol, control)
-                .map_err(|e| e.in_file(path))
-        }
-        (None, Some([lo, hi])) => {
-            Cavity::from_box(&c.name, mesh, u.point(lo), u.point(hi), control)
-        }
-        _ => Err(FemError::Model(format!(
-            "cavity {}: give exactly one of surface, box",
-            c.name
-        ))),
+/// Each tetrahedron's factor on `material.young` from the regions (the last region that
+/// holds its centroid wins); empty without regions.
+fn young_scale(spec: &ModelSpec, mesh: &TetMesh, u: &Units) -> FemResult<Vec<f64>> {
+    if spec.regions.is_empty() {
+        return Ok(Vec::new());
     }
+    if let Some(r) = spec
+        .regions
+        .iter()
+        .find(|r| !(r.young > 0.0 && r.young.is_finite()))
+    {
+        return Err(FemError::Model(format!(
+            "region young = {}: must be positive",
+            r.young
+        )));
+    }
+    let centroid = |t: &[usize; 4]| {
+        let c = (0..3).map(|k| t.iter().map(|&v| mesh.nodes_in_rest[v][k]).sum::<f64>() / 4.0);
+        let c: Vec<f64> = c.collect();
+        [c[0], c[1], c[2]]
+    };
+    Ok((mesh.tets.iter())
+        .map(|t| {
+            let c = centroid(t);
+            let inside = |r: &&RegionSpec| {
+                let (lo, hi) = (u.point(r.r#box[0]), u.point(r.r#box[1]));
+                (0..3).all(|k| c[k] >= lo[k] && c[k] <= hi[k])
+            };
+            spec.regions
+                .iter()
+                .rev()
+                .find(inside)
+                .map_or(1.0, |r| r.young / spec.material.young)
+        })
+        .collect())
 }
 
 /// A point load, at a located point or a node.

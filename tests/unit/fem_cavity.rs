@@ -388,3 +388,48 @@ fn cavity_compliance_rows_match_resolving_with_perturbed_pressure() {
     assert!(worst < 1e-5, "{worst}");
     assert!(w[(3, 3)] > 0.0);
 }
+
+/// The PneuNet finger of SOFA's examples (read in place from `$SOFTSENSE_DATA`), as
+/// `clouds/scenes/pneunet.toml` inflates it: at 30 kPa its tip (x = -115 mm) moves
+/// 10.4 mm towards +y, the strain-limiting layer's side (docs/pressure.md).
+#[test]
+fn the_pneunet_finger_bends_under_its_cavity_pressure() {
+    let name = "the_pneunet_finger_bends_under_its_cavity_pressure";
+    let Some(_) = crate::common::data_file(name, "sofa-robots/pneunet/pneunetCavityCut.stl") else {
+        return;
+    };
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let scene = softsense::scene::Scene::load(&root.join("clouds/scenes/pneunet.toml")).unwrap();
+    let model = softsense::fem::model::Model::load(&scene.model_path, None).unwrap();
+    assert!(model.problem.cavities[0].is_closed());
+    let tip = model.effectors[0].point;
+    let rest = &model.problem.mesh.nodes_in_rest;
+    let mut moved = Vec::new();
+    for frame in &scene.spec.frames {
+        let mut p = model.problem.clone();
+        softsense::fem::solve::apply_cavity_inputs(&mut p.cavities, &frame.cavities).unwrap();
+        let sol = p.solve_static(&model.newton).unwrap();
+        let d: Vec<f64> = (0..3)
+            .map(|k| tip.position(&sol.positions)[k] - tip.position(rest)[k])
+            .collect();
+        eprintln!(
+            "p = {:?} Pa: tip moves {:.2?} mm, volume change {:.3e} m^3",
+            sol.cavity_pressure,
+            d.iter().map(|v| v * 1e3).collect::<Vec<_>>(),
+            sol.cavity_volume_change[0]
+        );
+        moved.push(d);
+    }
+    assert_eq!(moved.len(), 4, "0, 10, 20 and 30 kPa");
+    // Unpressurised, only gravity along the finger: it hardly moves sideways.
+    assert!(moved[0][1].abs() < 0.2e-3, "{:?}", moved[0]);
+    // 30 kPa: 10.4 mm towards +y, within 10%; sideways (z) and along (x) under 1 mm.
+    let d = &moved[3];
+    assert!((d[1] - 10.4e-3).abs() < 1.04e-3, "{d:?}");
+    assert!(d[0].abs() < 1e-3 && d[2].abs() < 1e-3, "{d:?}");
+    // More pressure, more bending.
+    assert!(
+        moved.windows(2).all(|w| w[1][1] > w[0][1] + 2e-3),
+        "{moved:?}"
+    );
+}
