@@ -206,6 +206,9 @@ the model's own) and the example frame:
   [[frames.cables]]        # optional; unlisted cables keep the model's input
   name = \"north\"
   shorten = 0.01           # or: force = 2.0 (tension, N)
+  # [[frames.cavities]]    # optional, for a model with [[cavities]]; unlisted keep theirs
+  # name = \"cavity\"
+  # pressure = 10000.0     # Pa; or: volume = 5.0e-7 (volume change, m^3)
   [[frames.loads]]
   kind = \"probe\"           # a sphere pressing on the surface node nearest to `at`
   at = [0.05, -0.013, 0.083]  # metres, robot frame at rest; at most 20 mm off the surface

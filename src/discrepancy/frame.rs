@@ -106,7 +106,7 @@ impl Workflow<'_> {
         }
         let x = &sol.positions;
         let mut solver = problem.solver()?;
-        solver.factorize_with_cables(x, &sol.cable_tension)?;
+        solver.factorize_with_cables(x, &sol.actuator_forces())?;
         let zero = vec![0.0; solver.ndof()];
         Ok(solver.compliance(&rows, x, &zero)?.w)
     }

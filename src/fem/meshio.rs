@@ -379,7 +379,7 @@ pub fn parse_vtk_legacy(text: &str) -> FemResult<TetMesh> {
     let mut tets = Vec::with_capacity(cells.len());
     for (c, (cell, &ty)) in cells.iter().zip(&types).enumerate() {
         // Gmsh writes its vertex, line and triangle cells beside the tets (SOFA's PneuNet).
-        if matches!(ty, 1 | 3 | 5) && types.contains(&VTK_TETRA) {
+        if matches!((ty, cell.len()), (1, 1) | (3, 2) | (5, 3)) && types.contains(&VTK_TETRA) {
             continue;
         }
         if ty != VTK_TETRA || cell.len() != 4 {

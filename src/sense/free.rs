@@ -98,6 +98,7 @@ fn free_solver_state(model: &Model, free: &Solution) -> Option<SolverState> {
     let mut solver = base.solver().ok()?;
     let x = &free.positions;
     solver.assemble(x, model.newton.tangent).ok()?;
-    factorize_loop_tangent(&mut solver, x, &free.cable_tension, model.newton.tangent).ok()?;
+    let forces = free.actuator_forces();
+    factorize_loop_tangent(&mut solver, x, &forces, model.newton.tangent).ok()?;
     Some(solver.into_state())
 }
