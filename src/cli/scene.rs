@@ -120,7 +120,8 @@ const GENERATE_LONG: &str = "\
 Render every frame of SCENE into OUT_DIR: the FE model is solved under each frame's loads
 and cable inputs, then the deformed robot, the probes and the table are ray-cast into
 depth_NNNN.png (16-bit, in depth_unit) and color_NNNN.png, with intrinsics.json (Open3D
-format plus depth_scale), camera_pose.json, actuators.json and truth.json (every load,
+format plus depth_scale), camera_pose.json, actuators.json (with cavities: inputs.json
+too) and truth.json (every load,
 location and parameter used; `sense` reports its errors against it), and with [markers]
 markers_truth.csv (the painted markers' true positions per frame).
 
