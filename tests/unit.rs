@@ -26,6 +26,8 @@ mod io_malformed;
 mod camera_lens;
 #[path = "unit/fem_base.rs"]
 mod fem_base;
+#[path = "unit/fem_cavity.rs"]
+mod fem_cavity;
 #[path = "unit/fem_compliance.rs"]
 mod fem_compliance;
 #[path = "unit/fem_element.rs"]

@@ -170,7 +170,8 @@ def pass_through(cloud: Cloud, field: str, min: float, max: float, negative: boo
 @dataclass
 class Solution:
     """A static FE solve: ``displacement`` and ``positions`` (N x 3, m), per cable
-    ``cable_tension`` (N), ``cable_shortening`` (m) and ``cable_slack``."""
+    ``cable_tension`` (N), ``cable_shortening`` (m) and ``cable_slack``, per pressure cavity
+    ``cavity_pressure`` (Pa) and ``cavity_volume_change`` (m^3)."""
 
     displacement: np.ndarray
     positions: np.ndarray
@@ -181,6 +182,8 @@ class Solution:
     cable_shortening: np.ndarray
     cable_slack: List[bool]
     warning: Optional[str] = None
+    cavity_pressure: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    cavity_volume_change: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 @dataclass
@@ -219,11 +222,22 @@ class Model:
         """Cable names, in model order."""
         return self._native.cables()
 
-    def solve(self, loads: Optional[Sequence[Tuple[int, Sequence[float]]]] = None) -> Solution:
-        """Static equilibrium under the model's loads and cable inputs plus ``loads``, a
-        list of ``(node, (fx, fy, fz))`` in newtons."""
+    @property
+    def cavities(self) -> List[str]:
+        """Pressure cavity names, in model order."""
+        return self._native.cavities()
+
+    def solve(
+        self,
+        loads: Optional[Sequence[Tuple[int, Sequence[float]]]] = None,
+        pressures: Optional[Dict[str, float]] = None,
+    ) -> Solution:
+        """Static equilibrium under the model's loads and actuator inputs plus ``loads``, a
+        list of ``(node, (fx, fy, fz))`` in newtons, and ``pressures``, cavity name to
+        pressure in pascals (unnamed cavities keep the model's input)."""
         given = None if loads is None else [(int(n), *map(float, f)) for n, f in loads]
-        d = self._native.solve(given)
+        p = None if pressures is None else {str(k): float(v) for k, v in pressures.items()}
+        d = self._native.solve(given, p)
         return Solution(
             displacement=_rows(d["displacement"], np.float64, 3),
             positions=_rows(d["positions"], np.float64, 3),
@@ -234,6 +248,8 @@ class Model:
             cable_shortening=np.array(d["cable_shortening"], dtype=np.float64),
             cable_slack=list(d["cable_slack"]),
             warning=d["warning"],
+            cavity_pressure=np.array(d["cavity_pressure"], dtype=np.float64),
+            cavity_volume_change=np.array(d["cavity_volume_change"], dtype=np.float64),
         )
 
     def compliance(self) -> Compliance:

@@ -62,19 +62,39 @@ impl Model {
             .collect()
     }
 
-    /// Static equilibrium under the model's own loads and cable inputs plus `loads`, a
-    /// list of `(node, fx, fy, fz)` in newtons. Returns a dict: `displacement` and
-    /// `positions` (f64 bytes, N x 3), `converged`, `iterations`, `residuals`, and per cable
-    /// `cable_tension` (N), `cable_shortening` (m), `cable_slack`; `warning` when the
-    /// displacement is outside small strain's validity.
-    #[pyo3(signature = (loads=None))]
+    /// Pressure cavity names, in model order.
+    fn cavities(&self) -> Vec<String> {
+        (self.0.problem.cavities.iter())
+            .map(|c| c.name.clone())
+            .collect()
+    }
+
+    /// Static equilibrium under the model's own loads and actuator inputs plus `loads`, a
+    /// list of `(node, fx, fy, fz)` in newtons, and `pressures`, a dict of cavity name to
+    /// pressure (Pa). Returns a dict: `displacement` and `positions` (f64 bytes, N x 3),
+    /// `converged`, `iterations`, `residuals`, per cable `cable_tension` (N),
+    /// `cable_shortening` (m), `cable_slack`, per cavity `cavity_pressure` (Pa) and
+    /// `cavity_volume_change` (m^3); `warning` when the displacement is outside small
+    /// strain's validity.
+    #[pyo3(signature = (loads=None, pressures=None))]
     fn solve<'py>(
         &self,
         py: Python<'py>,
         loads: Option<Vec<(usize, f64, f64, f64)>>,
+        pressures: Option<std::collections::BTreeMap<String, f64>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let nodes = self.0.problem.mesh.nodes_in_rest.len();
         let mut problem = self.0.problem.clone();
+        let inputs: Vec<softsense::recording::CavityInput> = (pressures.unwrap_or_default())
+            .into_iter()
+            .map(|(name, p)| softsense::recording::CavityInput {
+                name,
+                pressure: Some(p),
+                volume: None,
+            })
+            .collect();
+        softsense::fem::solve::apply_cavity_inputs(&mut problem.cavities, &inputs)
+            .map_err(error)?;
         for (node, fx, fy, fz) in loads.unwrap_or_default() {
             if node >= nodes {
                 return Err(error(format!(
@@ -103,6 +123,8 @@ impl Model {
         out.set_item("cable_tension", sol.cable_tension.clone())?;
         out.set_item("cable_shortening", sol.cable_shortening.clone())?;
         out.set_item("cable_slack", sol.cable_slack.clone())?;
+        out.set_item("cavity_pressure", sol.cavity_pressure.clone())?;
+        out.set_item("cavity_volume_change", sol.cavity_volume_change.clone())?;
         out.set_item("warning", self.0.validity_warning(&sol.displacement))?;
         Ok(out)
     }

@@ -117,12 +117,20 @@ pub fn run(args: FemArgs) -> Result<(), Box<dyn std::error::Error>> {
                 .enumerate()
                 .map(|(i, c)| serde_json::json!({"name": c.name, "tension": sol.cable_tension[i], "shortening": sol.cable_shortening[i], "slack": sol.cable_slack[i]}))
                 .collect();
+            let cavities: Vec<serde_json::Value> = (m.problem.cavities.iter())
+                .enumerate()
+                .map(|(i, c)| serde_json::json!({"name": c.name, "closed": c.is_closed(), "pressure": sol.cavity_pressure[i], "volume_change": sol.cavity_volume_change[i]}))
+                .collect();
             if json {
                 let mut v = serde_json::json!({
                     "units": "SI", "converged": sol.converged, "iterations": sol.iterations,
                     "residuals": sol.residuals, "effectors": effectors, "cables": cables,
                     "node_displacements": sol.displacement,
                 });
+                // Only with cavities, so the output of cable-only models reads as before.
+                if !cavities.is_empty() {
+                    v["cavities"] = serde_json::json!(cavities);
+                }
                 // Only outside small strain's validity, so valid results read as before.
                 if let Some(w) = &warning {
                     v["warning"] = serde_json::json!(w);
@@ -137,6 +145,9 @@ pub fn run(args: FemArgs) -> Result<(), Box<dyn std::error::Error>> {
                 )?;
                 for e in &effectors {
                     outln!("effector {e}")?;
+                }
+                for c in &cavities {
+                    outln!("cavity {c}")?;
                 }
                 for c in &cables {
                     outln!("cable {c}")?;

@@ -120,7 +120,8 @@ const GENERATE_LONG: &str = "\
 Render every frame of SCENE into OUT_DIR: the FE model is solved under each frame's loads
 and cable inputs, then the deformed robot, the probes and the table are ray-cast into
 depth_NNNN.png (16-bit, in depth_unit) and color_NNNN.png, with intrinsics.json (Open3D
-format plus depth_scale), camera_pose.json, actuators.json and truth.json (every load,
+format plus depth_scale), camera_pose.json, actuators.json (with cavities: inputs.json
+too) and truth.json (every load,
 location and parameter used; `sense` reports its errors against it), and with [markers]
 markers_truth.csv (the painted markers' true positions per frame).
 
@@ -206,6 +207,9 @@ the model's own) and the example frame:
   [[frames.cables]]        # optional; unlisted cables keep the model's input
   name = \"north\"
   shorten = 0.01           # or: force = 2.0 (tension, N)
+  # [[frames.cavities]]    # optional, for a model with [[cavities]]; unlisted keep theirs
+  # name = \"cavity\"
+  # pressure = 10000.0     # Pa; or: volume = 5.0e-7 (volume change, m^3)
   [[frames.loads]]
   kind = \"probe\"           # a sphere pressing on the surface node nearest to `at`
   at = [0.05, -0.013, 0.083]  # metres, robot frame at rest; at most 20 mm off the surface

@@ -6,7 +6,7 @@ use super::workflow::Workflow;
 use super::{DiscrepancyError, DiscrepancyResult};
 use crate::fem::constraint::{ConstraintRow, RowKind};
 use crate::fem::model::Model;
-use crate::fem::solve::apply_cable_inputs;
+use crate::fem::solve::{apply_cable_inputs, apply_cavity_inputs};
 use crate::fem::solve::{CableControl, MappedPoint, PointLoad, Problem, Solution};
 use crate::recording::FrameInput;
 use nalgebra::DMatrix;
@@ -30,6 +30,7 @@ pub(super) struct FrameCtx {
 pub fn frame_problem(model: &Model, input: &FrameInput) -> DiscrepancyResult<Problem> {
     let mut p = model.problem.clone();
     apply_cable_inputs(&mut p.cables, &input.cables)?;
+    apply_cavity_inputs(&mut p.cavities, &input.cavities)?;
     if !input.loads.is_empty() {
         let surface = p.mesh.surface();
         for l in &input.loads {
@@ -105,7 +106,7 @@ impl Workflow<'_> {
         }
         let x = &sol.positions;
         let mut solver = problem.solver()?;
-        solver.factorize_with_cables(x, &sol.cable_tension)?;
+        solver.factorize_with_cables(x, &sol.actuator_forces())?;
         let zero = vec![0.0; solver.ndof()];
         Ok(solver.compliance(&rows, x, &zero)?.w)
     }

@@ -366,6 +366,7 @@ fn recorded_inputs(spec: &DatasetSpec, nominal: &Model, rng: &mut Rng) -> Vec<Fr
                     force: Some(t[i]),
                 })
                 .collect(),
+            cavities: Vec::new(),
             loads: Vec::new(),
         })
         .collect()

@@ -148,12 +148,17 @@ impl Solver<'_> {
 }
 
 impl Solver<'_> {
-    /// Adds the geometric stiffness of the problem's cables under `tensions` (one per
-    /// cable; cables past the end of `tensions` add nothing) at positions `x`.
+    /// Adds the geometric stiffness of the problem's actuators under `tensions` (one per
+    /// actuator: cable tensions, then cavity pressures; actuators past the end of
+    /// `tensions` add nothing) at positions `x`.
     pub(super) fn add_cables_stiffness(&mut self, x: &[[f64; 3]], tensions: &[f64]) {
         let p = self.problem;
         for (c, t) in p.cables.iter().zip(tensions) {
             self.add_cable_stiffness(c, *t, x);
+        }
+        let pressures = tensions.get(p.cables.len()..).unwrap_or(&[]);
+        for (c, q) in p.cavities.iter().zip(pressures) {
+            self.add_cavity_stiffness(c, *q, x);
         }
     }
 }

@@ -16,7 +16,7 @@ use serde::Serialize;
 pub enum RowKind {
     /// An effector (feature point) coordinate.
     Effector,
-    /// An actuator (cable shortening).
+    /// An actuator (cable shortening, cavity volume change).
     Actuator,
     /// An external force at a candidate location, along a direction.
     Force,
@@ -71,6 +71,14 @@ impl ConstraintRow {
         Self {
             kind: RowKind::Actuator,
             entries: cable.row(x),
+        }
+    }
+
+    /// The actuator row of a pressure cavity at node positions `x` (d volume change / dx).
+    pub fn cavity(cavity: &super::cavity::Cavity, x: &[[f64; 3]]) -> Self {
+        Self {
+            kind: RowKind::Actuator,
+            entries: cavity.row(x),
         }
     }
 

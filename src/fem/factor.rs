@@ -143,13 +143,28 @@ impl Solver<'_> {
         tensions: &[f64],
     ) -> FemResult<()> {
         self.add_cables_stiffness(x, tensions);
-        match self.factorize() {
+        let r = match self.factorize() {
             Err(FemError::NotPositiveDefinite { .. })
                 if tangent == Tangent::Consistent
                     && self.problem.formulation != Formulation::SmallStrain =>
             {
                 self.assemble(x, Tangent::Definite)?;
                 self.add_cables_stiffness(x, tensions);
+                self.factorize()
+            }
+            r => r,
+        };
+        // A pressure's tangent −p d²V/dx² is indefinite on its own and may outweigh a
+        // coarse, thin wall's stiffness: then Newton goes on without it (a modified
+        // Newton step, linear convergence, the same equilibrium).
+        let nc = self.problem.cables.len();
+        let pressurised = tensions
+            .get(nc..)
+            .is_some_and(|p| p.iter().any(|&p| p != 0.0));
+        match r {
+            Err(FemError::NotPositiveDefinite { .. }) if pressurised => {
+                self.assemble(x, Tangent::Definite)?;
+                self.add_cables_stiffness(x, &tensions[..nc]);
                 self.factorize()
             }
             r => r,

@@ -378,6 +378,10 @@ pub fn parse_vtk_legacy(text: &str) -> FemResult<TetMesh> {
     }
     let mut tets = Vec::with_capacity(cells.len());
     for (c, (cell, &ty)) in cells.iter().zip(&types).enumerate() {
+        // Gmsh writes its vertex, line and triangle cells beside the tets (SOFA's PneuNet).
+        if matches!((ty, cell.len()), (1, 1) | (3, 2) | (5, 3)) && types.contains(&VTK_TETRA) {
+            continue;
+        }
         if ty != VTK_TETRA || cell.len() != 4 {
             return Err(FemError::UnsupportedCell {
                 cell: c,

@@ -26,6 +26,7 @@
 pub mod assembly;
 pub mod bind;
 mod cable;
+pub mod cavity;
 pub mod constraint;
 mod factor;
 pub mod material;
@@ -39,6 +40,7 @@ pub mod prestress;
 mod problem;
 mod setup;
 pub mod solve;
+pub mod surfaceio;
 pub mod tet4;
 mod workspace;
 

@@ -1,5 +1,6 @@
 //! Model files (TOML): mesh, placement, units, material, mass, gravity, fixed nodes (clamped,
-//! or on springs: `base_stiffness`), cables, loads, effectors and force points. Values are
+//! or on springs: `base_stiffness`), cables, pressure cavities, loads, effectors and force
+//! points. Values are
 //! written in the file's units (`units = "SI"` or `"mm-kg-s"` as SOFA scenes: mm, kg, s,
 //! hence mN and kPa) and converted to SI on load.
 //!
@@ -63,6 +64,12 @@ pub struct ModelSpec {
     /// Cable actuators.
     #[serde(default)]
     pub cables: Vec<CableSpec>,
+    /// Regions of another Young's modulus (e.g. PneuNet's strain-limiting layer).
+    #[serde(default)]
+    pub regions: Vec<RegionSpec>,
+    /// Pressure cavities (actuators after the cables).
+    #[serde(default)]
+    pub cavities: Vec<CavitySpec>,
     /// Point loads.
     #[serde(default)]
     pub loads: Vec<LoadSpec>,
@@ -133,6 +140,35 @@ pub struct CableSpec {
     pub shorten: Option<f64>,
     /// Force control: tension (force unit).
     pub force: Option<f64>,
+}
+
+/// A region of another Young's modulus: the tetrahedra whose centroid is in the box.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RegionSpec {
+    /// Axis-aligned box [min, max] (after placement, file units).
+    pub r#box: [[f64; 3]; 2],
+    /// Young's modulus there (the file's pressure unit, as `material.young`).
+    pub young: f64,
+}
+
+/// A pressure cavity: its faces from a surface file or the mesh's boundary faces in a box.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct CavitySpec {
+    /// Name.
+    pub name: String,
+    /// Surface file (STL binary or ASCII, OBJ), in the mesh's file units and placed with
+    /// it; relative to the model file, `${VAR}` expands. Corners on mesh nodes are those
+    /// nodes, others are mapped barycentrically into the volume mesh.
+    pub surface: Option<String>,
+    /// Axis-aligned box [min, max] (after placement, file units): the mesh boundary faces
+    /// with all three nodes inside.
+    pub r#box: Option<[[f64; 3]; 2]>,
+    /// Pressure control: pressure (pressure unit: Pa for SI, kPa for mm-kg-s; default 0).
+    pub pressure: Option<f64>,
+    /// Volume control: volume change from rest (length unit cubed).
+    pub volume: Option<f64>,
 }
 
 /// A point load.
@@ -263,7 +299,20 @@ fn read_spec(path: &Path) -> FemResult<ModelSpec> {
                   a mesh is named by the model file's `mesh.path`)"
             .into(),
     })?;
-    toml::from_str(&text).map_err(|e| FemError::Model(format!("{}: {e}", path.display())))
+    let mut spec: ModelSpec =
+        toml::from_str(&text).map_err(|e| FemError::Model(format!("{}: {e}", path.display())))?;
+    // Resolved here, where the model file's folder is known, as the mesh path is.
+    for c in &mut spec.cavities {
+        if let Some(s) = &mut c.surface {
+            let p = PathBuf::from(expand_env(s).map_err(|e| e.in_file(path))?);
+            let p = match p.is_relative() {
+                true => path.parent().unwrap_or(Path::new(".")).join(p),
+                false => p,
+            };
+            *s = p.display().to_string();
+        }
+    }
+    Ok(spec)
 }
 
 /// The mesh path of `spec`, relative paths taken from the folder of the model file `path`.
@@ -399,6 +448,10 @@ impl Model {
         p.cables = (spec.cables.iter())
             .map(|c| cable(c, &p.mesh, &u, tol))
             .collect::<FemResult<_>>()?;
+        p.young_scale = young_scale(spec, &p.mesh, &u)?;
+        p.cavities = (spec.cavities.iter())
+            .map(|c| super::cavity::from_spec(c, &p.mesh, &spec.placement, &u, tol))
+            .collect::<FemResult<_>>()?;
         p.loads = (spec.loads.iter())
             .map(|ld| load(ld, &p.mesh, &u, tol))
             .collect::<FemResult<_>>()?;
@@ -453,7 +506,8 @@ impl Model {
         })
     }
 
-    /// All constraint rows at positions `x`: effectors, then actuators (cables), then forces.
+    /// All constraint rows at positions `x`: effectors, then actuators (cables, then
+    /// cavities), then forces.
     pub fn rows(&self, x: &[[f64; 3]]) -> Vec<ConstraintRow> {
         let mut rows: Vec<ConstraintRow> = self
             .effectors
@@ -466,6 +520,7 @@ impl Model {
                 .iter()
                 .map(|c| ConstraintRow::cable(c, x)),
         );
+        rows.extend((self.problem.cavities.iter()).map(|c| ConstraintRow::cavity(c, x)));
         rows.extend(self.force_rows.iter().cloned());
         rows
     }
@@ -527,6 +582,14 @@ fn check_finite(spec: &ModelSpec) -> FemResult<()> {
         }
         add(format!("cables[{i}].shorten"), c.shorten.as_slice());
         add(format!("cables[{i}].force"), c.force.as_slice());
+    }
+    for (i, c) in spec.cavities.iter().enumerate() {
+        if let Some([lo, hi]) = &c.r#box {
+            add(format!("cavities[{i}].box[0]"), lo);
+            add(format!("cavities[{i}].box[1]"), hi);
+        }
+        add(format!("cavities[{i}].pressure"), c.pressure.as_slice());
+        add(format!("cavities[{i}].volume"), c.volume.as_slice());
     }
     for (i, l) in spec.loads.iter().enumerate() {
         add(format!("loads[{i}].at"), l.at.as_ref().map_or(&[], |v| v));
@@ -643,6 +706,43 @@ fn cable(c: &CableSpec, mesh: &TetMesh, u: &Units, tol: f64) -> FemResult<Cable>
         attach,
         control,
     })
+}
+
+/// Each tetrahedron's factor on `material.young` from the regions (the last region that
+/// holds its centroid wins); empty without regions.
+fn young_scale(spec: &ModelSpec, mesh: &TetMesh, u: &Units) -> FemResult<Vec<f64>> {
+    if spec.regions.is_empty() {
+        return Ok(Vec::new());
+    }
+    if let Some(r) = spec
+        .regions
+        .iter()
+        .find(|r| !(r.young > 0.0 && r.young.is_finite()))
+    {
+        return Err(FemError::Model(format!(
+            "region young = {}: must be positive",
+            r.young
+        )));
+    }
+    let centroid = |t: &[usize; 4]| {
+        let c = (0..3).map(|k| t.iter().map(|&v| mesh.nodes_in_rest[v][k]).sum::<f64>() / 4.0);
+        let c: Vec<f64> = c.collect();
+        [c[0], c[1], c[2]]
+    };
+    Ok((mesh.tets.iter())
+        .map(|t| {
+            let c = centroid(t);
+            let inside = |r: &&RegionSpec| {
+                let (lo, hi) = (u.point(r.r#box[0]), u.point(r.r#box[1]));
+                (0..3).all(|k| c[k] >= lo[k] && c[k] <= hi[k])
+            };
+            spec.regions
+                .iter()
+                .rev()
+                .find(inside)
+                .map_or(1.0, |r| r.young / spec.material.young)
+        })
+        .collect())
 }
 
 /// A point load, at a located point or a node.

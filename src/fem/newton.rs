@@ -3,6 +3,7 @@
 //! [`Solution`].
 
 use super::cable::CableControl;
+use super::cavity::CavityControl;
 use super::material::von_mises;
 use super::mesh::{norm, sub};
 use super::problem::Problem;
@@ -98,6 +99,12 @@ pub struct Solution {
     pub cable_slack: Vec<bool>,
     /// Cable shortenings (m), in model order.
     pub cable_shortening: Vec<f64>,
+    /// Cavity pressures (Pa), in model order.
+    #[serde(default)]
+    pub cavity_pressure: Vec<f64>,
+    /// Cavity volume changes from rest (m^3), in model order.
+    #[serde(default)]
+    pub cavity_volume_change: Vec<f64>,
     /// Von Mises stress per tetrahedron (Pa).
     pub von_mises: Vec<f64>,
     /// Newton iterations done.
@@ -108,8 +115,35 @@ pub struct Solution {
     pub converged: bool,
 }
 
-/// A (node, 3-vector) row: a cable's d shortening / dx.
+/// A (node, 3-vector) row: a cable's d shortening / dx, a cavity's d volume change / dx.
 type NodeRow = Vec<(usize, [f64; 3])>;
+
+impl Solution {
+    /// The actuators' multipliers: cable tensions (N), then cavity pressures (Pa), as the
+    /// tangent with the actuators' stiffness takes them.
+    pub fn actuator_forces(&self) -> Vec<f64> {
+        let mut f = self.cable_tension.clone();
+        f.extend_from_slice(&self.cavity_pressure);
+        f
+    }
+}
+
+/// Actuator `i`'s control (cables, then cavities): a given multiplier (tension, pressure)
+/// or a given displacement (shortening, volume change).
+fn control_of(p: &Problem, i: usize) -> CableControl {
+    match p.cables.get(i) {
+        Some(c) => c.control,
+        None => match p.cavities[i - p.cables.len()].control {
+            CavityControl::Pressure(q) => CableControl::Force(q),
+            CavityControl::Volume(v) => CableControl::Displacement(v),
+        },
+    }
+}
+
+/// The number of actuators: cables and cavities.
+fn actuator_count(p: &Problem) -> usize {
+    p.cables.len() + p.cavities.len()
+}
 
 /// A Newton solve between iterations.
 struct NewtonRun {
@@ -119,11 +153,11 @@ struct NewtonRun {
     f_ext: Vec<f64>,
     /// Cable lengths at rest (m).
     l0: Vec<f64>,
-    /// Cable tensions (N).
+    /// Actuator multipliers: cable tensions (N), then cavity pressures (Pa).
     tension: Vec<f64>,
     /// Displacement-controlled cables that went slack.
     slack: Vec<bool>,
-    /// Displacement-controlled cables still taut.
+    /// Displacement-controlled actuators (cables still taut, volume-controlled cavities).
     disp_cables: Vec<usize>,
     /// Started from a given equilibrium.
     warm: bool,
@@ -141,25 +175,24 @@ struct Residual {
     norm: f64,
     /// Force scale: applied and internal forces, reactions at held nodes included (N).
     scale: f64,
-    /// Each cable's row at the current positions.
+    /// Each actuator's row at the current positions.
     rows: Vec<NodeRow>,
-    /// Gap of each taut displacement-controlled cable: wanted minus actual shortening (m).
+    /// Gap of each displacement-controlled actuator: wanted minus actual displacement.
     gaps: Vec<f64>,
 }
 
-/// Tolerance on the gaps of displacement-controlled cables (m).
-fn gap_scale(p: &Problem, params: &NewtonParams) -> f64 {
-    if params.gap_tol > 0.0 {
+/// Tolerance on the gaps of displacement-controlled cables (m) and, times the squared
+/// largest coordinate, of volume-controlled cavities (m^3).
+fn gap_scale(p: &Problem, params: &NewtonParams) -> (f64, f64) {
+    let size = (p.mesh.bbox().iter().flatten())
+        .fold(0.0f64, |m, c| m.max(c.abs()))
+        .max(1e-100);
+    let tol = if params.gap_tol > 0.0 {
         params.gap_tol
     } else {
-        1e-12
-            * p.mesh
-                .bbox()
-                .iter()
-                .flatten()
-                .fold(0.0f64, |m, c| m.max(c.abs()))
-                .max(1e-300)
-    }
+        1e-12 * size
+    };
+    (tol, tol * size * size)
 }
 
 impl Solver<'_> {
@@ -223,8 +256,11 @@ impl Solver<'_> {
     fn newton_start(&self, start: Option<&Solution>) -> NewtonRun {
         let p = self.problem;
         let nn = p.mesh.num_nodes();
-        let warm =
-            start.filter(|s| s.positions.len() == nn && s.cable_tension.len() == p.cables.len());
+        let warm = start.filter(|s| {
+            s.positions.len() == nn
+                && s.cable_tension.len() == p.cables.len()
+                && s.cavity_pressure.len() == p.cavities.len()
+        });
         let x = match warm {
             Some(s) => {
                 let mut x = s.positions.clone();
@@ -237,13 +273,11 @@ impl Solver<'_> {
             }
             None => p.initial_positions(),
         };
-        let tension = p
-            .cables
-            .iter()
-            .enumerate()
-            .map(|(i, c)| match c.control {
+        let na = actuator_count(p);
+        let tension = (0..na)
+            .map(|i| match control_of(p, i) {
                 CableControl::Force(f) => f,
-                CableControl::Displacement(_) => warm.map_or(0.0, |s| s.cable_tension[i]),
+                CableControl::Displacement(_) => warm.map_or(0.0, |s| s.actuator_forces()[i]),
             })
             .collect();
         NewtonRun {
@@ -256,8 +290,8 @@ impl Solver<'_> {
                 .collect(),
             tension,
             slack: vec![false; p.cables.len()],
-            disp_cables: (0..p.cables.len())
-                .filter(|&i| matches!(p.cables[i].control, CableControl::Displacement(_)))
+            disp_cables: (0..na)
+                .filter(|&i| matches!(control_of(p, i), CableControl::Displacement(_)))
                 .collect(),
             warm: warm.is_some(),
             residuals: Vec::new(),
@@ -267,16 +301,17 @@ impl Solver<'_> {
 
     /// Newton iterations at load fraction `s` until converged (true) or out of iterations.
     fn load_step(&mut self, params: &NewtonParams, run: &mut NewtonRun, s: f64) -> FemResult<bool> {
-        let gap_scale = gap_scale(self.problem, params);
+        let (gap_scale, volume_scale) = gap_scale(self.problem, params);
+        let nc = self.problem.cables.len();
         let mut last_step = f64::INFINITY;
         for _ in 0..params.max_iterations {
             self.assemble(&run.x, params.tangent)?;
             let res = self.residual(run, s)?;
             run.residuals.push(res.norm);
-            let gaps_ok = res
-                .gaps
-                .iter()
-                .all(|g| g.abs() <= gap_scale.max(1e-10 * g.abs()));
+            let gaps_ok = (res.gaps.iter().zip(&run.disp_cables)).all(|(g, &ci)| {
+                let tol = if ci < nc { gap_scale } else { volume_scale };
+                g.abs() <= tol.max(1e-10 * g.abs())
+            });
             // Converged: residual small, or the last correction is at round-off level
             // (ill-conditioned systems cannot reduce the residual further).
             let small = res.norm <= params.abs_tol + params.rel_tol * res.scale
@@ -286,7 +321,9 @@ impl Solver<'_> {
             if small && gaps_ok && (run.iterations > 0 || run.warm) {
                 // A cable can only pull (lambda >= 0): a displacement-controlled cable
                 // that would have to push goes slack (zero tension) and Newton goes on.
-                if let Some(pos) = run.disp_cables.iter().position(|&ci| run.tension[ci] < 0.0) {
+                // Cavities are not slack: a negative pressure (suction) is a valid input.
+                let pushing = |&ci: &usize| ci < nc && run.tension[ci] < 0.0;
+                if let Some(pos) = run.disp_cables.iter().position(pushing) {
                     let ci = run.disp_cables.remove(pos);
                     run.tension[ci] = 0.0;
                     run.slack[ci] = true;
@@ -307,9 +344,11 @@ impl Solver<'_> {
         let p = self.problem;
         // residual r = s f_ext + sum H^T lambda - f_int on free DOFs
         let mut full: Vec<f64> = run.f_ext.iter().map(|f| s * f).collect();
-        let rows: Vec<NodeRow> = p.cables.iter().map(|c| c.row(&run.x)).collect();
+        let rows: Vec<NodeRow> = (p.cables.iter().map(|c| c.row(&run.x)))
+            .chain(p.cavities.iter().map(|c| c.row(&run.x)))
+            .collect();
         for (ci, row) in rows.iter().enumerate() {
-            let lam = match p.cables[ci].control {
+            let lam = match control_of(p, ci) {
                 CableControl::Force(f) => s * f,
                 CableControl::Displacement(_) => run.tension[ci],
             };
@@ -335,8 +374,8 @@ impl Solver<'_> {
         let gaps = run
             .disp_cables
             .iter()
-            .map(|&ci| match p.cables[ci].control {
-                CableControl::Displacement(d) => s * d - (run.l0[ci] - p.cables[ci].length(&run.x)),
+            .map(|&ci| match control_of(p, ci) {
+                CableControl::Displacement(d) => s * d - actuator_value(p, run, ci),
                 CableControl::Force(_) => 0.0,
             })
             .collect();
@@ -403,8 +442,9 @@ impl Solver<'_> {
         let mut external_force: Vec<[f64; 3]> = (run.f_ext.chunks_exact(3))
             .map(|f| [f[0], f[1], f[2]])
             .collect();
-        for (ci, c) in p.cables.iter().enumerate() {
-            for (n, v) in c.row(&x) {
+        let rows = (p.cables.iter().map(|c| c.row(&x))).chain(p.cavities.iter().map(|c| c.row(&x)));
+        for (ci, row) in rows.enumerate() {
+            for (n, v) in row {
                 for k in 0..3 {
                     external_force[n][k] += run.tension[ci] * v[k];
                 }
@@ -420,16 +460,27 @@ impl Solver<'_> {
                 .zip(&run.l0)
                 .map(|(c, l)| l - c.length(&x))
                 .collect(),
+            cavity_volume_change: p.cavities.iter().map(|c| c.volume_change(&x)).collect(),
+            cavity_pressure: run.tension[p.cables.len()..].to_vec(),
             positions: x,
             displacement,
             external_force,
-            cable_tension: run.tension,
+            cable_tension: run.tension[..p.cables.len()].to_vec(),
             cable_slack: run.slack,
             von_mises: self.elements.iter().map(|e| von_mises(&e.stress)).collect(),
             iterations: run.iterations,
             residuals: run.residuals,
             converged,
         }
+    }
+}
+
+/// Actuator `i`'s displacement at the run's positions: a cable's shortening (m), a cavity's
+/// volume change (m^3).
+fn actuator_value(p: &Problem, run: &NewtonRun, i: usize) -> f64 {
+    match p.cables.get(i) {
+        Some(c) => run.l0[i] - c.length(&run.x),
+        None => p.cavities[i - p.cables.len()].volume_change(&run.x),
     }
 }
 

@@ -2,6 +2,7 @@
 //! points it attaches loads to, and the checks and forces that depend on it alone.
 
 use super::cable::Cable;
+use super::cavity::Cavity;
 use super::material::Material;
 use super::mesh::{norm, sub, TetMesh};
 use super::newton::{NewtonParams, Solution};
@@ -118,6 +119,8 @@ pub struct Problem {
     pub loads: Vec<PointLoad>,
     /// Cable actuators.
     pub cables: Vec<Cable>,
+    /// Pressure cavities: actuators after the cables.
+    pub cavities: Vec<Cavity>,
     /// Per-tetrahedron factor on Young's modulus (regional stiffness); empty means all 1.
     pub young_scale: Vec<f64>,
     /// Per-tetrahedron initial stress (Pa; [`super::prestress`]): the stiffening of a stress
@@ -142,6 +145,7 @@ impl Problem {
             gravity: [0.0; 3],
             loads: Vec::new(),
             cables: Vec::new(),
+            cavities: Vec::new(),
             young_scale: Vec::new(),
             prestress: Vec::new(),
             setup_cache: Arc::default(),

@@ -55,6 +55,8 @@ fn cable_groups(problem: &Problem) -> Vec<Vec<usize>> {
         .cables
         .iter()
         .map(|c| c.attach.iter().flat_map(|a| a.nodes).collect())
+        // A pressure couples the nodes of each face (mapped vertices reach beyond a tet).
+        .chain(problem.cavities.iter().flat_map(|c| c.face_nodes()))
         .collect()
 }
 

@@ -7,6 +7,7 @@
 //! factorization is redone at every Newton iteration, with faer's sparse Cholesky.
 
 pub use super::cable::{apply_cable_inputs, Cable, CableControl};
+pub use super::cavity::{apply_cavity_inputs, Cavity, CavityControl};
 pub use super::factor::SEQUENTIAL_FACTOR_LEN;
 pub use super::newton::{norm_vec, NewtonParams, Solution, MAX_ITERATIONS, MAX_LOAD_STEPS};
 pub use super::problem::{Formulation, MappedPoint, PointLoad, Problem};
@@ -97,7 +98,8 @@ impl<'p> Solver<'p> {
         values: Vec<f64>,
     ) -> FemResult<Self> {
         let points = (problem.loads.iter().map(|l| &l.at))
-            .chain(problem.cables.iter().flat_map(|c| &c.attach));
+            .chain(problem.cables.iter().flat_map(|c| &c.attach))
+            .chain(problem.cavities.iter().flat_map(|c| &c.vertices));
         check_nodes(problem, points)?;
         let n = problem.mesh.num_nodes();
         if let Some((v, _)) = problem

@@ -6,7 +6,7 @@ use super::intensity::{ActuatorInput, IntensityProblem};
 use super::sensing::{ms_since, FrameInputs, LoopTimings};
 use super::{InverseError, InverseResult};
 use crate::fem::constraint::{ConstraintRow, RowKind};
-use crate::fem::solve::{CableControl, Solver, SolverState};
+use crate::fem::solve::{CableControl, CavityControl, Solver, SolverState};
 use crate::fem::tet4::Tangent;
 use crate::register::FeatureMatches;
 
@@ -112,7 +112,18 @@ pub(crate) fn linearise(
         });
         rows.push(row);
     }
-    let na = base.cables.len();
+    for c in &base.cavities {
+        let row = ConstraintRow::cavity(c, x);
+        inputs.push(match c.control {
+            CavityControl::Pressure(p) => ActuatorInput::Force(p),
+            // Target in row units, as a cable's: value(x) + (ΔV_target − ΔV(x)).
+            CavityControl::Volume(v) => {
+                ActuatorInput::Displacement(row.value(x) + v - c.volume_change(x))
+            }
+        });
+        rows.push(row);
+    }
+    let na = base.cables.len() + base.cavities.len();
     for c in candidates {
         rows.push(c.row()?);
     }

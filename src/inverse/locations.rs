@@ -142,10 +142,11 @@ fn joint_problem(
         tensions,
         state,
     } = at;
-    if tensions.len() != model.problem.cables.len() {
+    let actuators = model.problem.cables.len() + model.problem.cavities.len();
+    if tensions.len() != actuators {
         return Err(InverseError::CableTensions {
             tensions: tensions.len(),
-            cables: model.problem.cables.len(),
+            cables: actuators,
         });
     }
     let mut solver = match state {

@@ -145,12 +145,12 @@ pub enum InverseError {
         /// The contact's index.
         contact: usize,
     },
-    /// Cable tensions that are not one per cable of the model.
-    #[error("intensity problem: {tensions} cable tensions for {cables} cables")]
+    /// Actuator forces that are not one per cable and cavity of the model.
+    #[error("intensity problem: {tensions} actuator forces for {cables} cables and cavities")]
     CableTensions {
         /// Tensions given.
         tensions: usize,
-        /// The model's cables.
+        /// The model's actuators (cables and cavities).
         cables: usize,
     },
     /// Every combination of location options was excluded.

@@ -428,8 +428,11 @@ impl<'a> LoopState<'a> {
         // at the sensed states, and the rotated fallback is a poorer linearisation: the loop
         // then needs up to twice the FE updates.
         let clock = std::time::Instant::now();
-        let tensions = self.prev.as_ref().map_or(&[][..], |s| &s.cable_tension[..]);
-        factorize_loop_tangent(&mut solver, &self.x, tensions, self.newton.tangent)?;
+        let tensions = self
+            .prev
+            .as_ref()
+            .map_or(Vec::new(), |s| s.actuator_forces());
+        factorize_loop_tangent(&mut solver, &self.x, &tensions, self.newton.tangent)?;
         self.timings.compliance += ms_since(clock);
         let (prob, visible, matches) =
             linearise(&solver, &self.x, inputs, candidates, &mut self.timings)?;

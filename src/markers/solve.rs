@@ -199,7 +199,7 @@ impl MarkerSensor {
         crate::inverse::linearise::factorize_loop_tangent(
             &mut solver,
             x,
-            &sol.cable_tension,
+            &sol.actuator_forces(),
             self.newton.tangent,
         )?;
         let mut rows: Vec<ConstraintRow> = visible

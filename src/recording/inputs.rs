@@ -41,6 +41,14 @@ pub enum EntryProblem {
         /// `shorten` or `force`.
         field: &'static str,
     },
+    /// A cavity's pressure or volume is NaN or infinite.
+    #[error("cavity '{cavity}': {field} is not finite")]
+    CavityNotFinite {
+        /// The cavity.
+        cavity: String,
+        /// `pressure` or `volume`.
+        field: &'static str,
+    },
     /// A known load's position, force or radius is NaN or infinite.
     #[error("load {load}: a position, force or radius is not finite")]
     LoadNotFinite {
@@ -116,6 +124,7 @@ fn parse_entry(v: Value, kind: InputsFile) -> Result<FrameInput, EntryProblem> {
             let cables: Vec<ActuatorTruth> = serde_json::from_value(v).map_err(parse)?;
             FrameInput {
                 cables: cables.iter().map(ActuatorTruth::commanded).collect(),
+                cavities: Vec::new(),
                 loads: Vec::new(),
             }
         }
@@ -130,6 +139,16 @@ fn check_finite(input: &FrameInput) -> Result<(), EntryProblem> {
             if v.is_some_and(|v| !v.is_finite()) {
                 return Err(EntryProblem::CableNotFinite {
                     cable: c.name.clone(),
+                    field,
+                });
+            }
+        }
+    }
+    for c in &input.cavities {
+        for (field, v) in [("pressure", c.pressure), ("volume", c.volume)] {
+            if v.is_some_and(|v| !v.is_finite()) {
+                return Err(EntryProblem::CavityNotFinite {
+                    cavity: c.name.clone(),
                     field,
                 });
             }

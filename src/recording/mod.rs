@@ -37,7 +37,8 @@ pub use inputs::{EntryProblem, InputsFile, RecordedInputs};
 pub use layout::{list_frames, FrameFiles, Layout};
 pub use rig::{Rig, RigCamera};
 pub use schema::{
-    ActuatorCalibration, ActuatorTruth, CableInput, Calibration, FrameInput, FrameTruth, Truth,
+    ActuatorCalibration, ActuatorTruth, CableInput, Calibration, CavityInput, FrameInput,
+    FrameTruth, Truth,
 };
 pub use write::{write_json, RecordingWriter};
 

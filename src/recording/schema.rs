@@ -47,12 +47,29 @@ pub struct CableInput {
     pub force: Option<f64>,
 }
 
-/// One frame: actuator inputs (unlisted cables keep the model's) and loads.
+/// One pressure cavity's input for a frame (exactly one of the two).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CavityInput {
+    /// Cavity name in the model.
+    pub name: String,
+    /// Pressure (Pa).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pressure: Option<f64>,
+    /// Volume change from rest (m^3).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub volume: Option<f64>,
+}
+
+/// One frame: actuator inputs (unlisted cables and cavities keep the model's) and loads.
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct FrameInput {
     /// Cable inputs.
     pub cables: Vec<CableInput>,
+    /// Pressure cavity inputs.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub cavities: Vec<CavityInput>,
     /// Loads.
     pub loads: Vec<LoadInput>,
 }

@@ -24,7 +24,8 @@ pub use crate::geometry::raycast;
 pub use render::{render_frame, Rendered, RenderedView, SceneView};
 pub mod sensor;
 pub use crate::recording::schema::{
-    ActuatorTruth, CableInput, FrameInput, FrameTruth, LoadInput, LoadKind, LoadTruth, ViewTruth,
+    ActuatorTruth, CableInput, CavityInput, FrameInput, FrameTruth, LoadInput, LoadKind, LoadTruth,
+    ViewTruth,
 };
 /// `truth.json` as `scene generate` writes it.
 pub type Truth = crate::recording::schema::Truth<SceneSpec>;
@@ -33,7 +34,7 @@ use crate::camera::Camera;
 use crate::fem::material::Material;
 use crate::fem::mesh::Surface;
 use crate::fem::model::Model;
-use crate::fem::solve::apply_cable_inputs;
+use crate::fem::solve::{apply_cable_inputs, apply_cavity_inputs};
 use crate::fem::solve::{MappedPoint, PointLoad, Problem};
 use crate::recording::schema::TruthModel;
 use crate::recording::RecordingWriter;
@@ -367,6 +368,30 @@ fn dist2(a: [f64; 3], b: [f64; 3]) -> f64 {
 /// and snapping it to a node would make a scene other than the one asked for.
 pub const MAX_LOAD_OFFSET: f64 = 0.02;
 
+/// Each cavity's input in a frame: the frame's own, else the model's.
+fn cavity_inputs(
+    cavities: &[crate::fem::solve::Cavity],
+    given: &[CavityInput],
+) -> Vec<CavityInput> {
+    use crate::fem::solve::CavityControl;
+    (cavities.iter())
+        .map(|c| match given.iter().find(|g| g.name == c.name) {
+            Some(g) => g.clone(),
+            None => {
+                let (pressure, volume) = match c.control {
+                    CavityControl::Pressure(p) => (Some(p), None),
+                    CavityControl::Volume(v) => (None, Some(v)),
+                };
+                CavityInput {
+                    name: c.name.clone(),
+                    pressure,
+                    volume,
+                }
+            }
+        })
+        .collect()
+}
+
 /// Frame `index`'s FE problem (the model with the frame's cable inputs and loads), and
 /// each load's surface node and point of application; every input checked, nothing solved.
 /// `surface` is the model mesh's (the same for every frame: cables and loads do not change
@@ -383,6 +408,7 @@ pub(crate) fn frame_problem(
         .ok_or_else(|| SceneError::Spec(format!("no frame {index}")))?;
     let mut problem = model.problem.clone();
     apply_cable_inputs(&mut problem.cables, &frame.cables)
+        .and_then(|()| apply_cavity_inputs(&mut problem.cavities, &frame.cavities))
         .map_err(|e| SceneError::Spec(format!("frame {index}: {e}")))?;
     let rest = problem.mesh.nodes_in_rest.clone();
     let mut nodes_of_loads = Vec::new();
@@ -601,6 +627,18 @@ pub(crate) fn write_recording(
     }
     let actuators: Vec<&Vec<ActuatorTruth>> = frames.iter().map(|f| &f.actuators).collect();
     writer.write_json("actuators.json", &actuators)?;
+    // actuators.json holds cables only: a model with cavities also gets inputs.json (which
+    // readers take first) with the same cable inputs and every cavity's input.
+    if !model.problem.cavities.is_empty() {
+        let inputs: Vec<FrameInput> = (frames.iter().zip(&spec.frames))
+            .map(|(f, s)| FrameInput {
+                cables: f.actuators.iter().map(ActuatorTruth::commanded).collect(),
+                cavities: cavity_inputs(&model.problem.cavities, &s.cavities),
+                loads: Vec::new(),
+            })
+            .collect();
+        writer.write_json("inputs.json", &inputs)?;
+    }
     let truth = Truth {
         scene: spec.clone(),
         model_path: relative_to(&scene.model_path, out)

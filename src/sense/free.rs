@@ -2,7 +2,7 @@
 //! cached: every frame's sensing loop starts from one.
 
 use crate::fem::model::Model;
-use crate::fem::solve::{CableControl, Solution, SolverState};
+use crate::fem::solve::{CableControl, CavityControl, Solution, SolverState};
 use crate::inverse::linearise::factorize_loop_tangent;
 use std::sync::{Arc, Mutex, OnceLock};
 
@@ -22,10 +22,14 @@ pub(crate) struct FreeState {
     pub(crate) solver: Option<SolverState>,
 }
 
+/// A frame's actuator inputs: cables (same within [`SAME_INPUT`]), then cavities (same
+/// when equal: recorded pressures carry no round-off from frame to frame).
+type InputKey = (Vec<CableControl>, Vec<CavityControl>);
+
 /// Free solves of the latest distinct actuator inputs (a stream repeats them).
 #[derive(Default)]
 pub(crate) struct FreeSolves {
-    cache: Mutex<Vec<(Vec<CableControl>, Arc<FreeState>)>>,
+    cache: Mutex<Vec<(InputKey, Arc<FreeState>)>>,
     /// The free solve at the model file's own inputs (`None`: it failed), solved once: new
     /// inputs are solved warm from it, so a free solve does not depend on which frames came
     /// before it (or ran beside it).
@@ -53,8 +57,11 @@ impl FreeSolves {
         own: &Model,
         model: &Model,
     ) -> crate::fem::FemResult<Arc<FreeState>> {
-        let key: Vec<CableControl> = model.problem.cables.iter().map(|c| c.control).collect();
-        let same = |a: &[CableControl]| same_inputs(a, &key);
+        let key: InputKey = (
+            model.problem.cables.iter().map(|c| c.control).collect(),
+            model.problem.cavities.iter().map(|c| c.control).collect(),
+        );
+        let same = |a: &InputKey| same_inputs(&a.0, &key.0) && a.1 == key.1;
         let hit = match self.cache.lock() {
             Ok(cache) => cache.iter().find(|e| same(&e.0)).map(|e| e.1.clone()),
             Err(_) => None,
@@ -98,6 +105,7 @@ fn free_solver_state(model: &Model, free: &Solution) -> Option<SolverState> {
     let mut solver = base.solver().ok()?;
     let x = &free.positions;
     solver.assemble(x, model.newton.tangent).ok()?;
-    factorize_loop_tangent(&mut solver, x, &free.cable_tension, model.newton.tangent).ok()?;
+    let forces = free.actuator_forces();
+    factorize_loop_tangent(&mut solver, x, &forces, model.newton.tangent).ok()?;
     Some(solver.into_state())
 }

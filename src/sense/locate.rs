@@ -134,7 +134,7 @@ pub(super) fn locate(
             .collect(),
         at: Linearisation {
             x: free.solution.positions.clone(),
-            tensions: free.solution.cable_tension.clone(),
+            tensions: free.solution.actuator_forces(),
             state: free.solver.clone(),
             free: true,
         },
@@ -185,7 +185,7 @@ impl Rounds<'_, '_> {
                 let c = choose(
                     self.frame,
                     &t.positions,
-                    tensions_of(t),
+                    &tensions_of(t),
                     t.solver.clone(),
                     &[],
                 );
@@ -202,7 +202,7 @@ impl Rounds<'_, '_> {
                     .collect();
                 self.at = Linearisation {
                     x: est.positions.clone(),
-                    tensions: tensions_of(&est).to_vec(),
+                    tensions: tensions_of(&est),
                     state: est.solver.take(),
                     free: false,
                 };
@@ -418,7 +418,7 @@ impl Rounds<'_, '_> {
         let partial = preview && !est.settled;
         self.at = Linearisation {
             x: est.positions.clone(),
-            tensions: tensions_of(&est).to_vec(),
+            tensions: tensions_of(&est),
             state: est.solver.take(),
             free: false,
         };
@@ -581,10 +581,12 @@ fn choose(
     Ok((options, choice, picked))
 }
 
-/// The cable tensions of an estimate's last FE state (none if it has none: a choice
-/// linearised there then fails and says so).
-fn tensions_of(est: &FrameEstimate) -> &[f64] {
-    est.solution.as_ref().map_or(&[], |s| &s.cable_tension[..])
+/// The actuator forces (cable tensions, cavity pressures) of an estimate's last FE state
+/// (none if it has none: a choice linearised there then fails and says so).
+fn tensions_of(est: &FrameEstimate) -> Vec<f64> {
+    est.solution
+        .as_ref()
+        .map_or(Vec::new(), |s| s.actuator_forces())
 }
 
 /// The candidate forces at surface node `node` with outward normal `normal`: a pushing

@@ -64,8 +64,8 @@ pub use track::Track;
 
 use crate::fem::mesh::Surface;
 use crate::fem::model::Model;
-use crate::fem::solve::apply_cable_inputs;
 use crate::fem::solve::CableControl;
+use crate::fem::solve::{apply_cable_inputs, apply_cavity_inputs};
 use crate::math::pose::Pose;
 use crate::recording::{ActuatorCalibration, FrameInput};
 use crate::register::{surface_features, FeatureParams, SurfaceFeature};
@@ -335,6 +335,8 @@ impl Sensor {
         model.problem.loads.clear();
         if let Some(inputs) = inputs {
             apply_cable_inputs(&mut model.problem.cables, &inputs.cables)
+                .map_err(SenseError::CableInputs)?;
+            apply_cavity_inputs(&mut model.problem.cavities, &inputs.cavities)
                 .map_err(SenseError::CableInputs)?;
         }
         Ok(model)

@@ -303,6 +303,7 @@ fn recorded_inputs_that_do_not_fit_the_model_make_the_frame_not_solved_saying_wh
             shorten,
             force,
         }],
+        cavities: Vec::new(),
         loads: Vec::new(),
     };
     for (inputs, why) in [

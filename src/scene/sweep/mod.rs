@@ -583,6 +583,7 @@ fn try_draw(
             sensor,
             frames: vec![FrameInput {
                 cables: Vec::new(),
+                cavities: Vec::new(),
                 loads,
             }],
         },
@@ -627,8 +628,10 @@ pub fn write_drawn(
         // every frame rendered at its own index so no two share their sensor noise.
         let loaded = scene.spec.frames.clone();
         let cables = loaded.first().map_or_else(Vec::new, |f| f.cables.clone());
+        let cavities = loaded.first().map_or_else(Vec::new, |f| f.cavities.clone());
         let unloaded_frames = (0..unloaded).map(|_| FrameInput {
             cables: cables.clone(),
+            cavities: cavities.clone(),
             loads: Vec::new(),
         });
         let held_frames = (0..held).flat_map(|_| loaded.iter().cloned());
