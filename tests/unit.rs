@@ -36,6 +36,8 @@ mod fem_mesh;
 mod fem_model;
 #[path = "unit/fem_neohookean.rs"]
 mod fem_neohookean;
+#[path = "unit/fem_shell.rs"]
+mod fem_shell;
 #[path = "unit/io_lens.rs"]
 mod io_lens;
 #[path = "unit/io_rgbd.rs"]
