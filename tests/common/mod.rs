@@ -7,6 +7,7 @@ pub mod corpus;
 pub mod markers;
 pub mod markers_painted;
 pub mod markers_sensitivity;
+pub mod membrane;
 pub mod oracle;
 
 use std::path::PathBuf;
