@@ -304,3 +304,58 @@ fn a_shell_too_thick_for_its_curvature_on_the_inside_is_refused() {
         Err(FemError::InvertedElement { .. })
     ));
 }
+
+#[test]
+fn a_model_extrudes_its_surface_to_the_placed_thickness_and_fixes_the_marked_nodes() {
+    use softsense::fem::model::Model;
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("square.vtk"), binary_vtk(false)).unwrap();
+    // The file is in metres, placed in mm: 2 mm is the thickness after placement.
+    let model = |fixed: &str| {
+        format!(
+            "units = \"mm-kg-s\"\n[mesh]\npath = \"square.vtk\"\n\
+             shell = {{ thickness = 2.0, layers = 2, side = \"inside\" }}\n\
+             [placement]\nscale = 1000.0\n[material]\nyoung = 1000.0\npoisson = 0.3\n{fixed}"
+        )
+    };
+    let path = dir.path().join("m.toml");
+    std::fs::write(&path, model("[[fixed]]\nmarked = true\n")).unwrap();
+    let m = Model::load(&path, None).unwrap();
+    let x = &m.problem.mesh.nodes_in_rest;
+    assert_eq!(x.len(), 3 * 4);
+    let z: Vec<f64> = x.iter().map(|p| p[2]).collect();
+    let (lo, hi) = (
+        z.iter().copied().fold(1.0, f64::min),
+        z.iter().copied().fold(-1.0, f64::max),
+    );
+    // SI inside: the surface at 0.5 m is the outer face, 2 mm below it the inner one.
+    assert!(
+        (hi - 0.5).abs() < 1e-12 && (hi - lo - 0.002).abs() < 1e-12,
+        "{lo} {hi}"
+    );
+    assert_eq!(m.problem.fixed, vec![0, 1, 4, 5, 8, 9]);
+    // Without `shell` the surface is refused, naming the key.
+    std::fs::write(
+        &path,
+        model("").replace(
+            "shell = { thickness = 2.0, layers = 2, side = \"inside\" }\n",
+            "",
+        ),
+    )
+    .unwrap();
+    let err = Model::load(&path, None).unwrap_err().to_string();
+    assert!(err.contains("shell"), "{err}");
+}
+
+#[test]
+fn fixing_marked_nodes_of_a_file_that_marks_none_is_refused() {
+    use softsense::fem::mesh::TetMesh;
+    use softsense::fem::model::{Model, ModelSpec};
+    let spec: ModelSpec = toml::from_str(
+        "[mesh]\npath = \"x.vtu\"\n[material]\nyoung = 1e4\npoisson = 0.3\n[[fixed]]\nmarked = true\n",
+    )
+    .unwrap();
+    let mesh = TetMesh::structured_box([0.0; 3], [1.0; 3], [1, 1, 1]).unwrap();
+    let err = Model::from_spec(&spec, mesh).unwrap_err().to_string();
+    assert!(err.contains("marks no nodes"), "{err}");
+}
