@@ -21,6 +21,8 @@ mod markers_layout;
 mod markers_locate;
 #[path = "acceptance/markers_sensitivity.rs"]
 mod markers_sensitivity;
+#[path = "acceptance/membrane.rs"]
+mod membrane;
 #[path = "acceptance/mutation_fuzz.rs"]
 mod mutation_fuzz;
 #[path = "acceptance/mutation_fuzz_inputs.rs"]

@@ -21,6 +21,8 @@ mod control;
 mod fem_cantilever;
 #[path = "integration/fem_diamond.rs"]
 mod fem_diamond;
+#[path = "integration/fem_shell.rs"]
+mod fem_shell;
 #[path = "integration/fem_skfem.rs"]
 mod fem_skfem;
 #[path = "integration/malformed_corpus.rs"]

@@ -40,6 +40,8 @@ mod fem_model;
 mod fem_neohookean;
 #[path = "unit/fem_prestress.rs"]
 mod fem_prestress;
+#[path = "unit/fem_shell.rs"]
+mod fem_shell;
 #[path = "unit/inverse_pushes.rs"]
 mod inverse_pushes;
 #[path = "unit/io_lens.rs"]

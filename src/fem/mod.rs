@@ -39,6 +39,7 @@ mod pool;
 pub mod prestress;
 mod problem;
 mod setup;
+pub mod shell;
 pub mod solve;
 pub mod surfaceio;
 pub mod tet4;
@@ -97,12 +98,18 @@ pub enum FemError {
     #[error("unsupported mesh format: {0}")]
     Unsupported(String),
     /// A cell type other than the linear tetrahedron.
-    #[error("unsupported cell type {cell_type} in cell {cell} (only linear tetrahedra)")]
+    #[error("unsupported cell type {cell_type} in cell {cell} (only linear tetrahedra, and in legacy VTK triangles, lines and vertices)")]
     UnsupportedCell {
         /// The 0-based cell index in the file.
         cell: usize,
         /// The VTK or Gmsh type code.
         cell_type: i64,
+    },
+    /// A tetrahedral mesh was asked of a file that holds a triangle surface.
+    #[error("the mesh is a triangle surface ({triangles} triangles, no tetrahedra): to model it as a thin body, give `shell = {{ thickness = ..., layers = 1, side = \"outside\" }}` in the model file's [mesh] table")]
+    SurfaceNotVolume {
+        /// Triangles in the file.
+        triangles: usize,
     },
     /// A tetrahedron references a node that does not exist.
     #[error("tetrahedron {tet} references node {node} but the mesh has {nodes} nodes")]

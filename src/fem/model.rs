@@ -21,6 +21,7 @@ use super::constraint::{ConstraintRow, RowKind};
 use super::material::Material;
 use super::mesh::{Placement, TetMesh};
 use super::meshio::read_mesh;
+use super::shell::{read_body, MarkedMesh, ShellParams};
 use super::solve::{
     Cable, CableControl, Formulation, MappedPoint, NewtonParams, PointLoad, Problem,
 };
@@ -94,6 +95,10 @@ fn default_units() -> String {
 pub struct MeshSpec {
     /// Path, relative to the model file; `${VAR}` expands environment variables.
     pub path: String,
+    /// A triangle surface file made a thin body: extruded into layers of tetrahedra
+    /// ([`crate::fem::shell`]; thickness in the file's length unit, after placement).
+    #[serde(default)]
+    pub shell: Option<ShellParams>,
 }
 
 /// Material in file units.
@@ -124,6 +129,9 @@ pub struct FixedSpec {
     pub r#box: Option<[[f64; 3]; 2]>,
     /// Explicit node indices.
     pub nodes: Option<Vec<usize>>,
+    /// The nodes the mesh file marks (vertex cells; every layer copy in a shell).
+    #[serde(default)]
+    pub marked: bool,
 }
 
 /// A cable actuator.
@@ -359,8 +367,8 @@ impl Model {
             Some(p) => p.to_path_buf(),
             None => mesh_path_of(path, &spec)?,
         };
-        let mesh = read_mesh(&mesh_path)?;
-        Self::from_spec(&spec, mesh).map_err(|e| e.in_file(path))
+        let body = read_body(&mesh_path, spec.mesh.shell.as_ref(), placement_scale(&spec))?;
+        Self::from_body(&spec, body).map_err(|e| e.in_file(path))
     }
 
     /// Loads a model file on another mesh of the same body, `mesh_path` (in the model
@@ -378,10 +386,27 @@ impl Model {
         spec.force_points.clear();
         newton_params(spec.newton.as_ref()).map_err(|e| e.in_file(path))?;
         let mesh = read_mesh(mesh_path)?;
+        if spec.fixed.iter().any(|f| f.marked) {
+            // The own mesh's marks, given by index: moved below like `fixed.nodes`.
+            let own = read_body(
+                &mesh_path_of(path, &spec)?,
+                spec.mesh.shell.as_ref(),
+                placement_scale(&spec),
+            )?;
+            for f in spec.fixed.iter_mut().filter(|f| f.marked) {
+                f.marked = false;
+                f.nodes.get_or_insert_with(Vec::new).extend(&own.marked);
+            }
+        }
         let by_index = spec.fixed.iter().any(|f| f.nodes.is_some())
             || spec.loads.iter().any(|l| l.node.is_some());
         if by_index {
-            let own = read_mesh(&mesh_path_of(path, &spec)?)?;
+            let own = read_body(
+                &mesh_path_of(path, &spec)?,
+                spec.mesh.shell.as_ref(),
+                placement_scale(&spec),
+            )?
+            .mesh;
             let placed = |m: &TetMesh| {
                 let mut m = m.clone();
                 m.place(&spec.placement);
@@ -419,8 +444,15 @@ impl Model {
         mesh_path_of(path, &spec)
     }
 
-    /// Builds a model from a spec and its (unplaced, file-unit) mesh.
-    pub fn from_spec(spec: &ModelSpec, mut mesh: TetMesh) -> FemResult<Self> {
+    /// Builds a model from a spec and its (unplaced, file-unit) mesh, which marks no nodes.
+    pub fn from_spec(spec: &ModelSpec, mesh: TetMesh) -> FemResult<Self> {
+        let marked = Vec::new();
+        Self::from_body(spec, MarkedMesh { mesh, marked })
+    }
+
+    /// Builds a model from a spec and its (unplaced, file-unit) mesh with marked nodes.
+    pub fn from_body(spec: &ModelSpec, body: MarkedMesh) -> FemResult<Self> {
+        let MarkedMesh { mut mesh, marked } = body;
         check_finite(spec)?;
         let u = Units::parse(&spec.units)?;
         mesh.place(&spec.placement);
@@ -437,7 +469,7 @@ impl Model {
         let formulation = parse_formulation(spec.formulation.as_deref())?;
         let material = Material::new(spec.material.young * u.pressure, spec.material.poisson)?;
         let mut p = Problem::new(mesh, material, formulation);
-        p.fixed = fixed_nodes(&spec.fixed, &p.mesh, &u);
+        p.fixed = fixed_nodes(&spec.fixed, &p.mesh, &marked, &u)?;
         p.base_stiffness = base_stiffness(spec.base_stiffness, &u)?;
         if let Some(m) = &spec.mass {
             p.density = density(m, quality.volume, &u)?;
@@ -569,6 +601,8 @@ fn check_finite(spec: &ModelSpec) -> FemResult<()> {
     }
     add("gravity".into(), spec.gravity.as_ref().map_or(&[], |v| v));
     add("base_stiffness".into(), spec.base_stiffness.as_slice());
+    let shell = spec.mesh.shell.as_ref().map(|s| s.thickness);
+    add("mesh.shell.thickness".into(), shell.as_slice());
     for (i, f) in spec.fixed.iter().enumerate() {
         if let Some([lo, hi]) = &f.r#box {
             add(format!("fixed[{i}].box[0]"), lo);
@@ -626,9 +660,22 @@ fn parse_formulation(name: Option<&str>) -> FemResult<Formulation> {
 }
 
 /// The fixed nodes of the selections, sorted, without repeats.
-fn fixed_nodes(specs: &[FixedSpec], mesh: &TetMesh, u: &Units) -> Vec<usize> {
+fn fixed_nodes(
+    specs: &[FixedSpec],
+    mesh: &TetMesh,
+    marked: &[usize],
+    u: &Units,
+) -> FemResult<Vec<usize>> {
     let mut fixed = Vec::new();
     for f in specs {
+        if f.marked && marked.is_empty() {
+            return Err(FemError::Model(
+                "fixed marked = true, but the mesh file marks no nodes (no vertex cells)".into(),
+            ));
+        }
+        if f.marked {
+            fixed.extend_from_slice(marked);
+        }
         if let Some([lo, hi]) = f.r#box {
             fixed.extend(mesh.nodes_in_box(u.point(lo), u.point(hi)));
         }
@@ -638,7 +685,12 @@ fn fixed_nodes(specs: &[FixedSpec], mesh: &TetMesh, u: &Units) -> Vec<usize> {
     }
     fixed.sort_unstable();
     fixed.dedup();
-    fixed
+    Ok(fixed)
+}
+
+/// The placement's length scale (1 if absent).
+fn placement_scale(spec: &ModelSpec) -> f64 {
+    spec.placement.scale.unwrap_or(1.0)
 }
 
 /// The base stiffness in N/m from file units, refused unless positive.

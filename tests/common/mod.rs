@@ -8,6 +8,7 @@ pub mod fem;
 pub mod markers;
 pub mod markers_painted;
 pub mod markers_sensitivity;
+pub mod membrane;
 pub mod oracle;
 
 use std::path::PathBuf;

@@ -92,14 +92,17 @@ fn vtk_legacy_ascii_is_read_and_other_cells_rejected() {
     let text = "# vtk DataFile Version 2.0\ntet\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 5 float\n0 0 0 1 0 0 0 1 0\n0 0 1 1 1 1\nCELLS 2 10\n4 0 1 2 3\n4 1 2 3 4\nCELL_TYPES 2\n10\n10\n";
     let m = parse_mesh(text).unwrap();
     assert_eq!(m.tets, vec![[0, 1, 2, 3], [1, 2, 3, 4]]);
-    let tri = text.replace("CELL_TYPES 2\n10\n10", "CELL_TYPES 2\n10\n5");
+    let hex = text.replace("CELL_TYPES 2\n10\n10", "CELL_TYPES 2\n10\n12");
     assert!(matches!(
-        parse_mesh(&tri),
+        parse_mesh(&hex),
         Err(FemError::UnsupportedCell {
             cell: 1,
-            cell_type: 5
+            cell_type: 12
         })
     ));
+    // Triangles are read (a shell's surface), but not with four nodes.
+    let tri = text.replace("CELL_TYPES 2\n10\n10", "CELL_TYPES 2\n10\n5");
+    assert!(matches!(parse_mesh(&tri), Err(FemError::Parse(_))));
     let short = text.replace("POINTS 5", "POINTS 50");
     assert!(matches!(parse_mesh(&short), Err(FemError::Parse(_))));
 }
