@@ -80,7 +80,7 @@ fn vtu_with_big_endian_declaration_and_float32_int32_is_read() {
 #[test]
 fn gmsh_vertex_line_and_triangle_cells_beside_tets_are_skipped() {
     // As Gmsh writes them (SOFA's PneuNet): the boundary's cells after the tets.
-    let text = "# vtk DataFile Version 2.0\ntet\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 4 float\n0 0 0 1 0 0 0 1 0 0 0 1\nCELLS 4 15\n1 0\n2 0 1\n3 0 1 2\n4 0 1 2 3\nCELL_TYPES 4\n1\n3\n5\n10\n";
+    let text = "# vtk DataFile Version 2.0\ntet\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 4 float\n0 0 0 1 0 0 0 1 0 0 0 1\nCELLS 4 14\n1 0\n2 0 1\n3 0 1 2\n4 0 1 2 3\nCELL_TYPES 4\n1\n3\n5\n10\n";
     assert_eq!(parse_mesh(text).unwrap().tets, vec![[0, 1, 2, 3]]);
     // Without a tetrahedron they are still refused.
     let flat = text.replace("CELL_TYPES 4\n1\n3\n5\n10", "CELL_TYPES 4\n1\n3\n5\n5");
