@@ -15,7 +15,7 @@
 //! ```
 //! use softsense::fem::shell::{extrude, ShellParams, ShellSide, SurfaceMesh};
 //! let surface = SurfaceMesh::disk(0.05, 4)?;
-//! let shell = extrude(&surface, &ShellParams { thickness: 0.001, layers: 2, side: ShellSide::Outside })?;
+//! let shell = extrude(&surface, &ShellParams { thickness: 0.001, layers: 2, side: ShellSide::Outside, tension: 0.0 })?;
 //! assert_eq!(shell.mesh.num_nodes(), 3 * surface.nodes.len());
 //! assert_eq!(shell.marked.len(), 3 * surface.marked.len());
 //! # Ok::<(), softsense::fem::FemError>(())
@@ -185,6 +185,11 @@ pub struct ShellParams {
     /// The side the layers grow on (default outside).
     #[serde(default)]
     pub side: ShellSide,
+    /// In-plane pre-tension of an inflated membrane (force per length: N/m, which is also
+    /// mN/mm under mm-kg-s; default 0): its stiffening ([`super::prestress`]), linear
+    /// about the rest shape.
+    #[serde(default)]
+    pub tension: f64,
 }
 
 fn one() -> usize {
@@ -304,4 +309,43 @@ fn prism_tets(tri: [usize; 3], bottom: usize, top: usize) -> [[usize; 4]; 3] {
         }
     }
     tets
+}
+
+/// The in-plane pre-tension `tension` (N/m) of every tetrahedron of a shell `thickness`
+/// (m) thick, extruded by [`extrude`] from a surface of `mesh.num_nodes() / (layers + 1)`
+/// nodes: each tetrahedron's plane is that of the triangle it was extruded from (its
+/// nodes' surface indices), read from `mesh` as placed.
+pub fn shell_prestress(
+    mesh: &TetMesh,
+    layers: usize,
+    tension: f64,
+    thickness: f64,
+) -> FemResult<Vec<super::prestress::Stress>> {
+    let n = mesh.num_nodes() / (layers + 1);
+    if n == 0 || n * (layers + 1) != mesh.num_nodes() {
+        return Err(FemError::Model(format!(
+            "a shell of {layers} layers cannot have {} nodes",
+            mesh.num_nodes()
+        )));
+    }
+    let x = &mesh.nodes_in_rest;
+    mesh.tets
+        .iter()
+        .enumerate()
+        .map(|(e, tet)| {
+            let mut tri: Vec<usize> = tet.iter().map(|&v| v % n).collect();
+            tri.sort_unstable();
+            tri.dedup();
+            if tri.len() != 3 {
+                return Err(FemError::Model(format!(
+                    "tetrahedron {e} is not one of a shell's prisms (surface nodes {tri:?})"
+                )));
+            }
+            let (a, b, c) = (x[tri[0]], x[tri[1]], x[tri[2]]);
+            let normal = super::mesh::cross(super::mesh::sub(b, a), super::mesh::sub(c, a));
+            Ok(super::prestress::in_plane_tension(
+                tension, thickness, normal,
+            ))
+        })
+        .collect()
 }

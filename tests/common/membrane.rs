@@ -85,6 +85,7 @@ pub fn solve_membrane(case: &MembraneCase) -> FemResult<MembraneResult> {
         thickness: case.thickness,
         layers: case.layers,
         side: ShellSide::Centred,
+        tension: 0.0,
     };
     let shell = extrude(&surface, &params)?;
     let (n, copies) = (surface.nodes.len(), case.layers + 1);

@@ -203,6 +203,7 @@ fn an_extruded_disk_is_conforming_positive_and_has_the_prisms_volume() {
             thickness: 0.002,
             layers,
             side: ShellSide::Outside,
+            tension: 0.0,
         };
         let shell = extrude(&s, &p).unwrap();
         let m = &shell.mesh;
@@ -240,6 +241,7 @@ fn the_side_puts_the_surface_at_the_shells_inner_outer_or_middle_face() {
                 thickness: 0.01,
                 layers: 2,
                 side,
+                tension: 0.0,
             },
         )
         .unwrap();
@@ -264,6 +266,7 @@ fn a_clockwise_triangle_extrudes_to_positive_tetrahedra_on_its_own_outward_side(
             thickness: 0.1,
             layers: 1,
             side: ShellSide::Outside,
+            tension: 0.0,
         },
     )
     .unwrap();
@@ -298,6 +301,7 @@ fn a_shell_too_thick_for_its_curvature_on_the_inside_is_refused() {
         thickness: 0.02,
         layers: 1,
         side: ShellSide::Inside,
+        tension: 0.0,
     };
     assert!(matches!(
         extrude(&s, &p),
@@ -358,4 +362,50 @@ fn fixing_marked_nodes_of_a_file_that_marks_none_is_refused() {
     let mesh = TetMesh::structured_box([0.0; 3], [1.0; 3], [1, 1, 1]).unwrap();
     let err = Model::from_spec(&spec, mesh).unwrap_err().to_string();
     assert!(err.contains("marks no nodes"), "{err}");
+}
+
+#[test]
+fn a_pretensioned_disk_shell_sags_as_a_tensioned_membrane_under_a_uniform_load() {
+    // T ∇²w = -q on a clamped disk of radius a: w0 = q a² / (4 T). The shell's own
+    // modulus is negligible (E t = 0.3 N/m against T = 300 N/m): the tension carries it.
+    use softsense::fem::material::Material;
+    use softsense::fem::shell::shell_prestress;
+    use softsense::fem::solve::{Formulation, MappedPoint, PointLoad, Problem};
+    let (a, t, tension, q) = (0.05, 3e-4, 300.0, 200.0);
+    let want = q * a * a / (4.0 * tension);
+    let surface = SurfaceMesh::disk(a, 12).unwrap();
+    let params = ShellParams {
+        thickness: t,
+        layers: 1,
+        side: ShellSide::Centred,
+        tension,
+    };
+    let shell = extrude(&surface, &params).unwrap();
+    let n = surface.nodes.len();
+    let mut p = Problem::new(
+        shell.mesh.clone(),
+        Material::new(1e3, 0.3).unwrap(),
+        Formulation::SmallStrain,
+    );
+    p.fixed = shell.marked.clone();
+    p.prestress = shell_prestress(&shell.mesh, 1, tension, t).unwrap();
+    let mut area = vec![0.0; n];
+    for tri in &surface.triangles {
+        let [x, y, z] = tri.map(|i| surface.nodes[i]);
+        let twice = (y[0] - x[0]) * (z[1] - x[1]) - (y[1] - x[1]) * (z[0] - x[0]);
+        for &i in tri {
+            area[i] += twice.abs() / 6.0;
+        }
+    }
+    p.loads = (0..2 * n)
+        .map(|v| PointLoad {
+            at: MappedPoint::node(v),
+            force: [0.0, 0.0, -0.5 * q * area[v % n]],
+        })
+        .collect();
+    let sol = p.solve_static(&Default::default()).unwrap();
+    let w0 = -0.5 * (sol.displacement[0][2] + sol.displacement[n][2]);
+    let error = w0 / want - 1.0;
+    eprintln!("pre-tensioned disk: w0 {w0:.4e} m, membrane theory {want:.4e} m ({error:+.4})");
+    assert!(error.abs() < 0.03, "{error:+.4}");
 }

@@ -23,7 +23,7 @@ use super::constraint::{ConstraintRow, RowKind};
 use super::material::Material;
 use super::mesh::{Placement, TetMesh};
 use super::meshio::read_mesh;
-use super::shell::{read_body, MarkedMesh};
+use super::shell::{read_body, shell_prestress, MarkedMesh};
 use super::solve::{
     Cable, CableControl, Formulation, MappedPoint, NewtonParams, PointLoad, Problem,
 };
@@ -260,6 +260,11 @@ impl Model {
             .map(|c| cable(c, &p.mesh, &u, tol))
             .collect::<FemResult<_>>()?;
         p.young_scale = young_scale(spec, &p.mesh, &u)?;
+        if let Some(shell) = spec.mesh.shell.as_ref().filter(|s| s.tension != 0.0) {
+            let tension = shell.tension * u.force / u.length;
+            let thickness = shell.thickness * u.length;
+            p.prestress = shell_prestress(&p.mesh, shell.layers, tension, thickness)?;
+        }
         p.cavities = (spec.cavities.iter())
             .map(|c| super::cavity::from_spec(c, &p.mesh, &spec.placement, &u, tol))
             .collect::<FemResult<_>>()?;
