@@ -338,6 +338,24 @@ fn a_model_extrudes_its_surface_to_the_placed_thickness_and_fixes_the_marked_nod
         "{lo} {hi}"
     );
     assert_eq!(m.problem.fixed, vec![0, 1, 4, 5, 8, 9]);
+    assert!(
+        m.problem.prestress.is_empty(),
+        "no tension, no initial stress"
+    );
+    // A tension of 50 N/m (= mN/mm) over the placed 2 mm: 25 kPa in the square's plane
+    // (its normal is z), none through the thickness.
+    let tensioned = model("").replace("side = \"inside\" }", "side = \"inside\", tension = 50.0 }");
+    std::fs::write(&path, tensioned).unwrap();
+    let m = Model::load(&path, None).unwrap();
+    assert_eq!(m.problem.prestress.len(), m.problem.mesh.tets.len());
+    for s in &m.problem.prestress {
+        let want = [[25e3, 0.0, 0.0], [0.0, 25e3, 0.0], [0.0, 0.0, 0.0]];
+        for (row, w) in s.iter().zip(&want) {
+            for (v, w) in row.iter().zip(w) {
+                assert!((v - w).abs() < 1e-6, "{s:?}");
+            }
+        }
+    }
     // Without `shell` the surface is refused, naming the key.
     std::fs::write(
         &path,
