@@ -115,10 +115,19 @@ pub(crate) fn unregister(tmp: &Path) {
 /// Removes a temporary, file or staged folder.
 fn remove_temp(p: &Path) {
     let is_dir = std::fs::symlink_metadata(p).is_ok_and(|m| m.is_dir());
-    let _ = match is_dir {
-        true => std::fs::remove_dir_all(p),
-        false => std::fs::remove_file(p),
-    };
+    if !is_dir {
+        let _ = std::fs::remove_file(p);
+        return;
+    }
+    // A writer thread may rename a finished file into the folder after remove_dir_all
+    // listed it (its last rmdir then fails: not empty). No new temporary can start while
+    // the registry is locked, so a few more tries empty it.
+    for _ in 0..20 {
+        if std::fs::remove_dir_all(p).is_ok() || !p.exists() {
+            return;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
 }
 
 /// The temporary name for output `name` written by process `pid`.
