@@ -38,6 +38,7 @@ mod free;
 mod hold;
 mod locate;
 mod modulus;
+mod membrane;
 mod observe;
 mod params;
 mod reference;

@@ -1,0 +1,95 @@
+//! Sensing a membrane seen from inside (issue 53 item 5; the method and its protocol are
+//! fixed in docs/real-data.md and `tools/real/punyo_reference.py`): each surface node the
+//! camera sees is observed along its own camera ray, from a rest reference taken on
+//! unloaded frames; the unknown load is a non-negative push at every node of the outer
+//! face ([`crate::inverse::pushes`]).
+//!
+//! WORK IN PROGRESS (not registered in `sense/mod.rs`): the observation half.
+
+use crate::camera::lens::Lens;
+use crate::camera::PinholeIntrinsics;
+use crate::cloud::PointCloud;
+use crate::math::pose::Pose;
+
+/// Options of the node observation.
+#[derive(Clone, Debug)]
+pub struct ObserveParams {
+    /// Half-width of the pixel window around a node's pixel (px; default 2, a 5x5 window).
+    pub half_window: usize,
+    /// Fewest valid pixels a window needs (default 5).
+    pub min_pixels: usize,
+}
+
+impl Default for ObserveParams {
+    fn default() -> Self {
+        Self {
+            half_window: 2,
+            min_pixels: 5,
+        }
+    }
+}
+
+/// A surface node as the camera sees it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NodeRay {
+    /// The node (mesh index).
+    pub node: usize,
+    /// Its pixel (column, row), rounded.
+    pub pixel: [usize; 2],
+    /// The unit ray from the camera centre through the node (robot frame).
+    pub direction: [f64; 3],
+    /// Range along the ray per metre of depth: |p| / z of the node in the camera frame.
+    pub range_per_depth: f64,
+}
+
+/// The rays of `nodes` (rest positions `x`, robot frame) through a camera: nodes behind
+/// it, outside its image or where its lens has no ray are left out.
+pub fn node_rays(
+    x: &[[f64; 3]],
+    nodes: &[usize],
+    camera_from_robot: &Pose,
+    k: &PinholeIntrinsics,
+    lens: &Lens,
+) -> Vec<NodeRay> {
+    let robot_from_camera = camera_from_robot.inverse();
+    let (w, h) = (k.width as f64, k.height as f64);
+    nodes
+        .iter()
+        .filter_map(|&node| {
+            let p = camera_from_robot.apply(x[node]);
+            let uv = lens.project(k, p)?;
+            let (u, v) = (uv[0].round(), uv[1].round());
+            if !(u >= 0.0 && v >= 0.0 && u < w && v < h) {
+                return None;
+            }
+            let len = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+            let d = robot_from_camera.rotate(p.map(|c| c / len));
+            Some(NodeRay {
+                node,
+                pixel: [u as usize, v as usize],
+                direction: d,
+                range_per_depth: len / p[2],
+            })
+        })
+        .collect()
+}
+
+/// The median depth (m) of the valid points of an organized camera-frame `cloud` in the
+/// window around `pixel`; `None` with fewer than `params.min_pixels` valid points.
+pub fn window_depth(cloud: &PointCloud, pixel: [usize; 2], params: &ObserveParams) -> Option<f64> {
+    let (w, h) = (cloud.width as usize, cloud.height as usize);
+    let r = params.half_window;
+    let mut z = Vec::with_capacity((2 * r + 1) * (2 * r + 1));
+    for v in pixel[1].saturating_sub(r)..(pixel[1] + r + 1).min(h) {
+        for u in pixel[0].saturating_sub(r)..(pixel[0] + r + 1).min(w) {
+            let d = cloud.positions[v * w + u][2];
+            if d.is_finite() && d > 0.0 {
+                z.push(f64::from(d));
+            }
+        }
+    }
+    if z.len() < params.min_pixels.max(1) {
+        return None;
+    }
+    Some(crate::math::median(&mut z))
+}
