@@ -93,3 +93,84 @@ pub fn window_depth(cloud: &PointCloud, pixel: [usize; 2], params: &ObserveParam
     }
     Some(crate::math::median(&mut z))
 }
+
+/// Options of the rest reference.
+#[derive(Clone, Debug)]
+pub struct ReferenceParams {
+    /// A node whose depth scatters more than this over the scatter frames is not observed
+    /// (m, 1.4826 x the median absolute deviation; default 0.5 mm).
+    pub max_scatter: f64,
+    /// Floor on a node's sigma (m; default 0.05 mm, half the depth's 0.1 mm step).
+    pub sigma_floor: f64,
+}
+
+impl Default for ReferenceParams {
+    fn default() -> Self {
+        Self {
+            max_scatter: 5e-4,
+            sigma_floor: 5e-5,
+        }
+    }
+}
+
+/// A node observed from its rest reading.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NodeReference {
+    /// The node's ray.
+    pub ray: NodeRay,
+    /// Its mean depth over the rest frames (m).
+    pub rest_depth: f64,
+    /// Its depth's noise, one sigma (m).
+    pub sigma: f64,
+}
+
+impl NodeReference {
+    /// Where the camera sees the node at rest (robot frame), given the camera centre there.
+    pub fn rest_position(&self, camera_centre: [f64; 3]) -> [f64; 3] {
+        let r = self.rest_depth * self.ray.range_per_depth;
+        [0, 1, 2].map(|c| camera_centre[c] + r * self.ray.direction[c])
+    }
+
+    /// How far the node moved along its ray from rest in `cloud` (m, away from the
+    /// camera positive); `None` where the window has too few points.
+    pub fn motion(&self, cloud: &PointCloud, params: &ObserveParams) -> Option<f64> {
+        let z = window_depth(cloud, self.ray.pixel, params)?;
+        Some((z - self.rest_depth) * self.ray.range_per_depth)
+    }
+}
+
+/// The rest reference of `rays`: the mean depth over `rest` frames, the noise from the
+/// `scatter` frames (unloaded too, e.g. the rest of the unloaded stretch); nodes without
+/// a reading in every rest frame, or scattering more than allowed, are left out.
+pub fn rest_reference(
+    rays: Vec<NodeRay>,
+    rest: &[PointCloud],
+    scatter: &[PointCloud],
+    observe: &ObserveParams,
+    params: &ReferenceParams,
+) -> Vec<NodeReference> {
+    rays.into_iter()
+        .filter_map(|ray| {
+            let depths: Option<Vec<f64>> =
+                rest.iter().map(|c| window_depth(c, ray.pixel, observe)).collect();
+            let depths = depths.filter(|d| !d.is_empty())?;
+            let rest_depth = depths.iter().sum::<f64>() / depths.len() as f64;
+            let mut dev: Vec<f64> = (scatter.iter())
+                .filter_map(|c| window_depth(c, ray.pixel, observe))
+                .map(|z| z - rest_depth)
+                .collect();
+            let mad = if dev.len() >= 3 {
+                let mid = crate::math::median(&mut dev.clone());
+                dev.iter_mut().for_each(|d| *d = (*d - mid).abs());
+                1.4826 * crate::math::median(&mut dev)
+            } else {
+                f64::INFINITY
+            };
+            (mad <= params.max_scatter).then(|| NodeReference {
+                ray,
+                rest_depth,
+                sigma: mad.max(params.sigma_floor),
+            })
+        })
+        .collect()
+}
