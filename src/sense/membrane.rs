@@ -151,8 +151,10 @@ pub fn rest_reference(
 ) -> Vec<NodeReference> {
     rays.into_iter()
         .filter_map(|ray| {
-            let depths: Option<Vec<f64>> =
-                rest.iter().map(|c| window_depth(c, ray.pixel, observe)).collect();
+            let depths: Option<Vec<f64>> = rest
+                .iter()
+                .map(|c| window_depth(c, ray.pixel, observe))
+                .collect();
             let depths = depths.filter(|d| !d.is_empty())?;
             let rest_depth = depths.iter().sum::<f64>() / depths.len() as f64;
             let mut dev: Vec<f64> = (scatter.iter())
@@ -173,4 +175,86 @@ pub fn rest_reference(
             })
         })
         .collect()
+}
+
+/// A body seen from inside splits its surface in two: the nodes whose outward normal
+/// faces the camera (the inner face, which the camera sees) and those whose normal faces
+/// away from it (the outer face, where a contact pushes). Held nodes are in neither.
+#[derive(Clone, Debug, PartialEq)]
+pub struct InsideView {
+    /// Surface nodes facing the camera.
+    pub seen: Vec<usize>,
+    /// Surface nodes facing away, with the inward unit direction a push there takes.
+    pub pushed: Vec<(usize, [f64; 3])>,
+}
+
+/// Splits the surface of `mesh` (rest positions) as seen from `camera_centre` (robot
+/// frame), leaving out `held` nodes (sorted).
+pub fn inside_view(
+    mesh: &crate::fem::mesh::TetMesh,
+    camera_centre: [f64; 3],
+    held: &[usize],
+) -> InsideView {
+    let surface = mesh.surface();
+    let x = &mesh.nodes_in_rest;
+    let mut view = InsideView {
+        seen: Vec::new(),
+        pushed: Vec::new(),
+    };
+    for &v in &surface.nodes {
+        if held.binary_search(&v).is_ok() {
+            continue;
+        }
+        let n = surface.vertex_normals[v];
+        let away: f64 = (0..3).map(|c| n[c] * (x[v][c] - camera_centre[c])).sum();
+        if away < 0.0 {
+            view.seen.push(v);
+        } else {
+            view.pushed.push((v, n.map(|c| -c)));
+        }
+    }
+    view
+}
+
+/// The compliance of the observed nodes' ray rows (rows: `refs` in order) to a unit push
+/// at each of `pushed` (columns) and to each actuator of the model at unit input
+/// (columns), linear about positions `x`.
+pub fn ray_compliance(
+    model: &crate::fem::model::Model,
+    x: &[[f64; 3]],
+    refs: &[NodeReference],
+    pushed: &[(usize, [f64; 3])],
+) -> crate::fem::FemResult<(nalgebra::DMatrix<f64>, nalgebra::DMatrix<f64>)> {
+    use crate::fem::constraint::{ConstraintRow, RowKind};
+    use crate::fem::solve::MappedPoint;
+    let mut rows: Vec<ConstraintRow> = (refs.iter())
+        .map(|r| {
+            ConstraintRow::along_unit(
+                RowKind::Effector,
+                &MappedPoint::node(r.ray.node),
+                r.ray.direction,
+            )
+        })
+        .collect::<crate::fem::FemResult<_>>()?;
+    let actuators: Vec<ConstraintRow> = (model.rows(x).into_iter())
+        .filter(|r| r.kind == RowKind::Actuator)
+        .collect();
+    let na = actuators.len();
+    rows.extend(actuators);
+    for (v, d) in pushed {
+        rows.push(ConstraintRow::along_unit(
+            RowKind::Force,
+            &MappedPoint::node(*v),
+            *d,
+        )?);
+    }
+    let mut solver = model.problem.solver()?;
+    solver.tangent_at(x, crate::fem::tet4::Tangent::Definite)?;
+    let zero = vec![0.0; solver.ndof()];
+    let (cols, _) = solver.compliance_columns(&rows, x, &zero, refs.len())?;
+    let m = refs.len();
+    Ok((
+        cols.view((0, na), (m, pushed.len())).into_owned(),
+        cols.view((0, 0), (m, na)).into_owned(),
+    ))
 }
