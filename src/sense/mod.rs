@@ -37,7 +37,7 @@ mod estimate;
 mod free;
 mod hold;
 mod locate;
-mod membrane;
+pub mod membrane;
 mod modulus;
 mod observe;
 mod params;
