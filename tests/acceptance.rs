@@ -27,6 +27,8 @@ mod membrane;
 mod mutation_fuzz;
 #[path = "acceptance/mutation_fuzz_inputs.rs"]
 mod mutation_fuzz_inputs;
+#[path = "acceptance/punyo.rs"]
+mod punyo;
 #[path = "acceptance/recording_folder.rs"]
 mod recording_folder;
 #[path = "acceptance/sense_places.rs"]

@@ -30,6 +30,8 @@ pub mod scene;
 pub mod score;
 pub mod segment;
 pub mod sense;
+pub mod sense_membrane;
+mod sense_membrane_plot;
 pub mod sense_print;
 
 /// Why a subcommand failed; decides the exit code.

@@ -167,6 +167,8 @@ pub struct SenseArgs {
     /// density, or a shape the cables bend differently, is read as modulus.
     #[arg(long, requires = "reference_frames", conflicts_with = "known_load")]
     pub modulus_from_sag: bool,
+    #[command(flatten)]
+    pub membrane: super::sense_membrane::MembraneArgs,
 }
 
 /// `FRAME=NEWTONS`.
@@ -188,6 +190,9 @@ fn parse_known_load(s: &str) -> Result<(usize, f64), String> {
 }
 
 pub fn run(args: &SenseArgs) -> CliResult {
+    if args.membrane.membrane {
+        return super::sense_membrane::run(args);
+    }
     if let Some(dir) = &args.render {
         super::check_files_dir(dir, &[], &[])?;
     }

@@ -126,6 +126,10 @@ pub struct Problem {
     /// Per-tetrahedron initial stress (Pa; [`super::prestress`]): the stiffening of a stress
     /// carried at rest, such as an inflated membrane's tension; empty means none.
     pub prestress: Vec<super::prestress::Stress>,
+    /// The shell the mesh was extruded as (SI, placed; `None` for a solid): what a moved
+    /// rest surface needs to move its layers and its pre-tension with it
+    /// ([`super::shell::move_surface`]).
+    pub shell: Option<super::shell::ShellParams>,
     /// The solver setup of the first [`Problem::solver`] call, shared by clones: reused by
     /// later solvers while the mesh, held nodes and cable attachments are unchanged.
     setup_cache: Arc<OnceLock<Arc<SolverSetup>>>,
@@ -148,6 +152,7 @@ impl Problem {
             cavities: Vec::new(),
             young_scale: Vec::new(),
             prestress: Vec::new(),
+            shell: None,
             setup_cache: Arc::default(),
         }
     }

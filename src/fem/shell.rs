@@ -349,3 +349,53 @@ pub fn shell_prestress(
         })
         .collect()
 }
+
+/// `problem` with its shell's surface node `i` moved by `d` for each `(i, d)` of `moves`
+/// (every layer copy of the node moves with it) and its pre-tension taken again on the
+/// moved planes: a measured rest shape in place of the mesh file's. Refused for a problem
+/// that is not a shell, or whose cables, cavities or loads were placed on the old shape.
+pub fn move_surface(
+    problem: &super::problem::Problem,
+    moves: &[(usize, [f64; 3])],
+) -> FemResult<super::problem::Problem> {
+    let Some(shell) = problem.shell else {
+        return Err(FemError::Model(
+            "only a shell's surface can be moved (the model has no [mesh] shell)".into(),
+        ));
+    };
+    if !(problem.cables.is_empty() && problem.cavities.is_empty() && problem.loads.is_empty()) {
+        return Err(FemError::Model(
+            "a shell with cables, cavities or loads keeps its mesh file's rest shape \
+             (they were placed on it)"
+                .into(),
+        ));
+    }
+    let total = problem.mesh.num_nodes();
+    let n = total / (shell.layers + 1);
+    let mut nodes = problem.mesh.nodes_in_rest.clone();
+    for &(i, d) in moves {
+        if i >= n {
+            return Err(FemError::Model(format!(
+                "surface node {i} is not one of the shell's {n} surface nodes"
+            )));
+        }
+        for k in 0..=shell.layers {
+            let p = &mut nodes[k * n + i];
+            *p = [p[0] + d[0], p[1] + d[1], p[2] + d[2]];
+        }
+    }
+    let mesh = TetMesh::new(nodes, problem.mesh.tets.clone())?;
+    for (e, tet) in mesh.tets.iter().enumerate() {
+        let x = &mesh.nodes_in_rest;
+        let v = signed_volume(x[tet[0]], x[tet[1]], x[tet[2]], x[tet[3]]);
+        if !(v > 0.0) {
+            return Err(FemError::InvertedElement { tet: e, volume: v });
+        }
+    }
+    let mut moved = problem.clone();
+    if shell.tension != 0.0 {
+        moved.prestress = shell_prestress(&mesh, shell.layers, shell.tension, shell.thickness)?;
+    }
+    moved.mesh = mesh;
+    Ok(moved)
+}

@@ -9,9 +9,9 @@
 //! Their noise covariance is taken on the active set A (the pushes above zero):
 //! Cov(λ_A) = (M_Aᵀ M_A)⁺, and the net force F = Σ λ_i d_i has Cov(F) = D_A Cov(λ_A) D_Aᵀ.
 
-use super::qp::{QpParams, QpProblem, QpStatus};
+use super::qp::QpStatus;
 use super::{InverseError, InverseResult};
-use nalgebra::{DMatrix, Matrix3, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use serde::Serialize;
 
 /// The data of one push problem (SI).
@@ -37,15 +37,15 @@ pub struct PushParams {
     /// A push counts as part of the contact patch above this share of the largest one
     /// (default 0.05).
     pub patch_share: f64,
-    /// The QP solver's options.
-    pub qp: QpParams,
+    /// Most active-set changes of the non-negative least squares (default 2000).
+    pub max_iterations: usize,
 }
 
 impl Default for PushParams {
     fn default() -> Self {
         Self {
             patch_share: 0.05,
-            qp: QpParams::default(),
+            max_iterations: 2000,
         }
     }
 }
@@ -113,11 +113,15 @@ pub fn solve_pushes(problem: &PushProblem, params: &PushParams) -> InverseResult
         .zip(&problem.sigma))
     .map(|((o, f), s)| (o - f) / s)
     .collect();
-    let mut qp = QpProblem::least_squares(&whitened, &target)?;
-    qp.lower = vec![0.0; n];
-    let sol = qp.solve(&params.qp)?;
+    let target_v = DVector::from_column_slice(&target);
+    let gram = whitened.transpose() * &whitened;
+    let h = whitened.transpose() * &target_v;
+    let (x, converged) = nnls_gram(&gram, &h, params.max_iterations);
     let mut out = PushEstimate {
-        status: sol.status,
+        status: match converged {
+            true => QpStatus::Solved,
+            false => QpStatus::MaxIterations,
+        },
         pushes: vec![0.0; n],
         net_force: [0.0; 3],
         magnitude: 0.0,
@@ -126,12 +130,11 @@ pub fn solve_pushes(problem: &PushProblem, params: &PushParams) -> InverseResult
         patch: Vec::new(),
         chi2: f64::NAN,
     };
-    let Ok(x) = sol.solution() else {
+    if !converged {
         return Ok(out);
-    };
+    }
     out.pushes = x.iter().map(|v| v.max(0.0)).collect();
-    let residual = &whitened * nalgebra::DVector::from_column_slice(&out.pushes)
-        - nalgebra::DVector::from_column_slice(&target);
+    let residual = &whitened * DVector::from_column_slice(&out.pushes) - target_v;
     out.chi2 = residual.norm_squared();
     let mut force = Vector3::zeros();
     let mut centre = Vector3::zeros();
@@ -155,10 +158,8 @@ pub fn solve_pushes(problem: &PushProblem, params: &PushParams) -> InverseResult
 
 /// One sigma of |F| from the active set's covariance (see the module docs).
 fn noise_sigma(problem: &PushProblem, m: &DMatrix<f64>, pushes: &[f64], f: Vector3<f64>) -> f64 {
-    let largest = pushes.iter().fold(0.0f64, |a, &b| a.max(b));
-    let active: Vec<usize> = (0..pushes.len())
-        .filter(|&i| pushes[i] > 1e-9 * largest.max(1e-12))
-        .collect();
+    // The active set: pushes that are not zero (the solver leaves the others at exactly 0).
+    let active: Vec<usize> = (0..pushes.len()).filter(|&i| pushes[i] > 0.0).collect();
     if active.is_empty() || f.norm() == 0.0 {
         return 0.0;
     }
@@ -170,4 +171,76 @@ fn noise_sigma(problem: &PushProblem, m: &DMatrix<f64>, pushes: &[f64], f: Vecto
     let cov_f: Matrix3<f64> = (&d * cov * d.transpose()).fixed_view::<3, 3>(0, 0).into();
     let u = f / f.norm();
     (u.transpose() * cov_f * u)[(0, 0)].max(0.0).sqrt()
+}
+
+/// Non-negative least squares in Gram form, min ½ λᵀ G λ − hᵀ λ over λ ≥ 0 (G = MᵀM,
+/// h = Mᵀr of min ‖M λ − r‖²), by Lawson and Hanson's active set: pushes enter one at a
+/// time where the gradient is steepest, and leave when the unconstrained solution on the
+/// set would make them negative. Returns the solution and whether it converged within
+/// `max_iterations` entries.
+pub fn nnls_gram(
+    g: &DMatrix<f64>,
+    h: &DVector<f64>,
+    max_iterations: usize,
+) -> (DVector<f64>, bool) {
+    let n = h.len();
+    let mut x = DVector::zeros(n);
+    let mut active = vec![false; n];
+    let scale = h.amax().max(f64::MIN_POSITIVE);
+    let tol = 1e-10 * scale;
+    for _ in 0..max_iterations {
+        let w = h - g * &x;
+        let entering = (0..n)
+            .filter(|&j| !active[j] && w[j] > tol)
+            .max_by(|&a, &b| w[a].total_cmp(&w[b]));
+        let Some(j) = entering else {
+            return (x, true);
+        };
+        active[j] = true;
+        loop {
+            let set: Vec<usize> = (0..n).filter(|&i| active[i]).collect();
+            let Some(z) = solve_on(g, h, &set) else {
+                // The set is singular with the new push: it cannot lower the objective.
+                active[j] = false;
+                return (x, true);
+            };
+            if z.iter().all(|&v| v > 0.0) {
+                for (k, &i) in set.iter().enumerate() {
+                    x[i] = z[k];
+                }
+                break;
+            }
+            // Step from x toward z until the first push reaches zero; it leaves the set
+            // (with any other that reaches zero with it).
+            let (mut alpha, mut blocking) = (f64::INFINITY, set[0]);
+            for (k, &i) in set.iter().enumerate() {
+                if z[k] <= 0.0 {
+                    let a = x[i] / (x[i] - z[k]);
+                    if a < alpha {
+                        (alpha, blocking) = (a, i);
+                    }
+                }
+            }
+            let tiny = 1e-14 * x.amax();
+            for (k, &i) in set.iter().enumerate() {
+                x[i] += alpha * (z[k] - x[i]);
+                if i == blocking || x[i] <= tiny {
+                    x[i] = 0.0;
+                    active[i] = false;
+                }
+            }
+        }
+        if !active[j] {
+            // The entering push left at once (rounding at the optimum): nothing improves.
+            return (x, true);
+        }
+    }
+    (x, false)
+}
+
+/// The unconstrained minimiser on `set`: G_ss z = h_s (Cholesky), `None` if singular.
+fn solve_on(g: &DMatrix<f64>, h: &DVector<f64>, set: &[usize]) -> Option<DVector<f64>> {
+    let gs = g.select_rows(set).select_columns(set);
+    let hs = DVector::from_iterator(set.len(), set.iter().map(|&i| h[i]));
+    gs.cholesky().map(|c| c.solve(&hs))
 }

@@ -34,6 +34,15 @@ pub struct FrameFiles {
 
 /// The frames of `dir` in whichever layout it has, in frame order.
 pub fn list_frames(dir: &Path) -> Result<(Layout, Vec<FrameFiles>), RecordingError> {
+    list_frames_with(dir, None)
+}
+
+/// As [`list_frames`], with `camera` (if given) in place of the folder's shared camera
+/// file: a recording read in place whose folder has none, or a wrong one.
+pub fn list_frames_with(
+    dir: &Path,
+    camera: Option<&Path>,
+) -> Result<(Layout, Vec<FrameFiles>), RecordingError> {
     let names = file_names(dir)?;
     // `names` is sorted: a frame's partner files are found by binary search.
     let has = |n: &str| names.binary_search_by(|m| m.as_str().cmp(n)).is_ok();
@@ -41,6 +50,7 @@ pub fn list_frames(dir: &Path) -> Result<(Layout, Vec<FrameFiles>), RecordingErr
         .into_iter()
         .find(|n| has(n))
         .map(|n| dir.join(n));
+    let shared = camera.map(Path::to_path_buf).or(shared);
     let flat = list_flat(dir, &names, shared.as_deref())?;
     if let Some(first) = flat.first() {
         return Ok((first.0, flat.into_iter().map(|(_, f)| f).collect()));

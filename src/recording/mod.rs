@@ -377,7 +377,13 @@ impl Recording {
     /// in camera sub-folders is refused ([`RecordingError::SeveralCameras`]): open it with
     /// [`Rig::open`].
     pub fn open(dir: &Path) -> RecordingResult<Self> {
-        let (layout, files) = match list_frames(dir) {
+        Self::open_with_camera(dir, None)
+    }
+
+    /// As [`Recording::open`], with `camera` (if given) in place of the folder's shared
+    /// camera file (`intrinsics.json`): a recording read in place, whose folder has none.
+    pub fn open_with_camera(dir: &Path, camera: Option<&Path>) -> RecordingResult<Self> {
+        let (layout, files) = match layout::list_frames_with(dir, camera) {
             Err(RecordingError::NoFrames { path }) => {
                 let (cameras, _) = rig::camera_folders(dir)?;
                 return Err(match cameras.is_empty() {
@@ -442,6 +448,16 @@ impl Recording {
     pub fn with_pose_file(mut self, path: &Path) -> RecordingResult<Self> {
         self.robot_from_camera = Some(read_pose(path)?);
         self.pose_file = Some(path.to_path_buf());
+        Ok(self)
+    }
+
+    /// The recording with its recorded inputs read from `path` (an `inputs.json` kept
+    /// elsewhere) instead of the folder's.
+    pub fn with_inputs_file(mut self, path: &Path) -> RecordingResult<Self> {
+        let recorded = RecordedInputs::read(path, InputsFile::Inputs)?;
+        self.warnings
+            .extend(recorded.coverage_warning(&self.frames));
+        self.recorded = Some(recorded);
         Ok(self)
     }
 

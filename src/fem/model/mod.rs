@@ -265,6 +265,11 @@ impl Model {
             let thickness = shell.thickness * u.length;
             p.prestress = shell_prestress(&p.mesh, shell.layers, tension, thickness)?;
         }
+        p.shell = spec.mesh.shell.map(|s| super::shell::ShellParams {
+            thickness: s.thickness * u.length,
+            tension: s.tension * u.force / u.length,
+            ..s
+        });
         p.cavities = (spec.cavities.iter())
             .map(|c| super::cavity::from_spec(c, &p.mesh, &spec.placement, &u, tol))
             .collect::<FemResult<_>>()?;

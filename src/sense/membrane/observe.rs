@@ -1,10 +1,5 @@
-//! Sensing a membrane seen from inside (issue 53 item 5; the method and its protocol are
-//! fixed in docs/real-data.md and `tools/real/punyo_reference.py`): each surface node the
-//! camera sees is observed along its own camera ray, from a rest reference taken on
-//! unloaded frames; the unknown load is a non-negative push at every node of the outer
-//! face ([`crate::inverse::pushes`]).
-//!
-//! WORK IN PROGRESS (not registered in `sense/mod.rs`): the observation half.
+//! The observation half of membrane sensing: each surface node the camera sees is read
+//! along its own camera ray, against a rest reference taken on unloaded frames.
 
 use crate::camera::lens::Lens;
 use crate::camera::PinholeIntrinsics;
@@ -217,14 +212,14 @@ pub fn inside_view(
 }
 
 /// The compliance of the observed nodes' ray rows (rows: `refs` in order) to a unit push
-/// at each of `pushed` (columns) and to each actuator of the model at unit input
-/// (columns), linear about positions `x`.
+/// at each of `pushed` (columns) and to each of the `loads` rows at unit size (columns
+/// after the pushes), linear about the model's rest shape.
 pub fn ray_compliance(
     model: &crate::fem::model::Model,
-    x: &[[f64; 3]],
     refs: &[NodeReference],
     pushed: &[(usize, [f64; 3])],
-) -> crate::fem::FemResult<(nalgebra::DMatrix<f64>, nalgebra::DMatrix<f64>)> {
+    loads: Vec<crate::fem::constraint::ConstraintRow>,
+) -> crate::fem::FemResult<nalgebra::DMatrix<f64>> {
     use crate::fem::constraint::{ConstraintRow, RowKind};
     use crate::fem::solve::MappedPoint;
     let mut rows: Vec<ConstraintRow> = (refs.iter())
@@ -236,11 +231,6 @@ pub fn ray_compliance(
             )
         })
         .collect::<crate::fem::FemResult<_>>()?;
-    let actuators: Vec<ConstraintRow> = (model.rows(x).into_iter())
-        .filter(|r| r.kind == RowKind::Actuator)
-        .collect();
-    let na = actuators.len();
-    rows.extend(actuators);
     for (v, d) in pushed {
         rows.push(ConstraintRow::along_unit(
             RowKind::Force,
@@ -248,13 +238,11 @@ pub fn ray_compliance(
             *d,
         )?);
     }
+    rows.extend(loads);
+    let x = &model.problem.mesh.nodes_in_rest;
     let mut solver = model.problem.solver()?;
     solver.tangent_at(x, crate::fem::tet4::Tangent::Definite)?;
     let zero = vec![0.0; solver.ndof()];
     let (cols, _) = solver.compliance_columns(&rows, x, &zero, refs.len())?;
-    let m = refs.len();
-    Ok((
-        cols.view((0, na), (m, pushed.len())).into_owned(),
-        cols.view((0, 0), (m, na)).into_owned(),
-    ))
+    Ok(cols.rows(0, refs.len()).into_owned())
 }
