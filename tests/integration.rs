@@ -43,6 +43,8 @@ mod scene3d;
 mod scene_cameras;
 #[path = "integration/sense_cameras.rs"]
 mod sense_cameras;
+#[path = "integration/sense_membrane.rs"]
+mod sense_membrane;
 #[path = "integration/sense_probe.rs"]
 mod sense_probe;
 #[path = "integration/sense_tip_weight.rs"]

@@ -101,6 +101,9 @@ pub struct MembraneParams {
     /// The rest frames may lie this far from the model's surface, median along the rays
     /// (m; default 3 mm): further means the pose or the mesh is wrong.
     pub max_pose_offset: f64,
+    /// A node is observed only where its ray meets the membrane at an incidence cosine of
+    /// at least this (default 0.3, within 72.5° of the normal).
+    pub min_incidence: f64,
     /// The push problem's options.
     pub push: PushParams,
 }
@@ -113,6 +116,7 @@ impl Default for MembraneParams {
             max_motion: 0.02,
             min_rows: 10,
             max_pose_offset: 0.003,
+            min_incidence: 0.3,
             push: PushParams::default(),
         }
     }
@@ -260,6 +264,15 @@ impl MembraneSensor {
             &params.observe,
             &params.reference,
         );
+        // A ray grazing the membrane reads its motion amplified by 1 / cos (and the
+        // window straddles the slope): such nodes are not observed.
+        let normals = problem.mesh.surface().vertex_normals;
+        let refs: Vec<NodeReference> = (refs.into_iter())
+            .filter(|r| {
+                let (n, u) = (normals[r.ray.node], r.ray.direction);
+                -(n[0] * u[0] + n[1] * u[1] + n[2] * u[2]) >= params.min_incidence
+            })
+            .collect();
         if refs.len() < params.min_rows {
             return Err(MembraneError::TooFewObserved {
                 observed: refs.len(),
@@ -428,7 +441,11 @@ fn compliance(
             .map(|&v| (v, surface.vertex_normals[v].map(|c| -c * areas[v])))
             .collect(),
     };
-    let cols = observe::ray_compliance(model, refs, &view.pushed, vec![pressure])?;
+    let normals: Vec<[f64; 3]> = refs
+        .iter()
+        .map(|r| surface.vertex_normals[r.ray.node])
+        .collect();
+    let cols = observe::ray_compliance(model, refs, &normals, &view.pushed, vec![pressure])?;
     let np = view.pushed.len();
     let pushes = cols.columns(0, np).into_owned();
     let per_pa = cols.column(np).iter().copied().collect();

@@ -211,26 +211,30 @@ pub fn inside_view(
     view
 }
 
-/// The compliance of the observed nodes' ray rows (rows: `refs` in order) to a unit push
-/// at each of `pushed` (columns) and to each of the `loads` rows at unit size (columns
-/// after the pushes), linear about the model's rest shape.
+/// The compliance of the observed nodes' range readings (rows: `refs` in order) to a unit
+/// push at each of `pushed` (columns) and to each of the `loads` rows at unit size (columns
+/// after the pushes), linear about the model's rest shape. A fixed pixel's ray meets the
+/// surface, normal n, moved by δ at a range changed by n·δ / n·u (u the ray): its row is
+/// n / n·u at the node (`normals[i]` is ref i's node's unit normal).
 pub fn ray_compliance(
     model: &crate::fem::model::Model,
     refs: &[NodeReference],
+    normals: &[[f64; 3]],
     pushed: &[(usize, [f64; 3])],
     loads: Vec<crate::fem::constraint::ConstraintRow>,
 ) -> crate::fem::FemResult<nalgebra::DMatrix<f64>> {
     use crate::fem::constraint::{ConstraintRow, RowKind};
     use crate::fem::solve::MappedPoint;
-    let mut rows: Vec<ConstraintRow> = (refs.iter())
-        .map(|r| {
-            ConstraintRow::along_unit(
-                RowKind::Effector,
-                &MappedPoint::node(r.ray.node),
-                r.ray.direction,
-            )
+    let mut rows: Vec<ConstraintRow> = (refs.iter().zip(normals))
+        .map(|(r, n)| {
+            let u = r.ray.direction;
+            let nu = n[0] * u[0] + n[1] * u[1] + n[2] * u[2];
+            ConstraintRow {
+                kind: RowKind::Effector,
+                entries: vec![(r.ray.node, n.map(|c| c / nu))],
+            }
         })
-        .collect::<crate::fem::FemResult<_>>()?;
+        .collect();
     for (v, d) in pushed {
         rows.push(ConstraintRow::along_unit(
             RowKind::Force,
