@@ -7,7 +7,7 @@ use softsense::camera::lens::Lens;
 use softsense::camera::PinholeIntrinsics;
 use softsense::cloud::PointCloud;
 use softsense::fem::model::{Model, ModelSpec};
-use softsense::fem::shell::{extrude, ShellParams, ShellSide, SurfaceMesh};
+use softsense::fem::shell::{extrude, SurfaceMesh};
 use softsense::fem::solve::{MappedPoint, PointLoad};
 use softsense::math::pose::Pose;
 use softsense::sense::membrane::{

@@ -427,3 +427,52 @@ fn a_pretensioned_disk_shell_sags_as_a_tensioned_membrane_under_a_uniform_load()
     eprintln!("pre-tensioned disk: w0 {w0:.4e} m, membrane theory {want:.4e} m ({error:+.4})");
     assert!(error.abs() < 0.03, "{error:+.4}");
 }
+
+#[test]
+fn moving_a_shells_surface_node_moves_every_layer_copy_and_retakes_the_tension() {
+    use softsense::fem::model::{Model, ModelSpec};
+    use softsense::fem::shell::move_surface;
+    let spec: ModelSpec = toml::from_str(
+        "[mesh]\npath = \"unused.vtk\"\nshell = { thickness = 0.001, layers = 2, tension = 100.0 }\n\
+         [material]\nyoung = 1e4\npoisson = 0.3\n[[fixed]]\nmarked = true\n",
+    )
+    .unwrap();
+    let surface = SurfaceMesh::disk(0.05, 3).unwrap();
+    let n = surface.nodes.len();
+    let body = extrude(&surface, &spec.mesh.shell.unwrap()).unwrap();
+    let model = Model::from_body(&spec, body).unwrap();
+    let d = [0.0, 0.0, 0.004];
+    let moved = move_surface(&model.problem, &[(0, d)]).unwrap();
+    let (x0, x1) = (&model.problem.mesh.nodes_in_rest, &moved.mesh.nodes_in_rest);
+    for v in 0..x0.len() {
+        let want = if v % n == 0 { d } else { [0.0; 3] };
+        for c in 0..3 {
+            assert!((x1[v][c] - x0[v][c] - want[c]).abs() < 1e-15, "node {v}");
+        }
+    }
+    // The centre's triangles now tilt: their tension has a z part; far ones do not.
+    let tilted = (moved.prestress.iter().zip(&model.problem.prestress))
+        .filter(|(a, b)| (a[2][2] - b[2][2]).abs() > 1.0)
+        .count();
+    assert!(tilted > 0 && tilted < moved.prestress.len(), "{tilted}");
+    // Moving surface node n (not one: the shell's surface has n nodes) is refused.
+    assert!(move_surface(&model.problem, &[(n, d)]).is_err());
+}
+
+#[test]
+fn a_solid_has_no_shell_surface_to_move() {
+    use softsense::fem::material::Material;
+    use softsense::fem::mesh::TetMesh;
+    use softsense::fem::shell::move_surface;
+    use softsense::fem::solve::{Formulation, Problem};
+    let mesh = TetMesh::structured_box([0.0; 3], [1.0; 3], [1, 1, 1]).unwrap();
+    let p = Problem::new(
+        mesh,
+        Material::new(1e4, 0.3).unwrap(),
+        Formulation::Corotational,
+    );
+    let e = move_surface(&p, &[(0, [0.0, 0.0, 0.1])])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("no [mesh] shell"), "{e}");
+}

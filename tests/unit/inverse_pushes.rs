@@ -1,4 +1,4 @@
-//! Distributed pushes (`inverse::pushes`): the QP against every active set by brute force,
+//! Distributed pushes (`inverse::pushes`): the NNLS against every active set by brute force,
 //! and a tensioned sheet's pushes recovered from its displacements through the FE
 //! compliance.
 
@@ -145,4 +145,30 @@ fn a_tensioned_sheets_pushes_are_recovered_from_its_displacements() {
     let want_centre: f64 = truth.iter().map(|&(v, f)| x[v][0] * f).sum::<f64>() / 1.6;
     assert!((got.centre_of_pressure[0] - want_centre).abs() < 1e-4);
     assert_eq!(got.patch.len(), 3, "the patch is the three pushed nodes");
+}
+
+#[test]
+fn nnls_with_two_identical_columns_converges_to_the_best_fit() {
+    use softsense::inverse::pushes::nnls_gram;
+    // Columns 0 and 1 are the same: the Gram matrix is singular on any set holding both,
+    // so the solver must stop at one of them, not cycle.
+    let m = nalgebra::DMatrix::from_row_slice(3, 3, &[1.0, 1.0, 0.0, 2.0, 2.0, 1.0, 0.0, 0.0, 1.0]);
+    let r = nalgebra::DVector::from_column_slice(&[1.0, 2.0, 0.5]);
+    let (x, converged) = nnls_gram(&(m.transpose() * &m), &(m.transpose() * &r), 100);
+    assert!(converged);
+    let best = brute_force(&m, &r);
+    let res = |l: &nalgebra::DVector<f64>| (&m * l - &r).norm_squared();
+    let want = res(&nalgebra::DVector::from_column_slice(&best));
+    assert!(x.iter().all(|&v| v >= 0.0), "{x}");
+    assert!((res(&x) - want).abs() < 1e-12, "{} against {want}", res(&x));
+}
+
+#[test]
+fn nnls_of_a_target_that_every_push_moves_away_from_is_zero() {
+    use softsense::inverse::pushes::nnls_gram;
+    let m = nalgebra::DMatrix::from_row_slice(2, 2, &[1.0, 0.5, 0.2, 1.0]);
+    let r = nalgebra::DVector::from_column_slice(&[-1.0, -2.0]);
+    let (x, converged) = nnls_gram(&(m.transpose() * &m), &(m.transpose() * &r), 100);
+    assert!(converged);
+    assert_eq!(x.as_slice(), &[0.0, 0.0]);
 }

@@ -291,7 +291,7 @@ impl MembraneSensor {
             })
             .collect();
         let pose_offset = crate::math::median(&mut offsets);
-        if !(pose_offset <= params.max_pose_offset) {
+        if pose_offset.is_nan() || pose_offset > params.max_pose_offset {
             return Err(MembraneError::PoseOff {
                 median_m: pose_offset,
                 limit_m: params.max_pose_offset,
