@@ -128,9 +128,39 @@ fn map_frames<T: Send>(frames: &[usize], f: impl Fn(usize) -> T + Sync + Send) -
     frames.iter().map(|&k| f(k)).collect()
 }
 
-pub fn run(args: &SenseArgs) -> CliResult {
+/// The recording, its model and camera, and every frame number the folder or the inputs
+/// know of (one missing from the folder is a status).
+struct Opened {
+    rec: Recording,
+    model: Model,
+    model_path: PathBuf,
+    pose: softsense::math::pose::Pose,
+    camera: softsense::camera::PinholeIntrinsics,
+    lens: softsense::camera::lens::Lens,
+    frames: Vec<usize>,
+}
+
+fn open(args: &SenseArgs) -> Result<Opened, CliError> {
     let m = &args.membrane;
-    let clock = std::time::Instant::now();
+    let unsupported = [
+        (args.render.is_some(), "--render"),
+        (args.rerun.is_some(), "--rerun"),
+        (args.track, "--track"),
+        (args.hold, "--hold"),
+        (
+            args.known_load.is_some(),
+            "--known-load (use --fit-stiffness)",
+        ),
+        (args.modulus_from_sag, "--modulus-from-sag"),
+        (args.cameras.is_some(), "--cameras"),
+    ];
+    let given: Vec<&str> = unsupported.iter().filter(|u| u.0).map(|u| u.1).collect();
+    if !given.is_empty() {
+        return Err(CliError::Usage(format!(
+            "--membrane does not take {}",
+            given.join(", ")
+        )));
+    }
     let rec = Recording::open_with_camera(&args.scene_dir, m.camera.as_deref()).map_err(lib)?;
     let rec = match &args.pose {
         Some(p) => rec.with_pose_file(p).map_err(lib)?,
@@ -143,13 +173,10 @@ pub fn run(args: &SenseArgs) -> CliResult {
     for w in &rec.warnings {
         eprintln!("warning: {w}");
     }
-    let model_path = match (args.model.clone(), rec.model_path()) {
-        (Some(p), _) | (None, Some(p)) => p,
-        (None, None) => {
-            return Err(CliError::Usage(
-                "give the membrane's model: --model MODEL.toml".into(),
-            ))
-        }
+    let Some(model_path) = args.model.clone().or_else(|| rec.model_path()) else {
+        return Err(CliError::Usage(
+            "give the membrane's model: --model MODEL.toml".into(),
+        ));
     };
     let model = Model::load(&model_path, None).map_err(lib)?;
     let pose = rec.robot_from_camera.ok_or_else(|| {
@@ -161,74 +188,160 @@ pub fn run(args: &SenseArgs) -> CliResult {
     let first = rec.frames[0];
     let camera = rec.camera_of(first).map_err(lib)?.intrinsics;
     let lens = rec.lens_of(first).map_err(lib)?.clone();
-    // Every frame the folder or the inputs know of: one missing from the folder is a status.
     let inputs_len = rec.recorded.as_ref().map_or(0, |r| r.entries.len());
     let mut frames: Vec<usize> = rec.frames.clone();
     frames.extend(0..inputs_len);
     frames.sort_unstable();
     frames.dedup();
-    let read_cloud = |f: usize| -> Result<PointCloud, (MembraneStatus, String)> {
-        let depth = rec.files_of(f).map(|files| files.depth.clone());
-        if let Some(path) = depth.as_ref().ok().filter(|d| !d.exists()) {
-            return Err((
-                MembraneStatus::MissingFrame,
-                format!("{}: missing", path.display()),
-            ));
+    Ok(Opened {
+        rec,
+        model,
+        model_path,
+        pose,
+        camera,
+        lens,
+        frames,
+    })
+}
+
+/// Frame `f` as a cloud, or the status and message of why not.
+fn read_cloud(rec: &Recording, f: usize) -> Result<PointCloud, (MembraneStatus, String)> {
+    let depth = rec.files_of(f).map(|files| files.depth.clone());
+    match &depth {
+        Ok(d) if !d.exists() => {
+            let why = format!("{}: missing", d.display());
+            return Err((MembraneStatus::MissingFrame, why));
         }
-        if depth.is_err() {
-            return Err((MembraneStatus::MissingFrame, "no depth image".into()));
-        }
-        rec.read_frame(f)
-            .map_err(|e| (MembraneStatus::Unreadable, e.to_string()))
+        Err(_) => return Err((MembraneStatus::MissingFrame, "no depth image".into())),
+        Ok(_) => {}
+    }
+    rec.read_frame(f)
+        .map_err(|e| (MembraneStatus::Unreadable, e.to_string()))
+}
+
+/// The sensor from the reference frames (which must all be read) and the still frames
+/// (those that cannot be read are left out).
+fn build_sensor(args: &SenseArgs, o: &Opened, still: &[usize]) -> Result<MembraneSensor, CliError> {
+    let rest_frames: Vec<usize> = o
+        .frames
+        .iter()
+        .copied()
+        .take(args.reference_frames)
+        .collect();
+    let rest_clouds = map_frames(&rest_frames, |f| read_cloud(&o.rec, f))
+        .into_iter()
+        .map(|r| r.map_err(|(_, e)| CliError::Result(format!("reference frame: {e}"))))
+        .collect::<Result<Vec<_>, _>>()?;
+    let still_clouds: Vec<PointCloud> = map_frames(still, |f| read_cloud(&o.rec, f))
+        .into_iter()
+        .filter_map(|r| {
+            r.map_err(|(_, e)| eprintln!("warning: still frame left out: {e}"))
+                .ok()
+        })
+        .collect();
+    let rest: Vec<(&PointCloud, f64)> = (rest_clouds.iter().zip(&rest_frames))
+        .map(|(c, &f)| (c, pressure_of(&o.rec, f)))
+        .collect();
+    let still_refs: Vec<&PointCloud> = still_clouds.iter().collect();
+    let view = MembraneCamera {
+        intrinsics: &o.camera,
+        lens: &o.lens,
+        robot_from_camera: &o.pose,
     };
-    let rest_frames: Vec<usize> = frames.iter().copied().take(args.reference_frames).collect();
+    MembraneSensor::new(
+        &o.model,
+        view,
+        &rest,
+        &still_refs,
+        MembraneParams::default(),
+    )
+    .map_err(|e| result(&args.scene_dir, e))
+}
+
+/// Fits the stiffness (with --fit-stiffness) and the sigma; the fit as JSON (null without).
+fn calibrate(
+    m: &MembraneArgs,
+    o: &Opened,
+    sensor: &mut MembraneSensor,
+    motions: &dyn Fn(usize) -> Option<Vec<Option<f64>>>,
+    still: &[usize],
+) -> Result<serde_json::Value, CliError> {
+    let still_frames: Vec<(Vec<Option<f64>>, f64)> = (still.iter())
+        .filter_map(|&f| Some((motions(f)?, pressure_of(&o.rec, f))))
+        .collect();
+    let Some(path) = &m.fit_stiffness else {
+        let sigma = sensor.calibrate_sigma(&still_frames, &[], 0.25);
+        let sigma = sigma.map_err(|e| result(&o.rec.dir, e))?;
+        eprintln!(
+            "warning: sigma = {:.3} N, the still frames' scatter alone: without --fit-stiffness \
+             it has no model-error term",
+            sigma.floor
+        );
+        return Ok(serde_json::Value::Null);
+    };
+    let loads = read_loads(path)?;
+    let fit_frames: Vec<FitFrame> = (loads.iter())
+        .filter_map(|(&frame, &known)| {
+            Some(FitFrame {
+                frame,
+                motions: motions(frame)?,
+                pressure: pressure_of(&o.rec, frame),
+                known,
+            })
+        })
+        .collect();
+    let fit = (sensor.fit_stiffness(&fit_frames)).map_err(|e| result(path, e))?;
+    let sigma =
+        (sensor.calibrate_sigma(&still_frames, &fit_frames, 0.25)).map_err(|e| result(path, e))?;
+    let (tension, thickness) =
+        (o.model.problem.shell).map_or((0.0, 0.0), |s| (s.tension, s.thickness));
+    let young = fit.scale * o.model.problem.material.young();
+    eprintln!(
+        "stiffness: x{:.3} of the model's (tension {:.1} N/m, E {young:.4e} Pa at {thickness} m) \
+         on {} frames, RMS {:.3} N; sigma = {:.3} N (+) {:.3} |F|",
+        fit.scale,
+        fit.scale * tension,
+        fit.frames.len(),
+        fit.rms,
+        sigma.floor,
+        sigma.model_error
+    );
+    Ok(serde_json::json!({
+        "scale": fit.scale,
+        "tension_n_per_m": fit.scale * tension,
+        "young_pa": young,
+        "thickness_m": thickness,
+        "rms_n": fit.rms,
+        "frames": fit.frames,
+        "sigma_floor_n": sigma.floor,
+        "model_error": sigma.model_error,
+        "rounds": fit.rounds,
+    }))
+}
+
+pub fn run(args: &SenseArgs) -> CliResult {
+    let m = &args.membrane;
+    let clock = std::time::Instant::now();
+    let o = open(args)?;
+    let frames = &o.frames;
     let still: Vec<usize> = match m.still_frames {
-        Some((a, b)) => frames
-            .iter()
-            .copied()
+        Some((a, b)) => (frames.iter().copied())
             .filter(|f| (a..=b).contains(f))
             .collect(),
-        None => rest_frames.clone(),
+        None => frames.iter().copied().take(args.reference_frames).collect(),
     };
-    let load = |list: &[usize]| -> Result<Vec<(usize, PointCloud)>, CliError> {
-        map_frames(list, |f| read_cloud(f).map(|c| (f, c)))
-            .into_iter()
-            .map(|r| r.map_err(|(_, e)| CliError::Result(format!("reference frame: {e}"))))
-            .collect()
-    };
-    let rest_clouds = load(&rest_frames)?;
-    // A still frame that cannot be read is left out of the noise, not fatal.
-    let still_clouds: Vec<(usize, PointCloud)> =
-        map_frames(&still, |f| read_cloud(f).map(|c| (f, c)))
-            .into_iter()
-            .filter_map(|r| {
-                r.map_err(|(_, e)| eprintln!("warning: still frame left out: {e}"))
-                    .ok()
-            })
-            .collect();
-    let rest: Vec<(&PointCloud, f64)> = (rest_clouds.iter())
-        .map(|(f, c)| (c, pressure_of(&rec, *f)))
-        .collect();
-    let still_refs: Vec<&PointCloud> = still_clouds.iter().map(|(_, c)| c).collect();
-    let view = MembraneCamera {
-        intrinsics: &camera,
-        lens: &lens,
-        robot_from_camera: &pose,
-    };
-    let mut sensor =
-        MembraneSensor::new(&model, view, &rest, &still_refs, MembraneParams::default())
-            .map_err(|e| result(&args.scene_dir, e))?;
-    drop((rest_clouds, still_clouds));
+    let mut sensor = build_sensor(args, &o, &still)?;
     eprintln!(
-        "{}: {} frames, model {}, {} nodes read along their rays, {} pushes, rest frames {:.2} mm from the model (median)",
+        "{}: {} frames, model {}, {} nodes read along their rays, {} pushes, rest frames \
+         {:.2} mm from the model (median)",
         args.scene_dir.display(),
         frames.len(),
-        super::shown_path(&model_path).display(),
+        super::shown_path(&o.model_path).display(),
         sensor.refs.len(),
         sensor.pushed.len(),
         1e3 * sensor.pose_offset
     );
-    let reads: Vec<Read> = map_frames(&frames, |f| match read_cloud(f) {
+    let reads: Vec<Read> = map_frames(frames, |f| match read_cloud(&o.rec, f) {
         Ok(c) => Read::Motions(sensor.observe(&c)),
         Err((s, e)) => Read::Failed(s, e),
     });
@@ -236,57 +349,7 @@ pub fn run(args: &SenseArgs) -> CliResult {
         Read::Motions(m) => Some(m.clone()),
         Read::Failed(..) => None,
     };
-    let mut fit_json = serde_json::Value::Null;
-    let still_frames: Vec<(Vec<Option<f64>>, f64)> = (still.iter())
-        .filter_map(|&f| Some((motions(f)?, pressure_of(&rec, f))))
-        .collect();
-    if let Some(path) = &m.fit_stiffness {
-        let loads = read_loads(path)?;
-        let fit_frames: Vec<FitFrame> = (loads.iter())
-            .filter_map(|(&frame, &known)| {
-                Some(FitFrame {
-                    frame,
-                    motions: motions(frame)?,
-                    pressure: pressure_of(&rec, frame),
-                    known,
-                })
-            })
-            .collect();
-        let fit = sensor
-            .fit_stiffness(&fit_frames)
-            .map_err(|e| result(path, e))?;
-        let sigma = (sensor.calibrate_sigma(&still_frames, &fit_frames, 0.25))
-            .map_err(|e| result(path, e))?;
-        let (tension, thickness) =
-            (model.problem.shell).map_or((0.0, 0.0), |s| (s.tension, s.thickness));
-        eprintln!(
-            "stiffness: x{:.3} of the model's (tension {:.1} N/m, E {:.4e} Pa at {} m) on {} frames, RMS {:.3} N; sigma = {:.3} N (+) {:.3} |F|",
-            fit.scale,
-            fit.scale * tension,
-            fit.scale * model.problem.material.young(),
-            thickness,
-            fit.frames.len(),
-            fit.rms,
-            sigma.floor,
-            sigma.model_error
-        );
-        fit_json = serde_json::json!({
-            "scale": fit.scale,
-            "tension_n_per_m": fit.scale * tension,
-            "young_pa": fit.scale * model.problem.material.young(),
-            "thickness_m": thickness,
-            "rms_n": fit.rms,
-            "frames": fit.frames,
-            "sigma_floor_n": sigma.floor,
-            "model_error": sigma.model_error,
-            "rounds": fit.rounds,
-        });
-    } else {
-        let sigma = sensor.calibrate_sigma(&still_frames, &[], 0.25);
-        if let Err(e) = sigma {
-            eprintln!("warning: sigma without a model error: {e}");
-        }
-    }
+    let fit_json = calibrate(m, &o, &mut sensor, &motions, &still)?;
     if let Some(path) = &m.fit_out {
         std::fs::write(path, format!("{fit_json:#}\n")).map_err(|e| result(path, e))?;
     }
@@ -294,18 +357,16 @@ pub fn run(args: &SenseArgs) -> CliResult {
         Some(p) => read_loads(p)?,
         None => BTreeMap::new(),
     };
-    let estimates: Vec<(MembraneEstimate, Option<String>)> = frames
-        .iter()
-        .zip(&reads)
+    let estimates: Vec<(MembraneEstimate, Option<String>)> = (frames.iter().zip(&reads))
         .map(|(&f, r)| match r {
-            Read::Motions(mo) => (sensor.estimate(mo, pressure_of(&rec, f)), None),
+            Read::Motions(mo) => (sensor.estimate(mo, pressure_of(&o.rec, f)), None),
             Read::Failed(s, e) => (MembraneEstimate::failed(*s), Some(e.clone())),
         })
         .collect();
     let seconds = clock.elapsed().as_secs_f64();
-    print_frames(args, &frames, &estimates, &measured)?;
+    print_frames(args, frames, &estimates, &measured)?;
     if let Some(path) = &m.timeline {
-        super::sense_membrane_plot::timeline(path, &frames, &estimates, &measured)?;
+        super::sense_membrane_plot::timeline(path, frames, &estimates, &measured)?;
     }
     eprintln!(
         "{} frames in {seconds:.1} s ({:.1} frames/s, all included)",

@@ -236,3 +236,37 @@ fn a_frame_without_pressure_or_with_too_few_nodes_gets_a_status() {
     );
     assert!(err.unwrap_err().to_string().contains("pressure"));
 }
+
+#[test]
+fn sense_membrane_refuses_options_it_does_not_take_and_a_body_that_is_not_a_shell() {
+    let root = softsense_root();
+    let scene = root.join("clouds/scenes/tip_weight");
+    let run = |extra: &[&str]| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_softsense"))
+            .arg("sense")
+            .arg(&scene)
+            .args(["--membrane"])
+            .args(extra)
+            .output()
+            .unwrap();
+        (
+            out.status.code(),
+            String::from_utf8_lossy(&out.stderr).to_string(),
+        )
+    };
+    // The rest frames are required.
+    let (code, err) = run(&[]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("--reference-frames"), "{err}");
+    let (code, err) = run(&["--reference-frames", "1", "--track"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("--membrane does not take --track"), "{err}");
+    // The tip-weight robot is a solid: said, not a panic.
+    let (code, err) = run(&["--reference-frames", "1"]);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains("must be a shell"), "{err}");
+}
+
+fn softsense_root() -> std::path::PathBuf {
+    std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}

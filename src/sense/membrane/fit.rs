@@ -144,7 +144,8 @@ impl MembraneSensor {
 
     /// Sets the sigma's terms: the floor from `still` frames (node motions and pressures of
     /// unloaded frames), the model error from the `frames` whose known load is at least
-    /// `loaded_share` of their largest (the loaded ones). Call after the stiffness fit.
+    /// `loaded_share` of their largest (the loaded ones; none given: no model error). Call
+    /// after the stiffness fit.
     pub fn calibrate_sigma(
         &mut self,
         still: &[(Vec<Option<f64>>, f64)],
@@ -170,14 +171,14 @@ impl MembraneSensor {
             .filter(|(e, _)| e.status == MembraneStatus::Ok)
             .map(|(e, k)| (e.magnitude / k - 1.0).powi(2))
             .collect();
-        if rel.is_empty() {
+        if rel.is_empty() && !frames.is_empty() {
             return Err(MembraneError::Fit(
                 "no loaded frame among the fit's frames for the model error".into(),
             ));
         }
         self.sigma = SigmaCalibration {
             floor: (floor.iter().sum::<f64>() / floor.len() as f64).sqrt(),
-            model_error: (rel.iter().sum::<f64>() / rel.len() as f64).sqrt(),
+            model_error: (rel.iter().sum::<f64>() / rel.len().max(1) as f64).sqrt(),
         };
         Ok(self.sigma)
     }

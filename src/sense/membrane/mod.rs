@@ -39,11 +39,20 @@ use serde::Serialize;
 /// Why a membrane sensor cannot be built.
 #[derive(Debug, thiserror::Error)]
 pub enum MembraneError {
+    /// The model is not a shell.
+    #[error(
+        "the membrane's model must be a shell ([mesh] shell = {{ thickness, ... }}) without \
+         cables, cavities or loads; this one is a solid"
+    )]
+    NotAShell,
     /// No rest frames were given.
     #[error("no rest frames: the first frames must show the membrane unloaded")]
     NoRestFrames,
     /// A rest frame's pressure is not a number.
-    #[error("rest frame {index}: its pressure is {pressure} (a rest frame needs a pressure)")]
+    #[error(
+        "rest frame {index}: its pressure is {pressure} (a rest frame needs one: the recorded \
+         inputs give each frame one cavity pressure)"
+    )]
     RestPressure {
         /// Index among the rest frames.
         index: usize,
@@ -235,6 +244,9 @@ impl MembraneSensor {
         still: &[&PointCloud],
         params: MembraneParams,
     ) -> MembraneResult<Self> {
+        if model.problem.shell.is_none() {
+            return Err(MembraneError::NotAShell);
+        }
         if rest.is_empty() {
             return Err(MembraneError::NoRestFrames);
         }
