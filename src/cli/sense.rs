@@ -59,7 +59,8 @@ softsense sense clouds/scenes/probe_side --json > forces.jsonl\n  \
 softsense sense clouds/scenes/two_probes --render /tmp/pictures\n  \
 softsense sense clouds/scenes/two_probes --rerun /tmp/two_probes.rrd   # built with --features rerun\n  \
 softsense sense my_grabber_folder --pose camera_pose.json --model meshes/models/robot.toml\n  \
-softsense sense /tmp/two_cameras --cameras front   # one camera of a two-camera folder\n\n\
+softsense sense /tmp/two_cameras --cameras front   # one camera of a two-camera folder\n  \
+tools/real/punyo.sh OUT   # --membrane: a bubble seen from inside (its command: docs/real-data.md)\n\n\
 Generate a scene first with `softsense scene generate SCENE.toml OUT_DIR`."
 )]
 pub struct SenseArgs {
