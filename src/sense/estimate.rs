@@ -8,7 +8,6 @@ use super::timings::ms;
 use super::track::{force_point_ends, leave, Track};
 use super::{FrameReport, FrameStatus, ModelInputs, Observation, Sensor};
 use crate::contact::Contact;
-use crate::fem::solve::CableControl;
 use crate::inverse::dense::subsample;
 use crate::inverse::{
     estimate, par_map, Candidate, DenseInputs, DenseView, FrameEstimate, FrameInputs, FrameParams,
@@ -34,8 +33,8 @@ pub(super) struct Frame<'a> {
     pub free: &'a FreeState,
     /// The seen contacts.
     pub contacts: &'a [Contact],
-    /// The frame's cable inputs.
-    pub cables: Vec<CableControl>,
+    /// The frame's actuator inputs.
+    pub actuators: super::free::ActuatorInputs,
 }
 
 impl Frame<'_> {
@@ -172,7 +171,7 @@ impl Sensor {
             },
             free: &free,
             contacts: &contacts,
-            cables: model.problem.cables.iter().map(|c| c.control).collect(),
+            actuators: super::free::ActuatorInputs::of(&model),
         };
         let Estimated {
             mut est,
@@ -196,7 +195,13 @@ impl Sensor {
         if !want_track {
             return Ok(None);
         }
-        Ok(leave(frame.cables, est, candidates, &groups, force_points))
+        Ok(leave(
+            frame.actuators,
+            est,
+            candidates,
+            &groups,
+            force_points,
+        ))
     }
 
     /// The free equilibrium of the actuated `model` (cached per input) and the contacts
@@ -270,7 +275,7 @@ fn force_points(
         ));
     }
     let sets = force_point_candidates(model);
-    let ends = force_point_ends(prev, &frame.cables, sets.len());
+    let ends = force_point_ends(prev, &frame.actuators, sets.len());
     let index: Vec<usize> = (0..sets.len()).collect();
     let results = par_map(&index, |&i| match ends.and_then(|e| e[i].as_ref()) {
         Some(e) => {

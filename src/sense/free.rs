@@ -24,22 +24,38 @@ pub(crate) struct FreeState {
 
 /// A frame's actuator inputs: cables (same within [`SAME_INPUT`]), then cavities (same
 /// when equal: recorded pressures carry no round-off from frame to frame).
-type InputKey = (Vec<CableControl>, Vec<CavityControl>);
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct ActuatorInputs {
+    pub(crate) cables: Vec<CableControl>,
+    pub(crate) cavities: Vec<CavityControl>,
+}
+
+impl ActuatorInputs {
+    /// The inputs `model` is actuated with.
+    pub(crate) fn of(model: &Model) -> Self {
+        Self {
+            cables: model.problem.cables.iter().map(|c| c.control).collect(),
+            cavities: model.problem.cavities.iter().map(|c| c.control).collect(),
+        }
+    }
+}
 
 /// Free solves of the latest distinct actuator inputs (a stream repeats them).
 #[derive(Default)]
 pub(crate) struct FreeSolves {
-    cache: Mutex<Vec<(InputKey, Arc<FreeState>)>>,
+    cache: Mutex<Vec<(ActuatorInputs, Arc<FreeState>)>>,
     /// The free solve at the model file's own inputs (`None`: it failed), solved once: new
     /// inputs are solved warm from it, so a free solve does not depend on which frames came
     /// before it (or ran beside it).
     base: OnceLock<Option<Solution>>,
 }
 
-/// Whether two cable inputs are the same within [`SAME_INPUT`].
-pub(crate) fn same_inputs(a: &[CableControl], b: &[CableControl]) -> bool {
-    a.len() == b.len()
-        && a.iter().zip(b).all(|(a, b)| match (a, b) {
+/// Whether two frames' actuator inputs are the same: cables within [`SAME_INPUT`],
+/// cavities equal.
+pub(crate) fn same_inputs(a: &ActuatorInputs, b: &ActuatorInputs) -> bool {
+    a.cavities == b.cavities
+        && a.cables.len() == b.cables.len()
+        && a.cables.iter().zip(&b.cables).all(|(a, b)| match (a, b) {
             (CableControl::Force(a), CableControl::Force(b))
             | (CableControl::Displacement(a), CableControl::Displacement(b)) => {
                 (a - b).abs() <= SAME_INPUT
@@ -57,11 +73,8 @@ impl FreeSolves {
         own: &Model,
         model: &Model,
     ) -> crate::fem::FemResult<Arc<FreeState>> {
-        let key: InputKey = (
-            model.problem.cables.iter().map(|c| c.control).collect(),
-            model.problem.cavities.iter().map(|c| c.control).collect(),
-        );
-        let same = |a: &InputKey| same_inputs(&a.0, &key.0) && a.1 == key.1;
+        let key = ActuatorInputs::of(model);
+        let same = |a: &ActuatorInputs| same_inputs(a, &key);
         let hit = match self.cache.lock() {
             Ok(cache) => cache.iter().find(|e| same(&e.0)).map(|e| e.1.clone()),
             Err(_) => None,
@@ -108,4 +121,24 @@ fn free_solver_state(model: &Model, free: &Solution) -> Option<SolverState> {
     let forces = free.actuator_forces();
     factorize_loop_tangent(&mut solver, x, &forces, model.newton.tangent).ok()?;
     Some(solver.into_state())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Regression: tracking compared cable inputs only, so a frame whose cavity pressure
+    /// changed (cables unchanged) resumed from the previous frame's state.
+    #[test]
+    fn frames_with_other_cavity_pressures_do_not_have_the_same_inputs() {
+        let at = |p: f64| ActuatorInputs {
+            cables: vec![CableControl::Displacement(0.001)],
+            cavities: vec![CavityControl::Pressure(p)],
+        };
+        assert!(same_inputs(&at(1e4), &at(1e4)));
+        assert!(!same_inputs(&at(1e4), &at(2e4)));
+        let mut nudged = at(1e4);
+        nudged.cables[0] = CableControl::Displacement(0.001 + 0.5 * SAME_INPUT);
+        assert!(same_inputs(&at(1e4), &nudged), "cables within SAME_INPUT");
+    }
 }

@@ -144,7 +144,7 @@ pub(super) fn locate(
         last_choice: None,
     };
     let resumed = prev
-        .and_then(|t| resume_contacts(t, params.track_radius, &frame.cables, &rounds.centroids));
+        .and_then(|t| resume_contacts(t, params.track_radius, &frame.actuators, &rounds.centroids));
     let count = match resumed.map(|r| rounds.tracked(r)) {
         Some(Some(kept)) if kept => 0,
         Some(Some(_)) => params.location_checks,

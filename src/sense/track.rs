@@ -2,9 +2,8 @@
 //! the next ([`Track`]), and whether the next can start from it.
 
 use super::blend::Group;
-use super::free::same_inputs;
+use super::free::{same_inputs, ActuatorInputs};
 use super::{CameraFrames, FrameReport, FrameStatus, Observation, SenseResult, Sensor};
-use crate::fem::solve::CableControl;
 use crate::inverse::{Candidate, FrameEstimate};
 use crate::math::{dot, sub};
 use std::ops::Range;
@@ -13,8 +12,8 @@ use std::ops::Range;
 /// [`Sensor::track_frames`]): its cable inputs, and where its loops ended.
 #[derive(Clone, Debug)]
 pub struct Track {
-    /// The cable inputs of the frame.
-    inputs: Vec<CableControl>,
+    /// The actuator inputs of the frame.
+    inputs: ActuatorInputs,
     /// What the next frame can start from.
     ends: Ends,
 }
@@ -109,7 +108,7 @@ impl Sensor {
 fn track_order(
     track: &Track,
     radius: f64,
-    inputs: &[CableControl],
+    inputs: &ActuatorInputs,
     centroids: &[[f64; 3]],
 ) -> Option<Vec<usize>> {
     let Ends::Contacts {
@@ -159,7 +158,7 @@ pub(super) struct Resumed<'t> {
 pub(super) fn resume_contacts<'t>(
     track: &'t Track,
     radius: f64,
-    inputs: &[CableControl],
+    inputs: &ActuatorInputs,
     centroids: &[[f64; 3]],
 ) -> Option<Resumed<'t>> {
     let order = track_order(track, radius, inputs, centroids)?;
@@ -197,7 +196,7 @@ pub(super) fn resume_contacts<'t>(
 /// contacts and cable inputs `inputs` can resume them from `track`.
 pub(super) fn force_point_ends<'t>(
     track: Option<&'t Track>,
-    inputs: &[CableControl],
+    inputs: &ActuatorInputs,
     count: usize,
 ) -> Option<&'t [Option<FrameEstimate>]> {
     track
@@ -213,7 +212,7 @@ pub(super) fn force_point_ends<'t>(
 /// contacts of `groups` with the final estimate `est` of `candidates` (`None` when a group
 /// is not a seen contact, or there is none).
 pub(super) fn leave(
-    inputs: Vec<CableControl>,
+    inputs: ActuatorInputs,
     est: FrameEstimate,
     candidates: Vec<Candidate>,
     groups: &[Group],
