@@ -4,7 +4,7 @@
 //! as its oracle:
 //!
 //! - each surface node the camera sees is observed along its own camera ray, against a
-//!   rest reference taken on unloaded frames ([`observe`]);
+//!   rest reference taken on unloaded frames ([`rest_reference`]);
 //! - the membrane's rest shape is what the camera sees there: each observed node (with its
 //!   layer copies) is moved along its ray to the rest range before the FE model is
 //!   linearised ([`crate::fem::shell::move_surface`]);
@@ -12,7 +12,7 @@
 //! - the unknown load is a non-negative inward push at every node of the outer face
 //!   ([`crate::inverse::pushes`]);
 //! - the stiffness is one scale on the model's modulus and pre-tension together, fitted on
-//!   frames with a known load ([`fit`]); the sigma is the unloaded frames' scatter in
+//!   frames with a known load ([`MembraneSensor::fit_stiffness`]); the sigma is the unloaded frames' scatter in
 //!   quadrature with a model error proportional to the force.
 
 mod fit;
