@@ -81,6 +81,9 @@ pub enum ControlError {
     /// The model has no cable to control.
     #[error("the model has no cables to control")]
     NoCables,
+    /// The model has no cavity to control (pressure actuation).
+    #[error("the model has no cavities ([[cavities]]) to control with actuation = \"pressure\"")]
+    NoCavities,
     /// An FE model failed to load or solve.
     #[error(transparent)]
     Fem(#[from] FemError),

@@ -6,7 +6,7 @@ use super::scenario::Actuation;
 use super::{ControlError, ControlResult};
 use crate::fem::constraint::{ConstraintRow, RowKind};
 use crate::fem::model::Model;
-use crate::fem::solve::{CableControl, Solution, SolverState};
+use crate::fem::solve::{CableControl, CavityControl, Solution, SolverState};
 use crate::inverse::qp::{QpParams, QpProblem};
 use nalgebra::{DMatrix, DVector};
 
@@ -19,7 +19,7 @@ pub struct Kinematics {
     pub j: DMatrix<f64>,
     /// W_aa (m/N): cable shortening per tension.
     pub w_aa: DMatrix<f64>,
-    /// Cable tensions (N).
+    /// Cable tensions (N), or cavity pressures (Pa) with pressure actuation.
     pub tension: Vec<f64>,
     /// How the inputs drive the cables.
     pub actuation: Actuation,
@@ -35,12 +35,19 @@ pub struct Allocation {
     pub bounded: bool,
 }
 
-/// Sets every cable of `model` to `inputs` (m of shortening or N of tension).
+/// Sets every cable of `model` to `inputs` (m of shortening or N of tension), or with
+/// pressure actuation every cavity (Pa).
 pub fn drive(model: &mut Model, actuation: Actuation, inputs: &[f64]) {
+    if actuation == Actuation::Pressure {
+        for (c, &u) in model.problem.cavities.iter_mut().zip(inputs) {
+            c.control = CavityControl::Pressure(u);
+        }
+        return;
+    }
     for (c, &u) in model.problem.cables.iter_mut().zip(inputs) {
         c.control = match actuation {
-            Actuation::Displacement => CableControl::Displacement(u),
             Actuation::Force => CableControl::Force(u),
+            _ => CableControl::Displacement(u),
         };
     }
 }
@@ -127,8 +134,14 @@ impl Predictor {
     /// The predictor of `model`'s effector `effector` (its first when `None`).
     pub fn new(model: Model, effector: Option<&str>, actuation: Actuation) -> ControlResult<Self> {
         let effector = effector_index(&model, effector)?;
-        if model.problem.cables.is_empty() {
-            return Err(ControlError::NoCables);
+        match actuation {
+            Actuation::Pressure if model.problem.cavities.is_empty() => {
+                return Err(ControlError::NoCavities);
+            }
+            Actuation::Displacement | Actuation::Force if model.problem.cables.is_empty() => {
+                return Err(ControlError::NoCables);
+            }
+            _ => {}
         }
         Ok(Self {
             model,
@@ -139,9 +152,12 @@ impl Predictor {
         })
     }
 
-    /// Number of actuators (cables).
+    /// Number of actuators (cables, or cavities with pressure actuation).
     pub fn actuators(&self) -> usize {
-        self.model.problem.cables.len()
+        match self.actuation {
+            Actuation::Pressure => self.model.problem.cavities.len(),
+            _ => self.model.problem.cables.len(),
+        }
     }
 
     /// The model's last equilibrium.
@@ -178,13 +194,12 @@ pub fn kinematics_at(
     let x = &sol.positions;
     let eff = &model.effectors[effector];
     let mut rows: Vec<ConstraintRow> = eff.rows.clone();
-    rows.extend(
-        model
-            .problem
-            .cables
-            .iter()
-            .map(|c| ConstraintRow::cable(c, x)),
-    );
+    match actuation {
+        Actuation::Pressure => {
+            rows.extend((model.problem.cavities.iter()).map(|c| ConstraintRow::cavity(c, x)))
+        }
+        _ => rows.extend((model.problem.cables.iter()).map(|c| ConstraintRow::cable(c, x))),
+    }
     let mut solver = match state.take() {
         Some(s) => model.problem.solver_from(s)?,
         None => model.problem.solver()?,
@@ -197,14 +212,18 @@ pub fn kinematics_at(
     let w_ea = c.block(&e, &a);
     let w_aa = c.block(&a, &a);
     let j = match actuation {
-        Actuation::Force => w_ea,
+        Actuation::Force | Actuation::Pressure => w_ea,
         Actuation::Displacement => c.jacobian()?,
+    };
+    let tension = match actuation {
+        Actuation::Pressure => sol.cavity_pressure.clone(),
+        _ => sol.cable_tension.clone(),
     };
     Ok(Kinematics {
         position: eff.point.position(x),
         j,
         w_aa,
-        tension: sol.cable_tension.clone(),
+        tension,
         actuation,
     })
 }
@@ -255,10 +274,13 @@ impl Kinematics {
         })
     }
 
-    /// d tension / d input: W_aa⁻¹ for displacement inputs, I for tensions.
+    /// d tension / d input: W_aa⁻¹ for displacement inputs, I for tensions; none for
+    /// pressures, which may take either sign (their limits bound them).
     fn tension_per_input(&self) -> ControlResult<DMatrix<f64>> {
+        let n = self.tension.len();
         match self.actuation {
-            Actuation::Force => Ok(DMatrix::identity(self.tension.len(), self.tension.len())),
+            Actuation::Force => Ok(DMatrix::identity(n, n)),
+            Actuation::Pressure => Ok(DMatrix::zeros(n, n)),
             Actuation::Displacement => self
                 .w_aa
                 .clone()

@@ -2,14 +2,14 @@
 //! (a "real" FE model that differs from the controller's), the sensor and the task.
 //!
 //! Lengths in the file are in millimetres (fields end in `_mm`), angles in radians,
-//! actuator inputs in the model's actuation unit (mm of cable shortening or N of
-//! tension); everything is converted to SI when the file is read.
+//! actuator inputs in the model's actuation unit (mm of cable shortening, N of tension
+//! or kPa of cavity pressure); everything is converted to SI when the file is read.
 
 use super::{ControlError, ControlResult, FieldProblem};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
-/// How the cables are driven, and so what an actuator input is.
+/// How the actuators are driven, and so what an actuator input is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Actuation {
@@ -17,6 +17,9 @@ pub enum Actuation {
     Displacement,
     /// Inputs are cable tensions (N); J = W_ea (3.4).
     Force,
+    /// Inputs are the pressures of the model's cavities, not its cables (file: kPa);
+    /// J = W_ea, the pressure being the cavity row's multiplier as a tension is a cable's.
+    Pressure,
 }
 
 /// The control law (thesis 3.4-3.7).
@@ -268,11 +271,13 @@ impl Scenario {
         }
     }
 
-    /// Scale from the file's input unit to SI (mm → m for displacement, N for force).
+    /// Scale from the file's input unit to SI (mm → m for displacement, N for force, kPa
+    /// → Pa for pressure).
     pub fn input_scale(&self) -> f64 {
         match self.controller.actuation {
             Actuation::Displacement => 1e-3,
             Actuation::Force => 1.0,
+            Actuation::Pressure => 1e3,
         }
     }
 

@@ -92,9 +92,14 @@ pub fn pictures(run: &Run) -> Result<Vec<(&'static str, Canvas)>, RenderError> {
     let unit = match run.scenario.controller.actuation {
         Actuation::Displacement => "mm",
         Actuation::Force => "N",
+        Actuation::Pressure => "kPa",
     };
     let n = steps.first().map_or(0, |r| r.inputs.len());
-    let labels: Vec<String> = (0..n).map(|i| format!("cable {i}")).collect();
+    let what = match run.scenario.controller.actuation {
+        Actuation::Pressure => "cavity",
+        _ => "cable",
+    };
+    let labels: Vec<String> = (0..n).map(|i| format!("{what} {i}")).collect();
     let cables: Vec<Series> = (0..n)
         .map(|i| {
             series(&labels[i], CABLES[i % CABLES.len()], &move |r| {

@@ -138,3 +138,16 @@ fn switched_control_keeps_every_loss_within_four_and_a_half_times_the_seen_error
         }
     }
 }
+
+#[test]
+fn pressure_control_brings_the_pneunet_tip_within_half_a_millimetre_of_its_target() {
+    let test = "pressure_control_brings_the_pneunet_tip_within_half_a_millimetre_of_its_target";
+    if data_dir(test).is_none() {
+        return;
+    }
+    let r = full("pneunet_pressure.toml");
+    assert!(r.summary.settled_max_mm < 0.5, "{:?}", r.summary);
+    // The stiffer plant needs more than the model's 15 kPa to get there.
+    let last = r.steps.last().unwrap();
+    assert!(last.inputs[0] > 15e3, "{:?}", last.inputs);
+}
