@@ -5,7 +5,7 @@ use super::features::leg_of;
 use super::{DiscrepancyError, DiscrepancyResult};
 use crate::camera::Camera;
 use crate::fem::material::Material;
-use crate::fem::solve::{CableControl, MappedPoint, PointLoad, Problem};
+use crate::fem::solve::{CableControl, CavityControl, MappedPoint, PointLoad, Problem};
 use serde::{Deserialize, Serialize};
 
 /// One candidate effect (its parameters live beside it, see [`Effect`]).
@@ -28,7 +28,9 @@ pub enum EffectKind {
         /// The node.
         node: usize,
     },
-    /// Each cable's input offset by p_i (N for force-controlled, m for displacement-controlled).
+    /// Each actuator's input offset by p_i: the cables' first (N for force-controlled, m for
+    /// displacement-controlled), then the cavities' (Pa for pressure-controlled, m^3 for
+    /// volume-controlled).
     ActuatorOffset,
     /// Camera pose error: measured = R(ω) true + t, parameters (ω, t) in rad and m.
     CameraPose,
@@ -39,15 +41,15 @@ pub enum EffectKind {
 }
 
 impl EffectKind {
-    /// Number of parameters (`cables` for the actuator offset).
-    pub fn n_params(&self, cables: usize) -> usize {
+    /// Number of parameters (`actuators`, the cables and cavities, for the actuator offset).
+    pub fn n_params(&self, actuators: usize) -> usize {
         match self {
             EffectKind::Gravity
             | EffectKind::Young
             | EffectKind::LegStiffness { .. }
             | EffectKind::Poisson => 1,
             EffectKind::PointLoad { .. } => 3,
-            EffectKind::ActuatorOffset => cables,
+            EffectKind::ActuatorOffset => actuators,
             EffectKind::CameraPose => 6,
             EffectKind::Depth => 2,
         }
@@ -82,15 +84,13 @@ impl EffectKind {
         }
     }
 
-    /// Finite-difference step per parameter for model effects.
-    pub fn fd_step(&self, displacement_controlled: &[bool]) -> Vec<f64> {
+    /// Finite-difference step per parameter for model effects; `actuator_steps` is the
+    /// actuator offset's, one per actuator ([`actuator_steps`]).
+    pub fn fd_step(&self, actuator_steps: &[f64]) -> Vec<f64> {
         match self {
             EffectKind::Gravity | EffectKind::Young | EffectKind::LegStiffness { .. } => vec![0.05],
             EffectKind::Poisson => vec![-0.02],
-            EffectKind::ActuatorOffset => displacement_controlled
-                .iter()
-                .map(|&d| if d { 5e-4 } else { 0.05 })
-                .collect(),
+            EffectKind::ActuatorOffset => actuator_steps.to_vec(),
             EffectKind::PointLoad { .. } => vec![0.05; 3],
             EffectKind::CameraPose => vec![1e-3; 6],
             EffectKind::Depth => vec![1e-3; 2],
@@ -180,10 +180,17 @@ pub fn apply_model(
                 });
             }
             EffectKind::ActuatorOffset => {
+                let nc = problem.cables.len();
                 for (i, c) in problem.cables.iter_mut().enumerate() {
                     c.control = match c.control {
                         CableControl::Force(f) => CableControl::Force(f + get(i)),
                         CableControl::Displacement(s) => CableControl::Displacement(s + get(i)),
+                    };
+                }
+                for (i, c) in problem.cavities.iter_mut().enumerate() {
+                    c.control = match c.control {
+                        CavityControl::Pressure(p) => CavityControl::Pressure(p + get(nc + i)),
+                        CavityControl::Volume(v) => CavityControl::Volume(v + get(nc + i)),
                     };
                 }
             }
@@ -280,4 +287,23 @@ pub fn measurement_row(kind: EffectKind, p: [f64; 3], n: [f64; 3], camera: &Came
         }
         _ => Vec::new(),
     }
+}
+
+/// The number of actuators an actuator offset has: the cables, then the cavities.
+pub fn actuator_count(problem: &Problem) -> usize {
+    problem.cables.len() + problem.cavities.len()
+}
+
+/// The finite-difference step of each actuator's offset: 0.5 mm of shortening or 0.05 N of
+/// tension per cable, then 100 Pa of pressure or 10 mm^3 of volume per cavity.
+pub fn actuator_steps(problem: &Problem) -> Vec<f64> {
+    let cables = problem.cables.iter().map(|c| match c.control {
+        CableControl::Displacement(_) => 5e-4,
+        CableControl::Force(_) => 0.05,
+    });
+    let cavities = problem.cavities.iter().map(|c| match c.control {
+        CavityControl::Pressure(_) => 100.0,
+        CavityControl::Volume(_) => 1e-8,
+    });
+    cables.chain(cavities).collect()
 }

@@ -7,7 +7,7 @@ use super::{DiscrepancyError, DiscrepancyResult};
 use crate::fem::constraint::{ConstraintRow, RowKind};
 use crate::fem::model::Model;
 use crate::fem::solve::{apply_cable_inputs, apply_cavity_inputs};
-use crate::fem::solve::{CableControl, MappedPoint, PointLoad, Problem, Solution};
+use crate::fem::solve::{MappedPoint, PointLoad, Problem, Solution};
 use crate::recording::FrameInput;
 use nalgebra::DMatrix;
 
@@ -162,11 +162,7 @@ impl Workflow<'_> {
         let problem = frame_problem(self.model, input)?;
         let nominal = solve_frame(self.model, &problem, index, None)?;
         let pn0 = self.feature_rows(&nominal.positions);
-        let dispc: Vec<bool> = problem
-            .cables
-            .iter()
-            .map(|c| matches!(c.control, CableControl::Displacement(_)))
-            .collect();
+        let steps = super::effects::actuator_steps(&problem);
         let load_nodes: Vec<usize> = self
             .kinds
             .iter()
@@ -204,7 +200,7 @@ impl Workflow<'_> {
                         index,
                         pn0: &pn0,
                     };
-                    self.fd_rows(&fd, *kind, &kind.fd_step(&dispc))?
+                    self.fd_rows(&fd, *kind, &kind.fd_step(&steps))?
                 }
             };
             sens.push(rows_k);

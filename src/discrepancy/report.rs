@@ -21,7 +21,7 @@ pub fn describe(e: &FittedEffect) -> String {
         }
         EffectKind::Poisson => vec!["change of Poisson ratio"],
         EffectKind::PointLoad { .. } => vec!["Fx (N)", "Fy (N)", "Fz (N)"],
-        EffectKind::ActuatorOffset => vec!["offset (N or m)"; e.effect.params.len()],
+        EffectKind::ActuatorOffset => vec!["offset (N, m, Pa or m^3)"; e.effect.params.len()],
         EffectKind::CameraPose => vec![
             "wx (rad)", "wy (rad)", "wz (rad)", "tx (m)", "ty (m)", "tz (m)",
         ],

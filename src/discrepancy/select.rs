@@ -291,7 +291,7 @@ impl Search<'_, '_> {
             if let Some((theta, chi2, _, _)) = wf.fit(res, self.train, &idx, None) {
                 let kind = wf.kinds[c];
                 let k = self.k_of(base)
-                    + kind.n_params(wf.model.problem.cables.len())
+                    + kind.n_params(super::effects::actuator_count(&wf.model.problem))
                     + kind.choice_params();
                 cands.push((
                     c,
@@ -335,7 +335,7 @@ impl Search<'_, '_> {
             let mut trial = base.clone();
             trial.push((
                 *c,
-                vec![0.0; wf.kinds[*c].n_params(wf.model.problem.cables.len())],
+                vec![0.0; wf.kinds[*c].n_params(super::effects::actuator_count(&wf.model.problem))],
             ));
             add_increments(&mut trial, theta);
             self.refine_scored(score, trial, &mut best);
@@ -393,7 +393,7 @@ impl Search<'_, '_> {
     /// The `pair_candidates` best pairs of candidates by their joint linear fit on `res0`.
     fn pair_candidates(&self, res0: &[Vec<Residual>]) -> Vec<Scored<Kept>> {
         let wf = self.wf;
-        let nc = wf.model.problem.cables.len();
+        let nc = super::effects::actuator_count(&wf.model.problem);
         let mut cands: Vec<Scored<Kept>> = Vec::new();
         for a in 0..wf.kinds.len() {
             for b in a + 1..wf.kinds.len() {

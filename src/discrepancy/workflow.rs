@@ -34,7 +34,7 @@ pub fn load_candidates(problem: &Problem, count: usize) -> Vec<usize> {
 pub fn candidate_kinds(problem: &Problem, params: &DiscrepancyParams) -> Vec<EffectKind> {
     let mut v = vec![EffectKind::Gravity, EffectKind::Young, EffectKind::Poisson];
     v.extend((0..4).map(|leg| EffectKind::LegStiffness { leg }));
-    if !problem.cables.is_empty() {
+    if super::effects::actuator_count(problem) > 0 {
         v.push(EffectKind::ActuatorOffset);
     }
     v.push(EffectKind::CameraPose);

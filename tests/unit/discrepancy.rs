@@ -102,3 +102,34 @@ fn updated_model_file_holds_the_fitted_stiffness_and_load() {
         "mN in the file"
     );
 }
+
+#[test]
+fn an_actuator_offset_moves_the_cables_then_the_cavities() {
+    use softsense::discrepancy::effects::{actuator_count, actuator_steps, apply_model};
+    use softsense::fem::material::Material;
+    use softsense::fem::mesh::TetMesh;
+    use softsense::fem::solve::{Cavity, CavityControl, Formulation, Problem};
+    let mesh = TetMesh::structured_box([0.0; 3], [0.03; 3], [3, 3, 3]).unwrap();
+    let top = |name: &str, control| {
+        Cavity::from_box(name, &mesh, [-1.0, -1.0, 0.0299], [1.0; 3], control).unwrap()
+    };
+    let mut p = Problem::new(
+        mesh.clone(),
+        Material::new(5e5, 0.3).unwrap(),
+        Formulation::Corotational,
+    );
+    p.cavities = vec![
+        top("p", CavityControl::Pressure(1e3)),
+        top("v", CavityControl::Volume(2e-7)),
+    ];
+    assert_eq!(actuator_count(&p), 2);
+    assert_eq!(actuator_steps(&p), vec![100.0, 1e-8]);
+    let offset = Effect {
+        kind: EffectKind::ActuatorOffset,
+        params: vec![250.0, -5e-8],
+    };
+    apply_model(&mut p, &[offset], &[]).unwrap();
+    assert_eq!(p.cavities[0].control, CavityControl::Pressure(1250.0));
+    assert_eq!(p.cavities[1].control, CavityControl::Volume(2e-7 - 5e-8));
+    assert_eq!(EffectKind::ActuatorOffset.n_params(actuator_count(&p)), 2);
+}
