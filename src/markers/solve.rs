@@ -185,7 +185,8 @@ impl MarkerSensor {
     }
 
     /// The FE equilibrium under `lambda` (warm-started from `start`) and W_ef of the markers
-    /// `visible` there, condensed on the displacement-held cables: W_ef − W_ea W_aa⁻¹ W_af.
+    /// `visible` there, condensed on the held actuators (displacement-controlled cables,
+    /// volume-controlled cavities): W_ef − W_ea W_aa⁻¹ W_af.
     pub fn linearise(
         &self,
         lambda: &[f64],
@@ -207,11 +208,16 @@ impl MarkerSensor {
             .flat_map(|&m| self.markers[m].rows())
             .collect();
         let ne = rows.len();
-        let held: Vec<&crate::fem::solve::Cable> = (self.problem.cables.iter())
+        // Held actuators: displacement-controlled cables and volume-controlled cavities.
+        let held = (self.problem.cables.iter())
             .filter(|c| matches!(c.control, CableControl::Displacement(_)))
-            .collect();
-        rows.extend(held.iter().map(|c| ConstraintRow::cable(c, x)));
-        let na = held.len();
+            .map(|c| ConstraintRow::cable(c, x));
+        let held_cavities = (self.problem.cavities.iter())
+            .filter(|c| matches!(c.control, crate::fem::solve::CavityControl::Volume(_)))
+            .map(|c| ConstraintRow::cavity(c, x));
+        let before = rows.len();
+        rows.extend(held.chain(held_cavities));
+        let na = rows.len() - before;
         rows.extend(self.force_rows.iter().cloned());
         let n = self.unknowns();
         let zero = vec![0.0; solver.ndof()];
@@ -222,7 +228,7 @@ impl MarkerSensor {
             let w_aa = cols.view((ne, 0), (na, na)).clone_owned();
             let w_af = cols.view((ne, na), (na, n));
             let inv = w_aa.try_inverse().ok_or_else(|| {
-                crate::fem::FemError::Singular("W_aa of the held cables is singular".into())
+                crate::fem::FemError::Singular("W_aa of the held actuators is singular".into())
             })?;
             w_ef -= w_ea * inv * w_af;
         }

@@ -192,8 +192,26 @@ fn bar(cable: bool) -> Problem {
     p
 }
 
+/// The bar with its top face (z = 0.02) an open cavity held at a volume change of 0.1 cm³.
+fn bar_with_held_cavity() -> Problem {
+    let mut p = bar(false);
+    let cavity = softsense::fem::solve::Cavity::from_box(
+        "top",
+        &p.mesh,
+        [0.02, -1.0, 0.02 - 1e-6],
+        [1.0, 1.0, 1.0],
+        softsense::fem::solve::CavityControl::Volume(1e-7),
+    )
+    .unwrap();
+    p.cavities.push(cavity);
+    p
+}
+
 fn bar_sensor(cable: bool) -> MarkerSensor {
-    let p = bar(cable);
+    sensor_on(bar(cable))
+}
+
+fn sensor_on(p: Problem) -> MarkerSensor {
     let surface = p.mesh.surface();
     let at = [
         [0.05, 0.013, 0.02],
@@ -258,8 +276,12 @@ fn markers_bind_to_their_nearest_surface_point() {
 
 #[test]
 fn w_ef_columns_match_finite_differences_of_the_fe_solve() {
-    for cable in [false, true] {
-        let s = bar_sensor(cable);
+    for (cable, p) in [
+        ("none", bar(false)),
+        ("cable", bar(true)),
+        ("cavity", bar_with_held_cavity()),
+    ] {
+        let s = sensor_on(p);
         let lambda = [0.0, 0.0, -0.02, 0.01];
         let all = [0, 1, 2];
         let (_, w) = s.linearise(&lambda, &all, None).unwrap();
