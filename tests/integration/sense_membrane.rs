@@ -130,27 +130,30 @@ fn pushed(model: &Model, force: f64) -> Vec<[f64; 3]> {
         .collect()
 }
 
-#[test]
-fn a_push_on_the_unseen_face_of_a_synthetic_membrane_is_read_back_from_the_seen_one() {
-    let model = disk_model();
-    let rest = frame(&model, &model.problem.mesh.nodes_in_rest);
+/// The sensor of `model` through the test camera.
+fn sensor_of(
+    model: &Model,
+    rest: &[(&PointCloud, f64)],
+    still: &[&PointCloud],
+    params: MembraneParams,
+) -> softsense::sense::membrane::MembraneResult<MembraneSensor> {
     let (k, lens, pose) = (k(), Lens::Pinhole, robot_from_camera());
     let camera = MembraneCamera {
         intrinsics: &k,
         lens: &lens,
         robot_from_camera: &pose,
     };
+    MembraneSensor::new(model, camera, rest, still, params)
+}
+
+#[test]
+fn a_push_on_the_unseen_face_of_a_synthetic_membrane_is_read_back_from_the_seen_one() {
+    let model = disk_model();
+    let rest = frame(&model, &model.problem.mesh.nodes_in_rest);
     let mut params = MembraneParams::default();
     // Noise-free frames: every node's noise is the floor.
     params.reference.sigma_floor = 1e-5;
-    let mut sensor = MembraneSensor::new(
-        &model,
-        camera,
-        &[(&rest, 0.0)],
-        &[&rest, &rest, &rest],
-        params,
-    )
-    .unwrap();
+    let mut sensor = sensor_of(&model, &[(&rest, 0.0)], &[&rest, &rest, &rest], params).unwrap();
     assert!(sensor.pose_offset < 1e-4, "{}", sensor.pose_offset);
     assert!(sensor.refs.len() > 50, "{} nodes read", sensor.refs.len());
     // The rest frame reads nothing.
@@ -195,15 +198,8 @@ fn a_push_on_the_unseen_face_of_a_synthetic_membrane_is_read_back_from_the_seen_
 fn a_frame_without_pressure_or_with_too_few_nodes_gets_a_status() {
     let model = disk_model();
     let rest = frame(&model, &model.problem.mesh.nodes_in_rest);
-    let (k, lens, pose) = (k(), Lens::Pinhole, robot_from_camera());
-    let camera = MembraneCamera {
-        intrinsics: &k,
-        lens: &lens,
-        robot_from_camera: &pose,
-    };
-    let sensor = MembraneSensor::new(
+    let sensor = sensor_of(
         &model,
-        camera,
         &[(&rest, 0.0)],
         &[&rest, &rest, &rest],
         MembraneParams::default(),
@@ -220,20 +216,9 @@ fn a_frame_without_pressure_or_with_too_few_nodes_gets_a_status() {
     let e = sensor.estimate(&sensor.observe(&blank), 0.0);
     assert_eq!((e.status, e.nodes_read), (MembraneStatus::TooFewNodes, 0));
     // A rest frame whose pressure is NaN, or no rest frame, is refused.
-    let camera = MembraneCamera {
-        intrinsics: &k,
-        lens: &lens,
-        robot_from_camera: &pose,
-    };
-    let err = MembraneSensor::new(&model, camera, &[], &[], MembraneParams::default());
+    let err = sensor_of(&model, &[], &[], MembraneParams::default());
     assert!(err.unwrap_err().to_string().contains("no rest frames"));
-    let err = MembraneSensor::new(
-        &model,
-        camera,
-        &[(&rest, f64::NAN)],
-        &[],
-        MembraneParams::default(),
-    );
+    let err = sensor_of(&model, &[(&rest, f64::NAN)], &[], MembraneParams::default());
     assert!(err.unwrap_err().to_string().contains("pressure"));
 }
 

@@ -267,12 +267,11 @@ impl MembraneSensor {
             camera.intrinsics,
             camera.lens,
         );
-        let rest_clouds: Vec<PointCloud> = rest.iter().map(|(c, _)| (*c).clone()).collect();
-        let still_clouds: Vec<PointCloud> = still.iter().map(|c| (*c).clone()).collect();
+        let rest_clouds: Vec<&PointCloud> = rest.iter().map(|(c, _)| *c).collect();
         let refs = rest_reference(
             rays,
             &rest_clouds,
-            &still_clouds,
+            still,
             &params.observe,
             &params.reference,
         );
@@ -312,9 +311,11 @@ impl MembraneSensor {
         let mut reshaped = model.clone();
         reshaped.problem = crate::fem::shell::move_surface(problem, &moves)?;
         let view = inside_view(&reshaped.problem.mesh, centre, &problem.held_nodes());
-        let (push_compliance, pressure_compliance) = compliance(&reshaped, &refs, &view)?;
+        let surface = reshaped.problem.mesh.surface();
         let x = &reshaped.problem.mesh.nodes_in_rest;
-        let areas = node_areas(&reshaped);
+        let areas = node_areas(x, &surface);
+        let (push_compliance, pressure_compliance) =
+            compliance(&reshaped, &refs, &view, &surface, &areas)?;
         Ok(Self {
             push_positions: view.pushed.iter().map(|(v, _)| x[*v]).collect(),
             push_areas: view.pushed.iter().map(|(v, _)| areas[*v]).collect(),
@@ -440,9 +441,9 @@ fn compliance(
     model: &Model,
     refs: &[NodeReference],
     view: &InsideView,
+    surface: &crate::fem::mesh::Surface,
+    areas: &[f64],
 ) -> MembraneResult<(DMatrix<f64>, Vec<f64>)> {
-    let surface = model.problem.mesh.surface();
-    let areas = node_areas(model);
     // A pressure inside pushes the inner face away from the cavity: against its outward
     // normal (the inner face's outward normal faces the camera).
     let held = model.problem.held_nodes();
@@ -464,11 +465,11 @@ fn compliance(
     Ok((pushes, per_pa))
 }
 
-/// Each node's share of the surface's area (a third of each surface triangle's).
-fn node_areas(model: &Model) -> Vec<f64> {
-    let x = &model.problem.mesh.nodes_in_rest;
+/// Each node's share of the surface's area (a third of each surface triangle's), the
+/// nodes at `x`.
+fn node_areas(x: &[[f64; 3]], surface: &crate::fem::mesh::Surface) -> Vec<f64> {
     let mut area = vec![0.0; x.len()];
-    for t in &model.problem.mesh.surface().triangles {
+    for t in &surface.triangles {
         let [a, b, c] = t.map(|v| x[v]);
         let n = crate::math::cross(crate::math::sub(b, a), crate::math::sub(c, a));
         let share = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt() / 6.0;

@@ -139,8 +139,8 @@ impl NodeReference {
 /// a reading in every rest frame, or scattering more than allowed, are left out.
 pub fn rest_reference(
     rays: Vec<NodeRay>,
-    rest: &[PointCloud],
-    scatter: &[PointCloud],
+    rest: &[&PointCloud],
+    scatter: &[&PointCloud],
     observe: &ObserveParams,
     params: &ReferenceParams,
 ) -> Vec<NodeReference> {
