@@ -43,6 +43,7 @@ enum Command {
     Convert(cli::convert::ConvertArgs),
     Import(cli::import::ImportArgs),
     Fem(cli::fem::FemArgs),
+    Model(cli::model::ModelArgs),
     Filter(cli::filter::FilterArgs),
     Scene(cli::scene::SceneArgs),
     Segment(cli::segment::SegmentArgs),
@@ -70,6 +71,7 @@ fn main() -> ExitCode {
         Command::Import(args) => cli::import::run(&args),
         // A usage error inside `fem` or `scene` keeps its own exit code (2).
         Command::Fem(args) => cli::fem::run(args).map_err(usage_or_other),
+        Command::Model(args) => cli::model::run(&args),
         Command::Filter(args) => cli::filter::run(&args),
         Command::Scene(args) => cli::scene::run(args).map_err(usage_or_other),
         Command::Segment(args) => cli::segment::run(&args),

@@ -25,6 +25,9 @@ pub mod markers;
 pub mod markers_calib;
 pub mod markers_detect;
 pub mod markers_layout;
+pub mod model;
+pub mod model_check;
+pub mod model_new;
 pub mod rerun_out;
 pub mod scene;
 pub mod score;
@@ -89,6 +92,12 @@ impl From<softsense::pipeline::PipelineError> for CliError {
 impl From<Box<dyn std::error::Error>> for CliError {
     fn from(e: Box<dyn std::error::Error>) -> Self {
         CliError::Other(e)
+    }
+}
+
+impl From<softsense::fem::FemError> for CliError {
+    fn from(e: softsense::fem::FemError) -> Self {
+        CliError::Lib(e.into())
     }
 }
 

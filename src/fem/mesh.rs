@@ -32,6 +32,13 @@ pub struct QualityReport {
     pub min_shape: f64,
     /// Index of the worst-shaped tetrahedron.
     pub worst_tet: usize,
+    /// Smallest dihedral angle of any tetrahedron (degrees; 70.5 for a regular one).
+    pub min_dihedral_deg: f64,
+    /// Largest dihedral angle of any tetrahedron (degrees).
+    pub max_dihedral_deg: f64,
+    /// Largest circumradius-to-shortest-edge ratio (TetGen's radius-edge ratio; 0.612 for
+    /// a regular tetrahedron, unbounded for slivers' neighbours, caps and needles).
+    pub max_radius_edge: f64,
     /// Axis-aligned bounding box [min, max].
     pub bbox: [[f64; 3]; 2],
 }
@@ -166,6 +173,9 @@ impl TetMesh {
             max_volume: f64::NEG_INFINITY,
             min_shape: f64::INFINITY,
             worst_tet: 0,
+            min_dihedral_deg: f64::INFINITY,
+            max_dihedral_deg: f64::NEG_INFINITY,
+            max_radius_edge: 0.0,
             bbox: self.bbox(),
         };
         // A regular tetrahedron of edge l has volume l^3 / (6 sqrt 2).
@@ -194,6 +204,10 @@ impl TetMesh {
                 rep.min_shape = shape;
                 rep.worst_tet = t;
             }
+            let [lo, hi] = super::tet_quality::dihedral_range_deg(&c);
+            rep.min_dihedral_deg = rep.min_dihedral_deg.min(lo);
+            rep.max_dihedral_deg = rep.max_dihedral_deg.max(hi);
+            rep.max_radius_edge = rep.max_radius_edge.max(super::tet_quality::radius_edge(&c));
         }
         Ok(rep)
     }

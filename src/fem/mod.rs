@@ -43,6 +43,7 @@ pub mod shell;
 pub mod solve;
 pub mod surfaceio;
 pub mod tet4;
+pub mod tet_quality;
 mod workspace;
 
 use thiserror::Error;
