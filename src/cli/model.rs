@@ -19,7 +19,7 @@ pub struct ModelArgs {
 
 #[derive(Subcommand, Debug)]
 enum ModelCommand {
-    New(super::model_new::NewArgs),
+    New(Box<super::model_new::NewArgs>),
     Check(super::model_check::CheckArgs),
 }
 

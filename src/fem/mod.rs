@@ -31,6 +31,7 @@ pub mod constraint;
 mod factor;
 pub mod material;
 pub mod mesh;
+pub mod mesher;
 pub mod meshio;
 pub mod model;
 pub mod neohookean;
@@ -95,6 +96,9 @@ pub enum FemError {
     /// A mesh file is malformed (truncated, inconsistent counts, bad numbers).
     #[error("mesh parse error: {0}")]
     Parse(String),
+    /// The mesher (gmsh) is missing or failed.
+    #[error("meshing: {0}")]
+    Mesher(String),
     /// The mesh file format (or its encoding) is not supported.
     #[error("unsupported mesh format: {0}")]
     Unsupported(String),

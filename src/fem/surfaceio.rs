@@ -1,5 +1,6 @@
-//! Triangle surface files: STL (binary and ASCII) and Wavefront OBJ, read as a list of
-//! triangles (file units). A cavity's face set comes from one ([`crate::fem::model`]).
+//! Triangle surface files: STL (binary and ASCII), Wavefront OBJ and PLY faces, read as a
+//! list of triangles (file units); binary STL written. A cavity's face set comes from one
+//! ([`crate::fem::model`]), and so does a robot's CAD surface (`softsense model new`).
 //!
 //! Hand-written: no maintained STL crate is in this environment, and both formats are a
 //! few lines (STL: an 80-byte header, a count and 50-byte records; OBJ: `v` and `f` lines,
@@ -24,8 +25,9 @@ pub fn read_triangles(path: &Path) -> FemResult<Vec<Triangle>> {
     let tris = match ext.as_str() {
         "stl" => parse_stl(&bytes),
         "obj" => parse_obj(&String::from_utf8_lossy(&bytes)),
+        "ply" => parse_ply_faces(&bytes),
         other => Err(FemError::Unsupported(format!(
-            "surface file extension {other:?} (STL or OBJ)"
+            "surface file extension {other:?} (STL, OBJ or PLY)"
         ))),
     }
     .map_err(|e| e.in_file(path))?;
@@ -99,6 +101,52 @@ fn three<'a>(w: &mut impl Iterator<Item = &'a str>, ln: usize) -> FemResult<[f64
             .ok_or_else(|| FemError::Parse(format!("line {}: bad coordinate", ln + 1)))?;
     }
     Ok(p)
+}
+
+/// PLY: the `face` element's polygons over the vertices, each fanned from its first corner.
+pub fn parse_ply_faces(bytes: &[u8]) -> FemResult<Vec<Triangle>> {
+    let (cloud, faces) =
+        crate::io::ply::parse_ply_faces(bytes).map_err(|e| FemError::Parse(e.to_string()))?;
+    let p = |i: usize| {
+        (cloud.positions.get(i))
+            .map(|q| q.map(f64::from))
+            .ok_or_else(|| {
+                FemError::Parse(format!(
+                    "a face names vertex {i}, but there are {}",
+                    cloud.positions.len()
+                ))
+            })
+    };
+    let mut out = Vec::new();
+    for f in &faces {
+        for k in 2..f.len() {
+            out.push([p(f[0])?, p(f[k - 1])?, p(f[k])?]);
+        }
+    }
+    Ok(out)
+}
+
+/// Binary STL of `triangles` over `vertices` (written as f32, as every STL is).
+pub fn stl_bytes(vertices: &[[f64; 3]], triangles: &[[usize; 3]]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(84 + 50 * triangles.len());
+    // An all-zero header makes gmsh take the file for another format.
+    let mut header = [b' '; 80];
+    let text = b"binary STL written by softsense";
+    header[..text.len()].copy_from_slice(text);
+    out.extend_from_slice(&header);
+    out.extend_from_slice(&(triangles.len() as u32).to_le_bytes());
+    for t in triangles {
+        let [a, b, c] = t.map(|i| vertices[i]);
+        let n = crate::math::cross(crate::math::sub(b, a), crate::math::sub(c, a));
+        let l = crate::math::norm(n).max(f64::MIN_POSITIVE);
+        for v in [n.map(|x| x / l), a, b, c] {
+            for x in v {
+                out.extend_from_slice(&(x as f32).to_le_bytes());
+            }
+        }
+        out.extend_from_slice(&[0, 0]);
+    }
+    out
 }
 
 /// OBJ: `v x y z` and `f a b c ...` (1-based or negative indices, `a/t/n` forms), each

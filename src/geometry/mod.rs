@@ -14,6 +14,7 @@
 //! assert!((0..3).all(|k| (q[k] - [0.2, 0.2, 0.0][k]).abs() < 1e-12));
 //! ```
 
+pub mod closed;
 pub mod raycast;
 pub mod rigid;
 pub mod triangle;

@@ -106,3 +106,21 @@ pub fn closest_point_on_triangle_weights(
         [1.0 - v - w, v, w],
     )
 }
+
+/// The 12 triangles of the axis-aligned box [lo, hi], counter-clockwise seen from outside:
+/// the simplest closed surface (a cavity, a test solid).
+pub fn box_triangles(lo: [f64; 3], hi: [f64; 3]) -> Vec<[[f64; 3]; 3]> {
+    let corner = |i: usize| [0, 1, 2].map(|k| if i >> k & 1 == 0 { lo[k] } else { hi[k] });
+    const QUADS: [[usize; 4]; 6] = [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ];
+    (QUADS.iter())
+        .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+        .map(|t| t.map(corner))
+        .collect()
+}

@@ -467,3 +467,21 @@ impl RawPcd {
         Some((0..self.len()).map(|i| [x[i], y[i], z[i]]).collect())
     }
 }
+
+/// The Python interpreter with gmsh (the mesher of `softsense model new`), or `None` with a
+/// SKIPPED line; required (a failure when missing) under `SOFTSENSE_ORACLES=1`.
+pub fn gmsh_python(test: &str) -> Option<String> {
+    let py = python();
+    let ok = Command::new(&py)
+        .args(["-c", "import gmsh"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    match (ok, oracles_required()) {
+        (true, _) => Some(py),
+        (false, true) => panic!("{test}: SOFTSENSE_ORACLES=1 but {py} cannot import gmsh (tools/oracle/install.sh installs it)"),
+        (false, false) => {
+            println!("SKIPPED {test}: {py} cannot import gmsh (pip install gmsh; see docs/testing.md)");
+            None
+        }
+    }
+}

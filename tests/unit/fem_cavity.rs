@@ -150,19 +150,7 @@ fn a_mapped_cavity_row_is_the_derivative_of_its_volume() {
     let mesh = TetMesh::structured_box([0.0; 3], [3.0 * H; 3], [3; 3]).unwrap();
     let lo = 1.2 * H;
     let hi = 1.7 * H;
-    let corner = |i: usize| [[lo, hi][i & 1], [lo, hi][(i >> 1) & 1], [lo, hi][i >> 2]];
-    let quads = [
-        [0, 2, 3, 1],
-        [4, 5, 7, 6],
-        [0, 1, 5, 4],
-        [2, 6, 7, 3],
-        [0, 4, 6, 2],
-        [1, 3, 7, 5],
-    ];
-    let tris: Vec<[[f64; 3]; 3]> = (quads.iter())
-        .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
-        .map(|t| t.map(corner))
-        .collect();
+    let tris = softsense::geometry::triangle::box_triangles([lo; 3], [hi; 3]);
     let c = Cavity::from_triangles("m", &tris, &mesh, 1e-9, 1e-9, CavityControl::Pressure(0.0))
         .unwrap();
     assert!(c.is_closed());

@@ -16,7 +16,8 @@ PYTHON="${PYTHON:-python3}"
 APT_PACKAGES=(libpcl-dev g++ pkg-config libusb-1.0-0 libgomp1 libgl1 libegl1 libx11-6)
 
 # pip packages at the versions verified on the reference machine (Debian 12, Python 3.11).
-PIP_PACKAGES=(open3d-cpu==0.20.0 scikit-fem==12.0.2 opencv-python-headless==5.0.0.93)
+# gmsh is not an oracle: it is `softsense model new`'s mesher, which its tests need.
+PIP_PACKAGES=(open3d-cpu==0.20.0 scikit-fem==12.0.2 opencv-python-headless==5.0.0.93 gmsh==4.15.2)
 
 SUDO=""
 if [ "$(id -u)" -ne 0 ]; then

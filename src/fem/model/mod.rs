@@ -18,6 +18,7 @@
 //! ```
 
 mod spec;
+pub mod template;
 
 use super::constraint::{ConstraintRow, RowKind};
 use super::material::Material;

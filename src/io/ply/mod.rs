@@ -135,6 +135,14 @@ pub enum PlyError {
     /// The header declares more vertices than the memory budget allows.
     #[error(transparent)]
     TooLarge(#[from] super::limits::TooLarge),
+    /// A face corner is not a vertex index.
+    #[error("face {index}: corner {value} is not a vertex index")]
+    BadFaceCorner {
+        /// 0-based face.
+        index: u64,
+        /// The value read.
+        value: f64,
+    },
     /// A list length is negative or not an integer.
     #[error("element `{element}` entry {index}: bad list length {count}")]
     BadListCount {
@@ -160,6 +168,18 @@ pub enum PlyFormat {
 
 /// Parses a whole PLY file held in memory.
 pub fn parse_ply(bytes: &[u8]) -> Result<PointCloud, PlyError> {
+    parse(bytes, None)
+}
+
+/// Parses a PLY file's vertices and its `face` element's corner lists (`vertex_indices`
+/// or `vertex_index`): a triangle or polygon surface, as CAD tools export one.
+pub fn parse_ply_faces(bytes: &[u8]) -> Result<(PointCloud, Vec<Vec<usize>>), PlyError> {
+    let mut faces = Vec::new();
+    let cloud = parse(bytes, Some(&mut faces))?;
+    Ok((cloud, faces))
+}
+
+fn parse(bytes: &[u8], mut faces: Option<&mut Vec<Vec<usize>>>) -> Result<PointCloud, PlyError> {
     let header = parse_header(bytes)?;
     let vertex_at = header
         .elements
@@ -189,10 +209,11 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PointCloud, PlyError> {
             continue; // nothing to read, whatever the count
         }
         let vertex_out = (e_at == vertex_at).then_some((&mut out, targets.as_slice()));
+        let face_out = faces.as_deref_mut().filter(|_| element.name == "face");
         if header.format != PlyFormat::Ascii && element.props.iter().all(|p| p.list.is_none()) {
             read_records(&mut src, element, vertex_out)?;
         } else {
-            read_values(&mut src, element, vertex_out)?;
+            read_values(&mut src, element, vertex_out, face_out)?;
         }
     }
     Ok(out.into_cloud())
@@ -281,6 +302,7 @@ fn read_values(
     src: &mut Source<'_>,
     element: &Element,
     mut vertex_out: Option<(&mut VertexColumns, &[Target])>,
+    mut face_out: Option<&mut Vec<Vec<usize>>>,
 ) -> Result<(), PlyError> {
     for index in 0..element.count {
         src.start_entry();
@@ -312,9 +334,20 @@ fn read_values(
                         count,
                     });
                 }
+                let corners = matches!(p.name.as_str(), "vertex_indices" | "vertex_index");
+                let mut face = Vec::new();
                 // Each item consumes at least one byte, so a lying count ends in Eof.
                 for _ in 0..count as u64 {
-                    src.read(p.ty).map_err(|f| fail(f, p.ty))?;
+                    let v = src.read(p.ty).map_err(|f| fail(f, p.ty))?;
+                    if corners && face_out.is_some() {
+                        face.push(v);
+                    }
+                }
+                if let Some(out) = face_out.as_mut().filter(|_| corners) {
+                    if let Some(&value) = face.iter().find(|&&v| !(v >= 0.0 && v.fract() == 0.0)) {
+                        return Err(PlyError::BadFaceCorner { index, value });
+                    }
+                    out.push(face.into_iter().map(|v| v as usize).collect());
                 }
                 continue;
             }
