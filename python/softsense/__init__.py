@@ -6,29 +6,34 @@ messages. Ten lines from a recording to forces::
 
     import softsense
     rec = softsense.Recording.open("clouds/scenes/tip_weight")
-    model = softsense.Model.load(rec.model_path)
-    sensor = softsense.Sensor(model, rec)
+    sensor = softsense.Sensor(rec.model_path, rec)     # objects or paths, alike
     for report in sensor.sense_all():
         for f in report.forces:
             print(report.frame, f.node, f.force, "+-", f.sigma)
 
+Every argument that is a model, a recording or a file takes the library object or a path
+(``str`` or ``os.PathLike``); a misspelt keyword is a ``TypeError`` listing the known ones.
 See docs/python.md for the whole API.
 """
 
 from __future__ import annotations
 
+import inspect
 import json
 from dataclasses import dataclass, field
-from typing import Any, Dict, Iterator, List, Optional, Sequence, Tuple
+from pathlib import Path
+from typing import Any, Dict, Iterator, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
 from . import _softsense, batch, scene
+from . import _args
+from ._args import MissingPathError, PathLike, check_keywords, keywords, optional_path
 from ._softsense import SoftsenseError, __version__
 
 __all__ = [
     "batch", "calibrate", "explain", "hidden", "scene", "Cloud", "Compliance", "Force", "FrameReport", "Model", "Recording", "Sensor",
-    "Solution", "SoftsenseError", "crop_box", "pass_through", "radius_outlier_removal",
+    "MissingPathError", "Solution", "SoftsenseError", "crop_box", "pass_through", "radius_outlier_removal",
     "read_cloud", "statistical_outlier_removal", "voxel_grid", "write_cloud",
 ]
 
@@ -94,6 +99,7 @@ class Cloud:
             height=height,
         )
 
+    @keywords
     def to_open3d(self) -> Any:
         """An ``open3d.geometry.PointCloud`` (positions, colours scaled to 0..1, normals)."""
         import open3d as o3d
@@ -107,6 +113,7 @@ class Cloud:
         return pcd
 
     @classmethod
+    @keywords
     def from_open3d(cls, pcd: Any) -> "Cloud":
         """A cloud from an ``open3d.geometry.PointCloud`` (colours rounded to 0..255)."""
         positions = np.asarray(pcd.points, dtype=np.float32)
@@ -117,15 +124,20 @@ class Cloud:
         return cls(positions=positions, colors=colors, normals=normals)
 
 
-def read_cloud(path: str) -> Cloud:
+Cloud.__init__ = keywords(Cloud.__init__)  # type: ignore[method-assign]
+
+
+@keywords
+def read_cloud(path: PathLike) -> Cloud:
     """Reads a PCD, PLY or XYZ file (chosen by extension)."""
-    return Cloud._from_native(_softsense.read_cloud(str(path)))
+    return Cloud._from_native(_softsense.read_cloud(_args.path(path, "path", must_exist=True)))
 
 
-def write_cloud(cloud: Cloud, path: str, encoding: str = "binary") -> None:
+@keywords
+def write_cloud(cloud: Cloud, path: PathLike, encoding: str = "binary") -> None:
     """Writes a cloud by extension, all or nothing; ``encoding`` is "binary", "ascii" or
     "binary_compressed" (PCD only; PLY writes binary)."""
-    _softsense.write_cloud(str(path), cloud._native(), encoding)
+    _softsense.write_cloud(_args.path(path, "path"), cloud._native(), encoding)
 
 
 def _filter(name: str, cloud: Cloud, params: Dict[str, Any]) -> Tuple[Cloud, np.ndarray]:
@@ -155,12 +167,14 @@ def radius_outlier_removal(cloud: Cloud, radius: float, min_neighbors: int, **pa
     return _filter("radius_outlier_removal", cloud, {"radius": radius, "min_neighbors": min_neighbors, **params})
 
 
+@keywords
 def crop_box(cloud: Cloud, min: Sequence[float], max: Sequence[float], invert: bool = False) -> Tuple[Cloud, np.ndarray]:
     """Keeps the points inside the axis-aligned box ``min``..``max`` (metres, inclusive),
     or outside it with ``invert``. Returns the kept cloud and indices."""
     return _filter("crop_box", cloud, {"min": [float(v) for v in min], "max": [float(v) for v in max], "invert": invert})
 
 
+@keywords
 def pass_through(cloud: Cloud, field: str, min: float, max: float, negative: bool = False) -> Tuple[Cloud, np.ndarray]:
     """Keeps points whose ``field`` ("x", "y", "z", "normal_x", ..., "curvature") lies in
     ``min``..``max`` (PCL ``PassThrough``), or outside with ``negative``."""
@@ -203,9 +217,16 @@ class Model:
         self._native = native
 
     @classmethod
-    def load(cls, path: str, mesh: Optional[str] = None) -> "Model":
+    @keywords
+    def load(cls, path: PathLike, mesh: Optional[PathLike] = None) -> "Model":
         """Loads a model file; ``mesh`` replaces the mesh it names."""
-        return cls(_softsense.Model.load(str(path), None if mesh is None else str(mesh)))
+        return cls(_softsense.Model.load(_args.path(path, "path", must_exist=True), optional_path(mesh, "mesh", must_exist=True)))
+
+    @property
+    def path(self) -> Optional[Path]:
+        """The model file, or None when ``mesh`` replaced the mesh it names (no file
+        describes the model then)."""
+        return self._native.path
 
     @property
     def nodes(self) -> np.ndarray:
@@ -227,6 +248,7 @@ class Model:
         """Pressure cavity names, in model order."""
         return self._native.cavities()
 
+    @keywords
     def solve(
         self,
         loads: Optional[Sequence[Tuple[int, Sequence[float]]]] = None,
@@ -252,6 +274,7 @@ class Model:
             cavity_volume_change=np.array(d["cavity_volume_change"], dtype=np.float64),
         )
 
+    @keywords
     def compliance(self) -> Compliance:
         """W at the rest state, as ``softsense fem compliance`` prints it."""
         d = self._native.compliance()
@@ -263,7 +286,72 @@ class Model:
         )
 
 
-Recording = _softsense.Recording
+class Recording:
+    """A recording folder of one camera, or of several (one sub-folder each), as ``softsense
+    sense`` reads it (docs/recording-format.md)."""
+
+    def __init__(self, native: "_softsense.Recording") -> None:
+        self._native = native
+
+    @classmethod
+    @keywords
+    def open(cls, path: PathLike, pose: Optional[PathLike] = None) -> "Recording":
+        """Opens a recording folder; ``pose`` is a camera pose file used instead of the
+        folder's (a one-camera folder only)."""
+        return cls(_softsense.Recording.open(_args.path(path, "path", must_exist=True), optional_path(pose, "pose", must_exist=True)))
+
+    @property
+    def path(self) -> Path:
+        """The folder."""
+        return self._native.path
+
+    @property
+    def frames(self) -> List[int]:
+        """Frame numbers (of any camera)."""
+        return self._native.frames
+
+    @property
+    def cameras(self) -> List[str]:
+        """The cameras' names (``["camera"]`` for a one-camera folder)."""
+        return self._native.cameras
+
+    @property
+    def robot_from_camera(self) -> Optional[List[List[float]]]:
+        """A one-camera folder's camera pose, row-major 4x4 (p_robot = T p_camera), or None
+        (no pose, or several cameras: see ``camera_poses``)."""
+        return self._native.robot_from_camera
+
+    @property
+    def camera_poses(self) -> List[Optional[List[List[float]]]]:
+        """Every camera's pose (None where it has none), in camera order."""
+        return self._native.camera_poses
+
+    @property
+    def model_path(self) -> Optional[Path]:
+        """The model file the recording names (truth.json or calibration.json), or None."""
+        return self._native.model_path
+
+    @property
+    def warnings(self) -> List[str]:
+        """Warnings from opening the folder."""
+        return self._native.warnings
+
+    def __repr__(self) -> str:
+        return f"Recording({str(self.path)!r}, frames={self.frames})"
+
+
+ModelLike = Union[Model, PathLike]
+RecordingLike = Union[Recording, PathLike]
+
+
+def _model(value: Any, name: str = "model") -> Model:
+    """A model argument as a Model: one given, or the file given loaded."""
+    return value if isinstance(value, Model) else Model.load(_args.path(value, name, True, (Model,)))
+
+
+def _recording(value: Any, name: str = "recording") -> Recording:
+    """A recording argument as a Recording: one given, or the folder given opened."""
+    return value if isinstance(value, Recording) else Recording.open(_args.path(value, name, True, (Recording,)))
 
 
 @dataclass
@@ -354,19 +442,27 @@ class Sensor:
     sensed relative to them), ``known_load`` ((frame, newtons): the modulus calibrated
     so that frame reads its load) and ``modulus_from_sag`` (the modulus from the reference
     frames' sag under the model's gravity and density). The recording's cable inputs are used as the command
-    line uses them.
+    line uses them. ``model`` and ``recording`` are objects or paths.
     """
 
-    def __init__(self, model: Model, recording: "Recording", **options: Any) -> None:
+    # The native constructor's keywords (its signature, python/src/sense.rs), checked here
+    # so that a misspelt option lists them.
+    _KEYWORDS = tuple(inspect.signature(_softsense.Sensor).parameters)
+
+    def __init__(self, model: ModelLike, recording: RecordingLike, **options: Any) -> None:
+        check_keywords("Sensor", options, self._KEYWORDS)
         if "robot_color" in options:
             options["robot_color"] = tuple(int(v) for v in options["robot_color"])
-        self._native = _softsense.Sensor(model._native, recording, **options)
+        recording = _recording(recording)
+        self._native = _softsense.Sensor(_model(model)._native, recording._native, **options)
         self.recording = recording
 
+    @keywords
     def sense(self, frame: int) -> FrameReport:
         """Senses one frame (a bad frame comes back with its status, never raises)."""
         return FrameReport._from_json(self._native.sense(int(frame)))
 
+    @keywords
     def sense_all(self, frames: Optional[Sequence[int]] = None, window: Optional[int] = None) -> List[FrameReport]:
         """Senses ``frames`` (default all), ``window`` of them side by side; in frame
         order, each frame's answer the same for any window."""
@@ -383,32 +479,41 @@ class Sensor:
         return self._native.features
 
 
-def explain(model: str, frames: str, robot_color: Sequence[int] = (40, 200, 60), holdout: float = 0.25) -> Dict[str, Any]:
-    """Where the model and the frames in ``frames`` disagree, which missing effect explains
-    it, and the residual before and after (``softsense explain MODEL FRAMES --json``).
-    ``holdout`` is the share of frames held out to confirm the explanation. Nothing is
-    written: ``softsense explain --out`` writes the report and its pictures."""
+@keywords
+def explain(model: ModelLike, frames: RecordingLike, robot_color: Sequence[int] = (40, 200, 60), holdout: float = 0.25) -> Dict[str, Any]:
+    """Where the model and the frames in ``frames`` (a folder such as :func:`hidden`
+    writes) disagree, which missing effect explains it, and the residual before and after
+    (``softsense explain MODEL FRAMES --json``). ``holdout`` is the share of frames held out
+    to confirm the explanation. Nothing is written: ``softsense explain --out`` writes the
+    report and its pictures."""
     rgb = tuple(int(v) for v in robot_color)
-    return json.loads(_softsense.explain_frames(str(model), str(frames), rgb, float(holdout)))
+    given = _args.path(frames, "frames", True, (Recording,))  # checked before the model is loaded
+    return json.loads(_softsense.explain_frames(_model(model)._native, given, rgb, float(holdout)))
 
 
-def hidden(out: str, model: str, effects: Sequence[str], magnitude: float = 0.5, seed: int = 1, frames: int = 8) -> Dict[str, Any]:
+@keywords
+def hidden(out: PathLike, model: ModelLike, effects: Sequence[str], magnitude: float = 0.5, seed: int = 1, frames: int = 8) -> Dict[str, Any]:
     """Writes frames of ``model`` with hidden ``effects`` into ``out/frames`` and their truth
     into ``out/truth_hidden.json`` (``softsense hidden``), to test :func:`explain` on;
-    returns the truth."""
-    return json.loads(
-        _softsense.hidden_dataset(str(out), str(model), [str(e) for e in effects], float(magnitude), int(seed), int(frames))
-    )
+    returns the truth. The dataset is made from the model's file, so a ``Model`` loaded
+    with its mesh replaced is refused."""
+    if isinstance(effects, str):  # a lone name would be read as one effect per letter
+        raise TypeError(f"effects: expected a list of effect names, got the string {effects!r}")
+    m, o = _args.path(model, "model", True, (Model,)), _args.path(out, "out")
+    return json.loads(_softsense.hidden_dataset(o, m, [str(e) for e in effects], float(magnitude), int(seed), int(frames)))
 
 
-def calibrate(recording: str, model: str, start: Optional[str] = None, frame: int = 0, robot_color: Sequence[int] = (40, 200, 60)) -> Dict[str, Any]:
+@keywords
+def calibrate(recording: RecordingLike, model: ModelLike, start: Optional[PathLike] = None, frame: int = 0, robot_color: Sequence[int] = (40, 200, 60)) -> Dict[str, Any]:
     """The camera pose and cable inputs from one frame of a recording (``softsense
     calibrate``, thesis 3.3.2): ``robot_from_camera`` (4x4), the cables' tensions and
     shortenings, the residual and the status. ``start`` is the rough pose file (default:
     the recording's ``rough_pose.json``); calibrate on a frame where nothing touches the
-    robot. Nothing is written: ``softsense calibrate`` writes ``calibration.json``."""
+    robot. Nothing is written: ``softsense calibrate`` writes ``calibration.json``. The
+    recording is read from its folder, as the command line reads it (one camera)."""
     rgb = tuple(int(v) for v in robot_color)
-    return json.loads(
-        _softsense.calibrate_recording(str(recording), str(model), None if start is None else str(start), int(frame), rgb)
-    )
+    # The paths are checked before the model is loaded.
+    rec = _args.path(recording, "recording", True, (Recording,))
+    pose = optional_path(start, "start", must_exist=True)
+    return json.loads(_softsense.calibrate_recording(rec, _model(model)._native, pose, int(frame), rgb))
 

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from typing import Any, Dict, List, Tuple
 
 from . import _softsense
+from ._args import PathLike, keywords, path
 
 __all__ = ["Plan", "plan", "run_item"]
 
@@ -29,14 +30,16 @@ class Plan:
     replaced: int
 
 
-def plan(manifest: str, out: str, retry_failed: bool = False) -> Plan:
+@keywords
+def plan(manifest: PathLike, out: PathLike, retry_failed: bool = False) -> Plan:
     """What is left to do of ``manifest`` with results in ``out``."""
-    todo, done, failed, replaced = _softsense.batch_plan(str(manifest), str(out), retry_failed)
+    todo, done, failed, replaced = _softsense.batch_plan(path(manifest, "manifest", must_exist=True), path(out, "out"), retry_failed)
     return Plan(todo=todo, done=done, failed=failed, replaced=replaced)
 
 
-def run_item(manifest: str, item_id: str, out: str, window: int = 1) -> Dict[str, Any]:
+@keywords
+def run_item(manifest: PathLike, item_id: str, out: PathLike, window: int = 1) -> Dict[str, Any]:
     """Runs one item of ``manifest`` and writes its result file in ``out``; returns
     ``{"id", "frames", "sensed", "error", "seconds"}`` (``error`` is None when it was done).
     ``window`` frames are sensed side by side; the result does not depend on it."""
-    return _softsense.batch_run_item(str(manifest), item_id, str(out), window)
+    return _softsense.batch_run_item(path(manifest, "manifest", must_exist=True), item_id, path(out, "out"), window)

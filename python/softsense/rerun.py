@@ -22,6 +22,8 @@ from typing import TYPE_CHECKING, Any, Dict, List, Optional, Sequence
 
 import numpy as np
 
+from ._args import PathLike, keywords, path as _path
+
 if TYPE_CHECKING:  # pragma: no cover
     from . import FrameReport, Sensor
 
@@ -38,6 +40,7 @@ def _rerun() -> Any:
     return rerun
 
 
+@keywords
 def log(
     sensor: "Sensor",
     frames: Optional[Sequence[int]] = None,
@@ -66,9 +69,10 @@ def log(
     return reports
 
 
+@keywords
 def save(
     sensor: "Sensor",
-    path: str,
+    path: PathLike,
     frames: Optional[Sequence[int]] = None,
     window: Optional[int] = None,
     images: bool = True,
@@ -77,7 +81,7 @@ def save(
     ``softsense sense --rerun`` does; open it with ``rerun PATH``. Returns the reports."""
     rr = _rerun()
     stream = rr.RecordingStream("softsense")
-    stream.save(str(path))
+    stream.save(_path(path, "path"))
     try:
         return log(sensor, frames, window, images, recording=stream)
     finally:

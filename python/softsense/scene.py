@@ -8,18 +8,21 @@ import json
 from typing import Any, Dict, List
 
 from . import _softsense
+from ._args import PathLike, keywords, path
 
 __all__ = ["generate", "sweep"]
 
 
-def generate(spec: str, out: str) -> Dict[str, Any]:
+@keywords
+def generate(spec: PathLike, out: PathLike) -> Dict[str, Any]:
     """Generates the recording the scene file ``spec`` describes into the folder ``out``;
     returns its truth (the content of ``truth.json``)."""
-    return json.loads(_softsense.scene_generate(str(spec), str(out)))
+    return json.loads(_softsense.scene_generate(path(spec, "spec", must_exist=True), path(out, "out")))
 
 
-def sweep(spec: str, out: str, count: int, seed: int) -> List[Dict[str, Any]]:
+@keywords
+def sweep(spec: PathLike, out: PathLike, count: int, seed: int) -> List[Dict[str, Any]]:
     """Draws ``count`` random scenes of the sweep file ``spec`` with ``seed`` into the new
     or empty folder ``out``, one recording each; returns what was drawn for each scene (as
     ``draws.json``)."""
-    return json.loads(_softsense.scene_sweep(str(spec), str(out), int(count), int(seed)))
+    return json.loads(_softsense.scene_sweep(path(spec, "spec", must_exist=True), path(out, "out"), int(count), int(seed)))

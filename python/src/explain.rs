@@ -2,11 +2,11 @@
 //! (`softsense hidden`); results cross as the JSON the command line prints.
 
 use crate::error;
+use crate::model::Model;
 use pyo3::prelude::*;
 use softsense::discrepancy::data::load_frames;
 use softsense::discrepancy::generate::{generate_dataset, layout, DatasetSpec, EFFECT_TYPES};
 use softsense::discrepancy::{explain, DiscrepancyParams};
-use softsense::fem::model::Model;
 use softsense::segment::robot_color::RobotColorModel;
 use std::path::PathBuf;
 
@@ -17,12 +17,11 @@ use std::path::PathBuf;
 #[pyo3(signature = (model, frames, robot_color=(40, 200, 60), holdout=0.25))]
 fn explain_frames(
     py: Python<'_>,
-    model: PathBuf,
+    model: &Model,
     frames: PathBuf,
     robot_color: (u8, u8, u8),
     holdout: f64,
 ) -> PyResult<String> {
-    let model = Model::load(&model, None).map_err(error)?;
     let color = RobotColorModel::with_reference([robot_color.0, robot_color.1, robot_color.2]);
     let rec = load_frames(&frames, &color).map_err(error)?;
     let params = DiscrepancyParams {
@@ -30,7 +29,7 @@ fn explain_frames(
         ..Default::default()
     };
     let x = py
-        .detach(|| explain(&model, &rec, &params))
+        .detach(|| explain(&model.0, &rec, &params))
         .map_err(error)?;
     serde_json::to_string(&x).map_err(error)
 }

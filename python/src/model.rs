@@ -6,9 +6,11 @@ use pyo3::types::{PyBytes, PyDict};
 use softsense::fem::model::Model as FeModel;
 use softsense::fem::solve::{MappedPoint, PointLoad};
 
-/// A finite-element model loaded from its TOML file.
+/// A finite-element model loaded from its TOML file, and that file when it describes the
+/// model whole (not when `mesh` replaced the mesh it names): calls that read a model from
+/// a file (`softsense hidden`) are given it.
 #[pyclass(module = "softsense._softsense", frozen)]
-pub struct Model(pub FeModel);
+pub struct Model(pub FeModel, Option<std::path::PathBuf>);
 
 fn f64_bytes<'py>(py: Python<'py>, values: impl Iterator<Item = f64>) -> Bound<'py, PyBytes> {
     let b: Vec<u8> = values.flat_map(f64::to_le_bytes).collect();
@@ -25,9 +27,16 @@ impl Model {
         path: std::path::PathBuf,
         mesh: Option<std::path::PathBuf>,
     ) -> PyResult<Self> {
-        py.detach(|| FeModel::load(&path, mesh.as_deref()))
-            .map(Model)
-            .map_err(error)
+        let model = py
+            .detach(|| FeModel::load(&path, mesh.as_deref()))
+            .map_err(error)?;
+        Ok(Model(model, mesh.is_none().then_some(path)))
+    }
+
+    /// The model file, or None when `mesh` replaced the mesh it names.
+    #[getter]
+    fn path(&self) -> Option<std::path::PathBuf> {
+        self.1.clone()
     }
 
     /// Rest node positions (m) as little-endian f64 bytes, N x 3.

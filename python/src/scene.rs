@@ -2,9 +2,9 @@
 //! command line's options; results cross as the JSON those commands write.
 
 use crate::error;
+use crate::model::Model;
 use pyo3::prelude::*;
 use softsense::calibrate::{calibrate, read_pose, recording_robot_points, CalibrateParams};
-use softsense::fem::model::Model;
 use softsense::recording::Recording;
 use softsense::scene::sweep::{self, Sweep};
 use softsense::scene::{generate, Scene};
@@ -52,13 +52,14 @@ fn scene_sweep(
 /// The camera pose and cable inputs from one frame of a recording and a rough start pose
 /// (`softsense calibrate`, thesis 3.3.2); returns the calibration as JSON (the content of
 /// `calibration.json` without the model's path). `start` defaults to the recording's
-/// `rough_pose.json`.
+/// `rough_pose.json`. The recording is a path: it is opened as `softsense calibrate` opens
+/// it (one camera).
 #[pyfunction]
 #[pyo3(signature = (recording, model, start=None, frame=0, robot_color=(40, 200, 60)))]
 fn calibrate_recording(
     py: Python<'_>,
     recording: PathBuf,
-    model: PathBuf,
+    model: &Model,
     start: Option<PathBuf>,
     frame: usize,
     robot_color: (u8, u8, u8),
@@ -76,12 +77,12 @@ fn calibrate_recording(
         ..Default::default()
     };
     let start = read_pose(&start).map_err(error)?;
-    let model = Model::load(&model, None).map_err(error)?;
+    let model = &model.0;
     let rec = Recording::open(&recording).map_err(error)?;
     let cal = py
         .detach(|| {
             let points = recording_robot_points(&rec, frame, &params)?;
-            calibrate(&model, &points, &start, &params, |_, _| {})
+            calibrate(model, &points, &start, &params, |_, _| {})
         })
         .map_err(error)?;
     json(&cal)
