@@ -44,6 +44,8 @@ enum Command {
     Import(cli::import::ImportArgs),
     Fem(cli::fem::FemArgs),
     Model(cli::model::ModelArgs),
+    Colour(cli::colour::ColourArgs),
+    Pose(cli::pose::PoseArgs),
     Filter(cli::filter::FilterArgs),
     Scene(cli::scene::SceneArgs),
     Segment(cli::segment::SegmentArgs),
@@ -72,6 +74,8 @@ fn main() -> ExitCode {
         // A usage error inside `fem` or `scene` keeps its own exit code (2).
         Command::Fem(args) => cli::fem::run(args).map_err(usage_or_other),
         Command::Model(args) => cli::model::run(&args),
+        Command::Colour(args) => cli::colour::run(&args),
+        Command::Pose(args) => cli::pose::run(&args),
         Command::Filter(args) => cli::filter::run(&args),
         Command::Scene(args) => cli::scene::run(args).map_err(usage_or_other),
         Command::Segment(args) => cli::segment::run(&args),

@@ -11,6 +11,8 @@ mod calibrate_cameras;
 mod calibrate_pso;
 #[path = "integration/cli.rs"]
 mod cli;
+#[path = "integration/cli_own_robot.rs"]
+mod cli_own_robot;
 #[path = "integration/cli_segment.rs"]
 mod cli_segment;
 #[path = "integration/cli_sense.rs"]

@@ -13,6 +13,7 @@ macro_rules! outln {
 pub mod batch;
 pub mod calibrate;
 pub mod cluster;
+pub mod colour;
 pub mod contacts;
 pub mod control;
 pub mod convert;
@@ -28,6 +29,7 @@ pub mod markers_layout;
 pub mod model;
 pub mod model_check;
 pub mod model_new;
+pub mod pose;
 pub mod rerun_out;
 pub mod scene;
 pub mod score;

@@ -149,7 +149,7 @@ impl ModelTemplate {
         let _ = writeln!(w, "# name = \"hook\"\n# at = [0.0, 0.0, 0.0]");
         let _ = writeln!(
             w,
-            "\n# [newton]\n# max_iterations = 20\n# load_steps = 1\n# rel_tol = 1e-8"
+            "\n# [newton]\n# max_iterations = 50\n# load_steps = 1\n# rel_tol = 1e-10"
         );
         s
     }
