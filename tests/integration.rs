@@ -19,6 +19,8 @@ mod cli_segment;
 mod cli_sense;
 #[path = "integration/control.rs"]
 mod control;
+#[path = "integration/doc_commands.rs"]
+mod doc_commands;
 #[path = "integration/fem_cantilever.rs"]
 mod fem_cantilever;
 #[path = "integration/fem_diamond.rs"]
