@@ -29,6 +29,8 @@ mod mutation_fuzz;
 mod mutation_fuzz_inputs;
 #[path = "acceptance/punyo.rs"]
 mod punyo;
+#[path = "acceptance/readme.rs"]
+mod readme;
 #[path = "acceptance/recording_folder.rs"]
 mod recording_folder;
 #[path = "acceptance/sense_places.rs"]

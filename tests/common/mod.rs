@@ -4,6 +4,7 @@
 pub mod bags;
 pub mod batch;
 pub mod corpus;
+pub mod docs;
 pub mod fem;
 pub mod markers;
 pub mod markers_painted;
