@@ -33,6 +33,8 @@ mod markers;
 mod markers_bundled;
 #[path = "integration/markers_detect.rs"]
 mod markers_detect;
+#[path = "integration/model_check.rs"]
+mod model_check;
 #[path = "integration/punyo_reference.rs"]
 mod punyo_reference;
 #[path = "integration/rgbd_sequence.rs"]
