@@ -37,6 +37,8 @@ mod markers;
 mod markers_bundled;
 #[path = "integration/markers_detect.rs"]
 mod markers_detect;
+#[path = "integration/model_check.rs"]
+mod model_check;
 #[path = "integration/model_new.rs"]
 mod model_new;
 #[path = "integration/punyo_reference.rs"]

@@ -18,6 +18,8 @@
 //! - [`discrepancy`]: the pictures of an `explain` report.
 //! - [`markers::marker_picture`]: one frame of `softsense markers --render` (markers, their
 //!   displacements, candidates and located forces, top and side views).
+//! - [`model::model_picture`]: `softsense model check --picture` (a model's body from the
+//!   top, front and side, with its fixed nodes, cables, cavities and points).
 //! - [`scene3d`]: a sensed frame in 3-D as plain data (points, FE surface, features,
 //!   forces with their uncertainty, cameras, status), and `rrd` (feature `rerun`) that
 //!   writes it as a rerun recording (`softsense sense --rerun`).
@@ -48,6 +50,7 @@ pub mod discrepancy;
 mod font;
 mod lines;
 pub mod markers;
+pub mod model;
 mod overlay;
 mod project;
 #[cfg(feature = "rerun")]

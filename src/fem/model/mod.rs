@@ -17,6 +17,7 @@
 //! assert_eq!(spec.material.young, 180.0);
 //! ```
 
+pub mod check;
 mod spec;
 pub mod template;
 
@@ -217,6 +218,12 @@ impl Model {
         Self::from_spec(&spec, mesh).map_err(|e| e.in_file(path))
     }
 
+    /// The model file as written (cavity surface paths resolved against its folder), for
+    /// what a loaded [`Model`] no longer says by key: [`check::check`] names the keys.
+    pub fn spec_of(path: &Path) -> FemResult<ModelSpec> {
+        read_spec(path)
+    }
+
     /// The mesh file a model file names (resolved against the model's folder, `${VAR}`s
     /// expanded), without loading either: to refuse an output that would overwrite it.
     pub fn mesh_file(path: &Path) -> FemResult<PathBuf> {
@@ -379,7 +386,7 @@ fn fixed_nodes(
     u: &Units,
 ) -> FemResult<Vec<usize>> {
     let mut fixed = Vec::new();
-    for f in specs {
+    for (i, f) in specs.iter().enumerate() {
         if f.marked && marked.is_empty() {
             return Err(FemError::Model(
                 "fixed marked = true, but the mesh file marks no nodes (no vertex cells)".into(),
@@ -389,7 +396,17 @@ fn fixed_nodes(
             fixed.extend_from_slice(marked);
         }
         if let Some([lo, hi]) = f.r#box {
-            fixed.extend(mesh.nodes_in_box(u.point(lo), u.point(hi)));
+            let nodes = mesh.nodes_in_box(u.point(lo), u.point(hi));
+            // An empty box fixed nothing and said nothing: the body then floated, or hung
+            // by the other boxes alone, until a solve called it singular, or never did.
+            if nodes.is_empty() {
+                let [a, b] = mesh.bbox().map(|p| p.map(|c| c / u.length));
+                return Err(FemError::Model(format!(
+                    "fixed[{i}].box = {lo:?} - {hi:?} selects no node: the mesh's nodes span \
+                     {a:?} - {b:?} (file units, after placement)"
+                )));
+            }
+            fixed.extend(nodes);
         }
         if let Some(n) = &f.nodes {
             fixed.extend(n.iter().copied());
