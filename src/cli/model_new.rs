@@ -14,8 +14,9 @@ use std::path::{Path, PathBuf};
 /// Meshes a closed surface into tetrahedra and writes a commented model file.
 #[derive(Args, Debug)]
 #[command(after_long_help = "Examples:\n  \
-softsense model new finger.stl --out finger --young 18 --fixed-box=-5,0,0,10,15,20 --cable cable.json\n  \
-softsense model new pneunet.stl --out pneunet --young 500 --poisson 0.3 --fixed-below x=0 --cavity cavity.stl\n\n\
+softsense model new finger.stl --out finger --young 18000 --fixed-box=-5,0,0,10,15,20 --cable cable.json\n  \
+softsense model new pneunet.stl --out pneunet --young 500 --poisson 0.3 --fixed-above x=-10 --cavity cavity.stl \
+--region=-100,22.5,-8,-19,28,8=1500\n\n\
 Writes DIR/model.toml (every key commented), DIR/mesh.vtu, DIR/cavity_NAME.stl for each \
 cavity and DIR/report.json (mesh quality, gmsh's version and time). Meshing needs Python \
 with gmsh: `pip install gmsh`.")]
@@ -62,6 +63,10 @@ pub struct NewArgs {
     /// fixed nodes.
     #[arg(long, value_parser = parse_effector, allow_hyphen_values = true)]
     pub effector: Vec<(String, [f64; 3])>,
+    /// A part of another Young's modulus, X0,Y0,Z0,X1,Y1,Z1=YOUNG: the tetrahedra whose
+    /// centroid is in the box (e.g. a strain-limiting layer); repeatable.
+    #[arg(long, value_parser = parse_region, allow_hyphen_values = true)]
+    pub region: Vec<([[f64; 3]; 2], f64)>,
     /// Target tetrahedron edge length (length unit); default 1/20 of the diagonal.
     #[arg(long)]
     pub size: Option<f64>,
@@ -120,6 +125,18 @@ fn parse_axis_value(s: &str) -> Result<(usize, f64), String> {
         .parse()
         .map_err(|_| format!("{value:?} is not a number"))?;
     Ok((axis, v))
+}
+
+fn parse_region(s: &str) -> Result<([[f64; 3]; 2], f64), String> {
+    let (b, young) = s.split_once('=').ok_or("give X0,Y0,Z0,X1,Y1,Z1=YOUNG")?;
+    let young: f64 = young
+        .trim()
+        .parse()
+        .map_err(|_| format!("{young:?} is not a number"))?;
+    match young > 0.0 && young.is_finite() {
+        true => Ok((parse_box(b)?, young)),
+        false => Err("the region's modulus must be positive".into()),
+    }
 }
 
 fn parse_effector(s: &str) -> Result<(String, [f64; 3]), String> {
@@ -410,6 +427,7 @@ fn template(args: &NewArgs, mesh: &TetMesh, ext: &str) -> Result<ModelTemplate, 
         cables,
         cavities: Vec::new(),
         effectors,
+        regions: args.region.clone(),
     })
 }
 

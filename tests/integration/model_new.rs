@@ -97,6 +97,7 @@ fn a_volume_mesh_becomes_a_model_that_loads_with_its_fixed_nodes_and_cable() {
             "z=2",
             "--cable",
             cable.to_str().unwrap(),
+            "--region=-200,-200,0,200,200,20=360",
         ],
     );
     assert!(o.status.success(), "{}", stderr(&o));
@@ -112,6 +113,10 @@ fn a_volume_mesh_becomes_a_model_that_loads_with_its_fixed_nodes_and_cable() {
     assert_eq!(model.problem.fixed.len(), want);
     assert_eq!(model.problem.cables.len(), 1);
     assert!((model.problem.material.young() - 180e3).abs() < 1e-6);
+    // The region's tetrahedra (centroid below z = 20 mm) at twice the modulus, the rest at 1.
+    let scale = &model.problem.young_scale;
+    assert_eq!(scale.len(), model.problem.mesh.tets.len());
+    assert!(scale.iter().any(|&f| f == 2.0) && scale.iter().any(|&f| f == 1.0));
     let text = std::fs::read_to_string(dir.path().join("model/model.toml")).unwrap();
     assert!(text.contains("young = 180.0   # kPa"), "{text}");
 }

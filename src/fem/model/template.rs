@@ -30,6 +30,8 @@ pub struct ModelTemplate {
     pub cavities: Vec<(String, String)>,
     /// Effectors: name and position (file units).
     pub effectors: Vec<(String, [f64; 3])>,
+    /// Regions of another modulus: box (file units) and Young's modulus (pressure unit).
+    pub regions: Vec<([[f64; 3]; 2], f64)>,
 }
 
 fn v3(p: [f64; 3]) -> String {
@@ -137,11 +139,21 @@ impl ModelTemplate {
                 v3(*at)
             );
         }
-        let _ = writeln!(w, "\n# [[regions]]   # a part of another modulus (tetrahedra whose centroid is in the box)");
-        let _ = writeln!(
-            w,
-            "# box = [[0.0, 0.0, 0.0], [1.0, 1.0, 1.0]]\n# young = 1.0   # {pressure}"
-        );
+        for (b, young) in &self.regions {
+            let _ = writeln!(
+                w,
+                "\n[[regions]]   # tetrahedra whose centroid is in the box"
+            );
+            let _ = writeln!(w, "box = [{}, {}]   # {len}", v3(b[0]), v3(b[1]));
+            let _ = writeln!(w, "young = {}   # {pressure}", num(*young));
+        }
+        if self.regions.is_empty() {
+            let _ = writeln!(w, "\n# [[regions]]   # a part of another modulus (tetrahedra whose centroid is in the box)");
+            let _ = writeln!(
+                w,
+                "# box = [[0.0, 0.0, 0.0], [1.0, 1.0, 1.0]]\n# young = 1.0   # {pressure}"
+            );
+        }
         let _ = writeln!(
             w,
             "\n# [[force_points]]   # candidate places of an external force (sense adds contacts)"
@@ -180,6 +192,7 @@ mod tests {
             }],
             cavities: vec![("air".into(), "cavity_air.stl".into())],
             effectors: vec![("tip".into(), [0.0, 0.0, 90.0])],
+            regions: vec![([[0.0, 0.0, 0.0], [1.0, 2.0, 3.0]], 1500.0)],
         };
         let spec: ModelSpec = toml::from_str(&t.to_toml()).unwrap();
         assert_eq!(spec.material.young, 0.1 + 0.2);
@@ -191,5 +204,9 @@ mod tests {
         assert_eq!(spec.cables[0].attach.len(), 2);
         assert_eq!(spec.cavities[0].surface.as_deref(), Some("cavity_air.stl"));
         assert_eq!(spec.effectors[0].at, [0.0, 0.0, 90.0]);
+        assert_eq!(
+            (spec.regions[0].r#box[1], spec.regions[0].young),
+            ([1.0, 2.0, 3.0], 1500.0)
+        );
     }
 }
