@@ -37,3 +37,5 @@ mod recording_folder;
 mod sense_places;
 #[path = "acceptance/sense_reference.rs"]
 mod sense_reference;
+#[path = "acceptance/sofa_robots.rs"]
+mod sofa_robots;
