@@ -36,6 +36,9 @@ pub struct NewArgs {
     /// Density in kg/m^3, whatever the units (silicones: 1070-1240).
     #[arg(long, default_value_t = 1070.0)]
     pub density: f64,
+    /// The body's total mass in kg (weighed), spread by volume, instead of --density.
+    #[arg(long, conflicts_with = "density")]
+    pub mass: Option<f64>,
     /// The surface's unit system: mm-kg-s (CAD's millimetres) or SI (metres).
     #[arg(long, default_value = "mm-kg-s", value_parser = ["mm-kg-s", "SI"])]
     pub units: String,
@@ -422,6 +425,7 @@ fn template(args: &NewArgs, mesh: &TetMesh, ext: &str) -> Result<ModelTemplate, 
         young: args.young,
         poisson: args.poisson,
         density_si: args.density,
+        total_mass: args.mass,
         gravity: args.gravity.unwrap_or([0.0, 0.0, -9.81 * length]),
         fixed,
         cables,

@@ -20,9 +20,7 @@
 # mass in kg, gravity in mm/s^2): finger E = 18000 kPa (18 MPa; 18 kPa would fold the
 # finger under its own weight), nu = 0.3, total mass 0.5 kg, gravity 981 mm/s^2 along -y
 # (a tenth of Earth's, as the scene writes it); PneuNet E = 500 kPa with a 1500 kPa layer,
-# nu = 0.3, total mass 0.04 kg, gravity 9810 mm/s^2 along -x. `model new` writes a density
-# and has no region flag: the total mass and the PneuNet's layer are written into the
-# model file here.
+# nu = 0.3, total mass 0.04 kg, gravity 9810 mm/s^2 along -x.
 set -euo pipefail
 if [ $# -ne 1 ]; then
     sed -n 2,25p "$0" >&2
@@ -38,11 +36,6 @@ fi
 bin="${SOFTSENSE_BIN:-${CARGO_TARGET_DIR:-$root/target}/release/softsense}"
 mkdir -p "$out"
 
-# The tutorial's total mass instead of the density `model new` writes.
-total_mass() {
-    sed -i "s|^density = .*|total = $2   # kg: the tutorial scene's totalMass (tools/sofa/models.sh)|" "$1/model.toml"
-}
-
 # The finger: cable.json is the cable's path; the tutorial's CableConstraint pulls it from
 # [0, 0, 0] (inside the fixed base), so every point of the file is an attach point.
 printf '{"name": "cable", "pull": [0.0, 0.0, 0.0], "attach": %s}\n' \
@@ -53,8 +46,7 @@ for src in stl vtk; do
     "$bin" model new "$data/finger/finger.$src" --out "$dir" \
         --young 18000 --poisson 0.3 --units mm-kg-s --gravity 0,-981,0 \
         --fixed-box=-5,0,0,10,15,20 --cable "$out/finger_cable.json" \
-        --effector tip=-103.37,2.5,7.5
-    total_mass "$dir" 0.5
+        --effector tip=-103.37,2.5,7.5 --mass 0.5
 done
 
 # The PneuNet: its outer surface already holds the cavity (a second shell); the cavity's
@@ -67,14 +59,7 @@ for src in stl vtk; do
     "$bin" model new "$surface" --out "$dir" \
         --young 500 --poisson 0.3 --units mm-kg-s --gravity=-9810,0,0 \
         --fixed-box=-10,0,-20,0,30,20 --cavity "$data/pneunet/pneunetCavityCut.stl" \
-        --effector tip=-115,25,0
-    total_mass "$dir" 0.04
-    cat >> "$dir/model.toml" <<'TOML'
-
-[[regions]]   # the tutorial's stiffer, strain-limiting layer (tools/sofa/models.sh)
-box = [[-100.0, 22.5, -8.0], [-19.0, 28.0, 8.0]]   # mm
-young = 1500.0   # kPa
-TOML
+        --effector tip=-115,25,0 --mass 0.04 --region=-100,22.5,-8,-19,28,8=1500
 done
 
 for m in finger_stl finger_vtk pneunet_stl pneunet_vtk; do

@@ -18,8 +18,10 @@ pub struct ModelTemplate {
     pub young: f64,
     /// Poisson ratio.
     pub poisson: f64,
-    /// Density (kg/m^3; written in the file's density unit).
+    /// Density (kg/m^3; written in the file's density unit), unless `total_mass` is given.
     pub density_si: f64,
+    /// Total mass (kg), spread by volume, instead of the density.
+    pub total_mass: Option<f64>,
     /// Gravity (the file's length unit per s^2).
     pub gravity: [f64; 3],
     /// Fixed boxes (file units), each with a comment saying where it came from.
@@ -92,12 +94,23 @@ impl ModelTemplate {
         let _ = writeln!(w, "# scale = 1.0\n# rotate_deg = [0.0, 0.0, 0.0]   # about x, then y, then z\n# translate = [0.0, 0.0, 0.0]");
         let _ = writeln!(w, "\n[material]\nyoung = {}   # {pressure}: calibrate it from a known weight (docs/your-robot.md)", num(self.young));
         let _ = writeln!(w, "poisson = {}", num(self.poisson));
-        let _ = writeln!(
-            w,
-            "\n[mass]\ndensity = {}   # {density_unit} ({} kg/m^3); or total = KG",
-            num(density),
-            num(self.density_si)
-        );
+        match self.total_mass {
+            Some(m) => {
+                let _ = writeln!(
+                    w,
+                    "\n[mass]\ntotal = {}   # kg, spread by volume; or density",
+                    num(m)
+                );
+            }
+            None => {
+                let _ = writeln!(
+                    w,
+                    "\n[mass]\ndensity = {}   # {density_unit} ({} kg/m^3); or total = KG",
+                    num(density),
+                    num(self.density_si)
+                );
+            }
+        }
         for (b, why) in &self.fixed {
             let _ = writeln!(
                 w,
@@ -181,6 +194,7 @@ mod tests {
             young: 0.1 + 0.2,
             poisson: 0.45,
             density_si: 1070.0,
+            total_mass: None,
             gravity: [0.0, 0.0, -9810.0],
             fixed: vec![([[-1.0, -1.0, -1.0], [1.0, 1.0, 2.0]], "z below 2".into())],
             cables: vec![CableSpec {
