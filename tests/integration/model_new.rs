@@ -116,7 +116,7 @@ fn a_volume_mesh_becomes_a_model_that_loads_with_its_fixed_nodes_and_cable() {
     // The region's tetrahedra (centroid below z = 20 mm) at twice the modulus, the rest at 1.
     let scale = &model.problem.young_scale;
     assert_eq!(scale.len(), model.problem.mesh.tets.len());
-    assert!(scale.iter().any(|&f| f == 2.0) && scale.iter().any(|&f| f == 1.0));
+    assert!(scale.contains(&2.0) && scale.contains(&1.0));
     let text = std::fs::read_to_string(dir.path().join("model/model.toml")).unwrap();
     assert!(text.contains("young = 180.0   # kPa"), "{text}");
 }
