@@ -104,7 +104,8 @@ fn parse_numbers<const N: usize>(s: &str) -> Result<[f64; N], String> {
     }
 }
 
-fn parse_vec3(s: &str) -> Result<[f64; 3], String> {
+/// X,Y,Z as three finite numbers (also `softsense pose`'s points).
+pub(super) fn parse_vec3(s: &str) -> Result<[f64; 3], String> {
     parse_numbers::<3>(s)
 }
 

@@ -68,13 +68,7 @@ pub struct PoseArgs {
 }
 
 fn vec3(name: &str, s: &str) -> Result<[f64; 3], CliError> {
-    let v: Vec<f64> = s.split(',').filter_map(|x| x.trim().parse().ok()).collect();
-    match v[..] {
-        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok([x, y, z]),
-        _ => Err(CliError::Usage(format!(
-            "--{name} {s:?}: give three numbers X,Y,Z"
-        ))),
-    }
+    super::model_new::parse_vec3(s).map_err(|e| CliError::Usage(format!("--{name} {s:?}: {e}")))
 }
 
 /// Runs `softsense pose`.
