@@ -63,6 +63,11 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    // The documents' tests check every documented command against this parser without
+    // running it (tests/integration/doc_commands.rs).
+    if std::env::var_os("SOFTSENSE_ARGS_ONLY").is_some() {
+        return ExitCode::SUCCESS;
+    }
     // Without it, Ctrl-C or a kill during a write leaves `.NAME.tmpPID` behind.
     if let Err(e) = softsense::io::atomic::install_signal_cleanup() {
         eprintln!("softsense: warning: cannot catch SIGINT/SIGTERM: {e}");

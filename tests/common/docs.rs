@@ -143,3 +143,160 @@ pub fn run_document(doc: &str, not_run: &[(&str, &str)]) {
         }
     }
 }
+
+/// A command in a document's ```sh blocks: its words, with the block's line.
+pub struct DocCommand {
+    /// The words, quotes removed (environment assignments and redirections left out).
+    pub words: Vec<String>,
+    /// The 1-based line of the block's first command.
+    pub line: usize,
+}
+
+/// Every command of every ```sh block (run or not): continuation lines joined, heredoc
+/// bodies left out, split at unquoted `&&`, `||`, `;`, `|`, `&` and parentheses.
+pub fn commands(markdown: &str) -> Vec<DocCommand> {
+    let mut out = Vec::new();
+    for step in steps(markdown) {
+        let mut heredoc: Option<String> = None;
+        let mut joined = String::new();
+        for line in step.script.lines() {
+            if let Some(end) = &heredoc {
+                if line.trim() == end {
+                    heredoc = None;
+                }
+                continue;
+            }
+            if let Some(at) = line.find("<<") {
+                let tag = line[at + 2..].trim_start_matches('-').trim();
+                let tag = tag.split_whitespace().next().unwrap_or("");
+                heredoc = Some(tag.trim_matches(['\'', '"']).to_string());
+            }
+            match line.trim_end().strip_suffix('\\') {
+                Some(head) => {
+                    joined.push_str(head);
+                    joined.push(' ');
+                }
+                None => {
+                    joined.push_str(line);
+                    joined.push('\n');
+                }
+            }
+        }
+        for words in split_commands(&joined) {
+            out.push(DocCommand {
+                words,
+                line: step.line,
+            });
+        }
+    }
+    out
+}
+
+/// Shell words of `text`, grouped into commands (see [`commands`]); comments dropped.
+fn split_commands(text: &str) -> Vec<Vec<String>> {
+    let mut all = Vec::new();
+    let mut words: Vec<String> = Vec::new();
+    let mut word = String::new();
+    let mut in_word = false;
+    let mut chars = text.chars().peekable();
+    let end_word = |word: &mut String, in_word: &mut bool, words: &mut Vec<String>| {
+        if *in_word {
+            words.push(std::mem::take(word));
+            *in_word = false;
+        }
+    };
+    while let Some(c) = chars.next() {
+        match c {
+            '\'' => {
+                in_word = true;
+                for q in chars.by_ref() {
+                    if q == '\'' {
+                        break;
+                    }
+                    word.push(q);
+                }
+            }
+            '"' => {
+                in_word = true;
+                while let Some(q) = chars.next() {
+                    match q {
+                        '"' => break,
+                        '\\' => word.extend(chars.next()),
+                        _ => word.push(q),
+                    }
+                }
+            }
+            '\\' => {
+                in_word = true;
+                word.extend(chars.next());
+            }
+            '#' if !in_word => {
+                while chars.peek().is_some_and(|&n| n != '\n') {
+                    chars.next();
+                }
+            }
+            ' ' | '\t' => end_word(&mut word, &mut in_word, &mut words),
+            // `2>&1` and `&>` are redirections, not a background `&`.
+            '&' if word.ends_with('>') || chars.peek() == Some(&'>') => {
+                in_word = true;
+                word.push(c);
+            }
+            '\n' | ';' | '&' | '|' | '(' | ')' => {
+                end_word(&mut word, &mut in_word, &mut words);
+                if !words.is_empty() {
+                    all.push(std::mem::take(&mut words));
+                }
+                if c != '\n' && chars.peek() == Some(&c) {
+                    chars.next();
+                }
+            }
+            _ => {
+                in_word = true;
+                word.push(c);
+            }
+        }
+    }
+    end_word(&mut word, &mut in_word, &mut words);
+    if !words.is_empty() {
+        all.push(words);
+    }
+    all.into_iter()
+        .map(|ws| {
+            let mut keep = Vec::new();
+            let mut skip_next = false;
+            for w in ws {
+                if skip_next {
+                    skip_next = false;
+                } else if w.starts_with('>') || w.starts_with("2>") || w.starts_with('<') {
+                    // `> FILE` takes the next word; `>FILE` and `2>&1` do not.
+                    skip_next = matches!(w.as_str(), ">" | ">>" | "2>" | "<" | "<<");
+                } else if keep.is_empty() && is_assignment(&w) {
+                } else {
+                    keep.push(w);
+                }
+            }
+            keep
+        })
+        .filter(|ws| !ws.is_empty())
+        .collect()
+}
+
+fn is_assignment(word: &str) -> bool {
+    word.split_once('=').is_some_and(|(name, _)| {
+        !name.is_empty() && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+    })
+}
+
+/// The arguments a documented command gives `softsense` (after `softsense` or
+/// `cargo run --release --`), or None for another program.
+pub fn softsense_args(words: &[String]) -> Option<&[String]> {
+    match words {
+        [first, rest @ ..] if first == "softsense" => Some(rest),
+        [c, r, rel, dd, rest @ ..]
+            if c == "cargo" && r == "run" && rel == "--release" && dd == "--" =>
+        {
+            Some(rest)
+        }
+        _ => None,
+    }
+}
