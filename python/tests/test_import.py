@@ -1,5 +1,5 @@
 """`softsense import`: bags written by the rosbags package in the RealSense layout (rosbag
-v1) and as ROS 2 MCAP and sqlite3 bags, from the depth and colour PNGs and intrinsics of a bundled
+v1) and as ROS 2 MCAP (plain and zstd chunks) and sqlite3 bags, from the depth and colour PNGs and intrinsics of a bundled
 recording, import to recordings that sense to the same forces as the original."""
 
 import json
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from PIL import Image as PilImage
 from rosbags.rosbag1 import Writer as Writer1
-from rosbags.rosbag2 import StoragePlugin
+from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin
 from rosbags.rosbag2 import Writer as Writer2
 from rosbags.typesys import Stores, get_typestore
 
@@ -130,9 +130,13 @@ def write_realsense_bag(path, drop_colour, compression=None):
             w.write(conns[topic], t, m.serialize(msg))
 
 
-def write_ros2_bag(path, drop_colour, colour=True, storage=StoragePlugin.MCAP):
+def write_ros2_bag(path, drop_colour, colour=True, storage=StoragePlugin.MCAP, zstd_chunks=False):
     m = Msgs(Stores.ROS2_HUMBLE)
-    with Writer2(path, version=9, storage_plugin=storage) as w:
+    w = Writer2(path, version=9, storage_plugin=storage)
+    if zstd_chunks:
+        # The MCAP storage's own compression: zstd chunks, as ROS 2's writer makes them.
+        w.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
+    with w:
         conns = {}
         for topic, t, msg in bag_messages(m, ROS2, drop_colour, colour):
             if topic not in conns:
@@ -180,9 +184,24 @@ def test_a_realsense_bag_senses_to_the_original_forces_with_its_dropped_frame_le
         assert result == original[frame], frame
 
 
-def test_a_ros2_mcap_bag_senses_to_the_original_forces_with_its_dropped_frame_left_out(tmp_path, cli, original):
+def mcap_chunk_compressions(bag):
+    """The compression named by each chunk record of the bag's .mcap files."""
+    from rosbags.rosbag2.storage_mcap import McapReader
+
+    out = set()
+    for path in bag.glob("*.mcap"):
+        reader = McapReader(path)
+        reader.open()
+        out |= {chunk.compression for chunk in reader.chunks}
+        reader.close()
+    return out
+
+
+@pytest.mark.parametrize("zstd_chunks", [False, True])
+def test_a_ros2_mcap_bag_senses_to_the_original_forces_with_its_dropped_frame_left_out(tmp_path, cli, original, zstd_chunks):
     bag = tmp_path / "rosbag2"
-    write_ros2_bag(bag, drop_colour=1)
+    write_ros2_bag(bag, drop_colour=1, zstd_chunks=zstd_chunks)
+    assert mcap_chunk_compressions(bag) == ({"zstd"} if zstd_chunks else {""})
     summary = imported(cli, bag, tmp_path / "rec")
     assert summary["dropped_depth"] == [1]
     assert summary["colour_topic"] == ROS2["colour"]

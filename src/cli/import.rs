@@ -13,8 +13,9 @@ use std::path::PathBuf;
     long_about = "Import a camera recording into a recording folder (softsense layout: \
 depth_NNNN.png, color_NNNN.png, intrinsics.json) that `sense`, `calibrate` and `explain` read.\n\n\
 BAG is a RealSense .bag (rosbag v1, as the RealSense Viewer records it), a ROS 2 bag folder \
-(metadata.yaml + .mcap or .db3 files) or one .mcap or .db3 file. Chunks may be uncompressed \
-or lz4; sqlite3 bags are opened read-only.\n\n\
+(metadata.yaml + .mcap or .db3 files) or one .mcap or .db3 file. MCAP chunks may be \
+uncompressed, lz4 or zstd (ROS 2's writer's usual choice), rosbag chunks uncompressed or lz4; \
+sqlite3 bags are opened read-only.\n\n\
 Topics: depth is the one sensor_msgs/Image topic with encoding 16UC1, mono16 or 32FC1, \
 colour the one with rgb8, bgr8, rgba8, bgra8 or mono8 (RealSense: /device_0/sensor_0/Depth_0/image/data \
 and /device_0/sensor_1/Color_0/image/data); each camera's sensor_msgs/CameraInfo is the one \

@@ -199,7 +199,8 @@ pub fn mstr(s: &str) -> Vec<u8> {
     v
 }
 
-/// An MCAP file with one chunk (`compression`) of `messages`.
+/// An MCAP file with one chunk of `messages`, compressed with `compression` (`lz4` and
+/// `zstd` compress; any other name is written on uncompressed records).
 pub fn mcap(messages: &[(&str, &str, Vec<u8>)], compression: &str) -> Vec<u8> {
     let mut topics: Vec<(&str, &str)> = vec![];
     let mut inner = vec![];
@@ -232,13 +233,25 @@ pub fn mcap(messages: &[(&str, &str, Vec<u8>)], compression: &str) -> Vec<u8> {
         let msg = [id.to_le_bytes().to_vec(), vec![0; 4 + 8 + 8], data.clone()].concat();
         inner.extend(mcap_record(5, &msg));
     }
+    let size = inner.len() as u64;
+    // A CRC of 0 means "not computed" in MCAP: readers skip the check.
+    let records = match compression {
+        "lz4" => {
+            use std::io::Write;
+            let mut e = lz4_flex::frame::FrameEncoder::new(vec![]);
+            e.write_all(&inner).unwrap();
+            e.finish().unwrap()
+        }
+        "zstd" => zstd::bulk::compress(&inner, 3).unwrap(),
+        _ => inner,
+    };
     let chunk = [
         vec![0; 16],
-        (inner.len() as u64).to_le_bytes().to_vec(),
+        size.to_le_bytes().to_vec(),
         vec![0; 4],
         mstr(compression),
-        (inner.len() as u64).to_le_bytes().to_vec(),
-        inner,
+        (records.len() as u64).to_le_bytes().to_vec(),
+        records,
     ]
     .concat();
     let mut file = b"\x89MCAP0\r\n".to_vec();

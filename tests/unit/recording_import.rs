@@ -127,28 +127,36 @@ fn a_bz2_chunk_and_a_file_that_is_no_bag_are_clear_errors() {
 // ---- MCAP ----
 
 #[test]
-fn an_mcap_bag_folder_gives_its_cdr_messages_and_refuses_zstd_chunks() {
+fn an_mcap_bag_folder_gives_its_cdr_messages_from_plain_lz4_and_zstd_chunks() {
     let dir = tempfile::tempdir().unwrap();
     let bag = dir.path().join("bag");
     std::fs::create_dir(&bag).unwrap();
     std::fs::write(bag.join("metadata.yaml"), "rosbag2_bagfile_information: {}").unwrap();
-    std::fs::write(bag.join("bag_0.mcap"), mcap(&some_messages(Wire::Cdr), "")).unwrap();
-    let seen = read_topics(&bag).unwrap();
-    assert_eq!(seen.len(), 3);
-    assert_eq!(seen[0].1, "sensor_msgs/Image");
-    std::fs::write(
-        bag.join("bag_0.mcap"),
-        mcap(&some_messages(Wire::Cdr), "zstd"),
-    )
-    .unwrap();
-    let e = read_topics(&bag).unwrap_err();
-    assert!(e.to_string().contains("`zstd` are not read"), "{e}");
-    let full = mcap(&some_messages(Wire::Cdr), "");
-    std::fs::write(bag.join("bag_0.mcap"), &full[..full.len() / 2]).unwrap();
-    assert!(matches!(
-        read_topics(&bag),
-        Err(ImportError::Truncated { .. })
-    ));
+    for compression in ["", "lz4", "zstd"] {
+        let file = mcap(&some_messages(Wire::Cdr), compression);
+        std::fs::write(bag.join("bag_0.mcap"), file).unwrap();
+        let seen = read_topics(&bag).unwrap();
+        assert_eq!(seen.len(), 3, "{compression}");
+        assert_eq!(seen[0].1, "sensor_msgs/Image", "{compression}");
+    }
+}
+
+#[test]
+fn an_mcap_chunk_of_an_unknown_compression_and_a_cut_file_are_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bag_0.mcap");
+    std::fs::write(&path, mcap(&some_messages(Wire::Cdr), "brotli")).unwrap();
+    let e = read_topics(&path).unwrap_err();
+    assert!(e.to_string().contains("`brotli` are not read"), "{e}");
+    for compression in ["", "zstd"] {
+        let full = mcap(&some_messages(Wire::Cdr), compression);
+        std::fs::write(&path, &full[..full.len() / 2]).unwrap();
+        let r = read_topics(&path);
+        assert!(
+            matches!(r, Err(ImportError::Truncated { .. })),
+            "{compression}: {r:?}"
+        );
+    }
 }
 
 // ---- pairing and a whole import ----

@@ -1,51 +1,16 @@
-//! A reader of MCAP files (ROS 2 bags' default storage): the magic `\x89MCAP0\r\n`, then
-//! records of an opcode byte, a `u64` length and the content. Messages are found by a
-//! linear scan of the data section, inside chunks (compression none or `lz4`) or at the
-//! top level; the summary section after `DataEnd` is not needed.
+//! MCAP files (ROS 2 bags' default storage) through the `mcap` crate, the format authors'
+//! reader: records are read front to back by its sans-io `LinearReader`, with chunks
+//! decompressed (none, `lz4` or `zstd`, what ROS 2's writer uses) and their CRCs checked.
+//! The summary section after `DataEnd` is not needed.
 
-use super::{read_body, read_head, BagMessage, ImportError};
+use super::{BagMessage, ImportError};
+use mcap::records::Record;
+use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
 use std::collections::HashMap;
 use std::io::Read;
 
 /// The first bytes of an MCAP file.
-pub const MAGIC: &[u8] = b"\x89MCAP0\r\n";
-
-const OP_FOOTER: u8 = 0x02;
-const OP_SCHEMA: u8 = 0x03;
-const OP_CHANNEL: u8 = 0x04;
-const OP_MESSAGE: u8 = 0x05;
-const OP_CHUNK: u8 = 0x06;
-const OP_DATA_END: u8 = 0x0F;
-
-/// A record's fields, read front to back.
-struct Fields<'a> {
-    buf: &'a [u8],
-}
-
-impl<'a> Fields<'a> {
-    fn take(&mut self, n: u64) -> Result<&'a [u8], ImportError> {
-        let n = usize::try_from(n).ok().filter(|&n| n <= self.buf.len());
-        let n = n.ok_or_else(|| ImportError::Corrupt {
-            reason: "MCAP record field runs past its record".into(),
-        })?;
-        let (head, rest) = self.buf.split_at(n);
-        self.buf = rest;
-        Ok(head)
-    }
-    fn u16(&mut self) -> Result<u16, ImportError> {
-        Ok(u16::from_le_bytes(self.take(2)?.try_into().expect("2")))
-    }
-    fn u32(&mut self) -> Result<u32, ImportError> {
-        Ok(u32::from_le_bytes(self.take(4)?.try_into().expect("4")))
-    }
-    fn u64(&mut self) -> Result<u64, ImportError> {
-        Ok(u64::from_le_bytes(self.take(8)?.try_into().expect("8")))
-    }
-    fn string(&mut self) -> Result<String, ImportError> {
-        let n = self.u32()?;
-        Ok(String::from_utf8_lossy(self.take(n.into())?).into_owned())
-    }
-}
+pub const MAGIC: &[u8] = mcap::MAGIC;
 
 /// What a channel's messages are.
 struct Channel {
@@ -54,119 +19,97 @@ struct Channel {
     encoding: String,
 }
 
-/// Channels and schema names seen so far.
-#[derive(Default)]
-struct State {
-    schemas: HashMap<u16, String>,
-    channels: HashMap<u16, Channel>,
-}
-
-/// Reads one record; `Ok(None)` at a clean end of input.
-fn read_record(r: &mut impl Read, at: &mut u64) -> Result<Option<(u8, Vec<u8>)>, ImportError> {
-    let mut head = [0u8; 9];
-    if !read_head(r, &mut head, *at)? {
-        return Ok(None);
-    }
-    let len = u64::from_le_bytes(head[1..].try_into().expect("8 bytes"));
-    let content = read_body(r, len, *at)?;
-    *at += 9 + len;
-    Ok(Some((head[0], content)))
-}
-
 /// Reads the MCAP data from `r` (just after [`MAGIC`]) and hands each message to
 /// `on_message`, in file order. Only `cdr` messages are handed on.
 pub fn read(
     r: &mut impl Read,
     on_message: &mut dyn FnMut(BagMessage<'_>) -> Result<(), ImportError>,
 ) -> Result<(), ImportError> {
-    let mut state = State::default();
+    // A record's length is held to the memory budget (a corrupt length must not allocate
+    // gigabytes), never below 64 MiB: a smaller budget is for what the messages make
+    // (images), which the import checks by name.
+    let budget = crate::io::limits::max_bytes().max(1 << 26);
+    let limit = usize::try_from(budget).unwrap_or(usize::MAX);
+    // A file cut after its last message (a recording still being written) is read to its
+    // end: the end magic is not required, and reading stops at `DataEnd`.
+    let options = LinearReaderOptions::default()
+        .with_skip_start_magic(true)
+        .with_skip_end_magic(true)
+        .with_record_length_limit(limit);
+    let mut reader = LinearReader::new_with_options(options);
+    let mut schemas: HashMap<u16, String> = HashMap::new();
+    let mut channels: HashMap<u16, Channel> = HashMap::new();
     let mut at = MAGIC.len() as u64;
-    while let Some((op, content)) = read_record(r, &mut at)? {
-        match op {
-            OP_DATA_END | OP_FOOTER => break,
-            OP_CHUNK => {
-                let records = chunk_records(&content)?;
-                let mut inner = records.as_slice();
-                let mut inner_at = 0;
-                while let Some((op, c)) = read_record(&mut inner, &mut inner_at)? {
-                    handle(op, &c, &mut state, on_message)?;
+    loop {
+        let want = match reader.next_event() {
+            None => return Ok(()),
+            Some(Err(e)) => return Err(refused(e, at)),
+            Some(Ok(LinearReadEvent::ReadRequest(n))) => n,
+            Some(Ok(LinearReadEvent::Record { data, opcode })) => {
+                let record = mcap::parse_record(opcode, data).map_err(|e| refused(e, at))?;
+                match record {
+                    Record::DataEnd(_) | Record::Footer(_) => return Ok(()),
+                    Record::Schema { header, .. } => {
+                        schemas.insert(header.id, header.name);
+                    }
+                    Record::Channel(c) => {
+                        let channel = Channel {
+                            topic: c.topic,
+                            schema: c.schema_id,
+                            encoding: c.message_encoding,
+                        };
+                        channels.insert(c.id, channel);
+                    }
+                    Record::Message { header, data } => {
+                        let id = header.channel_id;
+                        let c = channels.get(&id).ok_or_else(|| ImportError::Corrupt {
+                            reason: format!("message on channel {id}, which no record declared"),
+                        })?;
+                        if c.encoding == "cdr" {
+                            let msg_type = schemas.get(&c.schema).map_or("", String::as_str);
+                            on_message(BagMessage {
+                                topic: &c.topic,
+                                msg_type,
+                                data: &data,
+                            })?;
+                        }
+                    }
+                    _ => {}
                 }
+                continue;
             }
-            _ => handle(op, &content, &mut state, on_message)?,
-        }
+        };
+        let got = fill(r, reader.insert(want))?;
+        at += got as u64;
+        reader.notify_read(got);
     }
-    Ok(())
 }
 
-fn chunk_records(content: &[u8]) -> Result<Vec<u8>, ImportError> {
-    let mut f = Fields { buf: content };
-    f.u64()?; // message start time
-    f.u64()?; // message end time
-    let size = f.u64()?;
-    f.u32()?; // crc
-    let compression = f.string()?;
-    let len = f.u64()?;
-    let records = f.take(len)?;
-    let out = match compression.as_str() {
-        "" => records.to_vec(),
-        "lz4" => super::lz4_frame(records, Some(size))?,
-        _ => return Err(ImportError::Compression { compression }),
-    };
-    if out.len() as u64 != size {
-        return Err(ImportError::Corrupt {
-            reason: format!("chunk of {} bytes, its header says {size}", out.len()),
-        });
+/// Reads up to `buf.len()` bytes (fewer only at the end of the input).
+fn fill(r: &mut impl Read, buf: &mut [u8]) -> Result<usize, ImportError> {
+    let mut got = 0;
+    while got < buf.len() {
+        match r.read(&mut buf[got..]) {
+            Ok(0) => break,
+            Ok(n) => got += n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(ImportError::Read(e.to_string())),
+        }
     }
-    Ok(out)
+    Ok(got)
 }
 
-fn handle(
-    op: u8,
-    content: &[u8],
-    state: &mut State,
-    on_message: &mut dyn FnMut(BagMessage<'_>) -> Result<(), ImportError>,
-) -> Result<(), ImportError> {
-    let mut f = Fields { buf: content };
-    match op {
-        OP_SCHEMA => {
-            let id = f.u16()?;
-            let name = f.string()?;
-            state.schemas.insert(id, name);
+/// The import error of an `mcap` crate error, `at` bytes into the file.
+fn refused(e: mcap::McapError, at: u64) -> ImportError {
+    match e {
+        mcap::McapError::UnexpectedEof | mcap::McapError::UnexpectedEoc => {
+            ImportError::Truncated { offset: at }
         }
-        OP_CHANNEL => {
-            let id = f.u16()?;
-            let schema = f.u16()?;
-            let topic = f.string()?;
-            let encoding = f.string()?;
-            let channel = Channel {
-                topic,
-                schema,
-                encoding,
-            };
-            state.channels.insert(id, channel);
+        mcap::McapError::UnsupportedCompression(compression) => {
+            ImportError::Compression { compression }
         }
-        OP_MESSAGE => {
-            let id = f.u16()?;
-            f.u32()?; // sequence
-            f.u64()?; // log time
-            f.u64()?; // publish time
-            let c = state
-                .channels
-                .get(&id)
-                .ok_or_else(|| ImportError::Corrupt {
-                    reason: format!("message on channel {id}, which no record declared"),
-                })?;
-            if c.encoding != "cdr" {
-                return Ok(());
-            }
-            let msg_type = state.schemas.get(&c.schema).map_or("", String::as_str);
-            on_message(BagMessage {
-                topic: &c.topic,
-                msg_type,
-                data: f.buf,
-            })?;
-        }
-        _ => {}
+        e => ImportError::Corrupt {
+            reason: format!("MCAP: {e}"),
+        },
     }
-    Ok(())
 }

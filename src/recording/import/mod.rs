@@ -83,7 +83,7 @@ pub enum ImportError {
         reason: String,
     },
     /// A chunk compression this reader does not decompress.
-    #[error("chunks compressed with `{compression}` are not read (none and lz4 are)")]
+    #[error("chunks compressed with `{compression}` are not read (rosbag: none and lz4; MCAP: none, lz4 and zstd)")]
     Compression {
         /// The compression named by the chunk.
         compression: String,
