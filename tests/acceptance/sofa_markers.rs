@@ -51,7 +51,21 @@ fn the_sofa_finger_locates_marker_forces_with_no_silent_miss() {
     let Some(all) = run(test, &FINGER, 1, 12) else {
         return;
     };
-    assert_eq!(all.silent, 0, "{}", all.line());
+    // Sweep (seed 1720134017, 50 loads): known location within 5% 48%, within 2 sigma 66%;
+    // among the three candidates none located, every frame flagged, 2 sigma covering 100%.
+    floors(&all, [0.25, 0.45, 0.8]);
+}
+
+/// No silent miss and no phantom, and the shares (of all loads) of: the known location's
+/// magnitude within 5%, within 2σ, and the three-candidate estimate within 2σ.
+fn floors(all: &Tally, [within_5, known_covered, covered]: [f64; 3]) {
+    let line = all.line();
+    let share = |n: usize| n as f64 / all.loads as f64;
+    assert_eq!(all.silent, 0, "{line}");
+    assert_eq!(all.phantoms, 0, "{line}");
+    assert!(share(all.known_within_5) >= within_5, "{line}");
+    assert!(share(all.known_covered) >= known_covered, "{line}");
+    assert!(share(all.covered) >= covered, "{line}");
 }
 
 #[test]
@@ -60,5 +74,7 @@ fn the_sofa_pneunet_locates_marker_forces_with_no_silent_miss() {
     let Some(all) = run(test, &PNEUNET, 1, 12) else {
         return;
     };
-    assert_eq!(all.silent, 0, "{}", all.line());
+    // Sweep (seed 3057377471, 50 loads): known location within 5% 62%, within 2 sigma 96%;
+    // among the three candidates 2 located, 48 frames flagged, 2 sigma covering 94%.
+    floors(&all, [0.35, 0.75, 0.75]);
 }
