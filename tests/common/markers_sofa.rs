@@ -255,7 +255,7 @@ fn score(frame: &serde_json::Value, c: usize, magnitude: f64) -> Trial {
         hidden: frame["hidden"].as_array().map_or(0, |h| h.len()),
         i_w: f64_at(&frame["i_w_n_per_m"]),
         known: [f64::NAN; 2],
-        silent: !flagged && (!located || !(estimate.is_finite() && !bad) || phantoms > 0),
+        silent: !flagged && (!located || !estimate.is_finite() || bad || phantoms > 0),
     }
 }
 
