@@ -37,5 +37,7 @@ mod recording_folder;
 mod sense_places;
 #[path = "acceptance/sense_reference.rs"]
 mod sense_reference;
+#[path = "acceptance/sofa_markers.rs"]
+mod sofa_markers;
 #[path = "acceptance/sofa_robots.rs"]
 mod sofa_robots;

@@ -9,6 +9,7 @@ pub mod fem;
 pub mod markers;
 pub mod markers_painted;
 pub mod markers_sensitivity;
+pub mod markers_sofa;
 pub mod membrane;
 pub mod oracle;
 

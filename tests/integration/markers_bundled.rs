@@ -371,3 +371,36 @@ fn markers_render_writes_one_picture_per_frame_of_two_panels() {
         assert!(f == "frame_0000.png" || red > 50, "{f}: {red} force pixels");
     }
 }
+
+/// On the SOFA finger (three candidates along a cantilever, 5σ of 1-7 N against 0.14-0.5 N
+/// loads) every loaded frame located nothing and said nothing. A frame that locates no
+/// force now says, per candidate, the smallest force it would have found; a frame that
+/// locates one does not.
+#[test]
+fn a_frame_that_locates_no_force_says_how_large_a_force_could_go_unseen() {
+    let args = [
+        "markers",
+        "--json",
+        "clouds/markers/robot/tracks.csv",
+        "meshes/models/robot.toml",
+    ];
+    let out = crate::cli::softsense(&args);
+    assert!(out.status.success(), "{}", crate::cli::stderr(&out));
+    let frames: Vec<Value> = (String::from_utf8_lossy(&out.stdout).lines())
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let unseen = |f: &Value| {
+        (f["warnings"].as_array().unwrap().iter())
+            .filter_map(Value::as_str)
+            .find(|w| w.starts_with("no force located"))
+            .map(str::to_string)
+    };
+    // Frame 0 is the unloaded reference: nothing located, both candidates' limits named.
+    assert!(frames[0]["located"].as_array().unwrap().is_empty());
+    let w = unseen(&frames[0]).expect("frame 0 says what it could not see");
+    assert!(w.contains("hook ") && w.contains("top-east "), "{w}");
+    for f in &frames[1..] {
+        assert!(!f["located"].as_array().unwrap().is_empty(), "{f}");
+        assert_eq!(unseen(f), None, "{f}");
+    }
+}

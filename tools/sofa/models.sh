@@ -70,3 +70,6 @@ done
 for robot in finger pneunet; do
     cp "$root/tools/sweeps/${robot}_one_probe.toml" "$out/"
 done
+for extra in finger_two_cameras; do
+    cp "$root/tools/sweeps/$extra.toml" "$out/"
+done
