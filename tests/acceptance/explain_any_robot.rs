@@ -36,13 +36,25 @@ fn hidden_and_explain_run_on_the_sofa_finger_and_shrink_the_held_out_residual() 
     // The seed of docs/accuracy.md's run, drawn from /dev/urandom.
     let seed = "3851458213";
     softsense(
-        &["hidden", ds, "--model", model, "--effects", "young", "--seed", seed],
+        &[
+            "hidden",
+            ds,
+            "--model",
+            model,
+            "--effects",
+            "young",
+            "--seed",
+            seed,
+        ],
         &data,
     );
     let frames = format!("{ds}/frames");
     let text = softsense(&["explain", model, &frames], &data);
     assert!(text.contains("explained:"), "{text}");
-    let line = text.lines().find(|l| l.starts_with("held-out RMS")).unwrap();
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("held-out RMS"))
+        .unwrap();
     let mm: Vec<f64> = line
         .split_whitespace()
         .filter_map(|w| w.parse().ok())
