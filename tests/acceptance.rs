@@ -11,6 +11,8 @@ mod calibrate;
 mod cameras;
 #[path = "acceptance/control.rs"]
 mod control;
+#[path = "acceptance/explain_any_robot.rs"]
+mod explain_any_robot;
 #[path = "acceptance/explain_hidden.rs"]
 mod explain_hidden;
 #[path = "acceptance/explain_truth.rs"]

@@ -96,6 +96,8 @@ mod calibrate_pso;
 mod contact;
 #[path = "unit/discrepancy.rs"]
 mod discrepancy;
+#[path = "unit/discrepancy_body.rs"]
+mod discrepancy_body;
 #[path = "unit/discrepancy_truth.rs"]
 mod discrepancy_truth;
 

@@ -211,52 +211,13 @@ impl Camera {
         if width == 0 || height == 0 || !(elevation_deg.abs() < 89.9) || !azimuth_deg.is_finite() {
             return None;
         }
-        let finite = || {
-            points_in_robot
-                .iter()
-                .filter(|p| p.iter().all(|c| c.is_finite()))
-        };
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        for p in finite() {
-            for k in 0..3 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
-            }
-        }
-        if !(lo[0] <= hi[0]) {
-            return None;
-        }
-        let centre = [0, 1, 2].map(|k| 0.5 * (lo[k] + hi[k]));
-        let radius = (0..3)
-            .map(|k| (hi[k] - lo[k]).powi(2))
-            .sum::<f64>()
-            .sqrt()
-            .max(1e-9)
-            * 0.5;
         let (az, el) = (azimuth_deg.to_radians(), elevation_deg.to_radians());
         // Direction from the centre to the eye.
         let back = [el.cos() * az.cos(), el.cos() * az.sin(), el.sin()];
         let fx = 0.5 * f64::from(width) / (25f64.to_radians()).tan();
-        let z = back.map(|c| -c);
-        let x = normalize(cross(z, [0.0, 0.0, 1.0]))?;
-        let y = cross(z, x);
-        // The nearest eye distance that keeps every point inside the picture less a 5%
-        // margin: a point q (from the centre) sits at depth z·q + d and needs
-        // |x·q| <= tan_x (z·q + d), likewise for y.
-        let tan_x = 0.45 * f64::from(width) / fx;
-        let tan_y = 0.45 * f64::from(height) / fx;
-        let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-        let mut dist = radius * 1e-3;
-        for p in finite() {
-            let q = [0, 1, 2].map(|k| p[k] - centre[k]);
-            let (qx, qy, qz) = (dot(x, q), dot(y, q), dot(z, q));
-            dist = dist
-                .max(qx.abs() / tan_x - qz)
-                .max(qy.abs() / tan_y - qz)
-                .max(radius * 1e-3 - qz);
-        }
-        let eye = [0, 1, 2].map(|k| centre[k] + dist * back[k]);
+        // Every point inside the picture less a 5% margin.
+        let tan = [0.45 * f64::from(width) / fx, 0.45 * f64::from(height) / fx];
+        let ([x, y, z], eye) = framing(points_in_robot, back, [0.0, 0.0, 1.0], tan)?;
         // Rows of camera_from_robot's rotation are the camera axes in the robot frame.
         let rotation = [x, y, z];
         let translation = [0, 1, 2].map(|i| {
@@ -288,6 +249,55 @@ impl Camera {
             "intrinsic_matrix": [k.fx, 0.0, 0.0, 0.0, k.fy, 0.0, k.cx, k.cy, 1.0],
         })
     }
+}
+
+/// The camera axes (x, y, z: image right, image down, view) and the eye of a camera looking
+/// at the bounding-box centre of all finite `points` from direction `back` (centre to
+/// eye), image y against `up`, from the nearest distance at which every point is within
+/// `tan` (tangents of the half-angles across x and y) of the optical axis. `None` when
+/// there is no finite point or `up` is parallel to `back`.
+pub fn framing(
+    points: &[[f64; 3]],
+    back: [f64; 3],
+    up: [f64; 3],
+    tan: [f64; 2],
+) -> Option<([[f64; 3]; 3], [f64; 3])> {
+    let finite = || points.iter().filter(|p| p.iter().all(|c| c.is_finite()));
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in finite() {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    if !(lo[0] <= hi[0]) {
+        return None;
+    }
+    let centre = [0, 1, 2].map(|k| 0.5 * (lo[k] + hi[k]));
+    let radius = (0..3)
+        .map(|k| (hi[k] - lo[k]).powi(2))
+        .sum::<f64>()
+        .sqrt()
+        .max(1e-9)
+        * 0.5;
+    let back = normalize(back)?;
+    let z = back.map(|c| -c);
+    let x = normalize(cross(z, up))?;
+    let y = cross(z, x);
+    // A point q (from the centre) sits at depth z·q + d and needs |x·q| <= tan_x (z·q + d),
+    // likewise for y.
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let mut dist = radius * 1e-3;
+    for p in finite() {
+        let q = [0, 1, 2].map(|k| p[k] - centre[k]);
+        let (qx, qy, qz) = (dot(x, q), dot(y, q), dot(z, q));
+        dist = dist
+            .max(qx.abs() / tan[0] - qz)
+            .max(qy.abs() / tan[1] - qz)
+            .max(radius * 1e-3 - qz);
+    }
+    Some(([x, y, z], [0, 1, 2].map(|k| centre[k] + dist * back[k])))
 }
 
 /// `a × b`.

@@ -4,7 +4,9 @@
 use super::{print_json, CliError, CliResult};
 use clap::Args;
 use softsense::discrepancy::data::load_frames;
-use softsense::discrepancy::generate::{generate_dataset, layout, DatasetSpec, EFFECT_TYPES};
+use softsense::discrepancy::generate::{
+    camera_for, generate_dataset, layout, DatasetSpec, EFFECT_TYPES,
+};
 use softsense::discrepancy::report::{describe, write_report};
 use softsense::discrepancy::truth::parse_truth;
 use softsense::discrepancy::{explain, DiscrepancyParams, Explanation, Outcome};
@@ -210,7 +212,11 @@ fn truth_arg(s: &str) -> Result<TruthRanges, String> {
 
 /// Runs `hidden`.
 pub fn run_hidden(args: &HiddenArgs) -> CliResult {
+    // The default camera frames the four-legged robot; another body gets one aimed at it.
+    let model = Model::load(&args.model, None).map_err(softsense::Error::from)?;
+    let camera = camera_for(&model).map_err(softsense::Error::from)?;
     let spec = DatasetSpec {
+        camera,
         model: args.model.clone(),
         frames: args.frames,
         seed: args.seed,

@@ -1,7 +1,7 @@
 //! The library of candidate effects: each a parametrised change of the model (or of the
 //! measurement), applied exactly for simulation and linearised for fitting.
 
-use super::features::leg_of;
+use super::body::{Body, TOP_TETS};
 use super::{DiscrepancyError, DiscrepancyResult};
 use crate::camera::Camera;
 use crate::fem::material::Material;
@@ -123,15 +123,16 @@ impl Effect {
     }
 }
 
-/// Leg index of each tetrahedron (None for the base block and the top platform).
-pub fn tet_legs(problem: &Problem) -> Vec<Option<usize>> {
+/// Side ([`Body::sector`]) of each tetrahedron by its centroid: None in the clamp and
+/// from [`TOP_TETS`] of the free length (the four-legged robot's base block and top
+/// platform; its legs are the sides).
+pub fn tet_legs(problem: &Problem, body: &Body) -> Vec<Option<usize>> {
     let m = &problem.mesh;
     (0..m.tets.len())
         .map(|t| {
             let c = m.corners(t);
             let p = [0, 1, 2].map(|k| c.iter().map(|q| q[k]).sum::<f64>() / 4.0);
-            let base = p[0].abs() <= 0.015 && p[1].abs() <= 0.015 && p[2] <= 0.0125;
-            (!base && p[2] < 0.11).then(|| leg_of(p))
+            (!body.in_clamp(p) && body.height(p) < TOP_TETS).then(|| body.sector(p))
         })
         .collect()
 }

@@ -6,36 +6,24 @@
 //! cube side (about 2.9 mm) from the face's edges, farther than the registration's line
 //! radius, so its line only sees points of its own flat face: unbiased.
 
+use super::body::{Body, TOP_REGION};
 use crate::fem::mesh::Surface;
 use crate::fem::solve::MappedPoint;
 use crate::register::{farthest_point_sampling, LineMatch, RegisterParams, Registrar};
 use serde::Serialize;
 
-/// Names of the surface regions residuals are gathered in.
+/// Names of the surface regions residuals are gathered in: the far end of the body, then
+/// its four sides about its axis ([`Body::sector`]; the four-legged robot's top platform
+/// and legs).
 pub const REGION_NAMES: [&str; 5] = ["top", "north-leg", "east-leg", "south-leg", "west-leg"];
 
-/// Region index of a rest position (m): the top platform above 105 mm, else the leg whose
-/// axis dominates the horizontal position.
-pub fn region_of(p: [f64; 3]) -> usize {
-    if p[2] >= 0.105 {
+/// Region index of a rest position (m): the far end from [`TOP_REGION`] of the free
+/// length, else its side about the axis.
+pub fn region_of(body: &Body, p: [f64; 3]) -> usize {
+    if body.height(p) >= TOP_REGION {
         0
     } else {
-        leg_of(p) + 1
-    }
-}
-
-/// Leg index (0 north +y, 1 east +x, 2 south -y, 3 west -x) of a horizontal position.
-pub fn leg_of(p: [f64; 3]) -> usize {
-    if p[1].abs() >= p[0].abs() {
-        if p[1] >= 0.0 {
-            0
-        } else {
-            2
-        }
-    } else if p[0] >= 0.0 {
-        1
-    } else {
-        3
+        body.sector(p) + 1
     }
 }
 
@@ -77,14 +65,16 @@ impl Feature {
 }
 
 /// Chooses up to `count` triangles spread evenly (farthest-point sampling of centroids)
-/// among those above `min_z` (m; the fixed base does not move) whose surroundings within
+/// among those higher than `min_height` along the body (a fraction of its free length,
+/// [`Body::height`]: near the clamp the body does not move) whose surroundings within
 /// `flat_radius` (m) are one plane: a face can then slide by about that much before its
 /// normal line leaves the plane, which keeps the residual linear in the model change.
 pub fn choose_features(
     x: &[[f64; 3]],
     surface: &Surface,
     count: usize,
-    min_z: f64,
+    body: &Body,
+    min_height: f64,
     flat_radius: f64,
 ) -> Vec<Feature> {
     let tri = &surface.triangles;
@@ -115,7 +105,7 @@ pub fn choose_features(
         })
     };
     let candidates: Vec<usize> = (0..geo.len())
-        .filter(|&i| geo[i].0[2] > min_z && flat(i))
+        .filter(|&i| body.height(geo[i].0) > min_height && flat(i))
         .collect();
     let centroids: Vec<[f64; 3]> = geo.iter().map(|g| g.0).collect();
     farthest_point_sampling(&centroids, &candidates, count)
@@ -123,7 +113,7 @@ pub fn choose_features(
         .map(|i| Feature {
             triangle: tri[i],
             rest: centroids[i],
-            region: region_of(centroids[i]),
+            region: region_of(body, centroids[i]),
         })
         .collect()
 }

@@ -3,16 +3,20 @@
 //! hidden effects with random parameters, frames under varied cable inputs, the truth
 //! written to a separate file the workflow never reads.
 
+use super::body::Body;
 use super::effects::{apply_model, rotation, rotation_vector, tet_legs, Effect, EffectKind};
 use super::{load_candidates, DiscrepancyError, DiscrepancyResult};
 use crate::fem::model::Model;
+use crate::fem::solve::Problem;
 use crate::math::rand::{normal, uniform};
 use crate::recording::schema::TruthModel;
 use crate::recording::RecordingWriter;
 use crate::scene::camera::CameraSpec;
 use crate::scene::sensor::SensorModel;
 use crate::scene::truth::TruthRanges;
-use crate::scene::{render_frame, CableInput, FrameInput, LoadInput, LoadKind, Scene, SceneSpec};
+use crate::scene::{
+    render_frame, CableInput, CavityInput, FrameInput, LoadInput, LoadKind, Scene, SceneSpec,
+};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -70,6 +74,10 @@ pub struct DatasetSpec {
     pub sensor: SensorModel,
     /// Range of the recorded cable tensions (N).
     pub tension: [f64; 2],
+    /// Range of the recorded cavity pressures (Pa); default 0 to 20 kPa (the PneuNet's tip
+    /// moves by about a tenth of its length at 15 kPa).
+    #[serde(default = "default_pressure")]
+    pub pressure: [f64; 2],
     /// The body the frames are rendered from when it is not the model: a scene file's
     /// `[truth]` keys (numbers, or ranges `[lo, hi]` drawn from `seed`), its mesh path
     /// absolute. Default none: the model itself ([`super::truth::parse_truth`] reads it).
@@ -88,9 +96,14 @@ impl Default for DatasetSpec {
             camera: small_camera(),
             sensor: SensorModel::default(),
             tension: [0.0, 2.0],
+            pressure: default_pressure(),
             truth: None,
         }
     }
+}
+
+fn default_pressure() -> [f64; 2] {
+    [0.0, 20e3]
 }
 
 /// A 400x300 crop of the default D415-like camera (same focal length): the robot fills it
@@ -103,6 +116,75 @@ pub fn small_camera() -> CameraSpec {
         cy: 149.5,
         ..CameraSpec::default()
     }
+}
+
+/// The recorded camera for a model: [`small_camera`] when it frames the body (every rest
+/// node in the picture, spanning at least [`MIN_SPAN`] of its width or height, as the
+/// four-legged robot does), else one aimed at the body ([`aimed_camera`]).
+pub fn camera_for(model: &Model) -> DiscrepancyResult<CameraSpec> {
+    let small = small_camera();
+    let x = &model.problem.mesh.nodes_in_rest;
+    let cam = small
+        .camera()
+        .ok_or_else(|| DiscrepancyError::Data("the default camera is degenerate".into()))?;
+    let (w, h) = (f64::from(small.width), f64::from(small.height));
+    let mut lo = [f64::INFINITY; 2];
+    let mut hi = [f64::NEG_INFINITY; 2];
+    let mut inside = true;
+    for p in x {
+        match cam.project_robot(*p) {
+            Some((uv, _)) if (0.0..w).contains(&uv[0]) && (0.0..h).contains(&uv[1]) => {
+                (0..2).for_each(|k| {
+                    lo[k] = lo[k].min(uv[k]);
+                    hi[k] = hi[k].max(uv[k]);
+                });
+            }
+            _ => inside = false,
+        }
+    }
+    let spans = hi[0] - lo[0] >= MIN_SPAN * w || hi[1] - lo[1] >= MIN_SPAN * h;
+    if inside && spans {
+        return Ok(small);
+    }
+    aimed_camera(model)
+}
+
+/// Least share of the picture's width or height a body framed by [`small_camera`] spans.
+pub const MIN_SPAN: f64 = 0.4;
+
+/// [`small_camera`]'s intrinsics looking at the bounding-box centre of the rest body from
+/// across its axis ([`Body::axis`]): from the default camera's direction made perpendicular
+/// to the axis, at the distance where the body fills 70% of the picture (room for it to
+/// bend).
+pub fn aimed_camera(model: &Model) -> DiscrepancyResult<CameraSpec> {
+    let small = small_camera();
+    let axis = Body::of(&model.problem)?.axis();
+    let d0 = crate::math::sub(small.eye, small.target);
+    let along = crate::math::dot(d0, axis);
+    let mut back = [0, 1, 2].map(|k| d0[k] - along * axis[k]);
+    if crate::math::norm(back) < 1e-6 {
+        back = crate::math::tangents(axis).0;
+    }
+    // Robot z stays up in the picture unless the view is along it.
+    let back = crate::math::unit(back);
+    let up = if back[2].abs() > 0.99 {
+        axis
+    } else {
+        [0.0, 0.0, 1.0]
+    };
+    let tan = [
+        0.35 * f64::from(small.width) / small.fx,
+        0.35 * f64::from(small.height) / small.fy,
+    ];
+    let (_, eye) = crate::camera::framing(&model.problem.mesh.nodes_in_rest, back, up, tan)
+        .ok_or_else(|| DiscrepancyError::Data("no camera frames the body".into()))?;
+    let b = model.problem.mesh.bbox();
+    Ok(CameraSpec {
+        eye,
+        target: [0, 1, 2].map(|k| 0.5 * (b[0][k] + b[1][k])),
+        up,
+        ..small
+    })
 }
 
 /// The truth file of a dataset.
@@ -189,6 +271,7 @@ fn draw(
         "point_load" | "varying_load" => {
             let cands = load_candidates(
                 &model.problem,
+                &Body::of(&model.problem)?,
                 super::DiscrepancyParams::default().load_candidates,
             );
             let node = cands
@@ -296,7 +379,7 @@ pub fn generate_dataset(
         .iter()
         .map(|e| draw(e, &mut rng, spec.magnitude, &nominal, spec.frames))
         .collect::<DiscrepancyResult<Vec<_>>>()?;
-    let recorded = recorded_inputs(spec, &nominal, &mut rng);
+    let recorded = recorded_inputs(spec, &nominal, &mut rng)?;
     // The truth's draws are on a stream of their own (as a sweep's), so a dataset with a
     // `--truth` hides the same effects under the same inputs as one without.
     let drawn = (spec.truth.as_ref()).map(|t| t.draw(spec.seed, 0, None));
@@ -327,18 +410,79 @@ pub fn generate_dataset(
     Ok(truth)
 }
 
-/// Recorded inputs: force-controlled cables, tensions from a Latin hypercube.
-fn recorded_inputs(spec: &DatasetSpec, nominal: &Model, rng: &mut Rng) -> Vec<FrameInput> {
+/// Least movement (fraction of the free length, [`Body::length`]) of the body between an
+/// actuator's lowest and highest recorded input; a range that moves it less is stretched.
+pub const MIN_STROKE: f64 = 0.1;
+
+/// The inputs of the recorded actuators (the cables' then the cavities') as a frame: each
+/// at the bottom of its range but actuator `i` at `top`.
+fn one_up(p: &Problem, spec: &DatasetSpec, i: Option<usize>, top: f64) -> FrameInput {
+    let at = |k: usize, r: [f64; 2]| if Some(k) == i { top } else { r[0] };
+    FrameInput {
+        cables: (p.cables.iter().enumerate())
+            .map(|(k, c)| CableInput {
+                name: c.name.clone(),
+                shorten: None,
+                force: Some(at(k, spec.tension)),
+            })
+            .collect(),
+        cavities: (p.cavities.iter().enumerate())
+            .map(|(k, c)| CavityInput {
+                name: c.name.clone(),
+                pressure: Some(at(p.cables.len() + k, spec.pressure)),
+                volume: None,
+            })
+            .collect(),
+        loads: Vec::new(),
+    }
+}
+
+/// Each actuator's recorded range: `spec.tension` (cables) or `spec.pressure` (cavities),
+/// its top raised until the actuator alone moves some node by [`MIN_STROKE`] of the free
+/// length (a stiff body, such as the SOFA finger at 18 MPa, hardly bends at 2 N, and its
+/// hidden effects would stay below the noise). Linear in the input; never lowered.
+pub fn input_ranges(spec: &DatasetSpec, nominal: &Model) -> DiscrepancyResult<Vec<[f64; 2]>> {
+    let p = &nominal.problem;
+    let ranges: Vec<[f64; 2]> = (p.cables.iter().map(|_| spec.tension))
+        .chain(p.cavities.iter().map(|_| spec.pressure))
+        .collect();
+    let solve = |input: &FrameInput| -> DiscrepancyResult<Vec<[f64; 3]>> {
+        let q = super::frame_problem(nominal, input)?;
+        Ok(q.solve_static(&nominal.newton)?.positions)
+    };
+    let bottom = solve(&one_up(p, spec, None, 0.0))?;
+    let stroke = MIN_STROKE * Body::of(p)?.length();
+    let mut out = Vec::with_capacity(ranges.len());
+    for (i, r) in ranges.iter().enumerate() {
+        let top = solve(&one_up(p, spec, Some(i), r[1]))?;
+        let moved = (top.iter().zip(&bottom))
+            .map(|(a, b)| crate::math::dist(*a, *b))
+            .fold(0.0, f64::max);
+        let scale = if moved > 0.0 {
+            (stroke / moved).max(1.0)
+        } else {
+            1.0
+        };
+        out.push([r[0], r[0] + (r[1] - r[0]) * scale]);
+    }
+    Ok(out)
+}
+
+/// Recorded inputs from a Latin hypercube over [`input_ranges`]: force-controlled cables,
+/// then pressure-controlled cavities.
+fn recorded_inputs(
+    spec: &DatasetSpec,
+    nominal: &Model,
+    rng: &mut Rng,
+) -> DiscrepancyResult<Vec<FrameInput>> {
     // Every cable sweeps the whole range once (one frame per stratum, in its own random
     // order), so the cables vary independently and the design stays well conditioned for
     // any number of frames (independent uniform draws can leave a cable nearly constant
     // or two cables nearly collinear over 8 frames, hiding per-cable effects).
     let n = spec.frames;
-    let tensions: Vec<Vec<f64>> = nominal
-        .problem
-        .cables
-        .iter()
-        .map(|_| {
+    let p = &nominal.problem;
+    let values: Vec<Vec<f64>> = (input_ranges(spec, nominal)?.into_iter())
+        .map(|range| {
             let mut order: Vec<usize> = (0..n).collect();
             for i in (1..n).rev() {
                 let j = ((rng.u() * (i + 1) as f64) as usize).min(i);
@@ -348,28 +492,30 @@ fn recorded_inputs(spec: &DatasetSpec, nominal: &Model, rng: &mut Rng) -> Vec<Fr
                 .iter()
                 .map(|&s| {
                     let t = (s as f64 + rng.u()) / n as f64;
-                    lerp(spec.tension[0], spec.tension[1], t)
+                    lerp(range[0], range[1], t)
                 })
                 .collect()
         })
         .collect();
-    (0..n)
+    Ok((0..n)
         .map(|i| FrameInput {
-            cables: nominal
-                .problem
-                .cables
-                .iter()
-                .zip(&tensions)
+            cables: (p.cables.iter().zip(&values))
                 .map(|(c, t)| CableInput {
                     name: c.name.clone(),
                     shorten: None,
                     force: Some(t[i]),
                 })
                 .collect(),
-            cavities: Vec::new(),
+            cavities: (p.cavities.iter().zip(&values[p.cables.len()..]))
+                .map(|(c, v)| CavityInput {
+                    name: c.name.clone(),
+                    pressure: Some(v[i]),
+                    volume: None,
+                })
+                .collect(),
             loads: Vec::new(),
         })
-        .collect()
+        .collect())
 }
 
 /// The truth's mesh file as `truth_hidden.json` names it: its own, or the model's.
@@ -400,7 +546,7 @@ fn true_world(
         stiffening: None,
     };
     // The legs of the body's own tetrahedra: its mesh may not be the model's.
-    let legs = tet_legs(&body.problem);
+    let legs = tet_legs(&body.problem, &Body::of(&body.problem)?);
     for h in hidden {
         match h {
             Hidden::Library(e) => match e.kind {

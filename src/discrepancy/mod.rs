@@ -37,6 +37,7 @@
 //! assert!((0..3).all(|k| (back[k] - w[k]).abs() < 1e-12));
 //! ```
 
+pub mod body;
 pub mod data;
 pub mod effects;
 mod explanation;

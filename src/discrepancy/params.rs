@@ -9,8 +9,9 @@ pub struct DiscrepancyParams {
     pub holdout: f64,
     /// Number of feature points (surface-triangle centroids); default 300.
     pub features: usize,
-    /// Features below this height (m) are skipped (the fixed base); default 0.02.
-    pub min_feature_z: f64,
+    /// Features this near the clamp are skipped (they hardly move): height above the fixed
+    /// nodes as a fraction of the body's free length along its axis; default 0.1.
+    pub min_feature_height: f64,
     /// Features need one flat plane around them within this radius (m); default 0.006.
     pub flat_radius: f64,
     /// Normal-line radius of the registration (m); default 0.0015.
@@ -61,7 +62,7 @@ impl Default for DiscrepancyParams {
         Self {
             holdout: 0.25,
             features: 300,
-            min_feature_z: 0.02,
+            min_feature_height: super::body::FEATURE_HEIGHT,
             flat_radius: 0.006,
             line_radius: 0.0015,
             line_length: 0.008,

@@ -2,6 +2,7 @@
 //! the model, the recording, the feature points, the candidate effects and the per-frame
 //! contexts.
 
+use super::body::{Body, LOAD_HEIGHT};
 use super::effects::{tet_legs, Effect, EffectKind};
 use super::explanation::{Explanation, FittedEffect, Outcome, RegionStats, Residual};
 use super::features::{choose_features, Feature};
@@ -17,21 +18,26 @@ use nalgebra::DMatrix;
 /// Effects kept or tried: candidate index and parameters.
 pub(super) type Kept = Vec<(usize, Vec<f64>)>;
 
-/// Candidate nodes of an unmodelled point load: surface nodes above 30 mm spread evenly.
-pub fn load_candidates(problem: &Problem, count: usize) -> Vec<usize> {
+/// Candidate nodes of an unmodelled point load: surface nodes higher than [`LOAD_HEIGHT`]
+/// of the body's free length, spread evenly.
+pub fn load_candidates(problem: &Problem, body: &Body, count: usize) -> Vec<usize> {
     let s = problem.mesh.surface();
     let x = &problem.mesh.nodes_in_rest;
     let c: Vec<usize> = s
         .nodes
         .iter()
         .copied()
-        .filter(|&v| x[v][2] > 0.03)
+        .filter(|&v| body.height(x[v]) > LOAD_HEIGHT)
         .collect();
     farthest_point_sampling(x, &c, count)
 }
 
 /// The library's candidate effects for a model.
-pub fn candidate_kinds(problem: &Problem, params: &DiscrepancyParams) -> Vec<EffectKind> {
+pub fn candidate_kinds(
+    problem: &Problem,
+    body: &Body,
+    params: &DiscrepancyParams,
+) -> Vec<EffectKind> {
     let mut v = vec![EffectKind::Gravity, EffectKind::Young, EffectKind::Poisson];
     v.extend((0..4).map(|leg| EffectKind::LegStiffness { leg }));
     if super::effects::actuator_count(problem) > 0 {
@@ -40,7 +46,7 @@ pub fn candidate_kinds(problem: &Problem, params: &DiscrepancyParams) -> Vec<Eff
     v.push(EffectKind::CameraPose);
     v.push(EffectKind::Depth);
     v.extend(
-        load_candidates(problem, params.load_candidates)
+        load_candidates(problem, body, params.load_candidates)
             .into_iter()
             .map(|node| EffectKind::PointLoad { node }),
     );
@@ -75,11 +81,13 @@ impl<'a> Workflow<'a> {
     ) -> DiscrepancyResult<Self> {
         let surface = model.problem.mesh.surface();
         let rest = &model.problem.mesh.nodes_in_rest;
+        let body = Body::of(&model.problem)?;
         let features = choose_features(
             rest,
             &surface,
             params.features,
-            params.min_feature_z,
+            &body,
+            params.min_feature_height,
             params.flat_radius,
         );
         if features.is_empty() {
@@ -87,8 +95,8 @@ impl<'a> Workflow<'a> {
                 "no feature point on the surface".into(),
             ));
         }
-        let legs = tet_legs(&model.problem);
-        let kinds = candidate_kinds(&model.problem, params);
+        let legs = tet_legs(&model.problem, &body);
+        let kinds = candidate_kinds(&model.problem, &body, params);
         let register = RegisterParams {
             features: features.len(),
             d_m: params.line_radius,
