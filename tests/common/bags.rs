@@ -162,12 +162,7 @@ pub fn rosbag1(messages: &[(&str, &str, Vec<u8>)], compression: &str) -> Vec<u8>
     }
     let size = chunk.len() as u32;
     let chunk = match compression {
-        "lz4" => {
-            use std::io::Write;
-            let mut e = lz4_flex::frame::FrameEncoder::new(vec![]);
-            e.write_all(&chunk).unwrap();
-            e.finish().unwrap()
-        }
+        "lz4" => lz4_frame(&chunk),
         _ => chunk,
     };
     let mut bag = b"#ROSBAG V2.0\n".to_vec();
@@ -236,12 +231,7 @@ pub fn mcap(messages: &[(&str, &str, Vec<u8>)], compression: &str) -> Vec<u8> {
     let size = inner.len() as u64;
     // A CRC of 0 means "not computed" in MCAP: readers skip the check.
     let records = match compression {
-        "lz4" => {
-            use std::io::Write;
-            let mut e = lz4_flex::frame::FrameEncoder::new(vec![]);
-            e.write_all(&inner).unwrap();
-            e.finish().unwrap()
-        }
+        "lz4" => lz4_frame(&inner),
         "zstd" => zstd::bulk::compress(&inner, 3).unwrap(),
         _ => inner,
     };
@@ -319,4 +309,12 @@ pub fn db3(path: &std::path::Path, messages: &[(&str, &str, Vec<u8>)]) {
         )
         .unwrap();
     }
+}
+
+/// `data` as one LZ4 frame (the `lz4` chunks of rosbag v1 and MCAP).
+fn lz4_frame(data: &[u8]) -> Vec<u8> {
+    use std::io::Write;
+    let mut e = lz4_flex::frame::FrameEncoder::new(vec![]);
+    e.write_all(data).unwrap();
+    e.finish().unwrap()
 }
