@@ -1,9 +1,13 @@
-//! The few ROS messages an import reads, decoded by hand from ROS 1 serialisation
-//! (little-endian, packed, `u32`-length-prefixed strings and arrays) or ROS 2 CDR (a 4-byte
-//! encapsulation header, then little-endian fields each aligned to its own size, counted
-//! from after the header; strings carry a trailing NUL).
+//! The few ROS messages an import reads, decoded through serde by the field's maintained
+//! crates: ROS 2 CDR by `cdr-encoding` (RustDDS's; it borrows the pixels), ROS 1
+//! serialisation by `roslibrust_serde_rosmsg` (roslibrust's). Only the message layouts are
+//! ours: each struct lists every field of the message in wire order, because both formats
+//! are positional.
 
 use super::ImportError;
+use serde::de::{Deserializer, Visitor};
+use serde::Deserialize;
+use std::borrow::Cow;
 
 /// How a message's bytes are laid out.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -14,7 +18,7 @@ pub enum Wire {
     Cdr,
 }
 
-/// `sensor_msgs/Image`, borrowing its pixels.
+/// `sensor_msgs/Image`, borrowing its pixels where the wire allows (CDR).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Image<'a> {
     /// Header stamp, nanoseconds.
@@ -30,7 +34,7 @@ pub struct Image<'a> {
     /// Bytes per row.
     pub step: u32,
     /// Row-major pixels.
-    pub data: &'a [u8],
+    pub data: Cow<'a, [u8]>,
 }
 
 /// The parts of `sensor_msgs/CameraInfo` an import uses.
@@ -44,190 +48,8 @@ pub struct CameraInfo {
     pub k: [f64; 9],
 }
 
-/// A cursor over one message's bytes.
-pub struct Cursor<'a> {
-    buf: &'a [u8],
-    pos: usize,
-    wire: Wire,
-    what: &'static str,
-}
-
-impl<'a> Cursor<'a> {
-    /// A cursor over `buf` (a CDR message starts with its encapsulation header, which is
-    /// checked and skipped); `what` names the message type in errors.
-    pub fn new(buf: &'a [u8], wire: Wire, what: &'static str) -> Result<Self, ImportError> {
-        let mut c = Self {
-            buf,
-            pos: 0,
-            wire,
-            what,
-        };
-        if wire == Wire::Cdr {
-            let head = c.take(4)?;
-            // 0x0001 is CDR little-endian; 0x0000 (big-endian) is never written by ROS 2.
-            if head[..2] != [0, 1] {
-                return Err(ImportError::Message {
-                    what,
-                    reason: format!(
-                        "CDR encapsulation {:02x}{:02x}: only little-endian CDR (0001) is read",
-                        head[0], head[1]
-                    ),
-                });
-            }
-            c.buf = &buf[4..];
-            c.pos = 0;
-        }
-        Ok(c)
-    }
-
-    fn take(&mut self, n: usize) -> Result<&'a [u8], ImportError> {
-        let end = self.pos.checked_add(n).filter(|&e| e <= self.buf.len());
-        let Some(end) = end else {
-            return Err(ImportError::Message {
-                what: self.what,
-                reason: format!(
-                    "truncated: {n} bytes wanted at byte {} of {}",
-                    self.pos,
-                    self.buf.len()
-                ),
-            });
-        };
-        let s = &self.buf[self.pos..end];
-        self.pos = end;
-        Ok(s)
-    }
-
-    fn align(&mut self, n: usize) -> Result<(), ImportError> {
-        if self.wire == Wire::Cdr {
-            let pad = (n - self.pos % n) % n;
-            self.take(pad)?;
-        }
-        Ok(())
-    }
-
-    fn fixed<const N: usize>(&mut self) -> Result<[u8; N], ImportError> {
-        self.align(N)?;
-        Ok(self.take(N)?.try_into().expect("take returned N bytes"))
-    }
-
-    /// A `uint8`/`bool`.
-    pub fn u8(&mut self) -> Result<u8, ImportError> {
-        Ok(self.take(1)?[0])
-    }
-
-    /// A `uint32`.
-    pub fn u32(&mut self) -> Result<u32, ImportError> {
-        Ok(u32::from_le_bytes(self.fixed()?))
-    }
-
-    /// A `float32`.
-    pub fn f32(&mut self) -> Result<f32, ImportError> {
-        Ok(f32::from_le_bytes(self.fixed()?))
-    }
-
-    /// A `float64`.
-    pub fn f64(&mut self) -> Result<f64, ImportError> {
-        Ok(f64::from_le_bytes(self.fixed()?))
-    }
-
-    /// A `uint8[]` (length-prefixed).
-    pub fn bytes(&mut self) -> Result<&'a [u8], ImportError> {
-        let n = self.u32()? as usize;
-        self.take(n)
-    }
-
-    /// A `string` (CDR: the length counts a trailing NUL, which is dropped).
-    pub fn string(&mut self) -> Result<String, ImportError> {
-        let mut raw = self.bytes()?;
-        if self.wire == Wire::Cdr {
-            raw = raw.strip_suffix(&[0]).unwrap_or(raw);
-        }
-        Ok(String::from_utf8_lossy(raw).into_owned())
-    }
-
-    /// A `float64[]` (length-prefixed).
-    pub fn f64_seq(&mut self) -> Result<Vec<f64>, ImportError> {
-        let n = self.u32()? as usize;
-        // A corrupt length must not allocate gigabytes before the bytes run out.
-        if n > self.buf.len() / 8 {
-            return Err(ImportError::Message {
-                what: self.what,
-                reason: format!("array of {n} float64 in a {}-byte message", self.buf.len()),
-            });
-        }
-        (0..n).map(|_| self.f64()).collect()
-    }
-
-    /// `std_msgs/Header`: the stamp in nanoseconds (the frame id is skipped).
-    pub fn header(&mut self) -> Result<i64, ImportError> {
-        if self.wire == Wire::Ros1 {
-            self.u32()?; // seq
-        }
-        let sec = self.u32()?;
-        let nsec = self.u32()?;
-        self.string()?;
-        // ROS 1 stamps are unsigned seconds, ROS 2 signed.
-        let sec = match self.wire {
-            Wire::Ros1 => i64::from(sec),
-            Wire::Cdr => i64::from(sec as i32),
-        };
-        Ok(sec * 1_000_000_000 + i64::from(nsec))
-    }
-}
-
-/// Decodes a `sensor_msgs/Image`.
-pub fn image(buf: &[u8], wire: Wire) -> Result<Image<'_>, ImportError> {
-    let mut c = Cursor::new(buf, wire, "sensor_msgs/Image")?;
-    let stamp_ns = c.header()?;
-    let height = c.u32()?;
-    let width = c.u32()?;
-    let encoding = c.string()?;
-    let big_endian = c.u8()? != 0;
-    let step = c.u32()?;
-    let data = c.bytes()?;
-    let rows_fit = (step as u64) * (height as u64) <= data.len() as u64;
-    if !rows_fit {
-        return Err(ImportError::Message {
-            what: "sensor_msgs/Image",
-            reason: format!(
-                "{width}x{height} image with {step} bytes per row holds only {} bytes",
-                data.len()
-            ),
-        });
-    }
-    Ok(Image {
-        stamp_ns,
-        width,
-        height,
-        encoding,
-        big_endian,
-        step,
-        data,
-    })
-}
-
-/// Decodes a `sensor_msgs/CameraInfo` (size and `K`).
-pub fn camera_info(buf: &[u8], wire: Wire) -> Result<CameraInfo, ImportError> {
-    let mut c = Cursor::new(buf, wire, "sensor_msgs/CameraInfo")?;
-    c.header()?;
-    let height = c.u32()?;
-    let width = c.u32()?;
-    c.string()?; // distortion model
-    c.f64_seq()?; // D
-    let mut k = [0.0; 9];
-    for v in &mut k {
-        *v = c.f64()?;
-    }
-    Ok(CameraInfo { width, height, k })
-}
-
-/// Decodes a `std_msgs/Float32`.
-pub fn float32(buf: &[u8], wire: Wire) -> Result<f32, ImportError> {
-    Cursor::new(buf, wire, "std_msgs/Float32")?.f32()
-}
-
 /// `geometry_msgs/Transform`: `p_child = R(rotation) p_parent + translation`.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Deserialize)]
 pub struct Transform {
     /// Translation, metres.
     pub translation: [f64; 3],
@@ -235,19 +57,197 @@ pub struct Transform {
     pub rotation: [f64; 4],
 }
 
+/// A header's stamp in nanoseconds, whichever wire it came from.
+trait Stamp {
+    fn stamp_ns(&self) -> i64;
+}
+
+/// ROS 1 `std_msgs/Header`: unsigned seconds.
+#[derive(Deserialize)]
+struct Ros1Header {
+    _seq: u32,
+    sec: u32,
+    nsec: u32,
+    _frame_id: String,
+}
+
+impl Stamp for Ros1Header {
+    fn stamp_ns(&self) -> i64 {
+        i64::from(self.sec) * 1_000_000_000 + i64::from(self.nsec)
+    }
+}
+
+/// ROS 2 `std_msgs/msg/Header`: signed seconds, no sequence number.
+#[derive(Deserialize)]
+struct Ros2Header {
+    sec: i32,
+    nanosec: u32,
+    _frame_id: String,
+}
+
+impl Stamp for Ros2Header {
+    fn stamp_ns(&self) -> i64 {
+        i64::from(self.sec) * 1_000_000_000 + i64::from(self.nanosec)
+    }
+}
+
+/// A `uint8[]` read in one piece: serde's `Vec<u8>` would take ROS 1 bytes one at a time.
+struct ByteBuf(Vec<u8>);
+
+impl<'de> Deserialize<'de> for ByteBuf {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Bytes;
+        impl Visitor<'_> for Bytes {
+            type Value = ByteBuf;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a uint8 array")
+            }
+            fn visit_byte_buf<E>(self, v: Vec<u8>) -> Result<ByteBuf, E> {
+                Ok(ByteBuf(v))
+            }
+            fn visit_bytes<E>(self, v: &[u8]) -> Result<ByteBuf, E> {
+                Ok(ByteBuf(v.to_vec()))
+            }
+        }
+        d.deserialize_byte_buf(Bytes)
+    }
+}
+
+#[derive(Deserialize)]
+struct ImageMsg<H, D> {
+    header: H,
+    height: u32,
+    width: u32,
+    encoding: String,
+    is_bigendian: u8,
+    step: u32,
+    data: D,
+}
+
+#[derive(Deserialize)]
+struct RegionOfInterest {
+    _x_offset: u32,
+    _y_offset: u32,
+    _height: u32,
+    _width: u32,
+    _do_rectify: bool,
+}
+
+#[derive(Deserialize)]
+struct CameraInfoMsg<H> {
+    _header: H,
+    height: u32,
+    width: u32,
+    _distortion_model: String,
+    _d: Vec<f64>,
+    k: [f64; 9],
+    _r: [f64; 9],
+    _p: [f64; 12],
+    _binning_x: u32,
+    _binning_y: u32,
+    _roi: RegionOfInterest,
+}
+
+/// Decodes one whole message of type `T` (`what` names it in errors).
+fn decode<'a, T: Deserialize<'a>>(
+    buf: &'a [u8],
+    wire: Wire,
+    what: &'static str,
+) -> Result<T, ImportError> {
+    let err = |reason: String| ImportError::Message { what, reason };
+    match wire {
+        Wire::Ros1 => {
+            let len = u32::try_from(buf.len()).map_err(|_| err("over 4 GiB".into()))?;
+            roslibrust_serde_rosmsg::from_slice_known_length(buf, len)
+                .map_err(|e| err(format!("ROS 1 message: {e}")))
+        }
+        Wire::Cdr => {
+            // 0x0001 is CDR little-endian; 0x0000 (big-endian) is never written by ROS 2.
+            match buf.get(..4) {
+                Some([0, 1, _, _]) => {}
+                Some(head) => {
+                    return Err(err(format!(
+                        "CDR encapsulation {:02x}{:02x}: only little-endian CDR (0001) is read",
+                        head[0], head[1]
+                    )))
+                }
+                None => return Err(err(format!("truncated: {} bytes", buf.len()))),
+            }
+            // Trailing bytes are allowed: CDR pads a message to a multiple of 4.
+            cdr_encoding::from_bytes::<T, byteorder::LittleEndian>(&buf[4..])
+                .map(|(v, _)| v)
+                .map_err(|e| err(format!("CDR message: {e}")))
+        }
+    }
+}
+
+/// Checks that the rows fit in the pixels and keeps the stamp in nanoseconds.
+fn image_from<'a, H: Stamp, D>(
+    m: ImageMsg<H, D>,
+    pixels: impl FnOnce(D) -> Cow<'a, [u8]>,
+) -> Result<Image<'a>, ImportError> {
+    let data = pixels(m.data);
+    let rows_fit = (m.step as u64) * (m.height as u64) <= data.len() as u64;
+    if !rows_fit {
+        return Err(ImportError::Message {
+            what: "sensor_msgs/Image",
+            reason: format!(
+                "{}x{} image with {} bytes per row holds only {} bytes",
+                m.width,
+                m.height,
+                m.step,
+                data.len()
+            ),
+        });
+    }
+    Ok(Image {
+        stamp_ns: m.header.stamp_ns(),
+        width: m.width,
+        height: m.height,
+        encoding: m.encoding,
+        big_endian: m.is_bigendian != 0,
+        step: m.step,
+        data,
+    })
+}
+
+/// Decodes a `sensor_msgs/Image`.
+pub fn image(buf: &[u8], wire: Wire) -> Result<Image<'_>, ImportError> {
+    const WHAT: &str = "sensor_msgs/Image";
+    match wire {
+        Wire::Ros1 => {
+            let m: ImageMsg<Ros1Header, ByteBuf> = decode(buf, wire, WHAT)?;
+            image_from(m, |b| Cow::Owned(b.0))
+        }
+        Wire::Cdr => {
+            let m: ImageMsg<Ros2Header, &[u8]> = decode(buf, wire, WHAT)?;
+            image_from(m, Cow::Borrowed)
+        }
+    }
+}
+
+/// Decodes a `sensor_msgs/CameraInfo` (size and `K`).
+pub fn camera_info(buf: &[u8], wire: Wire) -> Result<CameraInfo, ImportError> {
+    const WHAT: &str = "sensor_msgs/CameraInfo";
+    let (width, height, k) = match wire {
+        Wire::Ros1 => {
+            let m: CameraInfoMsg<Ros1Header> = decode(buf, wire, WHAT)?;
+            (m.width, m.height, m.k)
+        }
+        Wire::Cdr => {
+            let m: CameraInfoMsg<Ros2Header> = decode(buf, wire, WHAT)?;
+            (m.width, m.height, m.k)
+        }
+    };
+    Ok(CameraInfo { width, height, k })
+}
+
+/// Decodes a `std_msgs/Float32`.
+pub fn float32(buf: &[u8], wire: Wire) -> Result<f32, ImportError> {
+    decode::<(f32,)>(buf, wire, "std_msgs/Float32").map(|(v,)| v)
+}
+
 /// Decodes a `geometry_msgs/Transform`.
 pub fn transform(buf: &[u8], wire: Wire) -> Result<Transform, ImportError> {
-    let mut c = Cursor::new(buf, wire, "geometry_msgs/Transform")?;
-    let mut translation = [0.0; 3];
-    for v in &mut translation {
-        *v = c.f64()?;
-    }
-    let mut rotation = [0.0; 4];
-    for v in &mut rotation {
-        *v = c.f64()?;
-    }
-    Ok(Transform {
-        translation,
-        rotation,
-    })
+    decode(buf, wire, "geometry_msgs/Transform")
 }

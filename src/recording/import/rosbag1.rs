@@ -2,6 +2,12 @@
 //! records of `u32` header length, header fields (`u32` length + `name=value`), `u32` data
 //! length and data. Messages are found by a linear scan, inside chunks (compression `none`
 //! or `lz4`) or at the top level; the index records at the end are not needed.
+//!
+//! Ours rather than the `rosbag` crate (0.6.3, the maintained ROS 1 reader): that crate
+//! takes the chunk section as `data[start..index_pos]` from the bag header, so a bag whose
+//! recorder was stopped before it wrote its index (the header's `index_pos` still 0, the
+//! state `rosbag reindex` exists for) panics there instead of reading. A linear scan reads
+//! every complete chunk of it.
 
 use super::{read_body, read_head, BagMessage, ImportError};
 use std::collections::HashMap;
