@@ -18,9 +18,15 @@ use std::path::PathBuf;
 /// Reports a skipped test on the process's stderr handle. libtest captures `eprintln!`
 /// of passing tests, which would hide the reason; writing to the handle does not, so every
 /// skip shows in a plain `cargo test` run.
+///
+/// The line is `SKIPPED <test>: <why> [<libtest name>]`: libtest names each test's thread
+/// after the test, and `.ci/run` re-runs exactly the tests so named with the data and the
+/// oracles, rather than every test twice.
 pub fn skipped(test: &str, why: &str) {
     use std::io::Write;
-    let _ = writeln!(std::io::stderr().lock(), "SKIPPED {test}: {why}");
+    let thread = std::thread::current();
+    let name = thread.name().unwrap_or("unnamed thread");
+    let _ = writeln!(std::io::stderr().lock(), "SKIPPED {test}: {why} [{name}]");
 }
 
 /// Runs a project Python tool on the real data: `python3 TOOL ARGS...` with `SOFTSENSE_DATA`

@@ -480,7 +480,10 @@ pub fn gmsh_python(test: &str) -> Option<String> {
         (true, _) => Some(py),
         (false, true) => panic!("{test}: SOFTSENSE_ORACLES=1 but {py} cannot import gmsh (tools/oracle/install.sh installs it)"),
         (false, false) => {
-            println!("SKIPPED {test}: {py} cannot import gmsh (pip install gmsh; see docs/testing.md)");
+            super::skipped(
+                test,
+                &format!("{py} cannot import gmsh (pip install gmsh; see docs/testing.md)"),
+            );
             None
         }
     }
