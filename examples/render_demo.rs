@@ -190,7 +190,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         },
         &OverlayParams {
             intrinsics: k,
-            metres_per_newton: 0.05,
+            metres_per_newton: None,
             ..OverlayParams::default()
         },
     )?;
@@ -204,14 +204,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut sheet = Canvas::new(620, 240, WHITE)?;
     let ascii: String = (32u8..=126)
         .map(char::from)
-        .chain(softsense::render::EXTRA_CHARS.chars())
+        .chain("°±µ²³·×σχΔ≤≥→".chars())
         .collect();
     let mut y = 6;
-    for scale in 1..=3u32 {
+    for scale in 1..=2u32 {
         let chars: Vec<char> = ascii.chars().collect();
-        for chunk in chars.chunks(600 / (6 * scale as usize)) {
-            sheet.text(6, y, &chunk.iter().collect::<String>(), BLACK, scale);
-            y += 11 * i64::from(scale);
+        let per_line = 600 / softsense::render::text_size("M", scale).0.max(1) as usize;
+        for chunk in chars.chunks(per_line) {
+            let line: String = chunk.iter().collect();
+            sheet.text(6, y, &line, BLACK, scale);
+            y += i64::from(softsense::render::text_size(&line, scale).1) + 4;
         }
     }
     sheet.save_png(out.join("font.png"))?;

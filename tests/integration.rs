@@ -41,6 +41,8 @@ mod markers_detect;
 mod model_check;
 #[path = "integration/model_new.rs"]
 mod model_new;
+#[path = "integration/pictures.rs"]
+mod pictures;
 #[path = "integration/punyo_reference.rs"]
 mod punyo_reference;
 #[path = "integration/rgbd_sequence.rs"]

@@ -484,8 +484,7 @@ enum Halt {
     ReaderGone,
 }
 
-/// The frame of `view`'s camera (`rec`) with its robot points tinted, the features, the
-/// contacts and the force arrows.
+/// The frame of `view`'s camera (`rec`) as [`softsense::render::frame_picture`] draws it.
 fn picture(
     rec: &Recording,
     sensor: &Sensor,
@@ -493,90 +492,8 @@ fn picture(
     report: &FrameReport,
     path: &std::path::Path,
 ) -> Result<(), Box<dyn std::error::Error>> {
-    use softsense::render::{
-        mask_from_indices, project_with, sense_overlay, Canvas, ContactMark, FeatureMark,
-        ForceArrow, OverlayParams, SenseOverlay,
-    };
-    let frame = Canvas::from_rgb(view.width, view.height, view.color.clone())?;
-    let mask = mask_from_indices(view.width, view.height, &view.robot_pixels);
-    let camera = &sensor.cameras[view.camera];
-    let (cam, eye) = (camera.robot_from_camera.inverse(), camera.eye);
-    let k = rec.camera.intrinsics;
-    let px = |p: [f64; 3]| project_with(&k, cam.apply(p));
-    let x = if report.positions.is_empty() {
-        &sensor.model.problem.mesh.nodes_in_rest
-    } else {
-        &report.positions
-    };
-    // The features as the frame's estimate registered them.
-    let features: Vec<FeatureMark> = (report.matches.iter())
-        .filter_map(|(f, m)| {
-            let (p, n) = (f.position(x), f.normal(x));
-            // Another camera's features on faces this one sees from behind are left out.
-            let to_eye: [f64; 3] = std::array::from_fn(|i| eye[i] - p[i]);
-            if (0..3).map(|i| to_eye[i] * n[i]).sum::<f64>() <= 0.0 {
-                return None;
-            }
-            Some(FeatureMark {
-                pixel: px(p)?,
-                visible: m.is_some(),
-                matched: m.and_then(|m| px([0, 1, 2].map(|i| p[i] + m.offset * n[i]))),
-            })
-        })
-        .collect();
-    let contacts: Vec<ContactMark> = report
-        .forces
-        .iter()
-        .enumerate()
-        .filter_map(|(i, f)| {
-            Some(ContactMark {
-                pixel: px(f.seen_at.unwrap_or(f.location))?,
-                label: format!("{i}: {}", f.source),
-            })
-        })
-        .collect();
-    // Labelled with the contact's index, so each arrow pairs with its contact mark.
-    let forces: Vec<ForceArrow> = report
-        .forces
-        .iter()
-        .enumerate()
-        .map(|(i, f)| {
-            ForceArrow::from_robot(
-                &cam,
-                f.location,
-                f.force,
-                // The 3-D σ: the force's worst direction, which bounds the magnitude's σ.
-                Some(format!(
-                    "{i}: {:.3} N ±{:.3} (3-D)",
-                    f.magnitude, f.sigma_max
-                )),
-            )
-        })
-        .collect();
-    let seen_by = match sensor.cameras.len() {
-        1 => String::new(),
-        _ => format!(" ({} of {} cameras)", camera.name, sensor.cameras.len()),
-    };
-    let title = format!(
-        "frame {}{seen_by}: {} force(s), {}/{} features, residual {:.2} mm",
-        report.frame,
-        report.forces.len(),
-        report.features_visible,
-        report.features,
-        report.residual_rms * 1e3
-    );
-    let overlay = SenseOverlay {
-        title: &title,
-        robot_mask: Some(&mask),
-        features: &features,
-        contacts: &contacts,
-        forces: &forces,
-    };
-    let params = OverlayParams {
-        intrinsics: k,
-        ..Default::default()
-    };
-    sense_overlay(&frame, &overlay, &params)?.save_png(path)?;
+    softsense::render::frame_picture(&rec.camera.intrinsics, sensor, view, report)?
+        .save_png(path)?;
     Ok(())
 }
 

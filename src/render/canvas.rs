@@ -6,7 +6,7 @@
 //! `clamp(half_width + 0.5 − distance, 0, 1)`. Every call clips to the canvas; coordinates
 //! that are NaN or infinite draw nothing, huge finite ones are clipped, never looped over.
 
-use super::font::{self, ADVANCE, GLYPH_H, GLYPH_W, LINE_ADVANCE};
+use super::font;
 use super::RenderError;
 use std::path::Path;
 
@@ -25,12 +25,55 @@ pub const WHITE: Rgb = [255, 255, 255];
 /// The grey used for missing values and hidden items.
 pub const GREY: Rgb = [128, 128, 128];
 
-/// An RGB8 image, row-major, top row first.
-#[derive(Clone, Debug, PartialEq, Eq)]
+/// An RGB8 image, row-major, top row first, with the boxes of the text drawn on it. Two
+/// canvases are equal when their pixels are: the boxes are a record, not the picture.
+#[derive(Clone, Debug)]
 pub struct Canvas {
     width: u32,
     height: u32,
     pixels: Vec<Rgb>,
+    text_boxes: Vec<TextBox>,
+}
+
+impl PartialEq for Canvas {
+    fn eq(&self, other: &Self) -> bool {
+        (self.width, self.height) == (other.width, other.height) && self.pixels == other.pixels
+    }
+}
+
+impl Eq for Canvas {}
+
+/// The box a piece of text covers (a label's includes its backing), in pixels: top-left
+/// corner, width and height. Pictures are checked for overlapping text through these.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TextBox {
+    /// Left column.
+    pub x: i64,
+    /// Top row.
+    pub y: i64,
+    /// Width.
+    pub width: i64,
+    /// Height.
+    pub height: i64,
+}
+
+impl TextBox {
+    /// Whether the two boxes share a pixel.
+    pub fn overlaps(&self, other: &TextBox) -> bool {
+        self.x < other.x.saturating_add(other.width)
+            && other.x < self.x.saturating_add(self.width)
+            && self.y < other.y.saturating_add(other.height)
+            && other.y < self.y.saturating_add(self.height)
+    }
+
+    /// The box moved by `(dx, dy)`.
+    pub fn shifted(&self, dx: i64, dy: i64) -> TextBox {
+        TextBox {
+            x: self.x.saturating_add(dx),
+            y: self.y.saturating_add(dy),
+            ..*self
+        }
+    }
 }
 
 fn check_size(width: u32, height: u32) -> Result<usize, RenderError> {
@@ -49,6 +92,7 @@ impl Canvas {
             width,
             height,
             pixels: vec![background; n],
+            text_boxes: Vec::new(),
         })
     }
 
@@ -66,6 +110,7 @@ impl Canvas {
             width,
             height,
             pixels,
+            text_boxes: Vec::new(),
         })
     }
 
@@ -126,6 +171,11 @@ impl Canvas {
     /// The pixels, row-major, top row first.
     pub fn pixels(&self) -> &[Rgb] {
         &self.pixels
+    }
+
+    /// The boxes of the text drawn so far, in drawing order (see [`TextBox`]).
+    pub fn text_boxes(&self) -> &[TextBox] {
+        &self.text_boxes
     }
 
     /// The pixels, consumed.
@@ -379,49 +429,65 @@ impl Canvas {
         self.line([x - size, y + size], [x + size, y - size], rgb, width);
     }
 
-    /// Draws `text` with the built-in 5x7 font, top-left corner at `(x, y)`, each font pixel
-    /// a `scale` x `scale` block (scale 0 is taken as 1); `\n` starts a new line. The text
-    /// covers exactly [`text_size`](super::text_size) pixels from `(x, y)`.
+    /// Draws `text` with its box's top-left corner at `(x, y)`, 12 pixels high at `scale`
+    /// 1 and 5 more per step (scale 0 is taken as 1); `\n` starts a new line. The text covers
+    /// exactly [`text_size`](super::text_size) pixels from `(x, y)`, and that box is
+    /// recorded in [`Canvas::text_boxes`].
     pub fn text(&mut self, x: i64, y: i64, text: &str, rgb: Rgb, scale: u32) {
-        let s = i64::from(scale.clamp(1, 64));
-        for (row, line) in text.split('\n').enumerate() {
-            let ly = y.saturating_add((row as i64).saturating_mul(i64::from(LINE_ADVANCE) * s));
-            if ly >= i64::from(self.height) {
-                break;
-            }
-            for (col, c) in line.chars().enumerate() {
-                let gx = x.saturating_add((col as i64).saturating_mul(i64::from(ADVANCE) * s));
-                if gx >= i64::from(self.width) {
-                    break;
-                }
-                if gx.saturating_add(i64::from(GLYPH_W) * s) < 0 {
-                    continue;
-                }
-                let rows = font::glyph(c);
-                for (gy, bits) in rows.iter().enumerate().take(GLYPH_H as usize) {
-                    for gxx in 0..GLYPH_W {
-                        if bits & (0x10 >> gxx) != 0 {
-                            self.fill_rect(
-                                gx.saturating_add(i64::from(gxx) * s),
-                                ly.saturating_add(gy as i64 * s),
-                                s,
-                                s,
-                                rgb,
-                            );
-                        }
-                    }
-                }
-            }
-        }
+        self.text_px(x, y, text, rgb, font::px(scale), 0);
     }
 
-    /// Text on a translucent box (`pad` pixels around it) so it reads over any picture.
+    /// Draws `text` `size` pixels high, turned clockwise by `quarter_turns` quarter turns
+    /// about its box's top-left corner, which lands at `(x, y)`: the box of a text turned
+    /// by one or three quarters is as wide as the text is high. Returns that box, which is
+    /// also recorded.
+    pub(crate) fn text_px(
+        &mut self,
+        x: i64,
+        y: i64,
+        text: &str,
+        rgb: Rgb,
+        size: f32,
+        quarter_turns: u8,
+    ) -> TextBox {
+        let (w, h) = font::text_size_px(text, size);
+        let (w, h) = (i64::from(w), i64::from(h));
+        let turns = quarter_turns % 4;
+        font::rasterise(text, size, |gx, gy, cov| {
+            let (px, py) = match turns {
+                0 => (gx, gy),
+                1 => (h - 1 - gy, gx),
+                2 => (w - 1 - gx, h - 1 - gy),
+                _ => (gy, w - 1 - gx),
+            };
+            self.blend(
+                x.saturating_add(px),
+                y.saturating_add(py),
+                rgb,
+                f64::from(cov),
+            );
+        });
+        let (bw, bh) = if turns % 2 == 1 { (h, w) } else { (w, h) };
+        let b = TextBox {
+            x,
+            y,
+            width: bw,
+            height: bh,
+        };
+        if bw > 0 && bh > 0 {
+            self.text_boxes.push(b);
+        }
+        b
+    }
+
+    /// Text on a translucent box (`pad` pixels around it) so it reads over any picture;
+    /// the recorded box is the backing's, padding included.
     pub fn label(&mut self, x: i64, y: i64, text: &str, fg: Rgb, bg: Rgb, scale: u32) {
         let (w, h) = font::text_size(text, scale);
         if w == 0 {
             return;
         }
-        let pad = 2 * i64::from(scale.clamp(1, 64));
+        let pad = label_pad(scale);
         self.blend_rect(
             x.saturating_sub(pad),
             y.saturating_sub(pad),
@@ -431,10 +497,21 @@ impl Canvas {
             0.8,
         );
         self.text(x, y, text, fg, scale);
+        if let Some(b) = self.text_boxes.last_mut() {
+            *b = TextBox {
+                x: x.saturating_sub(pad),
+                y: y.saturating_sub(pad),
+                width: i64::from(w) + 2 * pad,
+                height: i64::from(h) + 2 * pad,
+            };
+        }
     }
 
-    /// Copies `other` onto this canvas with its top-left corner at `(x, y)`, clipped.
+    /// Copies `other` onto this canvas with its top-left corner at `(x, y)`, clipped; its
+    /// text boxes come along, moved.
     pub fn blit(&mut self, other: &Canvas, x: i64, y: i64) {
+        self.text_boxes
+            .extend(other.text_boxes.iter().map(|b| b.shifted(x, y)));
         for oy in 0..i64::from(other.height) {
             let ty = y.saturating_add(oy);
             if ty < 0 || ty >= i64::from(self.height) {
@@ -448,6 +525,11 @@ impl Canvas {
             }
         }
     }
+}
+
+/// The padding around a label's text at `scale`, in pixels.
+pub(crate) fn label_pad(scale: u32) -> i64 {
+    2 * i64::from(scale.clamp(1, 64))
 }
 
 /// Distance from `p` to the segment `a`-`b`.

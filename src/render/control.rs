@@ -3,7 +3,7 @@
 //! cable's input against step.
 
 use super::canvas::{Canvas, Rgb, WHITE};
-use super::lines::{line_chart, Series};
+use super::plot::{line_chart, Series};
 use super::RenderError;
 use crate::control::run::{Run, StepRecord};
 use crate::control::scenario::Actuation;

@@ -1,19 +1,20 @@
-//! Pictures a person can read: a small RGB raster toolkit for `sense --render` and
-//! `explain` reports.
+//! Pictures a person can read: an RGB raster for `sense --render` and `explain` reports,
+//! charts laid out by `plotters`, text rasterised by `ab_glyph`.
 //!
 //! - [`Canvas`]: an RGB8 image with anti-aliased lines, arrows, circles, discs, boxes and
-//!   text in a built-in 5x7 font (ASCII and [`EXTRA_CHARS`] such as `±µ°σχ`;
-//!   [`text_size`]); PNG in and out.
+//!   text (Hack through ab_glyph, [`text_size`], [`has_glyph`]), and the [`TextBox`] of
+//!   every text drawn, so pictures are checked for overlapping labels; PNG in and out.
 //! - [`ColorMap`]: a sequential (viridis-like) and a diverging (blue-white-red) map, with
 //!   [`colorbar`] and [`format_value`] for labels.
 //! - [`project`], [`Pose`]: the pinhole model and rigid camera poses, those of
 //!   [`crate::camera::Camera`] and [`crate::camera::PinholeIntrinsics`].
 //! - [`surface_map`]: a z-buffered, flat-shaded rendering of a triangle surface with a
 //!   scalar per vertex or per triangle (e.g. residuals), with a colour bar and title.
-//! - [`bar_chart`] and [`legend`]: labelled horizontal bars (e.g. a criterion per
-//!   candidate effect) and legend boxes.
+//! - [`bar_chart`] and [`line_chart`]: charts laid out by plotters and drawn on a
+//!   [`Canvas`] through its backend trait; [`legend`]: legend boxes.
 //! - [`sense_overlay`]: the robot segment, feature points, contacts and force arrows over
-//!   a colour frame; [`side_by_side`] puts before/after panels together.
+//!   a colour frame, with an arrow length scale and labels placed by [`LabelPlacer`] so
+//!   that none overlaps another; [`side_by_side`] puts before/after panels together.
 //! - [`control`]: the pictures of a `control` run.
 //! - [`discrepancy`]: the pictures of an `explain` report.
 //! - [`markers::marker_picture`]: one frame of `softsense markers --render` (markers, their
@@ -48,27 +49,29 @@ mod colormap;
 pub mod control;
 pub mod discrepancy;
 mod font;
-mod lines;
 pub mod markers;
 pub mod model;
 mod overlay;
+mod plot;
 mod project;
 #[cfg(feature = "rerun")]
 pub mod rrd;
 pub mod scene3d;
+mod sense_frame;
 mod surface;
 
-pub use canvas::{Canvas, Rgb, BLACK, GREY, MAX_PIXELS, MAX_SIDE, WHITE};
-pub use chart::{bar_chart, legend, Swatch, BAR, BAR_HIGHLIGHT};
+pub use canvas::{Canvas, Rgb, TextBox, BLACK, GREY, MAX_PIXELS, MAX_SIDE, WHITE};
+pub use chart::{legend, legend_size, Swatch, BAR, BAR_HIGHLIGHT};
 pub use colormap::{colorbar, finite_range, format_value, symmetric_range, ColorMap};
-pub use font::{text_size, EXTRA_CHARS};
-pub use lines::{line_chart, Series};
+pub use font::{has_glyph, text_size, BASE_PX};
 pub use overlay::{
     mask_from_indices, sense_overlay, side_by_side, ContactMark, FeatureMark, ForceArrow,
     LabelPlacer, OverlayParams, SenseOverlay, CONTACT, FEATURE_HIDDEN, FEATURE_VISIBLE, FORCE,
     MATCH_LINE, ROBOT_TINT,
 };
+pub use plot::{bar_chart, line_chart, Series};
 pub use project::{camera_from_robot, project, project_with, Pose, NEAR_Z, RIGID_TOLERANCE};
+pub use sense_frame::frame_picture;
 pub use surface::{
     surface_map, SurfaceMapParams, SurfaceMesh, SurfaceValues, COLORBAR_PANEL, TITLE_BAND,
 };
@@ -113,6 +116,9 @@ pub enum RenderError {
         /// What is wrong.
         reason: String,
     },
+    /// plotters could not lay out or draw a chart.
+    #[error("chart: {0}")]
+    Plot(String),
     /// Reading or writing an image file failed.
     #[error("image {path}: {message}")]
     Image {

@@ -9,6 +9,8 @@
 
 use super::canvas::{Canvas, Rgb, BLACK, WHITE};
 use super::chart::{legend, Swatch};
+use super::font::text_size;
+use super::overlay::LabelPlacer;
 use super::RenderError;
 use crate::fem::model::Model;
 use std::collections::HashMap;
@@ -231,6 +233,8 @@ fn draw_view(pic: &ModelPicture, view: &View, label: &str) -> Result<Canvas, Ren
     for p in &pic.fixed {
         c.disc(view.pixel(*p), 2.5, FIXED);
     }
+    // Names are placed after every mark, so that none covers another.
+    let mut labels: Vec<(f64, f64, &str, Rgb)> = Vec::new();
     for (i, cable) in pic.cables.iter().enumerate() {
         let colour = CABLES[i % CABLES.len()];
         let px: Vec<[f64; 2]> = cable.points.iter().map(|p| view.pixel(*p)).collect();
@@ -243,28 +247,14 @@ fn draw_view(pic: &ModelPicture, view: &View, label: &str) -> Result<Canvas, Ren
                 c.disc(*a, 3.5, colour);
             }
             let end = attach.last().unwrap_or(pull);
-            c.label(
-                end[0] as i64 + 6,
-                end[1] as i64 - 3,
-                &cable.name,
-                colour,
-                WHITE,
-                1,
-            );
+            labels.push((end[0] + 6.0, end[1] - 3.0, cable.name.as_str(), colour));
         }
     }
     for e in &pic.effectors {
         for p in &e.points {
             let q = view.pixel(*p);
             c.cross(q, 5.0, EFFECTOR, 2.0);
-            c.label(
-                q[0] as i64 + 7,
-                q[1] as i64 + 4,
-                &e.name,
-                EFFECTOR,
-                WHITE,
-                1,
-            );
+            labels.push((q[0] + 7.0, q[1] + 4.0, e.name.as_str(), EFFECTOR));
         }
     }
     for f in &pic.force_points {
@@ -274,6 +264,17 @@ fn draw_view(pic: &ModelPicture, view: &View, label: &str) -> Result<Canvas, Ren
     }
     c.rect(0, 0, view.size[0] as i64, view.size[1] as i64, BODY_EDGE, 1);
     c.label(6, 6, label, BLACK, WHITE, 1);
+    let mut placer = LabelPlacer::default();
+    if let Some(b) = c.text_boxes().last() {
+        placer.block(*b);
+    }
+    // A name with no free spot is left out: the legend names every cable and effector.
+    for (x, y, text, colour) in labels {
+        if x.is_finite() && y.is_finite() {
+            let (x, y) = (x.clamp(-1e9, 1e9) as i64, y.clamp(-1e9, 1e9) as i64);
+            placer.place(&mut c, x, y, text, colour, 1);
+        }
+    }
     Ok(c)
 }
 
@@ -363,15 +364,18 @@ fn legend_panel(pic: &ModelPicture, scale: f64, size: [f64; 2]) -> Result<Canvas
     }
     c.text(
         20 + len as i64,
-        y - 3,
+        y - i64::from(text_size("Ag", 1).1) / 2,
         &format!("{text} (all views)"),
         BLACK,
         1,
     );
-    let chars = ((size[0] - 24.0) / 6.0).max(8.0) as usize;
+    // Hack is monospaced: one character's advance gives the characters per line.
+    let advance = f64::from(text_size("0000000000", 1).0.max(10)) / 10.0;
+    let chars = ((size[0] - 24.0) / advance).max(8.0) as usize;
+    let row = i64::from(text_size("Ag", 1).1) + 2;
     let lines = pic.notes.iter().flat_map(|n| wrap(n, chars));
     for (i, line) in lines.enumerate() {
-        c.text(12, y + 24 + 12 * i as i64, &line, BLACK, 1);
+        c.text(12, y + 24 + row * i as i64, &line, BLACK, 1);
     }
     Ok(c)
 }

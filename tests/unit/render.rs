@@ -153,40 +153,55 @@ fn text_renders_inside_its_box_and_nothing_outside() {
             y0 >= y && y1 < y + i64::from(h),
             "{text:?}: rows {y0}..={y1}, box {h}"
         );
-        if text == "Hg" {
-            // H fills the first column and top row, g's descender the last row.
-            assert_eq!(
-                (x0, x1, y0, y1),
-                (x, x + i64::from(w) - 1, y, y + i64::from(h) - 1)
-            );
-        }
+        assert_eq!(
+            c.text_boxes(),
+            &[TextBox {
+                x,
+                y,
+                width: i64::from(w),
+                height: i64::from(h)
+            }],
+            "the drawn text's box is recorded"
+        );
     }
 }
 
 #[test]
-fn every_glyph_is_distinct_and_unknown_characters_show_as_a_question_mark() {
+fn every_glyph_labels_need_is_distinct_and_unknown_characters_show_as_a_question_mark() {
     let render = |ch: char| {
-        let mut c = Canvas::new(5, 8, WHITE).unwrap();
+        let mut c = Canvas::new(12, 16, WHITE).unwrap();
         c.text(0, 0, &ch.to_string(), BLACK, 1);
-        c
+        c.pixels().to_vec()
     };
-    let glyphs: Vec<(char, Canvas)> = (32u8..=126)
+    let glyphs: Vec<(char, Vec<Rgb>)> = (32u8..=126)
         .map(char::from)
-        .chain(EXTRA_CHARS.chars())
+        .chain("°±µ²³·×σχΔ≤≥→".chars())
         .map(|ch| (ch, render(ch)))
         .collect();
     for (i, (a, ga)) in glyphs.iter().enumerate() {
+        assert!(has_glyph(*a), "{a:?} has no glyph");
         if *a != ' ' {
-            assert!(!painted(ga, WHITE).is_empty(), "{a:?} is blank");
+            assert!(ga.iter().any(|p| *p != WHITE), "{a:?} is blank");
         }
         for (b, gb) in &glyphs[i + 1..] {
             assert_ne!(ga, gb, "{a:?} and {b:?} look the same");
         }
     }
-    // Characters outside the tables draw as '?'; dashes as '-'.
-    assert_eq!(render('€'), render('?'));
-    assert_eq!(render('—'), render('-'));
-    assert_eq!(render('μ'), render('µ'));
+    // A character the face lacks draws as '?'.
+    assert!(!has_glyph('\u{E000}'));
+    assert_eq!(render('\u{E000}'), render('?'));
+}
+
+#[test]
+fn a_monospaced_face_makes_text_width_proportional_to_its_length() {
+    let (w1, h1) = text_size("0.66 N", 1);
+    let (w2, _) = text_size("0.66 N 0.66 N", 1);
+    // Widths are rounded up to whole pixels.
+    let (a1, a2) = (f64::from(w1) / 6.0, f64::from(w2) / 13.0);
+    assert!((a1 - a2).abs() < 0.2, "{w1} px for 6, {w2} px for 13");
+    assert!((12..=16).contains(&h1), "scale 1 is about 12 px high: {h1}");
+    assert!(text_size("a", 2).1 > h1);
+    assert_eq!(text_size("", 1), (0, 0));
 }
 
 #[test]
@@ -635,7 +650,7 @@ fn the_sense_overlay_draws_forces_contacts_and_features_where_they_project() {
     };
     let params = OverlayParams {
         intrinsics: k,
-        metres_per_newton: 0.1,
+        metres_per_newton: Some(0.1),
         legend: false,
         ..Default::default()
     };
@@ -803,7 +818,7 @@ proptest! {
         let features = [FeatureMark { pixel: a, visible: true, matched: Some(b) }, FeatureMark { pixel: c, visible: false, matched: None }];
         let contacts = [ContactMark { pixel: c, label: text.clone() }];
         let overlay = SenseOverlay { title: &text, robot_mask: None, features: &features, contacts: &contacts, forces: &forces };
-        let params = OverlayParams { intrinsics: k, metres_per_newton: width, fade: alpha, mask_alpha: r, legend: true };
+        let params = OverlayParams { intrinsics: k, metres_per_newton: (r > 0.5).then_some(width), arrow_fraction: alpha, fade: alpha, mask_alpha: r, legend: true };
         let drawn = sense_overlay(&frame, &overlay, &params);
         prop_assert!(drawn.is_ok());
         // A surface seen from a random camera.
@@ -827,33 +842,48 @@ fn a_label_asked_for_past_the_canvas_edge_is_moved_inside_whole() {
     let (w, h) = text_size("0: 0.509 N", 2);
     let pad = 4;
     let left = placer.place(&mut c, -60, 40, "0: 0.509 N", RED, 2);
-    assert_eq!(left, (pad, 40));
-    let right = placer.place(&mut c, 190, 10, "1: 0.795 N", RED, 2);
+    assert_eq!(left, Some((pad, 40)));
+    let right = placer.place(&mut c, 190, 10, "1: 0.795 N", RED, 2).unwrap();
     assert_eq!(right.0 + i64::from(w) + pad, 200, "{right:?}");
-    let low = placer.place(&mut c, 20, 95, "2: 0.3 N", RED, 2);
+    let low = placer.place(&mut c, 20, 95, "2: 0.3 N", RED, 2).unwrap();
     assert!(
         low.1 + i64::from(h) + pad <= 100,
         "{low:?} leaves the canvas"
     );
-    // Text wider than the canvas stays where asked.
+    // Text wider than the canvas is not drawn, and the caller is told.
     let wide = "a label much wider than this small canvas is";
-    assert_eq!(placer.place(&mut c, -5, 0, wide, RED, 2).0, -5);
+    assert_eq!(placer.place(&mut c, -5, 0, wide, RED, 2), None);
+    assert_eq!(c.text_boxes().len(), 3);
 }
 
 #[test]
 fn labels_asked_for_at_the_same_spot_are_moved_apart_and_do_not_overlap() {
     let mut c = Canvas::new(200, 200, BLACK).unwrap();
     let mut placer = LabelPlacer::default();
+    let title = TextBox {
+        x: 0,
+        y: 0,
+        width: 200,
+        height: 30,
+    };
+    placer.block(title);
     let (_, h) = text_size("0.35 N", 2);
     let a = placer.place(&mut c, 50, 90, "0.35 N", RED, 2);
-    let b = placer.place(&mut c, 50, 90, "c1 node 659", RED, 2);
-    let d = placer.place(&mut c, 60, 92, "third", RED, 2);
-    assert_eq!(a, (50, 90), "the first label goes where it was asked");
-    // Boxes are the text plus 4 px of padding each side: vertical gaps of at least the
-    // text height plus the padding mean the boxes are disjoint.
-    let box_h = i64::from(h) + 8;
-    for (p, q) in [(a, b), (a, d), (b, d)] {
-        assert!((p.1 - q.1).abs() >= box_h, "{p:?} and {q:?} overlap");
+    assert_eq!(a, Some((50, 90)), "the first label goes where it was asked");
+    for (text, at) in [
+        ("c1 node 659", (50, 90)),
+        ("third", (60, 92)),
+        ("top", (10, 0)),
+    ] {
+        assert!(placer.place(&mut c, at.0, at.1, text, RED, 2).is_some());
+    }
+    let boxes = c.text_boxes();
+    assert_eq!(boxes.len(), 4);
+    for (i, p) in boxes.iter().enumerate() {
+        assert!(!p.overlaps(&title), "{p:?} covers the blocked title");
+        for q in &boxes[i + 1..] {
+            assert!(!p.overlaps(q), "{p:?} and {q:?} overlap");
+        }
     }
     // The text of the first label is still there: red pixels on its row band.
     let red_in_band = (90..90 + i64::from(h))
@@ -864,4 +894,22 @@ fn labels_asked_for_at_the_same_spot_are_moved_apart_and_do_not_overlap() {
         red_in_band > 10,
         "first label overwritten: {red_in_band} red pixels"
     );
+}
+
+#[test]
+fn a_full_canvas_refuses_further_labels_instead_of_overlapping_them() {
+    let mut c = Canvas::new(120, 40, BLACK).unwrap();
+    let mut placer = LabelPlacer::default();
+    let mut placed = 0;
+    while placer.place(&mut c, 0, 0, "label", RED, 1).is_some() {
+        placed += 1;
+        assert!(placed < 100, "a 120x40 canvas cannot hold 100 labels");
+    }
+    assert!(placed >= 2, "{placed}");
+    let boxes = c.text_boxes();
+    for (i, p) in boxes.iter().enumerate() {
+        for q in &boxes[i + 1..] {
+            assert!(!p.overlaps(q), "{p:?} and {q:?} overlap");
+        }
+    }
 }
