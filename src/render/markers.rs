@@ -3,7 +3,8 @@
 //! hidden markers, the candidates and the located forces with their values.
 
 use super::canvas::{Canvas, Rgb, BLACK, GREY, WHITE};
-use super::overlay::{side_by_side, FORCE};
+use super::font::text_size;
+use super::overlay::{side_by_side, LabelPlacer, FORCE};
 use super::RenderError;
 
 /// Markers at rest (rings) and now (discs).
@@ -128,15 +129,30 @@ fn panel(
             c.disc(to, 3.0, MARKER);
         }
     }
-    for (p, f) in pic.forces {
-        let from = view.pixel(*p);
-        let to = view.offset(from, *f, gains.1);
-        c.arrow(from, to, FORCE, 3.0);
-        let text = format!("{:.3} N", norm(*f));
-        c.label(to[0] as i64 + 4, to[1] as i64 + 4, &text, FORCE, WHITE, 2);
+    let mut placer = LabelPlacer::default();
+    let below = view.size[1] as i64 - i64::from(text_size(labels[1], 1).1) - 4;
+    for (x, y, text) in [(6, 6, labels[0]), (6, below, labels[1])] {
+        c.label(x, y, text, BLACK, WHITE, 1);
+        if let Some(b) = c.text_boxes().last() {
+            placer.block(*b);
+        }
     }
-    c.label(6, 6, labels[0], BLACK, WHITE, 1);
-    c.label(6, view.size[1] as i64 - 14, labels[1], BLACK, WHITE, 1);
+    // Arrows first, then their magnitudes, so that no arrow covers a magnitude.
+    let tips: Vec<([f64; 2], f64)> = (pic.forces.iter())
+        .map(|(p, f)| {
+            let from = view.pixel(*p);
+            let to = view.offset(from, *f, gains.1);
+            c.arrow(from, to, FORCE, 3.0);
+            (to, norm(*f))
+        })
+        .collect();
+    for (to, magnitude) in tips {
+        if to.iter().all(|v| v.is_finite()) {
+            let (x, y) = (to[0].clamp(-1e9, 1e9) as i64, to[1].clamp(-1e9, 1e9) as i64);
+            // A magnitude with no free spot is left out; the arrow still shows the force.
+            placer.place(&mut c, x + 4, y + 4, &format!("{magnitude:.3} N"), FORCE, 2);
+        }
+    }
     Ok(c)
 }
 

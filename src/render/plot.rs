@@ -3,7 +3,7 @@
 //! font and its record of text boxes.
 
 use super::canvas::{Canvas, Rgb, TextBox, BLACK, GREY, WHITE};
-use super::chart::{BAR, BAR_HIGHLIGHT};
+use super::chart::{legend, legend_size, Swatch, BAR, BAR_HIGHLIGHT};
 use super::colormap::format_value;
 use super::font;
 use super::RenderError;
@@ -367,14 +367,25 @@ pub fn line_chart(
             hi[k] += 0.5;
         }
     }
-    if draw_lines(&mut c, title, axes, series, shade, [lo, hi]).is_err() {
-        c = Canvas::new(width, height, WHITE)?;
-        no_data(&mut c, title, "(too small)");
+    match draw_lines(&mut c, title, axes, series, shade, [lo, hi]) {
+        Ok([right, top]) => {
+            // Our legend, not plotters': it sizes its box with our font's metrics.
+            let entries: Vec<(Swatch, &str)> = (series.iter())
+                .filter(|s| !s.label.is_empty() && !s.runs().is_empty())
+                .map(|s| (Swatch::Line(s.color), s.label))
+                .collect();
+            let (bw, _) = legend_size(&entries);
+            legend(&mut c, right - bw - 6, top + 6, &entries);
+        }
+        Err(_) => {
+            c = Canvas::new(width, height, WHITE)?;
+            no_data(&mut c, title, "(too small)");
+        }
     }
     Ok(c)
 }
 
-/// The plotters part of [`line_chart`].
+/// The plotters part of [`line_chart`]; returns the plot area's top-right pixel.
 fn draw_lines(
     c: &mut Canvas,
     title: &str,
@@ -382,7 +393,7 @@ fn draw_lines(
     series: &[Series],
     shade: &[[f64; 2]],
     [lo, hi]: [[f64; 2]; 2],
-) -> Result<(), RenderError> {
+) -> Result<[i64; 2], RenderError> {
     let root = CanvasBackend(c).into_drawing_area();
     let mut chart = ChartBuilder::on(&root)
         .caption(title, ("sans-serif", CAPTION_PX))
@@ -401,7 +412,8 @@ fn draw_lines(
         .y_label_formatter(&|v| format_value(*v))
         .label_style(("sans-serif", LABEL_PX))
         .axis_desc_style(("sans-serif", LABEL_PX))
-        .light_line_style(colour([235, 235, 235]))
+        .bold_line_style(colour([215, 215, 215]))
+        .light_line_style(TRANSPARENT)
         .draw()
         .map_err(plot_error)?;
     let shaded = shade
@@ -415,37 +427,17 @@ fn draw_lines(
             )
         });
     chart.draw_series(shaded).map_err(plot_error)?;
-    let mut labelled = 0;
     for s in series {
-        let runs = s.runs();
         let style = Color::stroke_width(&colour(s.color), 2);
-        for (i, run) in runs.iter().enumerate() {
+        for run in s.runs() {
             let line = LineSeries::new(run.iter().map(|p| (p[0], p[1])), style);
-            let drawn = chart.draw_series(line).map_err(plot_error)?;
-            if i == 0 && !s.label.is_empty() {
-                labelled += 1;
-                drawn
-                    .label(s.label)
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], style));
-            }
+            chart.draw_series(line).map_err(plot_error)?;
         }
     }
-    if labelled > 0 {
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .label_font(("sans-serif", LABEL_PX))
-            .background_style(WHITE_FILL.mix(0.85))
-            .border_style(colour(GREY))
-            .draw()
-            .map_err(plot_error)?;
-    }
+    let (xs, ys) = chart.plotting_area().get_pixel_range();
     root.present().map_err(plot_error)?;
-    Ok(())
+    Ok([xs.end, ys.start].map(i64::from))
 }
 
 /// The zero line of bar charts.
 const BLACK_LINE: RGBColor = RGBColor(0, 0, 0);
-
-/// The legend's backing colour.
-const WHITE_FILL: RGBColor = RGBColor(255, 255, 255);

@@ -114,3 +114,43 @@ fn charts_laid_out_by_plotters_have_no_overlapping_text_and_a_legend_of_drawn_li
     // A series without two consecutive finite points draws nothing and gets no entry.
     assert_eq!(a, b);
 }
+
+#[test]
+fn a_marker_picture_with_two_forces_at_one_spot_keeps_their_magnitudes_apart() {
+    use softsense::render::markers::{marker_picture, MarkerMark, MarkerPicture};
+    let positions = [
+        [0.0, 0.0, 0.0],
+        [0.1, 0.0, 0.0],
+        [0.0, 0.1, 0.0],
+        [0.0, 0.0, 0.05],
+    ];
+    let triangles = [[0, 1, 2], [0, 1, 3], [0, 2, 3], [1, 2, 3]];
+    let markers = [
+        MarkerMark {
+            rest: [0.05, 0.02, 0.0],
+            current: Some([0.052, 0.021, 0.001]),
+            hidden: false,
+        },
+        MarkerMark {
+            rest: [0.02, 0.05, 0.0],
+            current: None,
+            hidden: true,
+        },
+    ];
+    let forces = [
+        ([0.05, 0.05, 0.0], [0.0, 0.0, -1.0]),
+        ([0.0501, 0.05, 0.0], [0.0, 0.0, -0.99]),
+    ];
+    let pic = MarkerPicture {
+        title: "markers frame 0",
+        triangles: &triangles,
+        positions: &positions,
+        markers: &markers,
+        candidates: &[[0.03, 0.03, 0.0]],
+        forces: &forces,
+    };
+    let c = marker_picture(&pic, 480, 400).unwrap();
+    assert_text_apart(&c, "marker picture");
+    // Per panel two captions and both magnitudes (1.000 N and 0.990 N), and the title.
+    assert_eq!(c.text_boxes().len(), 2 * 4 + 1, "{:?}", c.text_boxes());
+}
