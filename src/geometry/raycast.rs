@@ -209,29 +209,46 @@ impl Bvh {
     }
 
     /// [`Bvh::cast`] with the index of the hit triangle in the triangles given to
-    /// [`Bvh::new`].
+    /// [`Bvh::new`]. Of hits at the same distance (a ray through a shared edge), the
+    /// triangle given first.
     pub fn cast_triangle(&self, o: [f64; 3], d: [f64; 3]) -> Option<(Hit, usize)> {
-        if self.nodes.is_empty() {
-            return None;
-        }
+        let root = self.nodes.first()?;
         let inv = d.map(|c| if c != 0.0 { 1.0 / c } else { f64::INFINITY });
+        // (t, position in `tris`): the nearest hit so far.
         let mut best: Option<(f64, usize)> = None;
-        let mut stack = vec![0usize];
-        while let Some(n) = stack.pop() {
-            let node = &self.nodes[n];
-            let t_max = best.map_or(f64::INFINITY, |b| b.0);
-            if node.bbox.hit(o, inv, t_max).is_none() {
+        let closer = |t: f64, i: usize, best: Option<(f64, usize)>| match best {
+            None => true,
+            Some((bt, bi)) => t < bt || (t == bt && self.source[i] < self.source[bi]),
+        };
+        // Nearer child first, so the first hits bound the rest; a box entered beyond the
+        // best hit cannot hold a nearer one. The tree's depth is log2(triangles / LEAF) + 1,
+        // far below the stack's capacity.
+        let mut stack: Vec<(usize, f64)> = Vec::with_capacity(64);
+        if let Some(t0) = root.bbox.hit(o, inv, f64::INFINITY) {
+            stack.push((0, t0));
+        }
+        while let Some((n, t_in)) = stack.pop() {
+            if best.is_some_and(|b| t_in > b.0) {
                 continue;
             }
+            let node = &self.nodes[n];
             match node.children {
                 Some((l, r)) => {
-                    stack.push(l);
-                    stack.push(r);
+                    let t_max = best.map_or(f64::INFINITY, |b| b.0);
+                    let hl = self.nodes[l].bbox.hit(o, inv, t_max);
+                    let hr = self.nodes[r].bbox.hit(o, inv, t_max);
+                    match (hl, hr) {
+                        (Some(a), Some(b)) if a <= b => stack.extend([(r, b), (l, a)]),
+                        (Some(a), Some(b)) => stack.extend([(l, a), (r, b)]),
+                        (Some(a), None) => stack.push((l, a)),
+                        (None, Some(b)) => stack.push((r, b)),
+                        (None, None) => {}
+                    }
                 }
                 None => {
                     for &i in &self.order[node.start..node.end] {
                         if let Some(t) = ray_triangle(o, d, self.tris[i], 0.0) {
-                            if best.is_none_or(|b| t < b.0) {
+                            if closer(t, i, best) {
                                 best = Some((t, i));
                             }
                         }

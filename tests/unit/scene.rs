@@ -21,13 +21,17 @@ proptest! {
         let bvh = Bvh::new(&v, &t);
         let o = [ox, oy, oz];
         let d = [tx - ox, ty - oy, tz - oz];
-        let brute = t
+        // The nearest hit, and of equal ones the triangle given first.
+        let (brute, first) = t
             .iter()
-            .filter_map(|tri| ray_triangle(o, d, tri.map(|i| v[i]), 0.0))
-            .fold(f64::INFINITY, f64::min);
-        let hit = bvh.cast(o, d);
+            .enumerate()
+            .filter_map(|(k, tri)| ray_triangle(o, d, tri.map(|i| v[i]), 0.0).map(|t| (t, k)))
+            .fold((f64::INFINITY, usize::MAX), |b, h| if h.0 < b.0 { h } else { b });
+        let hit = bvh.cast_triangle(o, d);
         prop_assert!(hit.is_some());
-        prop_assert!((hit.unwrap().t - brute).abs() < 1e-12);
+        let (hit, k) = hit.unwrap();
+        prop_assert_eq!(hit.t, brute);
+        prop_assert_eq!(k, first);
     }
 }
 
