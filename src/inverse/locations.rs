@@ -189,11 +189,19 @@ impl Combinations<'_> {
             .zip(self.cols)
             .flat_map(|(&c, g)| g[c].iter().copied())
             .collect();
+        // Field by field: `..joint.clone()` would copy the joint candidate columns, every
+        // option's (thousands of dense rows each), only to drop them.
         IntensityProblem {
+            w_ea: joint.w_ea.clone(),
             w_ef: joint.w_ef.select_columns(idx.iter()),
+            delta_free_e: joint.delta_free_e.clone(),
+            delta_measured: joint.delta_measured.clone(),
+            w_aa: joint.w_aa.clone(),
             w_af: joint.w_af.select_columns(idx.iter()),
+            delta_free_a: joint.delta_free_a.clone(),
+            actuators: joint.actuators.clone(),
             push_only: idx.iter().map(|&i| joint.push_only[i]).collect(),
-            ..joint.clone()
+            row_noise: joint.row_noise.clone(),
         }
     }
 
