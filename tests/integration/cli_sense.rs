@@ -12,6 +12,17 @@ fn sense(args: &[&str]) -> std::process::Output {
         .expect("run softsense")
 }
 
+/// The stream rate from the summary line "S/N frames sensed…, M ms per frame; stream F
+/// frames/s (…)". Scripts read this line (issue 56): its format is kept stable.
+fn stream_frames_per_second(stderr: &str) -> Option<f64> {
+    let line = stderr.lines().find(|l| l.contains(" frames sensed"))?;
+    let (head, tail) = line.split_once(" ms per frame; stream ")?;
+    head.rsplit(", ").next()?.parse::<f64>().ok()?;
+    let (fps, rest) = tail.split_once(" frames/s (")?;
+    rest.ends_with(", wall clock)").then_some(())?;
+    fps.parse().ok()
+}
+
 #[test]
 fn sense_prints_one_json_object_per_frame_with_errors_against_truth() {
     let out = sense(&["clouds/scenes/tip_weight", "--json"]);
@@ -41,6 +52,8 @@ fn sense_prints_one_json_object_per_frame_with_errors_against_truth() {
     }
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("4/4 frames sensed"), "{stderr}");
+    let fps = stream_frames_per_second(&stderr);
+    assert!(fps.is_some_and(|f| f > 0.0 && f.is_finite()), "{stderr}");
     // The model is named as it would be typed from here, not via the recording's folder
     // ("clouds/scenes/tip_weight/../../../meshes/...").
     assert!(
