@@ -135,6 +135,36 @@ pub struct Bvh {
 
 const LEAF: usize = 4;
 
+/// The nodes still to visit by one ray, with the distance at which it enters each: on the
+/// stack, since a frame casts thousands of rays. Median splits halve the triangles at each
+/// level, so a walk holds at most log2(triangles) + 2 entries, below 64 for any mesh that
+/// fits in memory.
+struct NodeStack {
+    items: [(usize, f64); 64],
+    len: usize,
+}
+
+impl Default for NodeStack {
+    fn default() -> Self {
+        Self {
+            items: [(0, 0.0); 64],
+            len: 0,
+        }
+    }
+}
+
+impl NodeStack {
+    fn push(&mut self, item: (usize, f64)) {
+        self.items[self.len] = item;
+        self.len += 1;
+    }
+
+    fn pop(&mut self) -> Option<(usize, f64)> {
+        self.len = self.len.checked_sub(1)?;
+        Some(self.items[self.len])
+    }
+}
+
 impl Bvh {
     /// Builds the hierarchy (indices must be valid for `vertices`; invalid ones are skipped).
     pub fn new(vertices: &[[f64; 3]], triangles: &[[usize; 3]]) -> Self {
@@ -221,9 +251,8 @@ impl Bvh {
             Some((bt, bi)) => t < bt || (t == bt && self.source[i] < self.source[bi]),
         };
         // Nearer child first, so the first hits bound the rest; a box entered beyond the
-        // best hit cannot hold a nearer one. The tree's depth is log2(triangles / LEAF) + 1,
-        // far below the stack's capacity.
-        let mut stack: Vec<(usize, f64)> = Vec::with_capacity(64);
+        // best hit cannot hold a nearer one.
+        let mut stack = NodeStack::default();
         if let Some(t0) = root.bbox.hit(o, inv, f64::INFINITY) {
             stack.push((0, t0));
         }
@@ -238,8 +267,14 @@ impl Bvh {
                     let hl = self.nodes[l].bbox.hit(o, inv, t_max);
                     let hr = self.nodes[r].bbox.hit(o, inv, t_max);
                     match (hl, hr) {
-                        (Some(a), Some(b)) if a <= b => stack.extend([(r, b), (l, a)]),
-                        (Some(a), Some(b)) => stack.extend([(l, a), (r, b)]),
+                        (Some(a), Some(b)) if a <= b => {
+                            stack.push((r, b));
+                            stack.push((l, a));
+                        }
+                        (Some(a), Some(b)) => {
+                            stack.push((l, a));
+                            stack.push((r, b));
+                        }
                         (Some(a), None) => stack.push((l, a)),
                         (None, Some(b)) => stack.push((r, b)),
                         (None, None) => {}
