@@ -24,6 +24,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod assembly;
+pub mod beam;
 pub mod bind;
 mod cable;
 pub mod cavity;
