@@ -124,5 +124,7 @@ mod layers;
 
 #[path = "unit/batch.rs"]
 mod batch;
+#[path = "unit/fem_beam.rs"]
+mod fem_beam;
 #[path = "unit/scene3d.rs"]
 mod scene3d;

@@ -183,12 +183,19 @@ impl ElementRest {
     /// Internal force and tangent: the material part Bᵀ K_l B, and the geometric part
     /// Σ_k f_k ∂B_kᵀ/∂p by central differences of the analytic B (f = K_l d held).
     /// Not symmetric off equilibrium (spins do not commute); the assembly symmetrises.
-    pub fn force_and_tangent(&self, s: &BeamStiffness, ends: &Ends) -> (Vec12, Mat12) {
+    /// `geometric: false` leaves the geometric part out (the material part is positive
+    /// semi-definite, the fallback when the whole is not definite).
+    pub fn force_and_tangent(
+        &self,
+        s: &BeamStiffness,
+        ends: &Ends,
+        geometric: bool,
+    ) -> (Vec12, Mat12) {
         let c = self.corotate(ends);
         let f_local = local_stiffness(s, self.length) * c.d;
         let force = c.b.transpose() * f_local;
         let mut k = c.b.transpose() * local_stiffness(s, self.length) * c.b;
-        for j in 0..12 {
+        for j in (0..12).filter(|_| geometric) {
             let h = if (j / 3) % 2 == 0 {
                 B_STEP * self.length
             } else {

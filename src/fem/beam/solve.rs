@@ -118,12 +118,12 @@ impl BeamModel {
     }
 
     /// Element forces and symmetrised tangents at `state`.
-    fn element_tangents(&self, state: &BeamState) -> Vec<(Vec12, Mat12)> {
+    fn element_tangents(&self, state: &BeamState, geometric: bool) -> Vec<(Vec12, Mat12)> {
         self.elements
             .iter()
             .enumerate()
             .map(|(e, el)| {
-                let (f, k) = el.force_and_tangent(&self.stiffness, &self.ends(state, e));
+                let (f, k) = el.force_and_tangent(&self.stiffness, &self.ends(state, e), geometric);
                 (f, 0.5 * (k + k.transpose()))
             })
             .collect()
@@ -132,9 +132,10 @@ impl BeamModel {
     /// The symmetrised tangent over every node's 6 DOFs (dense; for checks and small
     /// models, clamped nodes included).
     pub fn tangent_dense(&self, state: &BeamState) -> DMatrix<f64> {
+        let geometric = true;
         let n = 6 * self.node_count();
         let mut k = DMatrix::zeros(n, n);
-        for (e, (_, ke)) in self.element_tangents(state).iter().enumerate() {
+        for (e, (_, ke)) in self.element_tangents(state, geometric).iter().enumerate() {
             let mut block = k.fixed_view_mut::<12, 12>(6 * e, 6 * e);
             block += ke;
         }
@@ -147,9 +148,10 @@ impl BeamModel {
         &self,
         dofs: &DofMap,
         state: &BeamState,
+        geometric: bool,
     ) -> FemResult<SparseColMat<usize, f64>> {
         let mut triplets = Vec::with_capacity(144 * self.elements.len());
-        for (e, (_, ke)) in self.element_tangents(state).iter().enumerate() {
+        for (e, (_, ke)) in self.element_tangents(state, geometric).iter().enumerate() {
             for (a, fa) in [dofs.first[e], dofs.first[e + 1]].iter().enumerate() {
                 for (b, fb) in [dofs.first[e], dofs.first[e + 1]].iter().enumerate() {
                     let (Some(fa), Some(fb)) = (fa, fb) else {
@@ -188,8 +190,25 @@ impl BeamModel {
         f
     }
 
-    /// Puts the clamped nodes at their rest pose moved by `loads.base_from_rest`.
+    /// Puts the clamped nodes at their rest pose moved by `loads.base_from_rest`, first
+    /// carrying the whole rod rigidly with node 0's change of pose (a start whose base
+    /// jumped would be crushed or stretched past what Newton can recover).
     fn place_base(&self, state: &mut BeamState, loads: &BeamLoads) {
+        let base = self.clamped.first().copied().unwrap_or(0);
+        let to = loads.base_from_rest.rotation * self.rest.world_from_node[base];
+        let turn = to * state.world_from_node[base].inverse();
+        let (from_x, to_x) = (
+            state.nodes_in_world[base],
+            (loads.base_from_rest * nalgebra::Point3::from(self.rest.nodes_in_world[base])).coords,
+        );
+        for (x, q) in state
+            .nodes_in_world
+            .iter_mut()
+            .zip(&mut state.world_from_node)
+        {
+            *x = to_x + turn * (*x - from_x);
+            *q = turn * *q;
+        }
         for &n in &self.clamped {
             state.nodes_in_world[n] =
                 (loads.base_from_rest * nalgebra::Point3::from(self.rest.nodes_in_world[n])).coords;
@@ -223,25 +242,13 @@ impl BeamModel {
                     &(self.external_force(&state, loads, scale) - self.internal_force(&state)),
                 );
                 residual = r.norm_l2();
-                let k = self.tangent_sparse(&dofs, &state)?;
-                let sym = match &symbolic {
-                    Some(s) => s.clone(),
-                    None => {
-                        SymbolicLlt::try_new(k.symbolic(), Side::Lower).map_err(FemError::Linalg)?
-                    }
-                };
-                symbolic = Some(sym.clone());
-                let llt = match Llt::try_new_with_symbolic(sym, k.as_ref(), Side::Lower) {
-                    Ok(l) => l,
-                    Err(SparseLltError::Numeric(_)) => {
-                        return Ok(self.ended(
-                            state,
-                            BeamStatus::NotPositiveDefinite,
-                            iterations,
-                            residual,
-                        ));
-                    }
-                    Err(e) => return Err(sparse_llt_error(e)),
+                let Some(llt) = self.factor_with_fallback(&dofs, &state, &mut symbolic)? else {
+                    return Ok(self.ended(
+                        state,
+                        BeamStatus::NotPositiveDefinite,
+                        iterations,
+                        residual,
+                    ));
                 };
                 let mut delta = r;
                 llt.solve_in_place(delta.as_mut());
@@ -312,10 +319,38 @@ impl BeamModel {
         size
     }
 
+    /// Factorises the consistent tangent at `state`, or, when it is not positive definite
+    /// (compression past buckling: a cable's own compression, whose load stiffness the
+    /// tangent omits, or a large end moment), the material part alone (Newton then
+    /// converges linearly, to the same equilibrium). `None` if neither is definite.
+    fn factor_with_fallback(
+        &self,
+        dofs: &DofMap,
+        state: &BeamState,
+        symbolic: &mut Option<SymbolicLlt<usize>>,
+    ) -> FemResult<Option<Llt<usize, f64>>> {
+        for geometric in [true, false] {
+            let k = self.tangent_sparse(dofs, state, geometric)?;
+            let sym = match symbolic {
+                Some(s) => s.clone(),
+                None => {
+                    SymbolicLlt::try_new(k.symbolic(), Side::Lower).map_err(FemError::Linalg)?
+                }
+            };
+            *symbolic = Some(sym.clone());
+            match Llt::try_new_with_symbolic(sym, k.as_ref(), Side::Lower) {
+                Ok(l) => return Ok(Some(l)),
+                Err(SparseLltError::Numeric(_)) => continue,
+                Err(e) => return Err(sparse_llt_error(e)),
+            }
+        }
+        Ok(None)
+    }
+
     /// Factorises the tangent at `state` (one factorisation, for many compliance solves).
     pub fn linearise(&self, state: &BeamState) -> FemResult<BeamLinearisation> {
         let dofs = DofMap::new(self);
-        let k = self.tangent_sparse(&dofs, state)?;
+        let k = self.tangent_sparse(&dofs, state, true)?;
         let llt = k
             .as_ref()
             .sp_cholesky(Side::Lower)
