@@ -165,7 +165,8 @@ impl QpccProblem {
     }
 
     /// Solves the converted QP (5.13-5.15) with Clarabel when its Q is convex; an
-    /// indefinite Q is reported, never handed to the solver.
+    /// indefinite Q is reported, never handed to the solver. The interior point's answer is
+    /// replaced by its active set's leaf (exact complementarity) when that leaf is as good.
     pub fn solve_converted(&self, params: &ConvertedParams) -> InverseResult<ConvertedSolution> {
         self.validate()?;
         let converted = self.converted(params.epsilon);

@@ -381,11 +381,13 @@ impl QpccProblem {
             if best.as_ref().is_some_and(|b| value >= b.1 - gap) {
                 continue;
             }
-            let Some((worst, complementary)) =
-                self.worst_free(&modes, &lambda, params.complementarity_tolerance)
-            else {
-                // A leaf: every contact fixed, complementarity holds exactly.
-                best = Some((lambda, value));
+            let tol = params.complementarity_tolerance;
+            let Some((worst, complementary)) = self.worst_free(&modes, &lambda, tol) else {
+                // A leaf: every contact fixed, so complementarity holds up to the QP's
+                // accuracy (a reduced-accuracy solve can miss an equality row).
+                if self.complementary(&lambda, tol) {
+                    best = Some((lambda, value));
+                }
                 continue;
             };
             if complementary {
@@ -395,6 +397,7 @@ impl QpccProblem {
                     lambda: l,
                     value: v,
                 } = self.solve_node(&leaf, &params.qp)?
+                    && self.complementary(&l, tol)
                 {
                     if best.as_ref().is_none_or(|b| v < b.1) {
                         best = Some((l, v));
@@ -419,6 +422,14 @@ impl QpccProblem {
             }
         }
         Ok(self.finish(status, best, nodes, params.reach_tolerance))
+    }
+
+    /// Whether every contact's λ_i δ_i is within `tol` · ‖λ‖∞ max(‖δ_c‖∞, ‖δ_c^free‖∞).
+    fn complementary(&self, lambda: &[f64], tol: f64) -> bool {
+        let delta = self.contacts(lambda);
+        // δ_c^free sets the gaps' scale: with every contact closed, δ_c itself is ~0.
+        let scale = max_abs(lambda) * max_abs(&delta).max(max_abs(&self.delta_c_free));
+        complementarity(&lambda[self.n_a..], &delta) <= tol * scale
     }
 
     /// Every free contact fixed to the side its relaxed solution is on.
@@ -499,7 +510,9 @@ impl QpccProblem {
                 NodeOutcome::Infeasible => {}
                 NodeOutcome::Failed(s) => status = QpccStatus::QpFailed(s),
                 NodeOutcome::Solved { lambda, value } => {
-                    if best.as_ref().is_none_or(|b| value < b.1) {
+                    let tol = params.complementarity_tolerance;
+                    if self.complementary(&lambda, tol) && best.as_ref().is_none_or(|b| value < b.1)
+                    {
                         best = Some((lambda, value));
                     }
                 }
