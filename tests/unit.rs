@@ -59,6 +59,8 @@ mod filter_golden;
 mod inverse;
 #[path = "unit/inverse_lsq.rs"]
 mod inverse_lsq;
+#[path = "unit/inverse_qpcc.rs"]
+mod inverse_qpcc;
 #[path = "unit/inverse_tare.rs"]
 mod inverse_tare;
 #[path = "unit/markers.rs"]

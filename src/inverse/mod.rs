@@ -3,7 +3,8 @@
 //! identifiability and covariance it shares with the markers ([`lsq`]), and the per-frame
 //! sensing loop built on them: the candidate forces and their loads ([`candidate`]), one entry, [`estimate`] (the loop, [`sensing`]), its
 //! linearisation ([`linearise`]), the choice of contact locations ([`locations`]) and the
-//! forces' uncertainty from shared points ([`uncertainty`]).
+//! forces' uncertainty from shared points ([`uncertainty`]). The contact LCP and the FEM
+//! controller's QP with complementarity constraints of thesis chapter 5 are in [`qpcc`].
 //!
 //! ```
 //! use softsense::inverse::qp::{QpProblem, QpStatus};
@@ -25,6 +26,7 @@ pub mod locations;
 pub mod lsq;
 pub mod pushes;
 pub mod qp;
+pub mod qpcc;
 pub mod sensing;
 pub mod tare;
 pub mod uncertainty;
@@ -176,6 +178,57 @@ pub enum InverseError {
         forces: usize,
         /// Candidates.
         candidates: usize,
+    },
+    /// A contact LCP whose W_cc is not n_c x n_c for n_c gaps.
+    #[error("contact LCP: W_cc is {rows}x{cols} for {gaps} gaps")]
+    ContactLcpShape {
+        /// Rows of W_cc.
+        rows: usize,
+        /// Columns of W_cc.
+        cols: usize,
+        /// Gaps given.
+        gaps: usize,
+    },
+    /// A contact compliance W_cc that is not symmetric positive semi-definite.
+    #[error("contact LCP: W_cc not symmetric PSD (asymmetry {asymmetry}, smallest eigenvalue {min_eigenvalue})")]
+    ContactCompliance {
+        /// max |W_cc − W_ccᵀ|.
+        asymmetry: f64,
+        /// Smallest eigenvalue of sym(W_cc).
+        min_eigenvalue: f64,
+    },
+    /// A QPCC whose matrices, vectors and bounds disagree in size.
+    #[error(
+        "QPCC: inconsistent dimensions ({effectors} effectors, {actuators} actuators, \
+         {contacts} contacts; W_e and W_c have {columns:?} columns)"
+    )]
+    QpccShape {
+        /// Rows of W_e.
+        effectors: usize,
+        /// n_a.
+        actuators: usize,
+        /// Rows of W_c.
+        contacts: usize,
+        /// Columns of W_e and of W_c.
+        columns: (usize, usize),
+    },
+    /// A QPCC bound that is NaN, empty (lower > upper) or infinite on the wrong side.
+    #[error("QPCC: unknown {index} has bounds [{lower}, {upper}]")]
+    QpccBounds {
+        /// Index into λ = [λ_a; λ_c].
+        index: usize,
+        /// Its lower bound.
+        lower: f64,
+        /// Its upper bound.
+        upper: f64,
+    },
+    /// The exhaustive QPCC oracle asked for more contacts than it enumerates.
+    #[error("QPCC oracle: {contacts} contacts, at most {max} are enumerated")]
+    OracleContacts {
+        /// Contacts in the problem.
+        contacts: usize,
+        /// The oracle's limit.
+        max: usize,
     },
     /// The FE model failed while updating the state.
     #[error(transparent)]
