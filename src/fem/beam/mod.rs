@@ -65,7 +65,8 @@ impl BeamMaterial {
 
     /// From E and G (Pa, both positive).
     pub fn with_shear_modulus(young_modulus: f64, shear_modulus: f64) -> FemResult<Self> {
-        if !(young_modulus > 0.0 && shear_modulus > 0.0) || !young_modulus.is_finite() {
+        let positive = young_modulus > 0.0 && shear_modulus > 0.0;
+        if !(positive && young_modulus.is_finite() && shear_modulus.is_finite()) {
             return Err(FemError::Material(format!(
                 "E = {young_modulus} Pa and G = {shear_modulus} Pa must be positive"
             )));

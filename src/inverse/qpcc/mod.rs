@@ -345,7 +345,7 @@ impl QpccProblem {
 
     /// The QPCC (5.5-5.8) by branch and bound over the contacts' complementarity.
     ///
-    /// Each node is a convex QP ([`Mode`]s: active, inactive, free) whose optimum bounds its
+    /// Each node is a convex QP (each contact active, inactive or free) whose optimum bounds its
     /// subtree from below. A node whose free contacts are complementary to tolerance is
     /// snapped to the leaf of its active set (each free contact active where δ_i < λ_i),
     /// which gives an incumbent with exact complementarity; the node is closed when that
