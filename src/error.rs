@@ -59,6 +59,9 @@ pub enum Error {
     /// Calibration of the camera pose and actuator inputs.
     #[error(transparent)]
     Calibrate(#[from] crate::calibrate::CalibrateError),
+    /// The catheter workflow: its path, tube and control law.
+    #[error(transparent)]
+    Catheter(#[from] crate::catheter::CatheterError),
 }
 
 /// `Result` with the crate-level [`Error`](enum@Error).

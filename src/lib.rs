@@ -36,6 +36,7 @@
 pub mod batch;
 pub mod calibrate;
 pub mod camera;
+pub mod catheter;
 pub mod cloud;
 pub mod contact;
 pub mod control;

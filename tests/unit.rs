@@ -121,6 +121,9 @@ mod score;
 
 #[path = "unit/control.rs"]
 mod control;
+
+#[path = "unit/catheter.rs"]
+mod catheter;
 #[path = "unit/layers.rs"]
 mod layers;
 

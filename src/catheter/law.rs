@@ -41,10 +41,10 @@ pub fn jacobian(w_ea: &DMatrix<f64>, w_aa: &DMatrix<f64>) -> CatheterResult<DMat
             w_aa.ncols()
         )));
     }
-    let inv = w_aa
-        .clone()
-        .try_inverse()
-        .ok_or(CatheterError::Singular { what: "W_aa", rank: w_aa.rank(1e-12 * w_aa.norm()) })?;
+    let inv = w_aa.clone().try_inverse().ok_or(CatheterError::Singular {
+        what: "W_aa",
+        rank: w_aa.rank(1e-12 * w_aa.norm()),
+    })?;
     Ok(w_ea * inv)
 }
 
@@ -54,16 +54,23 @@ pub fn right_pseudo_inverse(j: &DMatrix<f64>) -> CatheterResult<DMatrix<f64>> {
     let tol = 1e-12 * jjt.norm().max(f64::MIN_POSITIVE);
     let rank = jjt.rank(tol);
     if rank < j.nrows() {
-        return Err(CatheterError::Singular { what: "J Jᵀ", rank });
+        return Err(CatheterError::Singular {
+            what: "J Jᵀ", rank
+        });
     }
-    let inv = jjt.try_inverse().ok_or(CatheterError::Singular { what: "J Jᵀ", rank })?;
+    let inv = jjt.try_inverse().ok_or(CatheterError::Singular {
+        what: "J Jᵀ", rank
+    })?;
     Ok(j.transpose() * inv)
 }
 
 impl PdLaw {
     /// A law with no history.
     pub fn new(gains: PdGains) -> Self {
-        Self { gains, last_error: None }
+        Self {
+            gains,
+            last_error: None,
+        }
     }
 
     /// The input increment u = Δδ_a for error e_k = δ_e − δ_d (5.22). At the first step

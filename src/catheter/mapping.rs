@@ -26,7 +26,10 @@ pub struct MappingParams {
 
 impl Default for MappingParams {
     fn default() -> Self {
-        Self { on_path: 1e-9, reference: [0.0, 0.0, 1.0] }
+        Self {
+            on_path: 1e-9,
+            reference: [0.0, 0.0, 1.0],
+        }
     }
 }
 
@@ -59,7 +62,9 @@ impl LocalFrame {
         let basis = DMatrix::from_row_slice(
             2,
             3,
-            &[self.y[0], self.y[1], self.y[2], self.z[0], self.z[1], self.z[2]],
+            &[
+                self.y[0], self.y[1], self.y[2], self.z[0], self.z[1], self.z[2],
+            ],
         );
         basis * rows
     }
@@ -84,7 +89,10 @@ fn normal_part(v: [f64; 3], x: [f64; 3]) -> Option<[f64; 3]> {
 impl Mapping {
     /// A mapping with `params` and no history.
     pub fn new(params: MappingParams) -> Self {
-        Self { params, last_z: None }
+        Self {
+            params,
+            last_z: None,
+        }
     }
 
     /// The local frame for the tip at `tip` on `path` (Algorithm 5.1, step 1).
@@ -104,6 +112,12 @@ impl Mapping {
             .expect("[0,0,1] and [0,1,0] cannot both be parallel to a unit vector");
         let y = unit(cross(z, x));
         self.last_z = Some(z);
-        LocalFrame { p: c.point, s: c.s, x, y, z }
+        LocalFrame {
+            p: c.point,
+            s: c.s,
+            x,
+            y,
+            z,
+        }
     }
 }

@@ -6,6 +6,9 @@
 //! The FE model of the catheter is [`crate::fem::beam`]; the contact LCP and the FEM
 //! controller's QPCC (5.6-5.15) are [`crate::inverse::qpcc`].
 
+// `!(x > 0.0)` is used on purpose: it also rejects NaN, which `x <= 0.0` would let through.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod law;
 pub mod mapping;
 pub mod tube;

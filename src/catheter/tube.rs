@@ -83,11 +83,20 @@ impl Centreline {
             }
             arc.push(arc[i] + l);
         }
-        if tangents.iter().any(|&t| !(norm(t) > 0.0) || !norm(t).is_finite()) {
-            return Err(CatheterError::Path("a centreline tangent is zero or not finite".into()));
+        if tangents
+            .iter()
+            .any(|&t| !(norm(t) > 0.0) || !norm(t).is_finite())
+        {
+            return Err(CatheterError::Path(
+                "a centreline tangent is zero or not finite".into(),
+            ));
         }
         let tangents = tangents.into_iter().map(unit).collect();
-        Ok(Self { points, tangents, arc })
+        Ok(Self {
+            points,
+            tangents,
+            arc,
+        })
     }
 
     /// The curve of `pieces` starting at `start` along the unit `direction`, with `normal`
@@ -100,7 +109,9 @@ impl Centreline {
         step: f64,
     ) -> CatheterResult<Self> {
         if !(step > 0.0) {
-            return Err(CatheterError::Path(format!("sampling step {step} m must be > 0")));
+            return Err(CatheterError::Path(format!(
+                "sampling step {step} m must be > 0"
+            )));
         }
         let mut t = unit(direction);
         let normal_part = sub(normal, scale(t, dot(normal, t)));
@@ -124,7 +135,11 @@ impl Centreline {
                     }
                     at = *points.last().expect("pushed above");
                 }
-                Piece::Arc { radius, angle, plane } => {
+                Piece::Arc {
+                    radius,
+                    angle,
+                    plane,
+                } => {
                     check_positive(i, "radius", radius)?;
                     check_positive(i, "angle", angle)?;
                     let bend_normal = rotate(n, t, plane);
@@ -160,7 +175,11 @@ impl Centreline {
     /// The point at arc length `s`, clamped to the curve.
     pub fn at(&self, s: f64) -> CurvePoint {
         let s = s.clamp(0.0, self.length());
-        let i = self.arc.partition_point(|&a| a <= s).clamp(1, self.points.len() - 1) - 1;
+        let i = self
+            .arc
+            .partition_point(|&a| a <= s)
+            .clamp(1, self.points.len() - 1)
+            - 1;
         let u = (s - self.arc[i]) / (self.arc[i + 1] - self.arc[i]);
         self.point_on(i, u)
     }
@@ -199,7 +218,9 @@ fn check_positive(piece: usize, what: &str, v: f64) -> CatheterResult<()> {
     if v > 0.0 && v.is_finite() {
         Ok(())
     } else {
-        Err(CatheterError::Path(format!("piece {piece}: {what} {v} must be > 0")))
+        Err(CatheterError::Path(format!(
+            "piece {piece}: {what} {v} must be > 0"
+        )))
     }
 }
 
@@ -229,7 +250,9 @@ impl Tube {
     /// A tube around `centreline` of inner `radius` m (> 0).
     pub fn new(centreline: Centreline, radius: f64) -> CatheterResult<Self> {
         if !(radius > 0.0) || !radius.is_finite() {
-            return Err(CatheterError::Path(format!("tube radius {radius} m must be > 0")));
+            return Err(CatheterError::Path(format!(
+                "tube radius {radius} m must be > 0"
+            )));
         }
         Ok(Self { centreline, radius })
     }
@@ -247,7 +270,12 @@ impl Tube {
         } else {
             crate::math::tangents(c.tangent).0
         };
-        NodeContact { node: usize::MAX, gap: self.radius - catheter_radius - d, normal, s: c.s }
+        NodeContact {
+            node: usize::MAX,
+            gap: self.radius - catheter_radius - d,
+            normal,
+            s: c.s,
+        }
     }
 
     /// Node-based collision detection: every node whose gap is below `alarm` m becomes a

@@ -15,7 +15,11 @@ fn close(a: [f64; 3], b: [f64; 3], tol: f64) -> bool {
 fn elbow(step: f64) -> Centreline {
     let pieces = [
         Piece::Straight { length: 0.02 },
-        Piece::Arc { radius: 0.05, angle: FRAC_PI_2, plane: 0.0 },
+        Piece::Arc {
+            radius: 0.05,
+            angle: FRAC_PI_2,
+            plane: 0.0,
+        },
         Piece::Straight { length: 0.02 },
     ];
     Centreline::from_pieces([0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], &pieces, step).unwrap()
@@ -25,11 +29,23 @@ fn elbow(step: f64) -> Centreline {
 fn an_elbow_of_pieces_ends_where_the_geometry_says() {
     let c = elbow(5e-4);
     let end = c.at(c.length());
-    assert!(close(end.point, [0.07, 0.07, 0.0], 1e-12), "{:?}", end.point);
-    assert!(close(end.tangent, [0.0, 1.0, 0.0], 1e-12), "{:?}", end.tangent);
+    assert!(
+        close(end.point, [0.07, 0.07, 0.0], 1e-12),
+        "{:?}",
+        end.point
+    );
+    assert!(
+        close(end.tangent, [0.0, 1.0, 0.0], 1e-12),
+        "{:?}",
+        end.tangent
+    );
     let exact = 0.04 + 0.05 * FRAC_PI_2;
     // Chords are a little shorter than the arc: relative (step/R)²/24 at most.
-    assert!((c.length() - exact).abs() < exact * 1e-4, "{} vs {exact}", c.length());
+    assert!(
+        (c.length() - exact).abs() < exact * 1e-4,
+        "{} vs {exact}",
+        c.length()
+    );
     // Mid-bend point lies on the circle about (0.02, 0.05).
     let mid = c.at(0.02 + 0.05 * FRAC_PI_2 / 2.0);
     let r = ((mid.point[0] - 0.02).powi(2) + (mid.point[1] - 0.05).powi(2)).sqrt();
@@ -38,12 +54,20 @@ fn an_elbow_of_pieces_ends_where_the_geometry_says() {
 
 #[test]
 fn a_bend_turns_in_the_plane_it_is_given() {
-    let pieces = [Piece::Arc { radius: 0.05, angle: FRAC_PI_2, plane: FRAC_PI_2 }];
-    let c = Centreline::from_pieces([0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], &pieces, 1e-3)
-        .unwrap();
+    let pieces = [Piece::Arc {
+        radius: 0.05,
+        angle: FRAC_PI_2,
+        plane: FRAC_PI_2,
+    }];
+    let c =
+        Centreline::from_pieces([0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], &pieces, 1e-3).unwrap();
     // The normal +y turned 90° about +x is +z.
     let end = c.at(c.length());
-    assert!(close(end.point, [0.05, 0.0, 0.05], 1e-12), "{:?}", end.point);
+    assert!(
+        close(end.point, [0.05, 0.0, 0.05], 1e-12),
+        "{:?}",
+        end.point
+    );
     assert!(close(end.tangent, [0.0, 0.0, 1.0], 1e-12));
 }
 
@@ -52,10 +76,20 @@ fn the_nearest_point_is_never_farther_than_any_sample() {
     let c = elbow(2e-3);
     for k in 0..200 {
         let t = k as f64 * 0.37;
-        let p = [0.08 * (t.sin() * 0.5 + 0.5), 0.08 * (t.cos() * 0.5 + 0.5), 0.01 * t.sin()];
+        let p = [
+            0.08 * (t.sin() * 0.5 + 0.5),
+            0.08 * (t.cos() * 0.5 + 0.5),
+            0.01 * t.sin(),
+        ];
         let n = c.nearest(p);
-        let d = |q: [f64; 3]| ((q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2) + (q[2] - p[2]).powi(2)).sqrt();
-        let best = c.points().iter().map(|&q| d(q)).fold(f64::INFINITY, f64::min);
+        let d = |q: [f64; 3]| {
+            ((q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2) + (q[2] - p[2]).powi(2)).sqrt()
+        };
+        let best = c
+            .points()
+            .iter()
+            .map(|&q| d(q))
+            .fold(f64::INFINITY, f64::min);
         assert!(d(n.point) <= best + 1e-15, "{} > {best}", d(n.point));
         let tn: f64 = n.tangent.iter().map(|v| v * v).sum();
         assert!((tn - 1.0).abs() < 1e-12);
@@ -77,21 +111,33 @@ fn bad_paths_are_refused_with_a_reason() {
 fn the_gap_to_a_straight_tube_is_radius_minus_offset() {
     let tube = Tube::new(elbow(1e-3), 0.014).unwrap();
     let c = tube.gap([0.01, 0.004, -0.003], 0.0035);
-    assert!((c.gap - (0.014 - 0.0035 - 0.005)).abs() < 1e-12, "{}", c.gap);
+    assert!(
+        (c.gap - (0.014 - 0.0035 - 0.005)).abs() < 1e-12,
+        "{}",
+        c.gap
+    );
     assert!(close(c.normal, [0.0, -0.8, 0.6], 1e-12), "{:?}", c.normal);
     // Only nodes within the alarm distance of the wall become contacts.
     let nodes = [[0.005, 0.0, 0.0], [0.01, 0.0095, 0.0], [0.015, 0.0, 0.011]];
     let contacts = tube.contacts(&nodes, 0.0035, 0.002);
     let found: Vec<usize> = contacts.iter().map(|c| c.node).collect();
     assert_eq!(found, vec![1, 2]);
-    assert!(contacts[1].gap < 0.0, "node 2 penetrates: {}", contacts[1].gap);
+    assert!(
+        contacts[1].gap < 0.0,
+        "node 2 penetrates: {}",
+        contacts[1].gap
+    );
 }
 
 #[test]
 fn the_local_frame_is_right_handed_and_the_error_lies_along_py() {
     let path = elbow(5e-4);
     let mut m = Mapping::new(MappingParams::default());
-    for tip in [[0.01, 0.003, 0.001], [0.05, 0.02, -0.004], [0.068, 0.06, 0.002]] {
+    for tip in [
+        [0.01, 0.003, 0.001],
+        [0.05, 0.02, -0.004],
+        [0.068, 0.06, 0.002],
+    ] {
         let f = m.frame(&path, tip);
         let z = softsense::math::cross(f.x, f.y);
         assert!(close(z, f.z, 1e-12), "x × y = {z:?}, z = {:?}", f.z);
@@ -99,7 +145,10 @@ fn the_local_frame_is_right_handed_and_the_error_lies_along_py() {
         let dist = softsense::math::dist(tip, f.p);
         // The tip-to-P vector is normal to the nearest chord, and Px (interpolated between
         // samples) is within step/2R = 0.005 rad of it: it maps onto Py to 1.3e-5.
-        assert!(e[1].abs() < 1e-12 && (e[0].abs() - dist).abs() < 2e-5 * dist, "{e:?} vs {dist}");
+        assert!(
+            e[1].abs() < 1e-12 && (e[0].abs() - dist).abs() < 2e-5 * dist,
+            "{e:?} vs {dist}"
+        );
         let rows = DMatrix::from_row_slice(3, 2, &[1.0, 0.0, 0.0, 1.0, 2.0, 3.0]);
         let mapped = f.rows_2d(&rows);
         let expect = f.z[0] * 0.0 + f.z[1] * 1.0 + f.z[2] * 3.0;
@@ -148,7 +197,10 @@ fn the_pd_law_converges_on_its_own_model_and_diverges_on_a_rotated_one() {
     assert!(rotation_margin(&j_model, &j_model).unwrap() > 0.99);
     let inverted = rot(2.5) * &j_model;
     assert!(rotation_margin(&inverted, &j_model).unwrap() < 0.0);
-    assert!(run(&inverted) > 0.01, "a rotated J past 90° pushes the error up");
+    assert!(
+        run(&inverted) > 0.01,
+        "a rotated J past 90° pushes the error up"
+    );
 }
 
 #[test]
@@ -158,7 +210,13 @@ fn the_jacobian_is_w_ea_times_w_aa_inverse_and_singular_ones_are_refused() {
     let j = jacobian(&w_ea, &w_aa).unwrap();
     assert!(((&j * &w_aa) - &w_ea).norm() < 1e-14);
     let singular = DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 2.0, 4.0]);
-    assert!(matches!(jacobian(&w_ea, &singular), Err(CatheterError::Singular { .. })));
+    assert!(matches!(
+        jacobian(&w_ea, &singular),
+        Err(CatheterError::Singular { .. })
+    ));
     let rank_one = DMatrix::from_row_slice(2, 3, &[1.0, 2.0, 3.0, 2.0, 4.0, 6.0]);
-    assert!(matches!(right_pseudo_inverse(&rank_one), Err(CatheterError::Singular { rank: 1, .. })));
+    assert!(matches!(
+        right_pseudo_inverse(&rank_one),
+        Err(CatheterError::Singular { rank: 1, .. })
+    ));
 }
