@@ -194,6 +194,27 @@ fn a_singular_contact_compliance_is_solved_and_an_infeasible_lcp_is_reported() {
     );
 }
 
+#[test]
+fn regression_a_qpcc_with_no_contacts_does_not_panic_in_its_lcp() {
+    // The catheter's first steps have no contact: the LCP has no unknowns, which Clarabel
+    // cannot take (it panicked inside its factorisation).
+    let lcp = solve_contact_lcp(&DMatrix::zeros(0, 0), &[], &QpParams::default()).unwrap();
+    assert_eq!(lcp.status, LcpStatus::Solved);
+    assert!(lcp.lambda.is_empty());
+    let w_e = DMatrix::from_row_slice(2, 2, &[1.0, 0.2, 0.0, 1.0]);
+    let problem = QpccProblem::new(
+        w_e,
+        DMatrix::zeros(0, 2),
+        vec![-0.5, -0.3],
+        vec![],
+        vec![0.0; 2],
+        2,
+    );
+    let sol = problem.solve(&params()).unwrap();
+    assert_eq!(sol.status, QpccStatus::Solved);
+    assert!(sol.residual_objective < 1e-12, "{}", sol.residual_objective);
+}
+
 /// B&B and the oracle on the random instances of `seeds`; returns (indefinite Q count at
 /// ε = 1, worst relative difference, B&B nodes, oracle QPs).
 fn compare_with_oracle(seeds: std::ops::Range<u64>) -> (usize, f64, usize, usize) {
