@@ -221,7 +221,7 @@ impl Default for BeamParams {
 }
 
 /// How a static solve ended.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub enum BeamStatus {
     /// The residual met the tolerance.
     Converged,

@@ -2,7 +2,9 @@
 //! factorised tangent at a configuration and compliance W = H K⁻¹ Hᵀ over [`BeamRow`]s.
 
 use super::element::{log, Ends, Mat12, Vec12};
-use super::{BeamLoads, BeamModel, BeamParams, BeamSolution, BeamState, BeamStatus, NodeLoad};
+use super::{
+    BeamCable, BeamLoads, BeamModel, BeamParams, BeamSolution, BeamState, BeamStatus, NodeLoad,
+};
 use crate::fem::{FemError, FemResult};
 use crate::math::Vec3;
 use faer::linalg::solvers::Solve;
@@ -149,8 +151,12 @@ impl BeamModel {
         dofs: &DofMap,
         state: &BeamState,
         geometric: bool,
+        cables: &[(BeamCable, f64)],
     ) -> FemResult<SparseColMat<usize, f64>> {
         let mut triplets = Vec::with_capacity(144 * self.elements.len());
+        if geometric {
+            self.cable_stiffness(dofs, state, cables, &mut triplets);
+        }
         for (e, (_, ke)) in self.element_tangents(state, geometric).iter().enumerate() {
             for (a, fa) in [dofs.first[e], dofs.first[e + 1]].iter().enumerate() {
                 for (b, fb) in [dofs.first[e], dofs.first[e + 1]].iter().enumerate() {
@@ -242,7 +248,9 @@ impl BeamModel {
                     &(self.external_force(&state, loads, scale) - self.internal_force(&state)),
                 );
                 residual = r.norm_l2();
-                let Some(llt) = self.factor_with_fallback(&dofs, &state, &mut symbolic)? else {
+                let Some(llt) =
+                    self.factor_with_fallback(&dofs, &state, &loads.cables, &mut symbolic)?
+                else {
                     return Ok(self.ended(
                         state,
                         BeamStatus::NotPositiveDefinite,
@@ -319,6 +327,53 @@ impl BeamModel {
         size
     }
 
+    /// The cables' load stiffness −T ∂g/∂q (g: a cable's row, the gradient of its
+    /// shortening) by central differences of the analytic row, as triplets on the free
+    /// DOFs. A row's entries at node i depend on nodes i−1..i+1 only, so the pattern stays
+    /// inside the element blocks'.
+    fn cable_stiffness(
+        &self,
+        dofs: &DofMap,
+        state: &BeamState,
+        cables: &[(BeamCable, f64)],
+        triplets: &mut Vec<Triplet<usize, usize, f64>>,
+    ) {
+        let h = 1e-7;
+        for (cable, tension) in cables.iter().filter(|(_, t)| *t != 0.0) {
+            for (j, fj) in dofs.first.iter().enumerate() {
+                let Some(fj) = *fj else { continue };
+                for k in 0..6 {
+                    let step = |sign: f64| {
+                        let mut s = state.clone();
+                        let mut d = Vec3::zeros();
+                        d[k % 3] = sign * h * if k < 3 { self.length() } else { 1.0 };
+                        match k < 3 {
+                            true => s.nodes_in_world[j] += d,
+                            false => {
+                                s.world_from_node[j] =
+                                    UnitQuaternion::from_scaled_axis(d) * s.world_from_node[j]
+                            }
+                        }
+                        (cable.row(&s), d[k % 3])
+                    };
+                    let ((plus, dp), (minus, dm)) = (step(1.0), step(-1.0));
+                    for ((i, gp), (_, gm)) in plus.entries.iter().zip(&minus.entries) {
+                        let Some(fi) = dofs.first[*i] else { continue };
+                        if i.abs_diff(j) > 1 {
+                            continue;
+                        }
+                        for r in 0..6 {
+                            let v = -tension * (gp[r] - gm[r]) / (dp - dm);
+                            // Half here and half transposed: the symmetric part.
+                            triplets.push(Triplet::new(fi + r, fj + k, 0.5 * v));
+                            triplets.push(Triplet::new(fj + k, fi + r, 0.5 * v));
+                        }
+                    }
+                }
+            }
+        }
+    }
+
     /// Factorises the consistent tangent at `state`, or, when it is not positive definite
     /// (compression past buckling: a cable's own compression, whose load stiffness the
     /// tangent omits, or a large end moment), the material part alone (Newton then
@@ -327,10 +382,11 @@ impl BeamModel {
         &self,
         dofs: &DofMap,
         state: &BeamState,
+        cables: &[(BeamCable, f64)],
         symbolic: &mut Option<SymbolicLlt<usize>>,
     ) -> FemResult<Option<Llt<usize, f64>>> {
         for geometric in [true, false] {
-            let k = self.tangent_sparse(dofs, state, geometric)?;
+            let k = self.tangent_sparse(dofs, state, geometric, cables)?;
             let sym = match symbolic {
                 Some(s) => s.clone(),
                 None => {
@@ -347,15 +403,38 @@ impl BeamModel {
         Ok(None)
     }
 
-    /// Factorises the tangent at `state` (one factorisation, for many compliance solves).
+    /// Factorises the tangent at `state` (one factorisation, for many compliance solves):
+    /// the consistent one, or its material part when that is not positive definite (as in
+    /// Newton: under the cables' own compression, whose follower-load stiffness the tangent
+    /// omits; `BeamLinearisation::geometric` says which). An error if neither is definite.
     pub fn linearise(&self, state: &BeamState) -> FemResult<BeamLinearisation> {
+        self.linearise_loaded(state, &[])
+    }
+
+    /// [`Self::linearise`] with the load stiffness of cables under tension in the geometric
+    /// part: the tangent Newton used for the equilibrium under those cables.
+    pub fn linearise_loaded(
+        &self,
+        state: &BeamState,
+        cables: &[(BeamCable, f64)],
+    ) -> FemResult<BeamLinearisation> {
         let dofs = DofMap::new(self);
-        let k = self.tangent_sparse(&dofs, state, true)?;
-        let llt = k
-            .as_ref()
-            .sp_cholesky(Side::Lower)
-            .map_err(sparse_llt_error)?;
-        Ok(BeamLinearisation { dofs, llt })
+        let mut last = None;
+        for geometric in [true, false] {
+            let k = self.tangent_sparse(&dofs, state, geometric, cables)?;
+            match k.as_ref().sp_cholesky(Side::Lower) {
+                Ok(llt) => {
+                    return Ok(BeamLinearisation {
+                        dofs,
+                        llt,
+                        geometric,
+                    })
+                }
+                Err(SparseLltError::Numeric(e)) => last = Some(e),
+                Err(e) => return Err(sparse_llt_error(e)),
+            }
+        }
+        Err(last.expect("both tangents were tried").into())
     }
 }
 
@@ -370,6 +449,8 @@ fn sparse_llt_error(e: SparseLltError) -> FemError {
 pub struct BeamLinearisation {
     dofs: DofMap,
     llt: Llt<usize, f64>,
+    /// Whether the geometric part of the tangent is in (false: the material part alone).
+    pub geometric: bool,
 }
 
 impl std::fmt::Debug for BeamLinearisation {
