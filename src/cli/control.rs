@@ -3,12 +3,10 @@
 
 use super::{print_json, CliError, CliResult};
 use clap::Args;
-use indicatif::{ProgressBar, ProgressStyle};
 use softsense::control::output::write_run;
 use softsense::control::run::{run, RunStatus};
 use softsense::control::scenario::Scenario;
 use softsense::render::control::write_pictures;
-use std::io::IsTerminal;
 use std::path::PathBuf;
 
 /// Closed-loop position control on the FE model, against a simulated robot.
@@ -53,18 +51,7 @@ pub fn run_control(args: &ControlArgs) -> CliResult {
             .validate()
             .map_err(|e| CliError::Usage(format!("--steps: {e}")))?;
     }
-    let bar = if std::io::stderr().is_terminal() {
-        let b = ProgressBar::new(scenario.steps as u64);
-        if let Ok(style) =
-            ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} steps ({eta})")
-        {
-            b.set_style(style);
-        }
-        b.set_message(scenario.name.clone());
-        b
-    } else {
-        ProgressBar::hidden()
-    };
+    let bar = super::steps_bar(scenario.steps, &scenario.name);
     if let Some(out) = &args.out {
         let written = ["trajectory.csv", "run.json"];
         super::check_files_dir(out, &written, &[&args.scenario])?;

@@ -12,6 +12,7 @@ macro_rules! outln {
 
 pub mod batch;
 pub mod calibrate;
+pub mod catheter;
 pub mod cluster;
 pub mod colour;
 pub mod contacts;
@@ -137,6 +138,23 @@ pub fn out(args: fmt::Arguments<'_>) -> CliResult {
 /// Whether stdout's reader has gone: a command whose only product is stdout may stop.
 pub fn stdout_closed() -> bool {
     STDOUT_CLOSED.load(Ordering::Relaxed)
+}
+
+/// A bar of `len` control steps named `name` on a terminal's stderr, hidden otherwise (so
+/// piped output stays clean).
+pub fn steps_bar(len: usize, name: &str) -> indicatif::ProgressBar {
+    use std::io::IsTerminal;
+    if !std::io::stderr().is_terminal() {
+        return indicatif::ProgressBar::hidden();
+    }
+    let b = indicatif::ProgressBar::new(len as u64);
+    if let Ok(style) =
+        indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} steps ({eta})")
+    {
+        b.set_style(style);
+    }
+    b.set_message(name.to_string());
+    b
 }
 
 /// Prints a JSON value on stdout, one document per line (see [`out`]).
