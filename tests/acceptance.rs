@@ -9,6 +9,8 @@ mod batch;
 mod calibrate;
 #[path = "acceptance/cameras.rs"]
 mod cameras;
+#[path = "acceptance/catheter.rs"]
+mod catheter;
 #[path = "acceptance/control.rs"]
 mod control;
 #[path = "acceptance/explain_any_robot.rs"]

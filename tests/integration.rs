@@ -9,6 +9,8 @@ mod calibrate;
 mod calibrate_cameras;
 #[path = "integration/calibrate_pso.rs"]
 mod calibrate_pso;
+#[path = "integration/catheter.rs"]
+mod catheter;
 #[path = "integration/cli.rs"]
 mod cli;
 #[path = "integration/cli_own_robot.rs"]

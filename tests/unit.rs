@@ -124,6 +124,8 @@ mod control;
 
 #[path = "unit/catheter.rs"]
 mod catheter;
+#[path = "unit/catheter_rig.rs"]
+mod catheter_rig;
 #[path = "unit/layers.rs"]
 mod layers;
 

@@ -11,6 +11,11 @@
 
 pub mod law;
 pub mod mapping;
+pub mod output;
+pub mod rig;
+pub mod run;
+pub mod scenario;
+pub mod tracker;
 pub mod tube;
 
 use thiserror::Error;
@@ -32,6 +37,41 @@ pub enum CatheterError {
         /// Its numerical rank.
         rank: usize,
     },
+    /// The beam model failed (a bad section, a singular tangent).
+    #[error("catheter model: {0}")]
+    Fem(#[from] crate::fem::FemError),
+    /// A contact or QPCC solve failed to set up.
+    #[error("catheter contact: {0}")]
+    Inverse(#[from] crate::inverse::InverseError),
+    /// A scenario or output file could not be read or written.
+    #[error("{path}: {source}")]
+    File {
+        /// The file.
+        path: String,
+        /// The underlying error.
+        source: std::io::Error,
+    },
+    /// A scenario file is not valid TOML for a scenario.
+    #[error("{path}: {source}")]
+    Toml {
+        /// The file.
+        path: String,
+        /// The parser's error.
+        source: Box<toml::de::Error>,
+    },
+    /// A scenario field is out of range.
+    #[error("{file}: {field} {problem}")]
+    Field {
+        /// The scenario file.
+        file: String,
+        /// The field, dotted.
+        field: &'static str,
+        /// What is wrong with it.
+        problem: String,
+    },
+    /// An output could not be written.
+    #[error("catheter output: {0}")]
+    Output(#[from] crate::io::atomic::AtomicError),
 }
 
 /// Result of the catheter workflow.

@@ -44,6 +44,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 mod canvas;
+pub mod catheter;
 mod chart;
 mod colormap;
 pub mod control;
@@ -79,6 +80,9 @@ pub use surface::{
 /// Errors of the render module.
 #[derive(Debug, thiserror::Error)]
 pub enum RenderError {
+    /// A catheter run's path could not be rebuilt.
+    #[error(transparent)]
+    Catheter(#[from] crate::catheter::CatheterError),
     /// An output file could not be written (it names the file).
     #[error(transparent)]
     Write(#[from] crate::io::atomic::AtomicError),

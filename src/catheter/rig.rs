@@ -1,0 +1,390 @@
+//! The catheter in its tube: the beam model with its cables, and its quasi-static
+//! equilibrium with the tube's unilateral contacts (5.1-5.4) for cables driven either by
+//! tension (the FE model's inputs) or by displacement (the robot's motors).
+//!
+//! Each settle repeats: solve the beam under the cables and the contact forces so far;
+//! detect the nodes within the alarm distance of the wall; linearise W = H K⁻¹ Hᵀ on the
+//! contact rows (and, for displacement-driven cables, the cable rows); solve the LCP for
+//! the forces that close every gap from the current one; stop when the forces no longer
+//! change. A displacement-driven cable is itself a unilateral constraint: its routing may
+//! not be longer than the cable the motor lets out, g_a = s(x) + c T − u ≥ 0 with the
+//! cable's own compliance c, complementary to its tension T ≥ 0 (a slack cable carries
+//! nothing), so the plant's cables and contacts are one LCP.
+
+use super::tube::{NodeContact, Tube};
+use super::{CatheterError, CatheterResult};
+use crate::fem::beam::{
+    BeamCable, BeamLoads, BeamModel, BeamParams, BeamRow, BeamState, BeamStatus, NodeLoad,
+};
+use crate::inverse::qp::QpParams;
+use crate::inverse::qpcc::{solve_contact_lcp, LcpStatus};
+use nalgebra::DMatrix;
+use serde::Serialize;
+
+/// The catheter: its beam, its cables and what the contact needs of its section.
+#[derive(Clone, Debug)]
+pub struct Catheter {
+    /// The FE model; node 0 is the base on the insertion stage.
+    pub beam: BeamModel,
+    /// The cables, anchored at the tip.
+    pub cables: Vec<BeamCable>,
+    /// Outer radius of the catheter's section (m): a node touches the wall at this gap.
+    pub radius: f64,
+    /// Each cable's own axial compliance L / (E A) (m/N; > 0 keeps W_aa invertible for
+    /// four cables, whose bending and stretch span only three directions).
+    pub cable_compliance: f64,
+}
+
+/// The smallest fraction of a round's force change that is applied.
+const MIN_RELAXATION: f64 = 1.0 / 64.0;
+
+/// How the cables are driven.
+#[derive(Clone, Copy, Debug)]
+pub enum Drive<'a> {
+    /// Tensions (N, ≥ 0), one per cable: the FE model's inputs.
+    Tensions(&'a [f64]),
+    /// Cable pulled in by the motors (m; negative lets cable out), one per cable: the
+    /// robot's inputs.
+    Pulls(&'a [f64]),
+}
+
+/// Options of a settle.
+#[derive(Clone, Debug)]
+pub struct SettleParams {
+    /// A node whose gap to the wall is below this becomes a contact row (m; 1e-3).
+    pub alarm: f64,
+    /// Rounds of beam solve and LCP at most; 200.
+    pub max_rounds: usize,
+    /// Settled when no force changes by more than this between rounds (N; 1e-7).
+    pub force_tolerance: f64,
+    /// The beam's Newton options.
+    pub beam: BeamParams,
+    /// The LCP's QP options.
+    pub qp: QpParams,
+}
+
+impl Default for SettleParams {
+    fn default() -> Self {
+        Self {
+            alarm: 1e-3,
+            max_rounds: 200,
+            force_tolerance: 1e-7,
+            beam: BeamParams {
+                tolerance: 1e-9,
+                ..BeamParams::default()
+            },
+            qp: QpParams::default(),
+        }
+    }
+}
+
+/// A node pushed by the wall.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct ContactForce {
+    /// The catheter node.
+    pub node: usize,
+    /// Arc length of the nearest path point (m).
+    pub s: f64,
+    /// Unit direction of the push (towards the tube's axis).
+    pub normal: [f64; 3],
+    /// The push (N, ≥ 0).
+    pub force: f64,
+    /// The node's gap to the wall (m).
+    pub gap: f64,
+}
+
+/// How a settle ended.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub enum SettleStatus {
+    /// The forces stopped changing.
+    Settled,
+    /// `max_rounds` came first; the last round's state is kept.
+    MaxRounds,
+    /// The beam's Newton did not converge.
+    Beam(BeamStatus),
+    /// The LCP had no solution (the wall and the cables cannot both be met).
+    Lcp(LcpStatus),
+}
+
+/// The catheter at equilibrium.
+#[derive(Clone, Debug)]
+pub struct Settled {
+    /// The configuration.
+    pub state: BeamState,
+    /// The cables' tensions (N).
+    pub tensions: Vec<f64>,
+    /// Nodes the wall pushes, by node; zero forces left out.
+    pub contacts: Vec<ContactForce>,
+    /// How the settle ended.
+    pub status: SettleStatus,
+    /// Rounds used.
+    pub rounds: usize,
+}
+
+impl Settled {
+    /// The tip's position (m).
+    pub fn tip(&self) -> [f64; 3] {
+        let p = self.state.nodes_in_world.last().expect("a beam has nodes");
+        [p.x, p.y, p.z]
+    }
+}
+
+impl Catheter {
+    /// Index of the tip node.
+    pub fn tip_node(&self) -> usize {
+        self.beam.node_count() - 1
+    }
+
+    /// The nodes' positions at `state`.
+    pub fn positions(state: &BeamState) -> Vec<[f64; 3]> {
+        state
+            .nodes_in_world
+            .iter()
+            .map(|p| [p.x, p.y, p.z])
+            .collect()
+    }
+
+    /// Every node within the alarm distance, plus the nodes in `keep` (which carry a force
+    /// and must be able to let go), sorted by node.
+    pub fn contact_rows(
+        &self,
+        tube: &Tube,
+        state: &BeamState,
+        alarm: f64,
+        keep: &[usize],
+    ) -> Vec<NodeContact> {
+        let x = Self::positions(state);
+        let mut rows = tube.contacts(&x, self.radius, alarm);
+        for &node in keep {
+            if !rows.iter().any(|c| c.node == node) {
+                rows.push(NodeContact {
+                    node,
+                    ..tube.gap(x[node], self.radius)
+                });
+            }
+        }
+        rows.sort_by_key(|c| c.node);
+        rows
+    }
+
+    /// Cable shortenings s(x) (m).
+    pub fn shortenings(&self, state: &BeamState) -> Vec<f64> {
+        (self.cables.iter())
+            .map(|c| c.shortening(&self.beam, state))
+            .collect()
+    }
+
+    /// Equilibrium at `insertion` m of the base, from `start` with the contact forces of
+    /// `warm` (the last step's) as the first guess.
+    pub fn settle(
+        &self,
+        tube: &Tube,
+        start: &BeamState,
+        insertion: f64,
+        drive: Drive<'_>,
+        warm: &Settled,
+        params: &SettleParams,
+    ) -> CatheterResult<Settled> {
+        let n_a = self.cables.len();
+        let mut tensions = match drive {
+            Drive::Tensions(t) => {
+                self.check_inputs(t, "tensions")?;
+                if t.iter().any(|&v| v < 0.0) {
+                    return Err(CatheterError::Shape(
+                        "a cable tension is negative: cables only pull".into(),
+                    ));
+                }
+                t.to_vec()
+            }
+            Drive::Pulls(u) => {
+                self.check_inputs(u, "pulls")?;
+                let mut t = warm.tensions.clone();
+                t.resize(n_a, 0.0);
+                t
+            }
+        };
+        let mut forces: Vec<(usize, [f64; 3], f64)> = warm
+            .contacts
+            .iter()
+            .map(|c| (c.node, c.normal, c.force))
+            .collect();
+        let mut state = start.clone();
+        let base_from_rest = self.beam.insertion(insertion);
+        let (mut relax, mut last_change) = (1.0_f64, f64::INFINITY);
+        for round in 1..=params.max_rounds {
+            let loads = BeamLoads {
+                nodes: (forces.iter())
+                    .map(|&(node, n, f)| NodeLoad::force(node, [f * n[0], f * n[1], f * n[2]]))
+                    .collect(),
+                cables: self.cables.iter().copied().zip(tensions.clone()).collect(),
+                base_from_rest,
+            };
+            let sol = self.beam.solve_static(&state, &loads, &params.beam)?;
+            state = sol.state;
+            if !sol.status.is_converged() {
+                return Ok(self.finish(
+                    state,
+                    tensions,
+                    &forces,
+                    tube,
+                    SettleStatus::Beam(sol.status),
+                    round,
+                ));
+            }
+            let keep: Vec<usize> = forces.iter().map(|f| f.0).collect();
+            let rows = self.contact_rows(tube, &state, params.alarm, &keep);
+            let pulls = match drive {
+                Drive::Pulls(u) => Some(u),
+                Drive::Tensions(_) => None,
+            };
+            if rows.is_empty() && pulls.is_none() {
+                return Ok(self.finish(state, tensions, &[], tube, SettleStatus::Settled, round));
+            }
+            // The forces applied this round, measured along each row's current normal.
+            let mut applied: Vec<f64> = rows
+                .iter()
+                .map(|c| {
+                    forces
+                        .iter()
+                        .find(|f| f.0 == c.node)
+                        .map_or(0.0, |&(_, n, f)| f * crate::math::dot(n, c.normal))
+                })
+                .collect();
+            let mut gaps: Vec<f64> = rows.iter().map(|c| c.gap).collect();
+            let mut beam_rows: Vec<BeamRow> = rows
+                .iter()
+                .map(|c| BeamRow::translation(c.node, c.normal))
+                .collect();
+            if let Some(u) = pulls {
+                let s = self.shortenings(&state);
+                for (i, cable) in self.cables.iter().enumerate() {
+                    beam_rows.push(cable.row(&state));
+                    applied.push(tensions[i]);
+                    gaps.push(s[i] + self.cable_compliance * tensions[i] - u[i]);
+                }
+            }
+            let mut w = (self.beam.linearise_loaded(&state, &loads.cables)?).compliance(&beam_rows);
+            if pulls.is_some() {
+                for i in rows.len()..beam_rows.len() {
+                    w[(i, i)] += self.cable_compliance;
+                }
+            }
+            let free = free_gaps(&w, &gaps, &applied);
+            let lcp = solve_contact_lcp(&w, &free, &params.qp)?;
+            if lcp.status != LcpStatus::Solved {
+                return Ok(self.finish(
+                    state,
+                    tensions,
+                    &forces,
+                    tube,
+                    SettleStatus::Lcp(lcp.status),
+                    round,
+                ));
+            }
+            let change = (lcp.lambda.iter().zip(&applied))
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            let unmatched = forces
+                .iter()
+                .any(|f| f.2 > 0.0 && !rows.iter().any(|c| c.node == f.0));
+            if change <= params.force_tolerance && !unmatched {
+                return Ok(self.finish(
+                    state,
+                    tensions,
+                    &forces,
+                    tube,
+                    SettleStatus::Settled,
+                    round,
+                ));
+            }
+            // Far from contact the linearisation overshoots and the rounds can cycle; each
+            // round that barely shrinks the change halves the step towards the LCP's forces,
+            // and each that halves it lengthens the step again.
+            if change >= 0.9 * last_change {
+                relax = (0.5 * relax).max(MIN_RELAXATION);
+            } else if change < 0.5 * last_change {
+                relax = (1.5 * relax).min(1.0);
+            }
+            last_change = change;
+            let next: Vec<f64> = (lcp.lambda.iter().zip(&applied))
+                .map(|(l, a)| (a.max(0.0) + relax * (l - a.max(0.0))).max(0.0))
+                .collect();
+            forces = (rows.iter().zip(&next))
+                .filter(|(_, f)| **f > 0.0)
+                .map(|(c, &f)| (c.node, c.normal, f))
+                .collect();
+            if pulls.is_some() {
+                tensions.copy_from_slice(&next[rows.len()..]);
+            }
+        }
+        Ok(self.finish(
+            state,
+            tensions,
+            &forces,
+            tube,
+            SettleStatus::MaxRounds,
+            params.max_rounds,
+        ))
+    }
+
+    fn check_inputs(&self, v: &[f64], what: &str) -> CatheterResult<()> {
+        if v.len() != self.cables.len() || v.iter().any(|x| !x.is_finite()) {
+            return Err(CatheterError::Shape(format!(
+                "{} finite {what} wanted, one per cable; got {}",
+                self.cables.len(),
+                v.len()
+            )));
+        }
+        Ok(())
+    }
+
+    fn finish(
+        &self,
+        state: BeamState,
+        tensions: Vec<f64>,
+        forces: &[(usize, [f64; 3], f64)],
+        tube: &Tube,
+        status: SettleStatus,
+        rounds: usize,
+    ) -> Settled {
+        let x = Self::positions(&state);
+        let contacts = (forces.iter())
+            .filter(|f| f.2 > 0.0)
+            .map(|&(node, normal, force)| {
+                let c = tube.gap(x[node], self.radius);
+                ContactForce {
+                    node,
+                    s: c.s,
+                    normal,
+                    force,
+                    gap: c.gap,
+                }
+            })
+            .collect();
+        Settled {
+            state,
+            tensions,
+            contacts,
+            status,
+            rounds,
+        }
+    }
+
+    /// The catheter at rest with slack cables and no contact, for the first step's warm start.
+    pub fn unloaded(&self) -> Settled {
+        Settled {
+            state: self.beam.rest_state(),
+            tensions: vec![0.0; self.cables.len()],
+            contacts: Vec::new(),
+            status: SettleStatus::Settled,
+            rounds: 0,
+        }
+    }
+}
+
+/// The gaps with the applied forces taken away, g − W λ: the LCP's free gaps.
+fn free_gaps(w: &DMatrix<f64>, gaps: &[f64], applied: &[f64]) -> Vec<f64> {
+    (0..gaps.len())
+        .map(|i| gaps[i] - (0..gaps.len()).map(|j| w[(i, j)] * applied[j]).sum::<f64>())
+        .collect()
+}

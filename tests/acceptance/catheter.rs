@@ -1,0 +1,33 @@
+//! Issue 55's closed-loop lines on the bundled catheter scenarios (simulation: the robot is
+//! the same catheter with twice the elements, its cables moved by displacement with their
+//! own stretch; the tip tracked with 0.1 mm noise through a seven-point calibration). The
+//! pass lines are the thesis's (5.5.3, 5.5.4).
+
+use crate::common::project_root;
+use softsense::catheter::run::{run, Run, RunStatus};
+use softsense::catheter::scenario::Scenario;
+
+fn full(name: &str) -> Run {
+    let s = Scenario::load(&project_root().join("scenarios/catheter").join(name)).unwrap();
+    let r = run(&s, &mut |_, _| {}).unwrap();
+    assert_eq!(r.status, RunStatus::Completed, "{name}");
+    r
+}
+
+#[test]
+fn bm3_tracking_at_2_4_mm_per_s_stays_within_the_thesis_errors() {
+    let r = full("tracking_2.4.toml");
+    let s = &r.summary;
+    println!("tracking at 2.4 mm/s: {s:?}");
+    assert!(s.straight_mean_mm <= 0.3, "{s:?}");
+    assert!(s.max_mm <= 4.8, "{s:?}");
+    assert_eq!(s.unsettled_steps + s.qpcc_failures, 0, "{s:?}");
+}
+
+#[test]
+fn bm4_positioning_at_60_mm_ends_within_0_2_mm() {
+    let r = full("positioning_60.toml");
+    let s = &r.summary;
+    println!("positioning at 60 mm: {s:?}");
+    assert!(s.final_mm <= 0.2, "{s:?}");
+}

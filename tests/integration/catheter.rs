@@ -1,0 +1,49 @@
+//! `softsense catheter`: a short run of a bundled scenario writes its files and pictures;
+//! bad files are refused with their name and field.
+
+use crate::cli::{assert_fails, softsense};
+use crate::common::project_root;
+
+#[test]
+fn a_short_catheter_run_writes_steps_run_and_both_pictures() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(project_root().join("scenarios/catheter/tracking_2.4.toml"))
+        .unwrap()
+        .replace("end_mm = 150", "end_mm = 3");
+    let scenario = dir.path().join("short.toml");
+    std::fs::write(&scenario, text).unwrap();
+    let out = dir.path().join("out");
+    let o = softsense(&[
+        "catheter",
+        scenario.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(stdout.contains("tracking error"), "{stdout}");
+    for f in ["steps.csv", "run.json", "path.png", "errors.png"] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+    let csv = std::fs::read_to_string(out.join("steps.csv")).unwrap();
+    // 3 mm at 2.4 mm/s and 20 Hz: 25 steps and the first.
+    assert_eq!(csv.lines().count(), 1 + 26, "{csv}");
+}
+
+#[test]
+fn a_catheter_scenario_with_a_bad_field_or_no_file_is_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.toml");
+    let text = std::fs::read_to_string(project_root().join("scenarios/catheter/tracking_2.4.toml"))
+        .unwrap()
+        .replace("diameter_mm = 28", "diameter_mm = 6");
+    std::fs::write(&bad, text).unwrap();
+    let o = softsense(&["catheter", bad.to_str().unwrap()]);
+    assert_fails(&o, 1, &["bad.toml", "tube.diameter_mm"]);
+    let o = softsense(&["catheter", "scenarios/catheter/nothing.toml"]);
+    assert_fails(&o, 1, &["nothing.toml"]);
+}
