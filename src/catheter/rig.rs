@@ -241,15 +241,7 @@ impl Catheter {
                 return Ok(self.finish(state, tensions, &[], tube, SettleStatus::Settled, round));
             }
             // The forces applied this round, measured along each row's current normal.
-            let mut applied: Vec<f64> = rows
-                .iter()
-                .map(|c| {
-                    forces
-                        .iter()
-                        .find(|f| f.0 == c.node)
-                        .map_or(0.0, |&(_, n, f)| f * crate::math::dot(n, c.normal))
-                })
-                .collect();
+            let mut applied: Vec<f64> = rows.iter().map(|c| along(&forces, c)).collect();
             let mut gaps: Vec<f64> = rows.iter().map(|c| c.gap).collect();
             let mut beam_rows: Vec<BeamRow> = rows
                 .iter()
@@ -384,7 +376,23 @@ impl Catheter {
 
 /// The gaps with the applied forces taken away, g − W λ: the LCP's free gaps.
 fn free_gaps(w: &DMatrix<f64>, gaps: &[f64], applied: &[f64]) -> Vec<f64> {
-    (0..gaps.len())
-        .map(|i| gaps[i] - (0..gaps.len()).map(|j| w[(i, j)] * applied[j]).sum::<f64>())
-        .collect()
+    let wl = w * nalgebra::DVector::from_column_slice(applied);
+    gaps.iter().zip(wl.iter()).map(|(g, v)| g - v).collect()
+}
+
+/// The push on `row`'s node among `forces` (node, normal, N), measured along the row's
+/// normal (the wall's direction moves with the node between rounds and steps); 0 without.
+fn along(forces: &[(usize, [f64; 3], f64)], row: &NodeContact) -> f64 {
+    (forces.iter().find(|f| f.0 == row.node))
+        .map_or(0.0, |&(_, n, f)| f * crate::math::dot(n, row.normal))
+}
+
+impl Settled {
+    /// The push this equilibrium puts on `row`'s node, along the row's normal (N).
+    pub fn force_along(&self, row: &NodeContact) -> f64 {
+        let forces: Vec<_> = (self.contacts.iter())
+            .map(|c| (c.node, c.normal, c.force))
+            .collect();
+        along(&forces, row)
+    }
 }

@@ -308,10 +308,7 @@ impl Loop<'_> {
         }
         let n = n_a + contacts.len();
         let applied: Vec<f64> = (tensions.iter().copied())
-            .chain(contacts.iter().map(|c| {
-                (m.contacts.iter().find(|f| f.node == c.node))
-                    .map_or(0.0, |f| f.force * crate::math::dot(f.normal, c.normal))
-            }))
+            .chain(contacts.iter().map(|c| m.force_along(c)))
             .collect();
         // In units of the largest effector compliance, so that the QP sees numbers near 1
         // (m/N compliances and 0.1 mm errors would sit under its tolerances).

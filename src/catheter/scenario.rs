@@ -446,16 +446,7 @@ impl Scenario {
 
     /// The path's length (mm).
     pub fn path_length_mm(&self) -> f64 {
-        (self.tube.pieces.iter())
-            .map(|p| match *p {
-                PieceSpec::Straight { length_mm } => length_mm,
-                PieceSpec::Arc {
-                    radius_mm,
-                    angle_deg,
-                    ..
-                } => radius_mm * angle_deg.to_radians(),
-            })
-            .sum()
+        1e3 * self.pieces().iter().map(piece_length).sum::<f64>()
     }
 
     /// Arc-length intervals of the straight pieces (m).
@@ -463,13 +454,10 @@ impl Scenario {
         let mut at = 0.0;
         let mut out = Vec::new();
         for p in self.pieces() {
-            match p {
-                Piece::Straight { length } => {
-                    out.push([at, at + length]);
-                    at += length;
-                }
-                Piece::Arc { radius, angle, .. } => at += radius * angle,
+            if let Piece::Straight { .. } = p {
+                out.push([at, at + piece_length(&p)]);
             }
+            at += piece_length(&p);
         }
         out
     }
@@ -542,6 +530,14 @@ impl Scenario {
         let r = nalgebra::Vector3::from(t.rotation_deg.map(f64::to_radians));
         let p = nalgebra::Vector3::from(t.translation_mm.map(|v| 1e-3 * v));
         crate::math::Iso3::new(p, r)
+    }
+}
+
+/// A piece's arc length (m).
+fn piece_length(p: &Piece) -> f64 {
+    match *p {
+        Piece::Straight { length } => length,
+        Piece::Arc { radius, angle, .. } => radius * angle,
     }
 }
 

@@ -210,9 +210,32 @@ impl QpProblem {
         Ok(())
     }
 
+    /// A QP without unknowns, which Clarabel cannot take (it panics in its factorisation):
+    /// solved at x = [] when every constraint holds there, primal infeasible otherwise.
+    fn solve_empty(&self) -> QpSolution {
+        let feasible = self.b_eq.iter().all(|&b| b == 0.0)
+            && self.b_le.iter().all(|&b| b >= 0.0)
+            && self.cones.iter().all(|c| {
+                let rest = c.h[1..].iter().map(|v| v * v).sum::<f64>().sqrt();
+                rest <= c.h[0]
+            });
+        QpSolution {
+            status: match feasible {
+                true => QpStatus::Solved,
+                false => QpStatus::PrimalInfeasible,
+            },
+            x: Vec::new(),
+            objective: if feasible { 0.0 } else { f64::NAN },
+            iterations: 0,
+        }
+    }
+
     /// Solves the QP. Errors only on invalid data; a solver failure is a status.
     pub fn solve(&self, params: &QpParams) -> InverseResult<QpSolution> {
         self.validate()?;
+        if self.q.is_empty() {
+            return Ok(self.solve_empty());
+        }
         let pm = self.objective_upper();
         let (am, b, cones) = self.clarabel_constraints();
         let settings = DefaultSettingsBuilder::default()

@@ -54,16 +54,6 @@ pub fn solve_contact_lcp(
         });
     }
     check_symmetric_psd(w_cc)?;
-    if n == 0 {
-        // Nothing to solve, and Clarabel cannot take a problem without unknowns.
-        return Ok(LcpSolution {
-            status: LcpStatus::Solved,
-            lambda: Vec::new(),
-            delta: Vec::new(),
-            complementarity: 0.0,
-            min_delta: f64::INFINITY,
-        });
-    }
     let mut qp = QpProblem::new(n);
     qp.p = w_cc.clone();
     qp.q = gap.to_vec();
