@@ -111,6 +111,7 @@ pub struct Run {
 }
 
 /// What the FEM controller hands on: the model's next tensions and its J (3 rows, global).
+#[derive(Clone, Debug)]
 struct FemStep {
     tensions: Vec<f64>,
     jacobian: DMatrix<f64>,
@@ -124,6 +125,7 @@ struct FemStep {
 const TENSION_RIDGE: f64 = 1e-3;
 
 /// The loop's fixed parts.
+#[derive(Clone, Debug)]
 struct Loop<'a> {
     scenario: &'a Scenario,
     tube: Tube,
@@ -133,120 +135,72 @@ struct Loop<'a> {
     qpcc: QpccParams,
 }
 
+/// What the controllers decide in one step (5.2): the model at the insertion, the FEM
+/// controller's answer and the robot's cable increments.
+#[derive(Clone, Debug)]
+pub struct Control {
+    /// The FE model settled at the step's insertion under the current tensions.
+    pub model: Settled,
+    /// The model's tensions for the next step (N).
+    pub next_tensions: Vec<f64>,
+    /// The increments of the robot's pulls (m), from the PD law (5.22).
+    pub pull_increments: Vec<f64>,
+    /// Branch-and-bound QPs of the FEM controller's QPCC.
+    pub qpcc_nodes: usize,
+    /// Whether the QPCC found its optimum (otherwise the tensions are kept).
+    pub qpcc_solved: bool,
+}
+
+/// What one step of a [`Session`] ended with.
+#[derive(Clone, Debug)]
+pub enum Step {
+    /// The step ran.
+    Done(Box<StepRecord>),
+    /// The step failed (a settle or a controller); the run ends here.
+    Failed(String),
+}
+
+/// A run in progress: the loop's fixed parts, the tracker, the controllers' memories and
+/// both catheters' last equilibria. [`run`] steps one to the end; a bench or a caller
+/// can step it one at a time.
+#[derive(Clone, Debug)]
+pub struct Session<'a> {
+    l: Loop<'a>,
+    tracker: Tracker,
+    law: PdLaw,
+    robot_map: Mapping,
+    model_map: Mapping,
+    model: Settled,
+    robot: Settled,
+    tensions: Vec<f64>,
+    pulls: Vec<f64>,
+    k: usize,
+    unsettled: usize,
+    qpcc_failures: usize,
+}
+
 /// Runs the scenario; `progress(k, n)` after each step.
 pub fn run(scenario: &Scenario, progress: &mut dyn FnMut(usize, usize)) -> CatheterResult<Run> {
-    let settle = SettleParams {
-        alarm: 1e-3 * scenario.controller.alarm_mm,
-        ..SettleParams::default()
-    };
-    let l = Loop {
-        scenario,
-        tube: scenario.tube()?,
-        model: scenario.catheter(false)?,
-        robot: scenario.catheter(true)?,
-        settle,
-        qpcc: QpccParams::default(),
-    };
-    let t = &scenario.tracker;
-    let tracker = Tracker::calibrated(
-        scenario.tracker_from_robot(),
-        1e-3 * t.noise_mm,
-        1e-3 * t.calibration_noise_mm,
-        &l.tube,
-        t.calibration_points,
-        t.seed,
-    )?;
-    let path = &l.tube.centreline;
-    let straight = scenario.straight_parts();
+    let mut session = Session::new(scenario)?;
     let n = scenario.steps();
-    let gains = PdGains {
-        kp: scenario.controller.kp,
-        kd: scenario.controller.kd,
-    };
-    let (mut law, mut robot_map, mut model_map) =
-        (PdLaw::new(gains), Mapping::default(), Mapping::default());
-    let n_a = l.model.cables.len();
-    let (mut model, mut robot) = (l.model.unloaded(), l.robot.unloaded());
-    let (mut tensions, mut pulls) = (vec![0.0; n_a], vec![0.0; n_a]);
     let (mut steps, mut status) = (Vec::with_capacity(n), RunStatus::Completed);
-    let (mut unsettled, mut qpcc_failures) = (0, 0);
-    for k in 0..n {
-        let d = scenario.insertion_at(k);
-        let m = l.model.settle(
-            &l.tube,
-            &model.state,
-            d,
-            Drive::Tensions(&tensions),
-            &model,
-            &l.settle,
-        )?;
-        let r = l.robot.settle(
-            &l.tube,
-            &robot.state,
-            d,
-            Drive::Pulls(&pulls),
-            &robot,
-            &l.settle,
-        )?;
-        let failed = [("model", &m), ("robot", &r)]
-            .iter()
-            .find_map(|(who, s)| failure(who, s.status));
-        if let Some(reason) = failed {
-            status = RunStatus::Failed { step: k, reason };
-            break;
-        }
-        unsettled +=
-            usize::from(m.status == SettleStatus::MaxRounds || r.status == SettleStatus::MaxRounds);
-        let model_frame = model_map.frame(path, m.tip());
-        let measured = tracker.measure(r.tip(), k);
-        let robot_frame = robot_map.frame(path, measured);
-        let control = l.fem_step(&m, &model_frame, &tensions).and_then(|fem| {
-            let j = robot_frame.rows_2d(&fem.jacobian);
-            Ok((law.step(&j, &robot_frame.error_2d(measured))?, fem))
-        });
-        let (u, fem) = match control {
-            Ok(c) => c,
-            Err(e) => {
-                status = RunStatus::Failed {
-                    step: k,
-                    reason: e.to_string(),
-                };
+    while session.k < n {
+        let k = session.k;
+        match session.step()? {
+            Step::Done(record) => steps.push(*record),
+            Step::Failed(reason) => {
+                status = RunStatus::Failed { step: k, reason };
                 break;
             }
-        };
-        qpcc_failures += usize::from(!fem.solved);
-        let desired = path.nearest(r.tip());
-        steps.push(StepRecord {
-            step: k,
-            insertion: d,
-            robot: r.tip(),
-            measured,
-            model: m.tip(),
-            desired: desired.point,
-            s: desired.s,
-            straight: straight
-                .iter()
-                .any(|p| desired.s >= p[0] && desired.s <= p[1]),
-            error: dist(r.tip(), desired.point),
-            model_error: dist(m.tip(), path.nearest(m.tip()).point),
-            pulls: pulls.clone(),
-            robot_tensions: r.tensions.clone(),
-            model_tensions: tensions.clone(),
-            model_contacts: m.contacts.clone(),
-            robot_contacts: r.contacts.clone(),
-            qpcc_nodes: fem.nodes,
-        });
-        pulls.iter_mut().zip(&u).for_each(|(p, du)| *p += du);
-        tensions = fem.tensions;
-        (model, robot) = (m, r);
+        }
         progress(k + 1, n);
     }
     let summary = summarise(
         &steps,
         scenario.rate_hz,
-        unsettled,
-        qpcc_failures,
-        tracker.calibration,
+        session.unsettled,
+        session.qpcc_failures,
+        session.tracker.calibration,
     );
     Ok(Run {
         name: scenario.name.clone(),
@@ -254,9 +208,166 @@ pub fn run(scenario: &Scenario, progress: &mut dyn FnMut(usize, usize)) -> Cathe
         status,
         steps,
         summary,
-        robot_nodes: Catheter::positions(&robot.state),
-        model_nodes: Catheter::positions(&model.state),
+        robot_nodes: Catheter::positions(&session.robot.state),
+        model_nodes: Catheter::positions(&session.model.state),
     })
+}
+
+impl<'a> Session<'a> {
+    /// The scenario's catheters at rest, the tracker calibrated, no step taken.
+    pub fn new(scenario: &'a Scenario) -> CatheterResult<Self> {
+        let settle = SettleParams {
+            alarm: 1e-3 * scenario.controller.alarm_mm,
+            ..SettleParams::default()
+        };
+        let l = Loop {
+            scenario,
+            tube: scenario.tube()?,
+            model: scenario.catheter(false)?,
+            robot: scenario.catheter(true)?,
+            settle,
+            qpcc: QpccParams::default(),
+        };
+        let t = &scenario.tracker;
+        let tracker = Tracker::calibrated(
+            scenario.tracker_from_robot(),
+            1e-3 * t.noise_mm,
+            1e-3 * t.calibration_noise_mm,
+            &l.tube,
+            t.calibration_points,
+            t.seed,
+        )?;
+        let gains = PdGains {
+            kp: scenario.controller.kp,
+            kd: scenario.controller.kd,
+        };
+        let n_a = l.model.cables.len();
+        Ok(Self {
+            tracker,
+            law: PdLaw::new(gains),
+            robot_map: Mapping::default(),
+            model_map: Mapping::default(),
+            model: l.model.unloaded(),
+            robot: l.robot.unloaded(),
+            tensions: vec![0.0; n_a],
+            pulls: vec![0.0; n_a],
+            k: 0,
+            unsettled: 0,
+            qpcc_failures: 0,
+            l,
+        })
+    }
+
+    /// Steps taken so far.
+    pub fn steps_taken(&self) -> usize {
+        self.k
+    }
+
+    /// The robot's last equilibrium: its contacts are the truth.
+    pub fn robot(&self) -> &Settled {
+        &self.robot
+    }
+
+    /// The FE model's last equilibrium: its contacts are the estimate.
+    pub fn model(&self) -> &Settled {
+        &self.model
+    }
+
+    /// The tracker's measurement of the robot's tip at the current step (m, robot frame).
+    pub fn measured_tip(&self) -> [f64; 3] {
+        self.tracker.measure(self.robot.tip(), self.k)
+    }
+
+    /// One step of the loop: the robot (the plant) settles under its pulls at the step's
+    /// insertion, the tracker measures its tip, the controllers decide, and both move on.
+    pub fn step(&mut self) -> CatheterResult<Step> {
+        let k = self.k;
+        let d = self.l.scenario.insertion_at(k);
+        let r = self.l.robot.settle(
+            &self.l.tube,
+            &self.robot.state,
+            d,
+            Drive::Pulls(&self.pulls),
+            &self.robot,
+            &self.l.settle,
+        )?;
+        if let Some(reason) = failure("robot", r.status) {
+            return Ok(Step::Failed(reason));
+        }
+        let measured = self.tracker.measure(r.tip(), k);
+        let c = match self.control(d, measured) {
+            Ok(c) => c,
+            Err(reason) => return Ok(Step::Failed(reason)),
+        };
+        let m = &c.model;
+        self.unsettled +=
+            usize::from(m.status == SettleStatus::MaxRounds || r.status == SettleStatus::MaxRounds);
+        self.qpcc_failures += usize::from(!c.qpcc_solved);
+        let path = &self.l.tube.centreline;
+        let desired = path.nearest(r.tip());
+        let record = StepRecord {
+            step: k,
+            insertion: d,
+            robot: r.tip(),
+            measured,
+            model: m.tip(),
+            desired: desired.point,
+            s: desired.s,
+            straight: (self.l.scenario.straight_parts().iter())
+                .any(|p| desired.s >= p[0] && desired.s <= p[1]),
+            error: dist(r.tip(), desired.point),
+            model_error: dist(m.tip(), path.nearest(m.tip()).point),
+            pulls: self.pulls.clone(),
+            robot_tensions: r.tensions.clone(),
+            model_tensions: self.tensions.clone(),
+            model_contacts: m.contacts.clone(),
+            robot_contacts: r.contacts.clone(),
+            qpcc_nodes: c.qpcc_nodes,
+        };
+        (self.pulls.iter_mut().zip(&c.pull_increments)).for_each(|(p, du)| *p += du);
+        self.tensions = c.next_tensions;
+        (self.model, self.robot) = (c.model, r);
+        self.k += 1;
+        Ok(Step::Done(Box::new(record)))
+    }
+
+    /// The controllers' part of a step (the work a real rig does per frame): the model
+    /// settles at `insertion` under its tensions, the FEM controller solves its QPCC, and
+    /// the PD law turns the `measured` tip's error into pull increments. The controllers'
+    /// memories (the mappings' frames, the law's last error) move on; the catheters'
+    /// states do not. A failure is the reason, in words.
+    pub fn control(&mut self, insertion: f64, measured: [f64; 3]) -> Result<Control, String> {
+        let l = &self.l;
+        let m = l
+            .model
+            .settle(
+                &l.tube,
+                &self.model.state,
+                insertion,
+                Drive::Tensions(&self.tensions),
+                &self.model,
+                &l.settle,
+            )
+            .map_err(|e| e.to_string())?;
+        if let Some(reason) = failure("model", m.status) {
+            return Err(reason);
+        }
+        let path = &l.tube.centreline;
+        let model_frame = self.model_map.frame(path, m.tip());
+        let robot_frame = self.robot_map.frame(path, measured);
+        let fem = l
+            .fem_step(&m, &model_frame, &self.tensions)
+            .map_err(|e| e.to_string())?;
+        let j = robot_frame.rows_2d(&fem.jacobian);
+        let u = (self.law.step(&j, &robot_frame.error_2d(measured))).map_err(|e| e.to_string())?;
+        Ok(Control {
+            model: m,
+            next_tensions: fem.tensions,
+            pull_increments: u,
+            qpcc_nodes: fem.nodes,
+            qpcc_solved: fem.solved,
+        })
+    }
 }
 
 fn failure(who: &str, status: SettleStatus) -> Option<String> {
