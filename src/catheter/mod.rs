@@ -15,6 +15,7 @@ pub mod output;
 pub mod rig;
 pub mod run;
 pub mod scenario;
+pub mod statics;
 pub mod tracker;
 pub mod tube;
 

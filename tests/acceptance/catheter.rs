@@ -6,6 +6,7 @@
 use crate::common::project_root;
 use softsense::catheter::run::{run, Run, RunStatus};
 use softsense::catheter::scenario::Scenario;
+use softsense::catheter::statics::static_insertions;
 
 fn full(name: &str) -> Run {
     let s = Scenario::load(&project_root().join("scenarios/catheter").join(name)).unwrap();
@@ -30,4 +31,25 @@ fn bm4_positioning_at_60_mm_ends_within_0_2_mm() {
     let s = &r.summary;
     println!("positioning at 60 mm: {s:?}");
     assert!(s.final_mm <= 0.2, "{s:?}");
+}
+
+/// BM-6 (thesis 5.5.6): ten static passive insertions through a 3-D tube; the model's tip
+/// within 3.35 mm of the robot's on average, every settle an equilibrium. A known miss:
+/// once the tip reaches the second bend (about 111 mm) the settles of both the model and
+/// the robot stop at their round limit with the tip through the wall (docs/catheter.md).
+#[test]
+#[ignore = "known miss (issue 55): passive settles fail when the tip meets the second bend"]
+fn bm6_ten_static_insertions_in_a_3d_tube_keep_the_model_tip_within_3_35_mm() {
+    let s = Scenario::load(&project_root().join("scenarios/catheter/insertions_3d.toml")).unwrap();
+    let r = static_insertions(&s, 10, &mut |_, _| {}).unwrap();
+    for p in &r.positions {
+        println!(
+            "{:.1} mm: error {:.3} mm, settled {}",
+            1e3 * p.insertion,
+            1e3 * p.error,
+            p.settled
+        );
+    }
+    assert_eq!(r.unsettled, 0, "settles at their round limit");
+    assert!(r.mean_mm <= 3.35, "mean {:.3} mm", r.mean_mm);
 }

@@ -47,3 +47,32 @@ fn a_catheter_scenario_with_a_bad_field_or_no_file_is_refused_by_name() {
     let o = softsense(&["catheter", "scenarios/catheter/nothing.toml"]);
     assert_fails(&o, 1, &["nothing.toml"]);
 }
+
+#[test]
+fn statics_prints_one_row_per_insertion_and_refuses_zero_positions() {
+    let dir = tempfile::tempdir().unwrap();
+    let text =
+        std::fs::read_to_string(project_root().join("scenarios/catheter/insertions_3d.toml"))
+            .unwrap()
+            .replace("end_mm = 160", "end_mm = 30");
+    let scenario = dir.path().join("short.toml");
+    std::fs::write(&scenario, text).unwrap();
+    let o = softsense(&["catheter", scenario.to_str().unwrap(), "--statics", "3"]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{stdout}");
+    // Straight in the tube's first straight: model and robot are both straight.
+    for d in ["10.0", "20.0", "30.0"] {
+        assert!(
+            stdout.lines().any(|l| l.trim_start().starts_with(d)
+                && l.contains("0.000")
+                && l.ends_with("yes")),
+            "no row for {d} mm: {stdout}"
+        );
+    }
+    assert!(
+        stdout.contains("model tip error: mean 0.000 mm"),
+        "{stdout}"
+    );
+    let o = softsense(&["catheter", scenario.to_str().unwrap(), "--statics", "0"]);
+    assert_fails(&o, 1, &["count must be > 0"]);
+}
