@@ -15,6 +15,7 @@ use super::tube::{NodeContact, Tube};
 use super::{CatheterError, CatheterResult};
 use crate::fem::beam::{
     BeamCable, BeamLoads, BeamModel, BeamParams, BeamRow, BeamState, BeamStatus, NodeLoad,
+    NodeSpring,
 };
 use crate::inverse::qp::QpParams;
 use crate::inverse::qpcc::{solve_contact_lcp, LcpStatus};
@@ -57,6 +58,10 @@ pub struct SettleParams {
     pub max_rounds: usize,
     /// Settled when no force changes by more than this between rounds (N; 1e-7).
     pub force_tolerance: f64,
+    /// Stiffness of the wall behind each pushed node inside the beam's Newton solve (N/m;
+    /// 1e3). It vanishes at the settled state (the gap is then zero) but keeps a rod
+    /// compressed by its contacts from jumping through the wall between rounds.
+    pub wall_stiffness: f64,
     /// The beam's Newton options.
     pub beam: BeamParams,
     /// The LCP's QP options.
@@ -69,6 +74,7 @@ impl Default for SettleParams {
             alarm: 1e-3,
             max_rounds: 200,
             force_tolerance: 1e-7,
+            wall_stiffness: 1e3,
             beam: BeamParams {
                 tolerance: 1e-9,
                 ..BeamParams::default()
@@ -216,11 +222,17 @@ impl Catheter {
                 nodes: (forces.iter())
                     .map(|&(node, n, f)| NodeLoad::force(node, [f * n[0], f * n[1], f * n[2]]))
                     .collect(),
+                springs: self.walls(tube, &state, &forces, params.wall_stiffness),
                 cables: self.cables.iter().copied().zip(tensions.clone()).collect(),
                 base_from_rest,
             };
             let sol = self.beam.solve_static(&state, &loads, &params.beam)?;
             state = sol.state;
+            // What each node was pushed with: the force and its wall's spring.
+            for (f, spring) in forces.iter_mut().zip(&loads.springs) {
+                let x = &state.nodes_in_world[spring.node];
+                f.2 += spring.force(x).dot(&spring.direction);
+            }
             if !sol.status.is_converged() {
                 return Ok(self.finish(
                     state,
@@ -317,6 +329,29 @@ impl Catheter {
             SettleStatus::MaxRounds,
             params.max_rounds,
         ))
+    }
+
+    /// A spring along each push's normal, relaxed where the node would meet the wall.
+    fn walls(
+        &self,
+        tube: &Tube,
+        state: &BeamState,
+        forces: &[(usize, [f64; 3], f64)],
+        stiffness: f64,
+    ) -> Vec<NodeSpring> {
+        (forces.iter())
+            .map(|&(node, n, _)| {
+                let x = state.nodes_in_world[node];
+                let c = tube.gap([x.x, x.y, x.z], self.radius);
+                let to_wall = crate::math::Vec3::from(c.normal) * c.gap;
+                NodeSpring {
+                    node,
+                    direction: n.into(),
+                    anchor: x - to_wall,
+                    stiffness,
+                }
+            })
+            .collect()
     }
 
     fn check_inputs(&self, v: &[f64], what: &str) -> CatheterResult<()> {

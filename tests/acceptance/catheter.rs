@@ -35,10 +35,10 @@ fn bm4_positioning_at_60_mm_ends_within_0_2_mm() {
 
 /// BM-6 (thesis 5.5.6): ten static passive insertions through a 3-D tube; the model's tip
 /// within 3.35 mm of the robot's on average, every settle an equilibrium. A known miss:
-/// once the tip reaches the second bend (about 111 mm) the settles of both the model and
-/// the robot stop at their round limit with the tip through the wall (docs/catheter.md).
+/// once the tip reaches the second bend (about 111 mm) every settle of both the model and
+/// the robot stops at its round limit (docs/catheter.md).
 #[test]
-#[ignore = "known miss (issue 55): passive settles fail when the tip meets the second bend"]
+#[ignore = "known miss (issue 55): passive settles stop at their round limit past the second bend"]
 fn bm6_ten_static_insertions_in_a_3d_tube_keep_the_model_tip_within_3_35_mm() {
     let s = Scenario::load(&project_root().join("scenarios/catheter/insertions_3d.toml")).unwrap();
     let r = static_insertions(&s, 10, &mut |_, _| {}).unwrap();

@@ -5,7 +5,7 @@
 use nalgebra::{DMatrix, UnitQuaternion, Vector3};
 use softsense::fem::beam::{
     BeamCable, BeamLoads, BeamMaterial, BeamModel, BeamParams, BeamRow, BeamSection, BeamState,
-    NodeLoad,
+    NodeLoad, NodeSpring,
 };
 use softsense::fem::FemError;
 
@@ -372,5 +372,31 @@ fn beam_bm2_propped_rod_contact_forces_match_euler_bernoulli() -> Result<(), Fem
             assert!(column[0] < column[1] && column[1] < column[2]);
         }
     }
+    Ok(())
+}
+
+#[test]
+fn a_tip_spring_pushes_a_cantilever_to_where_spring_and_rod_balance_and_never_pulls(
+) -> Result<(), FemError> {
+    let n = 8;
+    let model = rod(n)?;
+    let c = LENGTH.powi(3) / (3.0 * model.stiffness().bending);
+    let k = 2.0 / c;
+    let spring = |a: f64| BeamLoads {
+        springs: vec![NodeSpring {
+            node: n,
+            direction: Vector3::new(0.0, 1.0, 0.0),
+            anchor: Vector3::new(LENGTH, a, 0.0),
+            stiffness: k,
+        }],
+        ..Default::default()
+    };
+    // Pressed a = 1e-5 L into the spring: y = c k (a - y), y = a c k / (1 + c k).
+    let a = 1e-5 * LENGTH;
+    let y = solve(&model, &spring(a), 1)?.nodes_in_world[n].y;
+    assert!(rel(y, a * c * k / (1.0 + c * k)) < 1e-4, "tip at {y}");
+    // A spring behind the node does nothing.
+    let y = solve(&model, &spring(-a), 1)?.nodes_in_world[n].y;
+    assert_eq!(y, 0.0);
     Ok(())
 }

@@ -173,11 +173,42 @@ impl NodeLoad {
     }
 }
 
+/// A one-sided spring on a node's position along one direction: the force
+/// k max(0, nᵀ(anchor − x)) n, a push only. A contact's wall as Newton sees it: under
+/// contact pushes held as dead loads, a compressed rod can jump to a far equilibrium that
+/// the wall would forbid.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NodeSpring {
+    /// The node.
+    pub node: usize,
+    /// Unit direction n of the spring (world frame).
+    pub direction: Vec3,
+    /// Where the spring is relaxed (m, world frame); only its component along n matters.
+    pub anchor: Vec3,
+    /// Stiffness k (N/m, ≥ 0).
+    pub stiffness: f64,
+}
+
+impl NodeSpring {
+    /// How far the node at `x` is pressed into the spring (m, ≥ 0).
+    pub fn depth(&self, x: &Vec3) -> f64 {
+        self.direction.dot(&(self.anchor - x)).max(0.0)
+    }
+
+    /// The spring's force on the node at `x` (N, world frame).
+    pub fn force(&self, x: &Vec3) -> Vec3 {
+        self.direction * (self.stiffness * self.depth(x))
+    }
+}
+
 /// What acts on the rod in one static solve.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BeamLoads {
     /// Point loads at nodes (world frame, fixed in direction).
     pub nodes: Vec<NodeLoad>,
+    /// Springs on node positions, in Newton's residual and tangent (not in
+    /// [`BeamModel::linearise_loaded`]'s compliance).
+    pub springs: Vec<NodeSpring>,
     /// Cables and their tensions (N, ≥ 0 pulls); their loads follow the rod.
     pub cables: Vec<(BeamCable, f64)>,
     /// Pose of the clamped nodes relative to rest (the base); identity by default.
@@ -188,6 +219,7 @@ impl Default for BeamLoads {
     fn default() -> Self {
         Self {
             nodes: Vec::new(),
+            springs: Vec::new(),
             cables: Vec::new(),
             base_from_rest: Iso3::identity(),
         }

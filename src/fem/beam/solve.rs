@@ -4,6 +4,7 @@
 use super::element::{log, Ends, Mat12, Vec12};
 use super::{
     BeamCable, BeamLoads, BeamModel, BeamParams, BeamSolution, BeamState, BeamStatus, NodeLoad,
+    NodeSpring,
 };
 use crate::fem::{FemError, FemResult};
 use crate::math::Vec3;
@@ -152,10 +153,26 @@ impl BeamModel {
         state: &BeamState,
         geometric: bool,
         cables: &[(BeamCable, f64)],
+        springs: &[NodeSpring],
     ) -> FemResult<SparseColMat<usize, f64>> {
         let mut triplets = Vec::with_capacity(144 * self.elements.len());
         if geometric {
             self.cable_stiffness(dofs, state, cables, &mut triplets);
+        }
+        // Inside each node's own block, so the sparsity pattern does not change.
+        for spring in springs {
+            let Some(f) = dofs.first.get(spring.node).copied().flatten() else {
+                continue;
+            };
+            if spring.depth(&state.nodes_in_world[spring.node]) <= 0.0 {
+                continue;
+            }
+            let (n, k) = (spring.direction, spring.stiffness);
+            for i in 0..3 {
+                for j in 0..3 {
+                    triplets.push(Triplet::new(f + i, f + j, k * n[i] * n[j]));
+                }
+            }
         }
         for (e, (_, ke)) in self.element_tangents(state, geometric).iter().enumerate() {
             for (a, fa) in [dofs.first[e], dofs.first[e + 1]].iter().enumerate() {
@@ -192,6 +209,11 @@ impl BeamModel {
                 block[k] += scale * l.force[k];
                 block[k + 3] += scale * l.moment[k];
             }
+        }
+        for spring in &loads.springs {
+            let push = spring.force(&state.nodes_in_world[spring.node]);
+            let mut block = f.fixed_rows_mut::<3>(6 * spring.node);
+            block += push;
         }
         f
     }
@@ -248,8 +270,7 @@ impl BeamModel {
                     &(self.external_force(&state, loads, scale) - self.internal_force(&state)),
                 );
                 residual = r.norm_l2();
-                let Some(llt) =
-                    self.factor_with_fallback(&dofs, &state, &loads.cables, &mut symbolic)?
+                let Some(llt) = self.factor_with_fallback(&dofs, &state, loads, &mut symbolic)?
                 else {
                     return Ok(self.ended(
                         state,
@@ -382,11 +403,11 @@ impl BeamModel {
         &self,
         dofs: &DofMap,
         state: &BeamState,
-        cables: &[(BeamCable, f64)],
+        loads: &BeamLoads,
         symbolic: &mut Option<SymbolicLlt<usize>>,
     ) -> FemResult<Option<Llt<usize, f64>>> {
         for geometric in [true, false] {
-            let k = self.tangent_sparse(dofs, state, geometric, cables)?;
+            let k = self.tangent_sparse(dofs, state, geometric, &loads.cables, &loads.springs)?;
             let sym = match symbolic {
                 Some(s) => s.clone(),
                 None => {
@@ -421,7 +442,7 @@ impl BeamModel {
         let dofs = DofMap::new(self);
         let mut last = None;
         for geometric in [true, false] {
-            let k = self.tangent_sparse(&dofs, state, geometric, cables)?;
+            let k = self.tangent_sparse(&dofs, state, geometric, cables, &[])?;
             match k.as_ref().sp_cholesky(Side::Lower) {
                 Ok(llt) => {
                     return Ok(BeamLinearisation {
