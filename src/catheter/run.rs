@@ -132,6 +132,8 @@ struct Loop<'a> {
     model: Catheter,
     robot: Catheter,
     settle: SettleParams,
+    /// The path's straight parts (m of arc length), for the records.
+    straight: Vec<[f64; 2]>,
     qpcc: QpccParams,
 }
 
@@ -216,16 +218,13 @@ pub fn run(scenario: &Scenario, progress: &mut dyn FnMut(usize, usize)) -> Cathe
 impl<'a> Session<'a> {
     /// The scenario's catheters at rest, the tracker calibrated, no step taken.
     pub fn new(scenario: &'a Scenario) -> CatheterResult<Self> {
-        let settle = SettleParams {
-            alarm: 1e-3 * scenario.controller.alarm_mm,
-            ..SettleParams::default()
-        };
         let l = Loop {
             scenario,
             tube: scenario.tube()?,
             model: scenario.catheter(false)?,
             robot: scenario.catheter(true)?,
-            settle,
+            settle: scenario.settle_params(),
+            straight: scenario.straight_parts(),
             qpcc: QpccParams::default(),
         };
         let t = &scenario.tracker;
@@ -313,8 +312,7 @@ impl<'a> Session<'a> {
             model: m.tip(),
             desired: desired.point,
             s: desired.s,
-            straight: (self.l.scenario.straight_parts().iter())
-                .any(|p| desired.s >= p[0] && desired.s <= p[1]),
+            straight: (self.l.straight.iter()).any(|p| desired.s >= p[0] && desired.s <= p[1]),
             error: dist(r.tip(), desired.point),
             model_error: dist(m.tip(), path.nearest(m.tip()).point),
             pulls: self.pulls.clone(),
@@ -370,7 +368,8 @@ impl<'a> Session<'a> {
     }
 }
 
-fn failure(who: &str, status: SettleStatus) -> Option<String> {
+/// Why a settle's status ends a run, in words; `None` when it does not.
+pub(super) fn failure(who: &str, status: SettleStatus) -> Option<String> {
     match status {
         SettleStatus::Beam(b) => Some(format!("the {who}'s beam Newton ended {b:?}")),
         SettleStatus::Lcp(s) => Some(format!("the {who}'s contact LCP ended {s:?}")),

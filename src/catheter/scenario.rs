@@ -5,7 +5,7 @@
 //! Lengths in the file are in millimetres (fields end in `_mm`), angles in degrees (`_deg`),
 //! forces in N, the modulus in Pa; everything is SI once read.
 
-use super::rig::Catheter;
+use super::rig::{Catheter, SettleParams};
 use super::tube::{Centreline, Piece, Tube};
 use super::{CatheterError, CatheterResult};
 use crate::fem::beam::{BeamCable, BeamMaterial, BeamModel, BeamSection};
@@ -471,6 +471,14 @@ impl Scenario {
             &self.pieces(),
             PATH_STEP,
         )
+    }
+
+    /// The settle's options: the defaults with the controller's alarm distance.
+    pub fn settle_params(&self) -> SettleParams {
+        SettleParams {
+            alarm: 1e-3 * self.controller.alarm_mm,
+            ..SettleParams::default()
+        }
     }
 
     /// The tube.

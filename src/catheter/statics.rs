@@ -7,7 +7,8 @@
 //! modulus; what differs between model and robot is how each discretisation meets the
 //! wall (node-based contact: a coarse model's segments may cut the wall between nodes).
 
-use super::rig::{Catheter, ContactForce, Drive, SettleParams, SettleStatus, Settled};
+use super::rig::{Catheter, ContactForce, Drive, SettleStatus, Settled};
+use super::run::failure;
 use super::scenario::Scenario;
 use super::{CatheterError, CatheterResult};
 use crate::math::dist;
@@ -65,12 +66,10 @@ pub fn static_insertions(
     }
     let tube = scenario.tube()?;
     let catheters = [scenario.catheter(false)?, scenario.catheter(true)?];
-    let params = SettleParams {
-        alarm: 1e-3 * scenario.controller.alarm_mm,
-        ..SettleParams::default()
-    };
+    let params = scenario.settle_params();
     let end = 1e-3 * scenario.insertion.end_mm;
     let mut now: Vec<Settled> = catheters.iter().map(Catheter::unloaded).collect();
+    let slack = vec![0.0; catheters[0].cables.len()];
     let (mut positions, mut d, mut unsettled) = (Vec::with_capacity(count), 0.0, 0);
     let mut settled = true;
     for i in 1..=count {
@@ -81,13 +80,11 @@ pub fn static_insertions(
                 .iter()
                 .zip(catheters.iter().zip(&mut now))
             {
-                let slack = vec![0.0; c.cables.len()];
                 let next = c.settle(&tube, &s.state, d, Drive::Tensions(&slack), s, &params)?;
-                if !matches!(next.status, SettleStatus::Settled | SettleStatus::MaxRounds) {
+                if let Some(reason) = failure(who, next.status) {
                     return Err(CatheterError::Shape(format!(
-                        "static insertion at {:.1} mm: the {who} ended {:?}",
-                        1e3 * d,
-                        next.status
+                        "static insertion at {:.1} mm: {reason}",
+                        1e3 * d
                     )));
                 }
                 let stuck = next.status == SettleStatus::MaxRounds;
