@@ -1,7 +1,8 @@
 //! A cable-driven catheter controlled through contacts (thesis chapter 5): the path and
 //! the tube it is inserted through with node-based collision detection ([`tube`]), the
 //! mapping onto the bending plane (Algorithm 5.1, [`mapping`]) and the robot controller's
-//! PD law with its Jacobian-rotation check (5.18-5.22, [`law`]).
+//! PD law with its Jacobian-rotation check (5.18-5.22, [`law`]); the coupled baseline that
+//! shows that rotation ([`coupled`], 5.3.1).
 //!
 //! The FE model of the catheter is [`crate::fem::beam`]; the contact LCP and the FEM
 //! controller's QPCC (5.6-5.15) are [`crate::inverse::qpcc`].
@@ -9,6 +10,7 @@
 // `!(x > 0.0)` is used on purpose: it also rejects NaN, which `x <= 0.0` would let through.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod coupled;
 pub mod law;
 pub mod mapping;
 pub mod output;

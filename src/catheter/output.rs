@@ -17,7 +17,9 @@ pub fn steps_csv(run: &Run) -> String {
     for i in 0..n {
         let _ = write!(s, ",pull_{i}_mm,robot_tension_{i}_n,model_tension_{i}_n");
     }
-    s.push_str(",robot_contacts,robot_force_sum_n,model_contacts,model_force_sum_n\n");
+    s.push_str(
+        ",robot_contacts,robot_force_sum_n,model_contacts,model_force_sum_n,rotation_margin\n",
+    );
     let mm = |p: [f64; 3]| format!("{:.4},{:.4},{:.4}", 1e3 * p[0], 1e3 * p[1], 1e3 * p[2]);
     for r in &run.steps {
         let _ = write!(
@@ -44,9 +46,12 @@ pub fn steps_csv(run: &Run) -> String {
             );
         }
         let sum = |c: &[super::rig::ContactForce]| c.iter().map(|c| c.force).sum::<f64>();
+        let margin = r
+            .rotation_margin
+            .map_or(String::new(), |m| format!("{m:.5}"));
         let _ = writeln!(
             s,
-            ",{},{:.5},{},{:.5}",
+            ",{},{:.5},{},{:.5},{margin}",
             r.robot_contacts.len(),
             sum(&r.robot_contacts),
             r.model_contacts.len(),

@@ -11,7 +11,7 @@
 //! cable's own compliance c, complementary to its tension T ≥ 0 (a slack cable carries
 //! nothing), so the plant's cables and contacts are one LCP.
 
-use super::tube::{NodeContact, Tube};
+use super::tube::{NodeContact, Surface, Tube};
 use super::{CatheterError, CatheterResult};
 use crate::fem::beam::{
     BeamCable, BeamLoads, BeamModel, BeamParams, BeamRow, BeamState, BeamStatus, NodeLoad,
@@ -84,18 +84,20 @@ impl Default for SettleParams {
     }
 }
 
-/// A node pushed by the wall.
+/// A node pushed by the wall or an obstacle.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct ContactForce {
     /// The catheter node.
     pub node: usize,
+    /// What pushes it.
+    pub surface: Surface,
     /// Arc length of the nearest path point (m).
     pub s: f64,
-    /// Unit direction of the push (towards the tube's axis).
+    /// Unit direction of the push (towards the tube's axis, or away from an obstacle).
     pub normal: [f64; 3],
     /// The push (N, ≥ 0).
     pub force: f64,
-    /// The node's gap to the wall (m).
+    /// The node's gap to the surface (m).
     pub gap: f64,
 }
 
@@ -119,7 +121,7 @@ pub struct Settled {
     pub state: BeamState,
     /// The cables' tensions (N).
     pub tensions: Vec<f64>,
-    /// Nodes the wall pushes, by node; zero forces left out.
+    /// Nodes the wall or an obstacle pushes, by node; zero forces left out.
     pub contacts: Vec<ContactForce>,
     /// How the settle ended.
     pub status: SettleStatus,
@@ -150,22 +152,22 @@ impl Catheter {
             .collect()
     }
 
-    /// Every node within the alarm distance, plus the nodes in `keep` (which carry a force
-    /// and must be able to let go), sorted by node.
+    /// Every node within the alarm distance of a surface, plus the (node, surface) pairs
+    /// in `keep` (which carry a force and must be able to let go), sorted by node.
     pub fn contact_rows(
         &self,
         tube: &Tube,
         state: &BeamState,
         alarm: f64,
-        keep: &[usize],
+        keep: &[(usize, Surface)],
     ) -> Vec<NodeContact> {
         let x = Self::positions(state);
         let mut rows = tube.contacts(&x, self.radius, alarm);
-        for &node in keep {
-            if !rows.iter().any(|c| c.node == node) {
+        for &(node, surface) in keep {
+            if !rows.iter().any(|c| (c.node, c.surface) == (node, surface)) {
                 rows.push(NodeContact {
                     node,
-                    ..tube.gap(x[node], self.radius)
+                    ..tube.gap_to(surface, x[node], self.radius)
                 });
             }
         }
@@ -209,18 +211,14 @@ impl Catheter {
                 t
             }
         };
-        let mut forces: Vec<(usize, [f64; 3], f64)> = warm
-            .contacts
-            .iter()
-            .map(|c| (c.node, c.normal, c.force))
-            .collect();
+        let mut forces: Vec<Push> = warm.contacts.iter().map(Push::from).collect();
         let mut state = start.clone();
         let base_from_rest = self.beam.insertion(insertion);
         let (mut relax, mut last_change) = (1.0_f64, f64::INFINITY);
         for round in 1..=params.max_rounds {
             let loads = BeamLoads {
                 nodes: (forces.iter())
-                    .map(|&(node, n, f)| NodeLoad::force(node, [f * n[0], f * n[1], f * n[2]]))
+                    .map(|p| NodeLoad::force(p.node, p.normal.map(|v| p.force * v)))
                     .collect(),
                 springs: self.walls(tube, &state, &forces, params.wall_stiffness),
                 cables: self.cables.iter().copied().zip(tensions.clone()).collect(),
@@ -231,7 +229,7 @@ impl Catheter {
             // What each node was pushed with: the force and its wall's spring.
             for (f, spring) in forces.iter_mut().zip(&loads.springs) {
                 let x = &state.nodes_in_world[spring.node];
-                f.2 += spring.force(x).dot(&spring.direction);
+                f.force += spring.force(x).dot(&spring.direction);
             }
             if !sol.status.is_converged() {
                 return Ok(self.finish(
@@ -243,7 +241,7 @@ impl Catheter {
                     round,
                 ));
             }
-            let keep: Vec<usize> = forces.iter().map(|f| f.0).collect();
+            let keep: Vec<(usize, Surface)> = forces.iter().map(|f| (f.node, f.surface)).collect();
             let rows = self.contact_rows(tube, &state, params.alarm, &keep);
             let pulls = match drive {
                 Drive::Pulls(u) => Some(u),
@@ -288,9 +286,12 @@ impl Catheter {
             let change = (lcp.lambda.iter().zip(&applied))
                 .map(|(a, b)| (a - b).abs())
                 .fold(0.0, f64::max);
-            let unmatched = forces
-                .iter()
-                .any(|f| f.2 > 0.0 && !rows.iter().any(|c| c.node == f.0));
+            let unmatched = forces.iter().any(|f| {
+                f.force > 0.0
+                    && !rows
+                        .iter()
+                        .any(|c| (c.node, c.surface) == (f.node, f.surface))
+            });
             if change <= params.force_tolerance && !unmatched {
                 return Ok(self.finish(
                     state,
@@ -315,7 +316,12 @@ impl Catheter {
                 .collect();
             forces = (rows.iter().zip(&next))
                 .filter(|(_, f)| **f > 0.0)
-                .map(|(c, &f)| (c.node, c.normal, f))
+                .map(|(c, &force)| Push {
+                    node: c.node,
+                    surface: c.surface,
+                    normal: c.normal,
+                    force,
+                })
                 .collect();
             if pulls.is_some() {
                 tensions.copy_from_slice(&next[rows.len()..]);
@@ -331,22 +337,22 @@ impl Catheter {
         ))
     }
 
-    /// A spring along each push's normal, relaxed where the node would meet the wall.
+    /// A spring along each push's normal, relaxed where the node would meet its surface.
     fn walls(
         &self,
         tube: &Tube,
         state: &BeamState,
-        forces: &[(usize, [f64; 3], f64)],
+        forces: &[Push],
         stiffness: f64,
     ) -> Vec<NodeSpring> {
         (forces.iter())
-            .map(|&(node, n, _)| {
-                let x = state.nodes_in_world[node];
-                let c = tube.gap([x.x, x.y, x.z], self.radius);
+            .map(|p| {
+                let x = state.nodes_in_world[p.node];
+                let c = tube.gap_to(p.surface, [x.x, x.y, x.z], self.radius);
                 let to_wall = crate::math::Vec3::from(c.normal) * c.gap;
                 NodeSpring {
-                    node,
-                    direction: n.into(),
+                    node: p.node,
+                    direction: p.normal.into(),
                     anchor: x - to_wall,
                     stiffness,
                 }
@@ -369,21 +375,22 @@ impl Catheter {
         &self,
         state: BeamState,
         tensions: Vec<f64>,
-        forces: &[(usize, [f64; 3], f64)],
+        forces: &[Push],
         tube: &Tube,
         status: SettleStatus,
         rounds: usize,
     ) -> Settled {
         let x = Self::positions(&state);
         let contacts = (forces.iter())
-            .filter(|f| f.2 > 0.0)
-            .map(|&(node, normal, force)| {
-                let c = tube.gap(x[node], self.radius);
+            .filter(|f| f.force > 0.0)
+            .map(|p| {
+                let c = tube.gap_to(p.surface, x[p.node], self.radius);
                 ContactForce {
-                    node,
+                    node: p.node,
+                    surface: p.surface,
                     s: c.s,
-                    normal,
-                    force,
+                    normal: p.normal,
+                    force: p.force,
                     gap: c.gap,
                 }
             })
@@ -415,19 +422,41 @@ fn free_gaps(w: &DMatrix<f64>, gaps: &[f64], applied: &[f64]) -> Vec<f64> {
     gaps.iter().zip(wl.iter()).map(|(g, v)| g - v).collect()
 }
 
-/// The push on `row`'s node among `forces` (node, normal, N), measured along the row's
-/// normal (the wall's direction moves with the node between rounds and steps); 0 without.
-fn along(forces: &[(usize, [f64; 3], f64)], row: &NodeContact) -> f64 {
-    (forces.iter().find(|f| f.0 == row.node))
-        .map_or(0.0, |&(_, n, f)| f * crate::math::dot(n, row.normal))
+/// A push being settled: a node, what pushes it, the push's direction and size (N).
+#[derive(Clone, Copy, Debug)]
+struct Push {
+    node: usize,
+    surface: Surface,
+    normal: [f64; 3],
+    force: f64,
+}
+
+impl From<&ContactForce> for Push {
+    fn from(c: &ContactForce) -> Self {
+        Self {
+            node: c.node,
+            surface: c.surface,
+            normal: c.normal,
+            force: c.force,
+        }
+    }
+}
+
+/// The push on `row`'s node by `row`'s surface among `forces`, measured along the row's
+/// normal (the surface's direction moves with the node between rounds and steps); 0
+/// without.
+fn along(forces: &[Push], row: &NodeContact) -> f64 {
+    (forces
+        .iter()
+        .find(|f| (f.node, f.surface) == (row.node, row.surface)))
+    .map_or(0.0, |f| f.force * crate::math::dot(f.normal, row.normal))
 }
 
 impl Settled {
-    /// The push this equilibrium puts on `row`'s node, along the row's normal (N).
+    /// The push this equilibrium puts on `row`'s node by `row`'s surface, along the row's
+    /// normal (N).
     pub fn force_along(&self, row: &NodeContact) -> f64 {
-        let forces: Vec<_> = (self.contacts.iter())
-            .map(|c| (c.node, c.normal, c.force))
-            .collect();
+        let forces: Vec<Push> = self.contacts.iter().map(Push::from).collect();
         along(&forces, row)
     }
 }

@@ -7,7 +7,7 @@
 use super::law::{jacobian, PdGains, PdLaw};
 use super::mapping::{LocalFrame, Mapping};
 use super::rig::{Catheter, ContactForce, Drive, SettleParams, SettleStatus, Settled};
-use super::scenario::Scenario;
+use super::scenario::{Scenario, Scheme};
 use super::tracker::{Calibration, Tracker};
 use super::tube::Tube;
 use super::{CatheterError, CatheterResult};
@@ -52,6 +52,9 @@ pub struct StepRecord {
     pub robot_contacts: Vec<ContactForce>,
     /// Branch-and-bound QPs of the FEM controller's QPCC.
     pub qpcc_nodes: usize,
+    /// The smallest eigenvalue of sym(J_true Ĵ⁺) at this step, where the coupled scheme
+    /// checked it (`controller.rotation_check_every`); negative: Ĵ is rotated (5.5.7.1).
+    pub rotation_margin: Option<f64>,
 }
 
 /// A run's numbers (mm and N), as the thesis reports them.
@@ -75,6 +78,8 @@ pub struct Summary {
     pub qpcc_failures: usize,
     /// The tracker calibration.
     pub calibration: Calibration,
+    /// The smallest rotation margin of the run, where one was checked.
+    pub min_rotation_margin: Option<f64>,
 }
 
 /// How a run ended.
@@ -88,6 +93,14 @@ pub enum RunStatus {
         step: usize,
         /// Why.
         reason: String,
+    },
+    /// The coupled loop ran away: the tip farther from its desired point than the tube's
+    /// radius.
+    Diverged {
+        /// The step.
+        step: usize,
+        /// The tracking error there (mm).
+        error_mm: f64,
     },
 }
 
@@ -181,8 +194,11 @@ pub struct Session<'a> {
     qpcc_failures: usize,
 }
 
-/// Runs the scenario; `progress(k, n)` after each step.
+/// Runs the scenario with its scheme; `progress(k, n)` after each step.
 pub fn run(scenario: &Scenario, progress: &mut dyn FnMut(usize, usize)) -> CatheterResult<Run> {
+    if scenario.controller.scheme == Scheme::Coupled {
+        return super::coupled::run(scenario, progress);
+    }
     let mut session = Session::new(scenario)?;
     let n = scenario.steps();
     let (mut steps, mut status) = (Vec::with_capacity(n), RunStatus::Completed);
@@ -216,7 +232,8 @@ pub fn run(scenario: &Scenario, progress: &mut dyn FnMut(usize, usize)) -> Cathe
 }
 
 impl<'a> Session<'a> {
-    /// The scenario's catheters at rest, the tracker calibrated, no step taken.
+    /// The scenario's catheters at rest, the tracker calibrated, no step taken. The scheme
+    /// is the decoupled one, whatever the scenario says.
     pub fn new(scenario: &'a Scenario) -> CatheterResult<Self> {
         let l = Loop {
             scenario,
@@ -227,15 +244,7 @@ impl<'a> Session<'a> {
             straight: scenario.straight_parts(),
             qpcc: QpccParams::default(),
         };
-        let t = &scenario.tracker;
-        let tracker = Tracker::calibrated(
-            scenario.tracker_from_robot(),
-            1e-3 * t.noise_mm,
-            1e-3 * t.calibration_noise_mm,
-            &l.tube,
-            t.calibration_points,
-            t.seed,
-        )?;
+        let tracker = scenario.tracker(&l.tube)?;
         let gains = PdGains {
             kp: scenario.controller.kp,
             kd: scenario.controller.kd,
@@ -321,6 +330,7 @@ impl<'a> Session<'a> {
             model_contacts: m.contacts.clone(),
             robot_contacts: r.contacts.clone(),
             qpcc_nodes: c.qpcc_nodes,
+            rotation_margin: None,
         };
         (self.pulls.iter_mut().zip(&c.pull_increments)).for_each(|(p, du)| *p += du);
         self.tensions = c.next_tensions;
@@ -389,7 +399,7 @@ impl Loop<'_> {
     ) -> CatheterResult<FemStep> {
         let cat = &self.model;
         let n_a = cat.cables.len();
-        let keep: Vec<usize> = m.contacts.iter().map(|c| c.node).collect();
+        let keep: Vec<_> = m.contacts.iter().map(|c| (c.node, c.surface)).collect();
         let contacts = cat.contact_rows(&self.tube, &m.state, self.settle.alarm, &keep);
         let tip = cat.tip_node();
         let mut rows: Vec<BeamRow> = (0..3)
@@ -452,7 +462,7 @@ impl Loop<'_> {
             false => tensions.to_vec(),
         };
         let active: Vec<usize> = (contacts.iter().enumerate())
-            .filter(|(_, c)| keep.contains(&c.node))
+            .filter(|(_, c)| keep.contains(&(c.node, c.surface)))
             .map(|(i, _)| 3 + n_a + i)
             .collect();
         let jacobian = condensed_jacobian(&w, n_a, &active)?;
@@ -488,7 +498,8 @@ fn condensed_jacobian(
     jacobian(&e, &a)
 }
 
-fn summarise(
+/// The thesis's numbers of `steps`.
+pub(super) fn summarise(
     steps: &[StepRecord],
     rate_hz: f64,
     unsettled: usize,
@@ -529,5 +540,6 @@ fn summarise(
         unsettled_steps: unsettled,
         qpcc_failures,
         calibration,
+        min_rotation_margin: (steps.iter().filter_map(|r| r.rotation_margin)).reduce(f64::min),
     }
 }

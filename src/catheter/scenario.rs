@@ -6,7 +6,8 @@
 //! forces in N, the modulus in Pa; everything is SI once read.
 
 use super::rig::{Catheter, SettleParams};
-use super::tube::{Centreline, Piece, Tube};
+use super::tracker::Tracker;
+use super::tube::{Centreline, Obstacle, Piece, Tube};
 use super::{CatheterError, CatheterResult};
 use crate::fem::beam::{BeamCable, BeamMaterial, BeamModel, BeamSection};
 use serde::{Deserialize, Serialize};
@@ -74,6 +75,22 @@ pub struct TubeSpec {
     pub pieces: Vec<PieceSpec>,
 }
 
+/// A rigid obstacle in the tube: a point, or a segment such as a wire across it, with a
+/// radius round it. Coordinates are the path's: the entrance at the origin, the first
+/// piece along +x, the first bend towards +y.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObstacleSpec {
+    /// The point, or one end of the segment (mm).
+    pub at_mm: [f64; 3],
+    /// The segment's other end (mm; none: a point obstacle).
+    #[serde(default)]
+    pub to_mm: Option<[f64; 3]>,
+    /// Radius round the point or segment (mm; 0).
+    #[serde(default)]
+    pub radius_mm: f64,
+}
+
 /// The insertion: the physician's, shared by robot and model and not controlled.
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
@@ -94,15 +111,23 @@ pub enum Scheme {
     /// Decoupled (5.3.2): insertion left alone, bending controlled on the plane Pyz with
     /// the J of the contact-including FE model.
     Decoupled,
+    /// Coupled (the baseline of 5.3.1): insertion and the cables' antagonistic pairs
+    /// driven together to a desired point moving along the path, with the J of a model
+    /// that ignores the tube (`catheter::coupled`).
+    Coupled,
 }
 
 /// The controllers.
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct ControllerSpec {
-    /// The scheme (decoupled).
+    /// The scheme ("decoupled", or the "coupled" baseline).
     #[serde(default = "d_scheme")]
     pub scheme: Scheme,
+    /// The coupled scheme checks the Jacobian's rotation every this many steps (0: never;
+    /// each check is six more settles of the robot).
+    #[serde(default)]
+    pub rotation_check_every: usize,
     /// Proportional gain K_P (0.2).
     #[serde(default = "d_kp")]
     pub kp: f64,
@@ -172,6 +197,9 @@ pub struct Scenario {
     pub catheter: CatheterSpec,
     /// The tube.
     pub tube: TubeSpec,
+    /// Obstacles in the tube (`[[obstacle]]` tables; none by default).
+    #[serde(default, rename = "obstacle")]
+    pub obstacles: Vec<ObstacleSpec>,
     /// The insertion.
     pub insertion: InsertionSpec,
     /// The controllers.
@@ -352,6 +380,18 @@ impl Scenario {
         }
         self.centreline()
             .map_err(|e| bad("tube.pieces", e.to_string()))?;
+        for o in &self.obstacles {
+            let ends = o.at_mm.iter().chain(o.to_mm.iter().flatten());
+            if !ends.into_iter().all(|v| v.is_finite()) {
+                return Err(bad("obstacle", "at_mm and to_mm must be finite".into()));
+            }
+            if !(o.radius_mm >= 0.0 && o.radius_mm.is_finite()) {
+                return Err(bad(
+                    "obstacle.radius_mm",
+                    format!("must be >= 0 (got {})", o.radius_mm),
+                ));
+            }
+        }
         let i = &self.insertion;
         positive("insertion.speed_mm_per_s", i.speed_mm_per_s)?;
         positive("insertion.end_mm", i.end_mm)?;
@@ -383,6 +423,16 @@ impl Scenario {
             ));
         }
         let k = &self.controller;
+        if k.scheme == Scheme::Coupled && (c.cables < 4 || c.cables % 2 != 0) {
+            return Err(bad(
+                "catheter.cables",
+                format!(
+                    "the coupled scheme drives antagonistic pairs: an even number, at least 4 \
+                     (got {})",
+                    c.cables
+                ),
+            ));
+        }
         positive("controller.kp", k.kp)?;
         if !(k.kd >= 0.0 && k.kd.is_finite()) {
             return Err(bad("controller.kd", format!("must be >= 0 (got {})", k.kd)));
@@ -481,9 +531,21 @@ impl Scenario {
         }
     }
 
-    /// The tube.
+    /// The obstacles in SI.
+    pub fn obstacles(&self) -> Vec<Obstacle> {
+        (self.obstacles.iter())
+            .map(|o| Obstacle {
+                a: o.at_mm.map(|v| 1e-3 * v),
+                b: o.to_mm.unwrap_or(o.at_mm).map(|v| 1e-3 * v),
+                radius: 1e-3 * o.radius_mm,
+            })
+            .collect()
+    }
+
+    /// The tube with its obstacles.
     pub fn tube(&self) -> CatheterResult<Tube> {
-        Tube::new(self.centreline()?, 0.5e-3 * self.tube.diameter_mm)
+        Tube::new(self.centreline()?, 0.5e-3 * self.tube.diameter_mm)?
+            .with_obstacles(self.obstacles())
     }
 
     /// The controller's catheter (`plant` false) or the robot (`plant` true): straight
@@ -530,6 +592,19 @@ impl Scenario {
     pub fn insertion_at(&self, k: usize) -> f64 {
         let i = &self.insertion;
         (1e-3 * i.speed_mm_per_s * k as f64 / self.rate_hz).min(1e-3 * i.end_mm)
+    }
+
+    /// The tracker, calibrated on `tube`'s feature points.
+    pub fn tracker(&self, tube: &Tube) -> CatheterResult<Tracker> {
+        let t = &self.tracker;
+        Tracker::calibrated(
+            self.tracker_from_robot(),
+            1e-3 * t.noise_mm,
+            1e-3 * t.calibration_noise_mm,
+            tube,
+            t.calibration_points,
+            t.seed,
+        )
     }
 
     /// The tracker's frame from the robot's (rotation vector in degrees, mm).

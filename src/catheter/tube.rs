@@ -1,6 +1,7 @@
 //! The catheter's environment: a path (a centreline built from straight and circular
-//! pieces), a rigid tube of given radius around it, and node-based collision detection
-//! with an alarm distance (thesis 5.2: contacts act at FE nodes).
+//! pieces), a rigid tube of given radius around it, rigid point and segment obstacles
+//! inside it, and node-based collision detection with an alarm distance (thesis 5.2:
+//! contacts act at FE nodes).
 
 use super::{CatheterError, CatheterResult};
 use crate::math::{cross, dot, norm, sub, unit};
@@ -47,16 +48,10 @@ pub struct Centreline {
     arc: Vec<f64>,
 }
 
-/// Rotate `v` about the unit axis `k` by `angle` (Rodrigues).
+/// Rotate `v` about the axis `k` by `angle`.
 fn rotate(v: [f64; 3], k: [f64; 3], angle: f64) -> [f64; 3] {
-    let (s, c) = angle.sin_cos();
-    let kxv = cross(k, v);
-    let kdv = dot(k, v);
-    [
-        v[0] * c + kxv[0] * s + k[0] * kdv * (1.0 - c),
-        v[1] * c + kxv[1] * s + k[1] * kdv * (1.0 - c),
-        v[2] * c + kxv[2] * s + k[2] * kdv * (1.0 - c),
-    ]
+    let axis = nalgebra::Unit::new_normalize(nalgebra::Vector3::from(k));
+    (nalgebra::Rotation3::from_axis_angle(&axis, angle) * nalgebra::Vector3::from(v)).into()
 }
 
 fn add_scaled(a: [f64; 3], b: [f64; 3], t: f64) -> [f64; 3] {
@@ -224,26 +219,75 @@ fn check_positive(piece: usize, what: &str, v: f64) -> CatheterResult<()> {
     }
 }
 
-/// A rigid tube: a centreline and an inner radius.
+/// A rigid tube: a centreline and an inner radius, with obstacles inside.
 #[derive(Clone, Debug)]
 pub struct Tube {
     /// The tube's axis.
     pub centreline: Centreline,
     /// Inner radius (m).
     pub radius: f64,
+    /// Rigid obstacles the catheter can also touch (none by default).
+    pub obstacles: Vec<Obstacle>,
 }
 
-/// A catheter node near the wall: a contact row of the LCP (5.4).
+/// A rigid obstacle: the points within `radius` of the segment from `a` to `b` (a sphere
+/// when they coincide, a capsule otherwise), such as a wire or a ridge across the tube.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Obstacle {
+    /// One end of the axis (m).
+    pub a: [f64; 3],
+    /// The other end (m; `a` for a point obstacle).
+    pub b: [f64; 3],
+    /// Radius round the axis (m, ≥ 0).
+    pub radius: f64,
+}
+
+/// What a contact row pushes against.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Surface {
+    /// The tube's wall.
+    #[default]
+    Wall,
+    /// The tube's obstacle of this index.
+    Obstacle(usize),
+}
+
+/// A catheter node near the wall or an obstacle: a contact row of the LCP (5.4).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct NodeContact {
     /// The catheter node.
     pub node: usize,
+    /// What it touches; a node may touch the wall and obstacles at once, one row each.
+    pub surface: Surface,
     /// Gap along `normal` at the current configuration (m; negative: penetration).
     pub gap: f64,
-    /// Unit direction in which the wall pushes the node (towards the axis).
+    /// Unit direction in which the surface pushes the node (towards the axis for the wall,
+    /// away from an obstacle's axis).
     pub normal: [f64; 3],
-    /// Arc length of the nearest axis point (m).
+    /// Arc length of the path point nearest the node (m).
     pub s: f64,
+}
+
+impl Obstacle {
+    /// The nearest point of the axis to `p`.
+    pub fn nearest(&self, p: [f64; 3]) -> [f64; 3] {
+        let d = sub(self.b, self.a);
+        let dd = dot(d, d);
+        match dd > 0.0 {
+            true => add_scaled(self.a, d, (dot(sub(p, self.a), d) / dd).clamp(0.0, 1.0)),
+            false => self.a,
+        }
+    }
+
+    fn check(&self, i: usize) -> CatheterResult<()> {
+        let finite = self.a.iter().chain(&self.b).all(|v| v.is_finite());
+        if !finite || !(self.radius >= 0.0) || !self.radius.is_finite() {
+            return Err(CatheterError::Path(format!(
+                "obstacle {i}: its ends must be finite and its radius >= 0 (got {self:?})"
+            )));
+        }
+        Ok(())
+    }
 }
 
 impl Tube {
@@ -254,7 +298,44 @@ impl Tube {
                 "tube radius {radius} m must be > 0"
             )));
         }
-        Ok(Self { centreline, radius })
+        Ok(Self {
+            centreline,
+            radius,
+            obstacles: Vec::new(),
+        })
+    }
+
+    /// The tube with `obstacles` inside (checked finite, radii ≥ 0).
+    pub fn with_obstacles(mut self, obstacles: Vec<Obstacle>) -> CatheterResult<Self> {
+        for (i, o) in obstacles.iter().enumerate() {
+            o.check(i)?;
+        }
+        self.obstacles = obstacles;
+        Ok(self)
+    }
+
+    /// The gap of a catheter cross-section of `catheter_radius` centred at `p` to
+    /// `surface`, with its push direction; an obstacle's direction is undefined on its
+    /// axis, and any unit vector normal to the path is returned there.
+    pub fn gap_to(&self, surface: Surface, p: [f64; 3], catheter_radius: f64) -> NodeContact {
+        let o = match surface {
+            Surface::Wall => return self.gap(p, catheter_radius),
+            Surface::Obstacle(i) => &self.obstacles[i],
+        };
+        let c = self.centreline.nearest(p);
+        let off = sub(p, o.nearest(p));
+        let d = norm(off);
+        let normal = match d > 1e-12 {
+            true => scale(off, 1.0 / d),
+            false => crate::math::tangents(c.tangent).0,
+        };
+        NodeContact {
+            node: usize::MAX,
+            surface,
+            gap: d - o.radius - catheter_radius,
+            normal,
+            s: c.s,
+        }
     }
 
     /// The gap of a catheter cross-section of `catheter_radius` centred at `p`, and the
@@ -272,14 +353,16 @@ impl Tube {
         };
         NodeContact {
             node: usize::MAX,
+            surface: Surface::Wall,
             gap: self.radius - catheter_radius - d,
             normal,
             s: c.s,
         }
     }
 
-    /// Node-based collision detection: every node whose gap is below `alarm` m becomes a
-    /// contact row (thesis 5.2). Nodes beyond the tube's ends are left out.
+    /// Node-based collision detection: every node whose gap to the wall or to an obstacle
+    /// is below `alarm` m becomes a contact row (thesis 5.2), by node, the wall's first.
+    /// Nodes beyond the tube's ends have no wall.
     pub fn contacts(
         &self,
         nodes: &[[f64; 3]],
@@ -287,14 +370,19 @@ impl Tube {
         alarm: f64,
     ) -> Vec<NodeContact> {
         let end = self.centreline.length();
-        nodes
-            .iter()
-            .enumerate()
-            .filter_map(|(node, &p)| {
-                let c = self.gap(p, catheter_radius);
-                let inside = c.s > 0.0 && c.s < end;
-                (inside && c.gap < alarm).then_some(NodeContact { node, ..c })
-            })
-            .collect()
+        let surfaces: Vec<Surface> = std::iter::once(Surface::Wall)
+            .chain((0..self.obstacles.len()).map(Surface::Obstacle))
+            .collect();
+        let mut rows = Vec::new();
+        for (node, &p) in nodes.iter().enumerate() {
+            for &surface in &surfaces {
+                let c = self.gap_to(surface, p, catheter_radius);
+                let beyond = surface == Surface::Wall && !(c.s > 0.0 && c.s < end);
+                if !beyond && c.gap < alarm {
+                    rows.push(NodeContact { node, ..c });
+                }
+            }
+        }
+        rows
     }
 }

@@ -2,10 +2,10 @@
 //! model, against a simulated robot (thesis chapter 5).
 
 use super::{print_json, CliError, CliResult};
-use clap::Args;
+use clap::{Args, ValueEnum};
 use softsense::catheter::output::write_run;
 use softsense::catheter::run::{run, RunStatus};
-use softsense::catheter::scenario::Scenario;
+use softsense::catheter::scenario::{Scenario, Scheme};
 use softsense::catheter::statics::static_insertions;
 use softsense::render::catheter::write_pictures;
 use std::path::PathBuf;
@@ -28,12 +28,18 @@ contact forces; --out writes steps.csv, run.json and pictures (the path with the
 its contact forces, and the errors over time).\n\n\
 --statics N instead pushes model and robot passively (cables slack) to N evenly spaced \
 insertions up to insertion.end_mm and prints how far the model's tip is from the robot's at \
-each (thesis 5.5.6: 3.35 mm on average over ten positions in a 3-D tube).",
+each (thesis 5.5.6: 3.35 mm on average over ten positions in a 3-D tube).\n\n\
+--scheme coupled runs the baseline of 5.3.1 instead: insertion and the cables driven together \
+to a desired point moving along the path, with the Jacobian of a model that ignores the tube. \
+With controller.rotation_check_every > 0 it prints the smallest eigenvalue of sym(J_true J^+) \
+(negative: the Jacobian is rotated, 5.5.7.1); the run stops as diverged once the tip is \
+farther from its desired point than the tube's radius.",
     after_help = "Examples:\n  \
 softsense catheter scenarios/catheter/tracking_0.6.toml\n  \
 softsense catheter scenarios/catheter/positioning_60.toml --out /tmp/pos60\n  \
 softsense catheter scenarios/catheter/tracking_2.4.toml --json | jq .summary\n  \
-softsense catheter scenarios/catheter/insertions_3d.toml --statics 10"
+softsense catheter scenarios/catheter/insertions_3d.toml --statics 10\n  \
+softsense catheter scenarios/catheter/jacobian_rotation.toml --scheme coupled"
 )]
 pub struct CatheterArgs {
     /// Scenario file (TOML).
@@ -47,11 +53,33 @@ pub struct CatheterArgs {
     /// Instead of the loop, compare model and robot at N static passive insertions.
     #[arg(long, value_name = "N", conflicts_with = "out")]
     statics: Option<usize>,
+    /// The control scheme, instead of the scenario's `controller.scheme`.
+    #[arg(long, value_enum)]
+    scheme: Option<SchemeArg>,
+}
+
+/// `--scheme`.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum SchemeArg {
+    /// Insertion left to the physician, bending on the contact-including J (5.3.2).
+    Decoupled,
+    /// The baseline: insertion and bending together, J of a model without the tube.
+    Coupled,
 }
 
 /// Runs `softsense catheter`.
 pub fn run_catheter(args: &CatheterArgs) -> CliResult {
-    let scenario = Scenario::load(&args.scenario).map_err(|e| CliError::Result(e.to_string()))?;
+    let mut scenario =
+        Scenario::load(&args.scenario).map_err(|e| CliError::Result(e.to_string()))?;
+    if let Some(scheme) = args.scheme {
+        scenario.controller.scheme = match scheme {
+            SchemeArg::Decoupled => Scheme::Decoupled,
+            SchemeArg::Coupled => Scheme::Coupled,
+        };
+        scenario
+            .validate()
+            .map_err(|e| CliError::Result(e.to_string()))?;
+    }
     if let Some(count) = args.statics {
         return run_statics(&scenario, count, args);
     }
@@ -80,8 +108,13 @@ pub fn run_catheter(args: &CatheterArgs) -> CliResult {
         r.steps.len(),
         scenario.rate_hz
     )?;
-    if let RunStatus::Failed { step, reason } = &r.status {
-        outln!("  FAILED at step {step}: {reason}")?;
+    match &r.status {
+        RunStatus::Failed { step, reason } => outln!("  FAILED at step {step}: {reason}")?,
+        RunStatus::Diverged { step, error_mm } => outln!(
+            "  DIVERGED at step {step}: the tip {error_mm:.1} mm from its desired point, past \
+             the tube's radius"
+        )?,
+        RunStatus::Completed => {}
     }
     outln!(
         "  tracking error: mean on straight parts {:.3} mm, max {:.3} mm, mean {:.3} mm, last second {:.3} mm",
@@ -98,6 +131,12 @@ pub fn run_catheter(args: &CatheterArgs) -> CliResult {
         1e3 * s.calibration.rms,
         1e3 * s.calibration.error
     )?;
+    if let Some(margin) = s.min_rotation_margin {
+        outln!(
+            "  Jacobian rotation: smallest eigenvalue of sym(J_true J^+) {margin:.3}{}",
+            if margin < 0.0 { " (rotated)" } else { "" }
+        )?;
+    }
     if s.unsettled_steps + s.qpcc_failures > 0 {
         outln!(
             "  warning: {} steps with a settle at its round limit, {} QPCC failures",
@@ -110,7 +149,7 @@ pub fn run_catheter(args: &CatheterArgs) -> CliResult {
     }
     match r.status {
         RunStatus::Completed => Ok(()),
-        RunStatus::Failed { .. } => Err(CliError::Result(format!(
+        RunStatus::Failed { .. } | RunStatus::Diverged { .. } => Err(CliError::Result(format!(
             "{}: the run did not complete",
             r.name
         ))),

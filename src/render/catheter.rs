@@ -1,5 +1,6 @@
 //! The pictures of a catheter run ([`crate::catheter`]): the path and tube walls with the
-//! robot's catheter at its last step, its contact forces as arrows and the tip's track,
+//! robot's catheter at its last step, the obstacles' outlines, its contact forces as
+//! arrows and the tip's track,
 //! seen from above and from the side; and the tracking errors over time.
 
 use super::canvas::{Canvas, Rgb, WHITE};
@@ -14,6 +15,7 @@ const ROBOT: Rgb = [40, 90, 180];
 const MODEL: Rgb = [215, 95, 30];
 const FORCE: Rgb = [200, 40, 40];
 const TRACK: Rgb = [60, 150, 60];
+const OBSTACLE: Rgb = [90, 60, 40];
 
 /// Length of a force arrow per newton (mm/N).
 const ARROW_MM_PER_N: f64 = 5.0;
@@ -26,10 +28,14 @@ pub fn pictures(run: &Run) -> Result<Vec<(&'static str, Canvas)>, RenderError> {
     let path = run.scenario.centreline()?;
     let radius = 0.5e-3 * run.scenario.tube.diameter_mm;
     let last = run.steps.last();
+    let obstacles = run.scenario.obstacles();
     let view = |axes: [usize; 2], title: &str| {
         let mm = |p: [f64; 3]| [1e3 * p[axes[0]], 1e3 * p[axes[1]]];
         let centre: Vec<[f64; 2]> = path.points().iter().map(|&p| mm(p)).collect();
         let walls = wall_lines(&centre, 1e3 * radius);
+        let obstacles: Vec<[f64; 2]> = (obstacles.iter())
+            .flat_map(|o| obstacle_outline(mm(o.a), mm(o.b), 1e3 * o.radius))
+            .collect();
         let track: Vec<[f64; 2]> = run.steps.iter().map(|r| mm(r.robot)).collect();
         let nodes = |x: &[[f64; 3]]| -> Vec<[f64; 2]> { x.iter().map(|&p| mm(p)).collect() };
         let mut arrows = Vec::new();
@@ -56,6 +62,11 @@ pub fn pictures(run: &Run) -> Result<Vec<(&'static str, Canvas)>, RenderError> {
                     label: "path",
                     color: PATH,
                     points: centre,
+                },
+                Series {
+                    label: "obstacles",
+                    color: OBSTACLE,
+                    points: obstacles,
                 },
                 Series {
                     label: "tip track",
@@ -132,6 +143,30 @@ fn wall_lines(centre: &[[f64; 2]], radius: f64) -> Vec<[f64; 2]> {
             }
         }
         out.push(BREAK);
+    }
+    out
+}
+
+/// The outline of a capsule of `radius` round the projected segment `a`-`b`: a circle
+/// round each end and, between them, the two sides; at least 0.5 wide, so that a point
+/// obstacle shows.
+fn obstacle_outline(a: [f64; 2], b: [f64; 2], radius: f64) -> Vec<[f64; 2]> {
+    let r = radius.max(0.5);
+    let mut out = Vec::new();
+    for c in [a, b] {
+        out.extend((0..=24).map(|i| {
+            let t = std::f64::consts::TAU * f64::from(i) / 24.0;
+            [c[0] + r * t.cos(), c[1] + r * t.sin()]
+        }));
+        out.push(BREAK);
+    }
+    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+    let l = (dx * dx + dy * dy).sqrt();
+    if l > 1e-9 {
+        for side in [1.0, -1.0] {
+            let (nx, ny) = (-side * r * dy / l, side * r * dx / l);
+            out.extend([[a[0] + nx, a[1] + ny], [b[0] + nx, b[1] + ny], BREAK]);
+        }
     }
     out
 }

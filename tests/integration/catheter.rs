@@ -76,3 +76,39 @@ fn statics_prints_one_row_per_insertion_and_refuses_zero_positions() {
     let o = softsense(&["catheter", scenario.to_str().unwrap(), "--statics", "0"]);
     assert_fails(&o, 1, &["count must be > 0"]);
 }
+
+#[test]
+fn a_short_coupled_run_in_a_straight_tube_tracks_with_an_unrotated_jacobian() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = dir.path().join("straight.toml");
+    let text = r#"
+[tube]
+pieces = [{ kind = "straight", length_mm = 100 }]
+[insertion]
+speed_mm_per_s = 2.4
+end_mm = 5
+[controller]
+rotation_check_every = 10
+"#;
+    std::fs::write(&scenario, text).unwrap();
+    let path = scenario.to_str().unwrap();
+    let o = softsense(&["catheter", path, "--scheme", "coupled"]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{stdout}");
+    // Free of the wall, the free model's J is the robot's: the margin is near 1.
+    let margin: f64 = (stdout.lines())
+        .find_map(|l| l.split("sym(J_true J^+) ").nth(1))
+        .and_then(|v| v.split_whitespace().next()?.parse().ok())
+        .unwrap_or_else(|| panic!("no margin: {stdout}"));
+    assert!(margin > 0.5, "{stdout}");
+    // A ramp under a P law lags by v / (K_P rate) = 0.6 mm; the tracker adds 0.1 mm noise.
+    let max: f64 = (stdout.lines())
+        .find_map(|l| l.split("max ").nth(1))
+        .and_then(|v| v.split_whitespace().next()?.parse().ok())
+        .unwrap_or_else(|| panic!("no max: {stdout}"));
+    assert!(max < 1.0, "{stdout}");
+    // Antagonistic pairs need an even number of cables.
+    std::fs::write(&scenario, format!("{text}\n[catheter]\ncables = 3\n")).unwrap();
+    let o = softsense(&["catheter", path, "--scheme", "coupled"]);
+    assert_fails(&o, 1, &["straight.toml", "catheter.cables"]);
+}

@@ -3,7 +3,7 @@
 use nalgebra::DMatrix;
 use softsense::catheter::law::{jacobian, right_pseudo_inverse, rotation_margin, PdGains, PdLaw};
 use softsense::catheter::mapping::{Mapping, MappingParams};
-use softsense::catheter::tube::{Centreline, Piece, Tube};
+use softsense::catheter::tube::{Centreline, Obstacle, Piece, Surface, Tube};
 use softsense::catheter::CatheterError;
 use std::f64::consts::FRAC_PI_2;
 
@@ -127,6 +127,77 @@ fn the_gap_to_a_straight_tube_is_radius_minus_offset() {
         "node 2 penetrates: {}",
         contacts[1].gap
     );
+}
+
+#[test]
+fn an_obstacles_gap_is_the_brute_force_distance_to_its_axis_less_both_radii() {
+    let wire = Obstacle {
+        a: [0.03, -0.014, 0.002],
+        b: [0.036, 0.014, -0.001],
+        radius: 0.0008,
+    };
+    let point = Obstacle { b: wire.a, ..wire };
+    let tube = Tube::new(elbow(1e-3), 0.014)
+        .unwrap()
+        .with_obstacles(vec![wire, point])
+        .unwrap();
+    let samples = 20_000;
+    for p in [
+        [0.028, 0.001, 0.004],
+        [0.05, 0.02, -0.003],
+        [0.031, -0.02, 0.0],
+        [0.033, 0.0, 0.0],
+    ] {
+        for (i, o) in tube.obstacles.iter().enumerate() {
+            let brute = (0..=samples)
+                .map(|k| {
+                    let u = k as f64 / samples as f64;
+                    let q: [f64; 3] = std::array::from_fn(|j| o.a[j] + u * (o.b[j] - o.a[j]));
+                    softsense::math::dist(p, q)
+                })
+                .fold(f64::INFINITY, f64::min);
+            let c = tube.gap_to(Surface::Obstacle(i), p, 0.0035);
+            assert!(
+                (c.gap - (brute - 0.0008 - 0.0035)).abs() < 2e-6,
+                "obstacle {i} at {p:?}: gap {} against {}",
+                c.gap,
+                brute - 0.0043
+            );
+            // The push is away from the axis: one step along it opens the gap by the step.
+            let q: [f64; 3] = std::array::from_fn(|j| p[j] + 1e-6 * c.normal[j]);
+            let opened = tube.gap_to(Surface::Obstacle(i), q, 0.0035).gap - c.gap;
+            assert!((opened - 1e-6).abs() < 1e-9, "opened {opened}");
+        }
+    }
+}
+
+#[test]
+fn a_node_between_the_wall_and_an_obstacle_gets_one_row_for_each() {
+    let post = Obstacle {
+        a: [0.01, 0.0, 0.0],
+        b: [0.01, 0.0, 0.0],
+        radius: 0.004,
+    };
+    let tube = Tube::new(elbow(1e-3), 0.014)
+        .unwrap()
+        .with_obstacles(vec![post])
+        .unwrap();
+    // Node 0 is 0.5 mm from the post and 2.5 mm from the wall; node 1 is far from both.
+    let nodes = [[0.01, 0.008, 0.0], [0.03, -0.002, 0.0]];
+    let rows = tube.contacts(&nodes, 0.0035, 0.003);
+    let found: Vec<(usize, Surface)> = rows.iter().map(|c| (c.node, c.surface)).collect();
+    assert_eq!(found, vec![(0, Surface::Wall), (0, Surface::Obstacle(0))]);
+    assert!((rows[1].gap - 0.0005).abs() < 1e-12, "{}", rows[1].gap);
+    assert!(close(rows[0].normal, [0.0, -1.0, 0.0], 1e-12));
+    assert!(close(rows[1].normal, [0.0, 1.0, 0.0], 1e-12));
+    let bad = Obstacle {
+        radius: -1e-3,
+        ..post
+    };
+    let e = Tube::new(elbow(1e-3), 0.014)
+        .unwrap()
+        .with_obstacles(vec![bad]);
+    assert!(matches!(e, Err(CatheterError::Path(m)) if m.contains("obstacle 0")));
 }
 
 #[test]

@@ -4,6 +4,7 @@
 
 use softsense::catheter::rig::{Drive, SettleParams, SettleStatus};
 use softsense::catheter::scenario::Scenario;
+use softsense::catheter::tube::Surface;
 use softsense::catheter::CatheterError;
 
 const STRAIGHT_TUBE: &str = r#"
@@ -126,6 +127,45 @@ fn a_catheter_bent_into_the_wall_meets_signorinis_law_at_every_node() {
 }
 
 #[test]
+fn a_point_obstacle_props_the_slack_catheter_with_the_cantilever_force_3_ei_delta_over_a_cubed() {
+    // Inserted 66.4 mm, node 8 of 10 is at x = 33.2 mm, a = 132.8 mm from the clamped base.
+    // A 1 mm post whose surface is 1 mm above the catheter's lifts that node by δ = 1 mm;
+    // the rest of the catheter is free, so the post carries 3 EI δ / a³ (small deflection:
+    // δ / a = 0.75%).
+    let text = format!("{STRAIGHT_TUBE}\n[[obstacle]]\nat_mm = [33.2, -3.5, 0]\nradius_mm = 1\n");
+    let s = scenario(&text);
+    let cat = s.catheter(false).unwrap();
+    let tube = s.tube().unwrap();
+    let r = (cat.settle(
+        &tube,
+        &cat.beam.rest_state(),
+        0.0664,
+        Drive::Tensions(&[0.0; 4]),
+        &cat.unloaded(),
+        &SettleParams::default(),
+    ))
+    .unwrap();
+    assert_eq!(r.status, SettleStatus::Settled, "after {} rounds", r.rounds);
+    assert_eq!(r.contacts.len(), 1, "{:?}", r.contacts);
+    let c = r.contacts[0];
+    assert_eq!((c.node, c.surface), (8, Surface::Obstacle(0)), "{c:?}");
+    assert!(c.gap.abs() < 1e-7, "{c:?}");
+    let ei = 44.8e6 * std::f64::consts::PI * 3.5e-3_f64.powi(4) / 4.0;
+    let want = 3.0 * ei * 1e-3 / 0.1328_f64.powi(3);
+    println!(
+        "post force {:.6} N, cantilever {want:.6} N ({:+.3}%)",
+        c.force,
+        100.0 * (c.force / want - 1.0)
+    );
+    assert!(
+        (c.force - want).abs() < 0.01 * want,
+        "post force {} N, cantilever {want} N",
+        c.force
+    );
+    assert!(c.normal[1] > 0.999, "pushed along {:?}", c.normal);
+}
+
+#[test]
 fn scenario_fields_out_of_range_are_refused_by_name() {
     let cases = [
         (
@@ -143,6 +183,10 @@ fn scenario_fields_out_of_range_are_refused_by_name() {
         (
             format!("{STRAIGHT_TUBE}\n[catheter]\ncable_offset_mm = 4\n"),
             "catheter.cable_offset_mm",
+        ),
+        (
+            format!("{STRAIGHT_TUBE}\n[[obstacle]]\nat_mm = [30, 0, 0]\nradius_mm = -1\n"),
+            "obstacle.radius_mm",
         ),
     ];
     for (text, field) in cases {
