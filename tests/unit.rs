@@ -126,6 +126,8 @@ mod control;
 mod catheter;
 #[path = "unit/catheter_rig.rs"]
 mod catheter_rig;
+#[path = "unit/catheter_soft.rs"]
+mod catheter_soft;
 #[path = "unit/layers.rs"]
 mod layers;
 

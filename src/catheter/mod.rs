@@ -17,6 +17,7 @@ pub mod output;
 pub mod rig;
 pub mod run;
 pub mod scenario;
+pub mod soft_wall;
 pub mod statics;
 pub mod tracker;
 pub mod tube;

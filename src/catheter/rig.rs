@@ -271,6 +271,17 @@ impl Catheter {
                     w[(i, i)] += self.cable_compliance;
                 }
             }
+            let n_c = rows.len();
+            soften(
+                tube,
+                &rows,
+                &state,
+                self.radius,
+                &mut w,
+                0,
+                &mut gaps[..n_c],
+                &applied,
+            );
             let free = free_gaps(&w, &gaps, &applied);
             let lcp = solve_contact_lcp(&w, &free, &params.qp)?;
             if lcp.status != LcpStatus::Solved {
@@ -337,7 +348,8 @@ impl Catheter {
         ))
     }
 
-    /// A spring along each push's normal, relaxed where the node would meet its surface.
+    /// A spring along each push's normal, relaxed where the node would meet its surface
+    /// (a soft wall's as the pushes dent it).
     fn walls(
         &self,
         tube: &Tube,
@@ -345,10 +357,9 @@ impl Catheter {
         forces: &[Push],
         stiffness: f64,
     ) -> Vec<NodeSpring> {
-        (forces.iter())
-            .map(|p| {
+        (forces.iter().zip(self.pushed_gaps(tube, state, forces)))
+            .map(|(p, c)| {
                 let x = state.nodes_in_world[p.node];
-                let c = tube.gap_to(p.surface, [x.x, x.y, x.z], self.radius);
                 let to_wall = crate::math::Vec3::from(c.normal) * c.gap;
                 NodeSpring {
                     node: p.node,
@@ -358,6 +369,25 @@ impl Catheter {
                 }
             })
             .collect()
+    }
+
+    /// Each push's gap to its surface, a soft wall's dented by all the pushes.
+    fn pushed_gaps(&self, tube: &Tube, state: &BeamState, forces: &[Push]) -> Vec<NodeContact> {
+        let x = Self::positions(state);
+        let mut rows: Vec<NodeContact> = (forces.iter())
+            .map(|p| NodeContact {
+                node: p.node,
+                ..tube.gap_to(p.surface, x[p.node], self.radius)
+            })
+            .collect();
+        if let Some(c) = tube.wall_compliance(&rows, &x, self.radius) {
+            let applied: Vec<f64> = rows.iter().map(|r| along(forces, r)).collect();
+            let dent = c * nalgebra::DVector::from_column_slice(&applied);
+            for (r, d) in rows.iter_mut().zip(dent.iter()) {
+                r.gap += d;
+            }
+        }
+        rows
     }
 
     fn check_inputs(&self, v: &[f64], what: &str) -> CatheterResult<()> {
@@ -380,19 +410,15 @@ impl Catheter {
         status: SettleStatus,
         rounds: usize,
     ) -> Settled {
-        let x = Self::positions(&state);
-        let contacts = (forces.iter())
-            .filter(|f| f.force > 0.0)
-            .map(|p| {
-                let c = tube.gap_to(p.surface, x[p.node], self.radius);
-                ContactForce {
-                    node: p.node,
-                    surface: p.surface,
-                    s: c.s,
-                    normal: p.normal,
-                    force: p.force,
-                    gap: c.gap,
-                }
+        let pushed: Vec<Push> = forces.iter().filter(|f| f.force > 0.0).copied().collect();
+        let contacts = (pushed.iter().zip(self.pushed_gaps(tube, &state, &pushed)))
+            .map(|(p, c)| ContactForce {
+                node: p.node,
+                surface: p.surface,
+                s: c.s,
+                normal: p.normal,
+                force: p.force,
+                gap: c.gap,
             })
             .collect();
         Settled {
@@ -414,6 +440,34 @@ impl Catheter {
             rounds: 0,
         }
     }
+}
+
+/// A soft wall's part of the contact rows `rows`, which start at row `offset` of `w`: its
+/// compliance added to their block (W_cc = H1 K1⁻¹ H1ᵀ + H2 K2⁻¹ H2ᵀ), and the dent of
+/// the forces `applied` to them (indexed as `w`'s rows) added to their `gaps` (one per row,
+/// from the undeformed wall). Nothing for a rigid tube.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn soften(
+    tube: &Tube,
+    rows: &[NodeContact],
+    state: &BeamState,
+    catheter_radius: f64,
+    w: &mut DMatrix<f64>,
+    offset: usize,
+    gaps: &mut [f64],
+    applied: &[f64],
+) {
+    let x = Catheter::positions(state);
+    let Some(c) = tube.wall_compliance(rows, &x, catheter_radius) else {
+        return;
+    };
+    let n = rows.len();
+    let dent = &c * nalgebra::DVector::from_column_slice(&applied[offset..offset + n]);
+    for (g, d) in gaps.iter_mut().zip(dent.iter()) {
+        *g += d;
+    }
+    let mut block = w.view_mut((offset, offset), (n, n));
+    block += c;
 }
 
 /// The gaps with the applied forces taken away, g − W λ: the LCP's free gaps.

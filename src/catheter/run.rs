@@ -430,6 +430,12 @@ impl Loop<'_> {
         let applied: Vec<f64> = (tensions.iter().copied())
             .chain(contacts.iter().map(|c| m.force_along(c)))
             .collect();
+        let mut gaps: Vec<f64> = contacts.iter().map(|c| c.gap).collect();
+        let mut w_cc = w.view((3, 3), (n, n)).into_owned();
+        super::rig::soften(
+            &self.tube, &contacts, &m.state, cat.radius, &mut w_cc, n_a, &mut gaps, &applied,
+        );
+        w.view_mut((3, 3), (n, n)).copy_from(&w_cc);
         // In units of the largest effector compliance, so that the QP sees numbers near 1
         // (m/N compliances and 0.1 mm errors would sit under its tolerances).
         let w_e2 = frame.rows_2d(&w.view((0, 3), (3, n)).into_owned());
@@ -450,8 +456,8 @@ impl Loop<'_> {
                 false => 0.0,
             })
             .collect();
-        let c_free: Vec<f64> = (contacts.iter().enumerate())
-            .map(|(i, c)| c.gap / unit - (w_c.row(i) * &lambda)[0])
+        let c_free: Vec<f64> = (gaps.iter().enumerate())
+            .map(|(i, g)| g / unit - (w_c.row(i) * &lambda)[0])
             .collect();
         let mut problem = QpccProblem::new(w_e, w_c, e_free, c_free, vec![0.0; 2 + n_a], n_a);
         problem.lambda_a_max = vec![self.scenario.controller.max_tension_n; n_a];

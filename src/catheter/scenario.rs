@@ -6,6 +6,7 @@
 //! forces in N, the modulus in Pa; everything is SI once read.
 
 use super::rig::{Catheter, SettleParams};
+use super::soft_wall::SoftWallParams;
 use super::tracker::Tracker;
 use super::tube::{Centreline, Obstacle, Piece, Tube};
 use super::{CatheterError, CatheterResult};
@@ -73,7 +74,71 @@ pub struct TubeSpec {
     pub diameter_mm: f64,
     /// The pieces from the entrance, where the tip starts.
     pub pieces: Vec<PieceSpec>,
+    /// A soft wall (none: the wall is rigid).
+    #[serde(default)]
+    pub soft: Option<SoftWallSpec>,
 }
+
+/// A soft wall round the tube (thesis 5.5.7.2): linear tetrahedra from the inner radius
+/// out, the outer surface held.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SoftWallSpec {
+    /// Wall thickness (mm; 3).
+    #[serde(default = "d_wall_thickness")]
+    pub thickness_mm: f64,
+    /// Young's modulus (Pa; 100e3, soft tissue's order).
+    #[serde(default = "d_wall_young")]
+    pub young_modulus: f64,
+    /// Poisson's ratio (0.45).
+    #[serde(default = "d_wall_poisson")]
+    pub poisson: f64,
+    /// Cells round the circumference (24).
+    #[serde(default = "d_wall_around")]
+    pub around: usize,
+    /// Cells through the thickness (2).
+    #[serde(default = "d_wall_layers")]
+    pub layers: usize,
+    /// Cell length along the centreline (mm; 3).
+    #[serde(default = "d_wall_ring_step")]
+    pub ring_step_mm: f64,
+}
+
+impl SoftWallSpec {
+    /// The wall's options in SI.
+    pub fn params(&self) -> SoftWallParams {
+        SoftWallParams {
+            thickness: 1e-3 * self.thickness_mm,
+            young_modulus: self.young_modulus,
+            poisson: self.poisson,
+            around: self.around,
+            layers: self.layers,
+            ring_step: 1e-3 * self.ring_step_mm,
+        }
+    }
+}
+
+fn d_wall_thickness() -> f64 {
+    1e3 * SoftWallParams::default().thickness
+}
+fn d_wall_young() -> f64 {
+    SoftWallParams::default().young_modulus
+}
+fn d_wall_poisson() -> f64 {
+    SoftWallParams::default().poisson
+}
+fn d_wall_around() -> usize {
+    SoftWallParams::default().around
+}
+fn d_wall_layers() -> usize {
+    SoftWallParams::default().layers
+}
+fn d_wall_ring_step() -> f64 {
+    1e3 * SoftWallParams::default().ring_step
+}
+
+/// Inner-surface nodes of a soft wall at most: its compliance is a dense matrix of them.
+const MAX_WALL_NODES: usize = 4000;
 
 /// A rigid obstacle in the tube: a point, or a segment such as a wire across it, with a
 /// radius round it. Coordinates are the path's: the entrance at the origin, the first
@@ -392,6 +457,7 @@ impl Scenario {
                 ));
             }
         }
+        self.validate_soft()?;
         let i = &self.insertion;
         positive("insertion.speed_mm_per_s", i.speed_mm_per_s)?;
         positive("insertion.end_mm", i.end_mm)?;
@@ -469,6 +535,52 @@ impl Scenario {
         Ok(())
     }
 
+    fn validate_soft(&self) -> CatheterResult<()> {
+        let Some(w) = &self.tube.soft else {
+            return Ok(());
+        };
+        let bad = |field: &'static str, problem: String| CatheterError::Field {
+            file: self.file.clone(),
+            field,
+            problem,
+        };
+        for (field, v) in [
+            ("tube.soft.thickness_mm", w.thickness_mm),
+            ("tube.soft.young_modulus", w.young_modulus),
+            ("tube.soft.ring_step_mm", w.ring_step_mm),
+        ] {
+            if !(v > 0.0 && v.is_finite()) {
+                return Err(bad(field, format!("must be > 0 and finite (got {v})")));
+            }
+        }
+        if !(w.poisson > -1.0 && w.poisson < 0.5) {
+            let problem = format!("must be in (-1, 0.5) (got {})", w.poisson);
+            return Err(bad("tube.soft.poisson", problem));
+        }
+        if !(6..=96).contains(&w.around) || !(1..=8).contains(&w.layers) {
+            let problem = format!(
+                "around must be in 6..=96 and layers in 1..=8 (got {} and {})",
+                w.around, w.layers
+            );
+            return Err(bad("tube.soft", problem));
+        }
+        let outer = 0.5 * self.tube.diameter_mm + w.thickness_mm;
+        let tight = (self.tube.pieces.iter())
+            .any(|p| matches!(p, PieceSpec::Arc { radius_mm, .. } if *radius_mm <= outer));
+        if tight {
+            let problem = format!("puts the wall's outer radius ({outer} mm) beyond a bend's radius: the mesh would fold");
+            return Err(bad("tube.soft.thickness_mm", problem));
+        }
+        let nodes = w.around * ((self.path_length_mm() / w.ring_step_mm).ceil() as usize + 1);
+        if nodes > MAX_WALL_NODES {
+            let problem = format!(
+                "gives {nodes} inner-surface nodes (around x rings); at most {MAX_WALL_NODES}"
+            );
+            return Err(bad("tube.soft.ring_step_mm", problem));
+        }
+        Ok(())
+    }
+
     /// The file it was read from.
     pub fn file(&self) -> &str {
         &self.file
@@ -542,10 +654,14 @@ impl Scenario {
             .collect()
     }
 
-    /// The tube with its obstacles.
+    /// The tube with its obstacles, and its soft wall if it has one.
     pub fn tube(&self) -> CatheterResult<Tube> {
-        Tube::new(self.centreline()?, 0.5e-3 * self.tube.diameter_mm)?
-            .with_obstacles(self.obstacles())
+        let tube = Tube::new(self.centreline()?, 0.5e-3 * self.tube.diameter_mm)?
+            .with_obstacles(self.obstacles())?;
+        match &self.tube.soft {
+            Some(w) => tube.with_soft_wall(&w.params()),
+            None => Ok(tube),
+        }
     }
 
     /// The controller's catheter (`plant` false) or the robot (`plant` true): straight

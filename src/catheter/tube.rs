@@ -1,8 +1,9 @@
 //! The catheter's environment: a path (a centreline built from straight and circular
-//! pieces), a rigid tube of given radius around it, rigid point and segment obstacles
-//! inside it, and node-based collision detection with an alarm distance (thesis 5.2:
+//! pieces), a tube of given radius around it (rigid, or soft: [`super::soft_wall`]),
+//! rigid point and segment obstacles inside it, and node-based collision detection with an alarm distance (thesis 5.2:
 //! contacts act at FE nodes).
 
+use super::soft_wall::{SoftWall, SoftWallParams};
 use super::{CatheterError, CatheterResult};
 use crate::math::{cross, dot, norm, sub, unit};
 use serde::{Deserialize, Serialize};
@@ -219,7 +220,8 @@ fn check_positive(piece: usize, what: &str, v: f64) -> CatheterResult<()> {
     }
 }
 
-/// A rigid tube: a centreline and an inner radius, with obstacles inside.
+/// A tube: a centreline and an inner radius, with obstacles inside and, optionally, a soft
+/// wall.
 #[derive(Clone, Debug)]
 pub struct Tube {
     /// The tube's axis.
@@ -228,6 +230,8 @@ pub struct Tube {
     pub radius: f64,
     /// Rigid obstacles the catheter can also touch (none by default).
     pub obstacles: Vec<Obstacle>,
+    /// The wall's FE model when the tube is soft (none: a rigid wall).
+    pub soft: Option<std::sync::Arc<SoftWall>>,
 }
 
 /// A rigid obstacle: the points within `radius` of the segment from `a` to `b` (a sphere
@@ -302,7 +306,49 @@ impl Tube {
             centreline,
             radius,
             obstacles: Vec::new(),
+            soft: None,
         })
+    }
+
+    /// The tube with a soft wall of `params` round its radius (meshed and its compliance
+    /// computed here, once).
+    pub fn with_soft_wall(mut self, params: &SoftWallParams) -> CatheterResult<Self> {
+        let wall = SoftWall::new(&self.centreline, self.radius, params)?;
+        self.soft = Some(std::sync::Arc::new(wall));
+        Ok(self)
+    }
+
+    /// The soft wall's compliance between the contact `rows` of a catheter of
+    /// `catheter_radius` whose nodes are at `x` (m/N; zero where a row is not on the wall),
+    /// the H2 K2⁻¹ H2ᵀ to add to the catheter's own in the contact block; none for a
+    /// rigid wall. A row pushes the wall where the node's section meets the undeformed
+    /// wall: from the node, against the push, by the catheter's radius plus `rows`' gap
+    /// (the rigid wall's).
+    pub fn wall_compliance(
+        &self,
+        rows: &[NodeContact],
+        x: &[[f64; 3]],
+        catheter_radius: f64,
+    ) -> Option<nalgebra::DMatrix<f64>> {
+        let soft = self.soft.as_ref()?;
+        let on_wall: Vec<usize> = (0..rows.len())
+            .filter(|&i| rows[i].surface == Surface::Wall)
+            .collect();
+        let points: Vec<([f64; 3], f64)> = (on_wall.iter())
+            .map(|&i| {
+                let c = &rows[i];
+                let reach = catheter_radius + c.gap;
+                (add_scaled(x[c.node], c.normal, -reach), c.s)
+            })
+            .collect();
+        let c = soft.compliance(&points);
+        let mut full = nalgebra::DMatrix::zeros(rows.len(), rows.len());
+        for (a, &i) in on_wall.iter().enumerate() {
+            for (b, &j) in on_wall.iter().enumerate() {
+                full[(i, j)] = c[(a, b)];
+            }
+        }
+        Some(full)
     }
 
     /// The tube with `obstacles` inside (checked finite, radii ≥ 0).

@@ -188,6 +188,17 @@ fn scenario_fields_out_of_range_are_refused_by_name() {
             format!("{STRAIGHT_TUBE}\n[[obstacle]]\nat_mm = [30, 0, 0]\nradius_mm = -1\n"),
             "obstacle.radius_mm",
         ),
+        (
+            format!("{STRAIGHT_TUBE}\n[tube.soft]\npoisson = 0.5\n"),
+            "tube.soft.poisson",
+        ),
+        (
+            (STRAIGHT_TUBE.replace(
+                r#"pieces = [{ kind = "straight", length_mm = 180 }]"#,
+                r#"pieces = [{ kind = "arc", radius_mm = 16, angle_deg = 90 }, { kind = "straight", length_mm = 180 }]"#,
+            )) + "\n[tube.soft]\nthickness_mm = 3\n",
+            "tube.soft.thickness_mm",
+        ),
     ];
     for (text, field) in cases {
         match Scenario::parse(&text, "bad.toml") {
