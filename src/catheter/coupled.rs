@@ -10,13 +10,14 @@
 //! Inputs: the insertion and, for each antagonistic pair of cables (cable i and the one
 //! opposite), a differential pull p about a common pretension (cable i pulled in by p
 //! more, its opposite by p less).
-//! Both Jacobians are central differences of a settle in those inputs: Ĵ of the model
-//! settled in free space, J_true of the robot in the tube (the linear 5.18 cannot tell
-//! which cable of a pair is slack).
+//! J_true is the central difference of the robot's settle in the tube in those inputs (the
+//! linear 5.18 cannot tell which cable of a pair is slack). Ĵ is the model's in free space:
+//! its pull columns by central differences, its insertion column the insertion axis, as
+//! inserting only translates a free catheter.
 
 use super::law::{rotation_margin, PdGains, PdLaw};
-use super::rig::{Catheter, Drive, SettleParams, SettleStatus, Settled};
-use super::run::{failure, summarise, Run, RunStatus, StepRecord};
+use super::rig::{Catheter, Drive, SettleStatus, Settled};
+use super::run::{failure, summarise, Parts, Run, RunStatus, StepRecord};
 use super::scenario::Scenario;
 use super::tube::Tube;
 use super::CatheterResult;
@@ -47,17 +48,37 @@ pub fn pulls_of(inputs: &[f64], cables: usize) -> Vec<f64> {
         .collect()
 }
 
-/// The coupled loop's fixed parts.
-struct Coupled {
-    tube: Tube,
+/// The coupled loop's fixed parts: the decoupled loop's, and the model's free space.
+pub struct Coupled {
+    parts: Parts,
     free: Tube,
-    model: Catheter,
-    robot: Catheter,
-    settle: SettleParams,
-    straight: Vec<[f64; 2]>,
 }
 
 impl Coupled {
+    /// The scenario's parts and a free space along its path.
+    pub fn new(scenario: &Scenario) -> CatheterResult<Self> {
+        let parts = Parts::new(scenario)?;
+        let free = Tube::new(parts.tube.centreline.clone(), FREE_SPACE)?;
+        Ok(Self { parts, free })
+    }
+
+    /// The model settled in free space at the coupled `inputs`, from `from`.
+    pub fn settle_free(&self, from: &Settled, inputs: &[f64]) -> CatheterResult<Settled> {
+        self.settle_at(&self.parts.model, &self.free, from, inputs)
+    }
+
+    /// The free model's Ĵ about `at` (settled at `inputs`) with every column, the insertion's
+    /// too, by central differences: the check of [`Self::model_jacobian`]'s derived column.
+    pub fn model_jacobian_by_differences(
+        &self,
+        at: &Settled,
+        inputs: &[f64],
+    ) -> CatheterResult<Option<DMatrix<f64>>> {
+        let mut j = DMatrix::zeros(3, inputs.len());
+        let ok = self.differences(&self.parts.model, &self.free, at, inputs, &mut j, 0)?;
+        Ok(ok.then_some(j))
+    }
+
     /// `cat` settled in `tube` at the coupled `inputs`, from `from`.
     fn settle_at(
         &self,
@@ -68,27 +89,47 @@ impl Coupled {
     ) -> CatheterResult<Settled> {
         let pulls = pulls_of(inputs, cat.cables.len());
         let d = inputs[0];
-        cat.settle(
-            tube,
-            &from.state,
-            d,
-            Drive::Pulls(&pulls),
-            from,
-            &self.settle,
-        )
+        let settle = &self.parts.settle;
+        cat.settle(tube, &from.state, d, Drive::Pulls(&pulls), from, settle)
     }
 
-    /// The tip's Jacobian in the coupled inputs by central differences of `cat`'s settle
-    /// in `tube` about `at` (settled at `inputs`); `None` when a settle fails.
-    fn jacobian(
+    /// The robot's Jacobian in the coupled inputs, every column by central differences of
+    /// its settle in the tube about `at` (settled at `inputs`); `None` when a settle fails.
+    fn true_jacobian(&self, at: &Settled, inputs: &[f64]) -> CatheterResult<Option<DMatrix<f64>>> {
+        let (robot, tube) = (&self.parts.robot, &self.parts.tube);
+        let mut j = DMatrix::zeros(3, inputs.len());
+        let ok = self.differences(robot, tube, at, inputs, &mut j, 0)?;
+        Ok(ok.then_some(j))
+    }
+
+    /// The free model's Ĵ about `at` (settled at `inputs`): the insertion column is the
+    /// insertion axis, since inserting translates a catheter that touches nothing rigidly;
+    /// the pulls' columns by central differences. `None` when a settle fails.
+    pub fn model_jacobian(
+        &self,
+        at: &Settled,
+        inputs: &[f64],
+    ) -> CatheterResult<Option<DMatrix<f64>>> {
+        let model = &self.parts.model;
+        let mut j = DMatrix::zeros(3, inputs.len());
+        let axis = model.beam.insertion(1.0).translation.vector;
+        j.set_column(0, &axis);
+        let ok = self.differences(model, &self.free, at, inputs, &mut j, 1)?;
+        Ok(ok.then_some(j))
+    }
+
+    /// Fills `j`'s columns from `first` on with central differences of `cat`'s settle in
+    /// `tube` about `at` (settled at `inputs`); false when a settle fails.
+    fn differences(
         &self,
         cat: &Catheter,
         tube: &Tube,
         at: &Settled,
         inputs: &[f64],
-    ) -> CatheterResult<Option<DMatrix<f64>>> {
-        let mut j = DMatrix::zeros(3, inputs.len());
-        for i in 0..inputs.len() {
+        j: &mut DMatrix<f64>,
+        first: usize,
+    ) -> CatheterResult<bool> {
+        for i in first..inputs.len() {
             let h = if i == 0 { INSERTION_STEP } else { PULL_STEP };
             let mut tips = [[0.0; 3]; 2];
             for (tip, sign) in tips.iter_mut().zip([1.0, -1.0]) {
@@ -96,7 +137,7 @@ impl Coupled {
                 x[i] += sign * h;
                 let s = self.settle_at(cat, tube, at, &x)?;
                 if failure("", s.status).is_some() {
-                    return Ok(None);
+                    return Ok(false);
                 }
                 *tip = s.tip();
             }
@@ -105,7 +146,7 @@ impl Coupled {
                 j[(r, i)] = column[r] / (2.0 * h);
             }
         }
-        Ok(Some(j))
+        Ok(true)
     }
 }
 
@@ -113,93 +154,68 @@ impl Coupled {
 /// ends `Diverged` once the robot's tip is farther from its desired point than the tube's
 /// radius.
 pub fn run(scenario: &Scenario, progress: &mut dyn FnMut(usize, usize)) -> CatheterResult<Run> {
-    let tube = scenario.tube()?;
-    let l = Coupled {
-        free: Tube::new(tube.centreline.clone(), FREE_SPACE)?,
-        model: scenario.catheter(false)?,
-        robot: scenario.catheter(true)?,
-        settle: scenario.settle_params(),
-        straight: scenario.straight_parts(),
-        tube,
-    };
-    let tracker = scenario.tracker(&l.tube)?;
+    let l = Coupled::new(scenario)?;
+    let p = &l.parts;
+    let tracker = scenario.tracker(&p.tube)?;
     let mut law = PdLaw::new(PdGains {
         kp: scenario.controller.kp,
         kd: scenario.controller.kd,
     });
-    let n_a = l.robot.cables.len();
+    let n_a = p.robot.cables.len();
     let mut inputs = vec![0.0; 1 + n_a / 2];
-    let (mut robot, mut model) = (l.robot.unloaded(), l.model.unloaded());
+    let (mut robot, mut model) = (p.robot.unloaded(), p.model.unloaded());
     let n = scenario.steps();
     let every = scenario.controller.rotation_check_every;
     let mut steps: Vec<StepRecord> = Vec::with_capacity(n);
     let (mut status, mut unsettled) = (RunStatus::Completed, 0);
     let length = 1e-3 * scenario.catheter.length_mm;
     for k in 0..n {
-        let r = l.settle_at(&l.robot, &l.tube, &robot, &inputs)?;
-        let m = l.settle_at(&l.model, &l.free, &model, &inputs)?;
+        let r = l.settle_at(&p.robot, &p.tube, &robot, &inputs)?;
+        let m = l.settle_free(&model, &inputs)?;
         if let Some(reason) = failure("robot", r.status).or(failure("model", m.status)) {
             status = RunStatus::Failed { step: k, reason };
             break;
         }
         unsettled +=
             usize::from(r.status == SettleStatus::MaxRounds || m.status == SettleStatus::MaxRounds);
-        let Some(j_model) = l.jacobian(&l.model, &l.free, &m, &inputs)? else {
+        let Some(j_model) = l.model_jacobian(&m, &inputs)? else {
             let reason = "a settle of the free model's Jacobian failed".to_string();
             status = RunStatus::Failed { step: k, reason };
             break;
         };
         let margin = match every > 0 && k % every == 0 {
-            true => match l.jacobian(&l.robot, &l.tube, &r, &inputs)? {
+            true => match l.true_jacobian(&r, &inputs)? {
                 Some(j_true) => Some(rotation_margin(&j_true, &j_model)?),
                 None => None,
             },
             false => None,
         };
-        let s_d = scenario.insertion_at(k);
-        let desired = l.tube.centreline.at(s_d).point;
+        // The desired point travels along the path at the insertion speed.
+        let desired = p.tube.centreline.at(scenario.insertion_at(k));
         let measured = tracker.measure(r.tip(), k);
-        let error = dist(r.tip(), desired);
-        steps.push(StepRecord {
-            step: k,
-            insertion: inputs[0],
-            robot: r.tip(),
-            measured,
-            model: m.tip(),
-            desired,
-            s: s_d,
-            straight: (l.straight.iter()).any(|p| s_d >= p[0] && s_d <= p[1]),
-            error,
-            model_error: dist(m.tip(), desired),
+        let record = StepRecord {
+            // Both tips' errors are to the moving desired point, which the loop chases.
+            model_error: dist(m.tip(), desired.point),
             pulls: pulls_of(&inputs, n_a),
-            robot_tensions: r.tensions.clone(),
             model_tensions: m.tensions.clone(),
-            model_contacts: Vec::new(),
-            robot_contacts: r.contacts.clone(),
-            qpcc_nodes: 0,
             rotation_margin: margin,
-        });
+            ..p.record(k, inputs[0], &r, &m, measured, desired)
+        };
+        let error = record.error;
+        steps.push(record);
         progress(k + 1, n);
         (robot, model) = (r, m);
-        if error > l.tube.radius {
+        if error > p.tube.radius {
             status = RunStatus::Diverged {
                 step: k,
                 error_mm: 1e3 * error,
             };
             break;
         }
-        let u = law.step(&j_model, &sub(measured, desired))?;
+        let u = law.step(&j_model, &sub(measured, desired.point))?;
         (inputs.iter_mut().zip(&u)).for_each(|(x, du)| *x += du);
         inputs[0] = inputs[0].clamp(0.0, length);
     }
     let summary = summarise(&steps, scenario.rate_hz, unsettled, 0, tracker.calibration);
-    Ok(Run {
-        name: scenario.name.clone(),
-        scenario: scenario.clone(),
-        status,
-        robot_nodes: Catheter::positions(&robot.state),
-        model_nodes: Catheter::positions(&model.state),
-        steps,
-        summary,
-    })
+    Ok(Run::new(scenario, status, steps, summary, [&robot, &model]))
 }

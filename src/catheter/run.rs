@@ -9,7 +9,7 @@ use super::mapping::{LocalFrame, Mapping};
 use super::rig::{Catheter, ContactForce, Drive, SettleParams, SettleStatus, Settled};
 use super::scenario::{Scenario, Scheme};
 use super::tracker::{Calibration, Tracker};
-use super::tube::Tube;
+use super::tube::{CurvePoint, Tube};
 use super::{CatheterError, CatheterResult};
 use crate::fem::beam::BeamRow;
 use crate::inverse::qpcc::{QpccParams, QpccProblem, QpccStatus};
@@ -137,16 +137,71 @@ struct FemStep {
 /// the tension (about 7 nm per newton for the default catheter).
 const TENSION_RIDGE: f64 = 1e-3;
 
-/// The loop's fixed parts.
+/// What both schemes run on: the tube, the controller's catheter and the robot, and how
+/// they settle.
+#[derive(Clone, Debug)]
+pub(super) struct Parts {
+    pub tube: Tube,
+    pub model: Catheter,
+    pub robot: Catheter,
+    pub settle: SettleParams,
+    /// The path's straight parts (m of arc length), for the records.
+    pub straight: Vec<[f64; 2]>,
+}
+
+impl Parts {
+    /// The scenario's parts.
+    pub fn new(scenario: &Scenario) -> CatheterResult<Self> {
+        Ok(Self {
+            tube: scenario.tube()?,
+            model: scenario.catheter(false)?,
+            robot: scenario.catheter(true)?,
+            settle: scenario.settle_params(),
+            straight: scenario.straight_parts(),
+        })
+    }
+
+    /// The record of step `k` at `insertion`, with the robot `r` and the model `m` settled,
+    /// the `measured` tip and the robot's `desired` point; the model's error is to the path
+    /// point nearest its tip. The scheme's own parts (pulls, the model's tensions, the QPCC's
+    /// nodes, the margin) start empty, for the scheme to fill.
+    pub fn record(
+        &self,
+        k: usize,
+        insertion: f64,
+        r: &Settled,
+        m: &Settled,
+        measured: [f64; 3],
+        desired: CurvePoint,
+    ) -> StepRecord {
+        let path = &self.tube.centreline;
+        StepRecord {
+            step: k,
+            insertion,
+            robot: r.tip(),
+            measured,
+            model: m.tip(),
+            desired: desired.point,
+            s: desired.s,
+            straight: (self.straight.iter()).any(|p| desired.s >= p[0] && desired.s <= p[1]),
+            error: dist(r.tip(), desired.point),
+            model_error: dist(m.tip(), path.nearest(m.tip()).point),
+            pulls: Vec::new(),
+            robot_tensions: r.tensions.clone(),
+            model_tensions: Vec::new(),
+            model_contacts: m.contacts.clone(),
+            robot_contacts: r.contacts.clone(),
+            qpcc_nodes: 0,
+            rotation_margin: None,
+        }
+    }
+}
+
+/// The decoupled loop's fixed parts.
 #[derive(Clone, Debug)]
 struct Loop<'a> {
     scenario: &'a Scenario,
-    tube: Tube,
-    model: Catheter,
-    robot: Catheter,
-    settle: SettleParams,
-    /// The path's straight parts (m of arc length), for the records.
-    straight: Vec<[f64; 2]>,
+    parts: Parts,
     qpcc: QpccParams,
 }
 
@@ -220,15 +275,35 @@ pub fn run(scenario: &Scenario, progress: &mut dyn FnMut(usize, usize)) -> Cathe
         session.qpcc_failures,
         session.tracker.calibration,
     );
-    Ok(Run {
-        name: scenario.name.clone(),
-        scenario: scenario.clone(),
+    Ok(Run::new(
+        scenario,
         status,
         steps,
         summary,
-        robot_nodes: Catheter::positions(&session.robot.state),
-        model_nodes: Catheter::positions(&session.model.state),
-    })
+        [&session.robot, &session.model],
+    ))
+}
+
+impl Run {
+    /// The run of `scenario` that ended `status` after `steps`, with the [robot, model]
+    /// `last` equilibria.
+    pub(super) fn new(
+        scenario: &Scenario,
+        status: RunStatus,
+        steps: Vec<StepRecord>,
+        summary: Summary,
+        last: [&Settled; 2],
+    ) -> Self {
+        Run {
+            name: scenario.name.clone(),
+            scenario: scenario.clone(),
+            status,
+            steps,
+            summary,
+            robot_nodes: Catheter::positions(&last[0].state),
+            model_nodes: Catheter::positions(&last[1].state),
+        }
+    }
 }
 
 impl<'a> Session<'a> {
@@ -237,26 +312,22 @@ impl<'a> Session<'a> {
     pub fn new(scenario: &'a Scenario) -> CatheterResult<Self> {
         let l = Loop {
             scenario,
-            tube: scenario.tube()?,
-            model: scenario.catheter(false)?,
-            robot: scenario.catheter(true)?,
-            settle: scenario.settle_params(),
-            straight: scenario.straight_parts(),
+            parts: Parts::new(scenario)?,
             qpcc: QpccParams::default(),
         };
-        let tracker = scenario.tracker(&l.tube)?;
+        let tracker = scenario.tracker(&l.parts.tube)?;
         let gains = PdGains {
             kp: scenario.controller.kp,
             kd: scenario.controller.kd,
         };
-        let n_a = l.model.cables.len();
+        let n_a = l.parts.model.cables.len();
         Ok(Self {
             tracker,
             law: PdLaw::new(gains),
             robot_map: Mapping::default(),
             model_map: Mapping::default(),
-            model: l.model.unloaded(),
-            robot: l.robot.unloaded(),
+            model: l.parts.model.unloaded(),
+            robot: l.parts.robot.unloaded(),
             tensions: vec![0.0; n_a],
             pulls: vec![0.0; n_a],
             k: 0,
@@ -291,13 +362,14 @@ impl<'a> Session<'a> {
     pub fn step(&mut self) -> CatheterResult<Step> {
         let k = self.k;
         let d = self.l.scenario.insertion_at(k);
-        let r = self.l.robot.settle(
-            &self.l.tube,
+        let parts = &self.l.parts;
+        let r = parts.robot.settle(
+            &parts.tube,
             &self.robot.state,
             d,
             Drive::Pulls(&self.pulls),
             &self.robot,
-            &self.l.settle,
+            &parts.settle,
         )?;
         if let Some(reason) = failure("robot", r.status) {
             return Ok(Step::Failed(reason));
@@ -311,26 +383,13 @@ impl<'a> Session<'a> {
         self.unsettled +=
             usize::from(m.status == SettleStatus::MaxRounds || r.status == SettleStatus::MaxRounds);
         self.qpcc_failures += usize::from(!c.qpcc_solved);
-        let path = &self.l.tube.centreline;
-        let desired = path.nearest(r.tip());
+        let parts = &self.l.parts;
+        let desired = parts.tube.centreline.nearest(r.tip());
         let record = StepRecord {
-            step: k,
-            insertion: d,
-            robot: r.tip(),
-            measured,
-            model: m.tip(),
-            desired: desired.point,
-            s: desired.s,
-            straight: (self.l.straight.iter()).any(|p| desired.s >= p[0] && desired.s <= p[1]),
-            error: dist(r.tip(), desired.point),
-            model_error: dist(m.tip(), path.nearest(m.tip()).point),
             pulls: self.pulls.clone(),
-            robot_tensions: r.tensions.clone(),
             model_tensions: self.tensions.clone(),
-            model_contacts: m.contacts.clone(),
-            robot_contacts: r.contacts.clone(),
             qpcc_nodes: c.qpcc_nodes,
-            rotation_margin: None,
+            ..parts.record(k, d, &r, m, measured, desired)
         };
         (self.pulls.iter_mut().zip(&c.pull_increments)).for_each(|(p, du)| *p += du);
         self.tensions = c.next_tensions;
@@ -346,21 +405,22 @@ impl<'a> Session<'a> {
     /// states do not. A failure is the reason, in words.
     pub fn control(&mut self, insertion: f64, measured: [f64; 3]) -> Result<Control, String> {
         let l = &self.l;
-        let m = l
+        let p = &l.parts;
+        let m = p
             .model
             .settle(
-                &l.tube,
+                &p.tube,
                 &self.model.state,
                 insertion,
                 Drive::Tensions(&self.tensions),
                 &self.model,
-                &l.settle,
+                &p.settle,
             )
             .map_err(|e| e.to_string())?;
         if let Some(reason) = failure("model", m.status) {
             return Err(reason);
         }
-        let path = &l.tube.centreline;
+        let path = &p.tube.centreline;
         let model_frame = self.model_map.frame(path, m.tip());
         let robot_frame = self.robot_map.frame(path, measured);
         let fem = l
@@ -397,10 +457,11 @@ impl Loop<'_> {
         frame: &LocalFrame,
         tensions: &[f64],
     ) -> CatheterResult<FemStep> {
-        let cat = &self.model;
+        let p = &self.parts;
+        let cat = &p.model;
         let n_a = cat.cables.len();
         let keep: Vec<_> = m.contacts.iter().map(|c| (c.node, c.surface)).collect();
-        let contacts = cat.contact_rows(&self.tube, &m.state, self.settle.alarm, &keep);
+        let contacts = cat.contact_rows(&p.tube, &m.state, p.settle.alarm, &keep);
         let tip = cat.tip_node();
         let mut rows: Vec<BeamRow> = (0..3)
             .map(|a| {
@@ -433,7 +494,14 @@ impl Loop<'_> {
         let mut gaps: Vec<f64> = contacts.iter().map(|c| c.gap).collect();
         let mut w_cc = w.view((3, 3), (n, n)).into_owned();
         super::rig::soften(
-            &self.tube, &contacts, &m.state, cat.radius, &mut w_cc, n_a, &mut gaps, &applied,
+            &self.parts.tube,
+            &contacts,
+            &m.state,
+            cat.radius,
+            &mut w_cc,
+            n_a,
+            &mut gaps,
+            &applied,
         );
         w.view_mut((3, 3), (n, n)).copy_from(&w_cc);
         // In units of the largest effector compliance, so that the QP sees numbers near 1

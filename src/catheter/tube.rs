@@ -416,12 +416,12 @@ impl Tube {
         alarm: f64,
     ) -> Vec<NodeContact> {
         let end = self.centreline.length();
-        let surfaces: Vec<Surface> = std::iter::once(Surface::Wall)
-            .chain((0..self.obstacles.len()).map(Surface::Obstacle))
-            .collect();
         let mut rows = Vec::new();
         for (node, &p) in nodes.iter().enumerate() {
-            for &surface in &surfaces {
+            // The wall, then each obstacle; a range, not a list, as this runs every round.
+            let surfaces = std::iter::once(Surface::Wall)
+                .chain((0..self.obstacles.len()).map(Surface::Obstacle));
+            for surface in surfaces {
                 let c = self.gap_to(surface, p, catheter_radius);
                 let beyond = surface == Surface::Wall && !(c.s > 0.0 && c.s < end);
                 if !beyond && c.gap < alarm {

@@ -2,6 +2,7 @@
 //! tension- and displacement-driven settles agree, contacts satisfy Signorini's law, and
 //! the default catheter bends as it was sized to.
 
+use softsense::catheter::coupled::Coupled;
 use softsense::catheter::rig::{Drive, SettleParams, SettleStatus};
 use softsense::catheter::scenario::Scenario;
 use softsense::catheter::tube::Surface;
@@ -267,4 +268,30 @@ fn bm5_the_models_contact_forces_match_a_four_times_finer_truth_within_three_per
         }
     }
     assert!(compared >= 2, "only {compared} forces of 0.1 N or more");
+}
+
+#[test]
+fn the_free_models_insertion_column_is_the_insertion_axis_as_central_differences_say() {
+    // Coupled::model_jacobian takes Ĵ's insertion column from the insertion's axis instead
+    // of two settles; here both ways, about a catheter bent by uneven pulls at 40 mm.
+    let s = scenario(STRAIGHT_TUBE);
+    let coupled = Coupled::new(&s).unwrap();
+    let inputs = [0.04, 3e-4, -1e-4];
+    let rest = s.catheter(false).unwrap().unloaded();
+    let at = coupled.settle_free(&rest, &inputs).unwrap();
+    assert_eq!(at.status, SettleStatus::Settled);
+    let derived = coupled.model_jacobian(&at, &inputs).unwrap().unwrap();
+    let central = (coupled.model_jacobian_by_differences(&at, &inputs))
+        .unwrap()
+        .unwrap();
+    let off = (derived.column(0) - central.column(0)).norm() / central.column(0).norm();
+    println!(
+        "insertion column {:?}, relative difference {off:.1e}",
+        central.column(0)
+    );
+    assert!(off < 1e-9, "derived {derived}, central {central}");
+    // The pulls' columns are the same differences in both.
+    assert_eq!(derived.columns(1, 2), central.columns(1, 2));
+    // The pulls bend the catheter, so its tip is off the axis the column points along.
+    assert!(at.tip()[1].abs() > 1e-3, "tip {:?}", at.tip());
 }
