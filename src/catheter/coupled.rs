@@ -74,9 +74,7 @@ impl Coupled {
         at: &Settled,
         inputs: &[f64],
     ) -> CatheterResult<Option<DMatrix<f64>>> {
-        let mut j = DMatrix::zeros(3, inputs.len());
-        let ok = self.differences(&self.parts.model, &self.free, at, inputs, &mut j, 0)?;
-        Ok(ok.then_some(j))
+        self.jacobian_by_differences(&self.parts.model, &self.free, at, inputs)
     }
 
     /// `cat` settled in `tube` at the coupled `inputs`, from `from`.
@@ -93,12 +91,17 @@ impl Coupled {
         cat.settle(tube, &from.state, d, Drive::Pulls(&pulls), from, settle)
     }
 
-    /// The robot's Jacobian in the coupled inputs, every column by central differences of
-    /// its settle in the tube about `at` (settled at `inputs`); `None` when a settle fails.
-    fn true_jacobian(&self, at: &Settled, inputs: &[f64]) -> CatheterResult<Option<DMatrix<f64>>> {
-        let (robot, tube) = (&self.parts.robot, &self.parts.tube);
+    /// `cat`'s Jacobian in the coupled inputs, every column by central differences of its
+    /// settle in `tube` about `at` (settled at `inputs`); `None` when a settle fails.
+    fn jacobian_by_differences(
+        &self,
+        cat: &Catheter,
+        tube: &Tube,
+        at: &Settled,
+        inputs: &[f64],
+    ) -> CatheterResult<Option<DMatrix<f64>>> {
         let mut j = DMatrix::zeros(3, inputs.len());
-        let ok = self.differences(robot, tube, at, inputs, &mut j, 0)?;
+        let ok = self.differences(cat, tube, at, inputs, &mut j, 0)?;
         Ok(ok.then_some(j))
     }
 
@@ -184,7 +187,7 @@ pub fn run(scenario: &Scenario, progress: &mut dyn FnMut(usize, usize)) -> Cathe
             break;
         };
         let margin = match every > 0 && k % every == 0 {
-            true => match l.true_jacobian(&r, &inputs)? {
+            true => match l.jacobian_by_differences(&p.robot, &p.tube, &r, &inputs)? {
                 Some(j_true) => Some(rotation_margin(&j_true, &j_model)?),
                 None => None,
             },

@@ -457,6 +457,9 @@ pub(super) fn soften(
     gaps: &mut [f64],
     applied: &[f64],
 ) {
+    if tube.soft.is_none() {
+        return;
+    }
     let x = Catheter::positions(state);
     let Some(c) = tube.wall_compliance(rows, &x, catheter_radius) else {
         return;

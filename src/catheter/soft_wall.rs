@@ -64,7 +64,6 @@ struct Ring {
 #[derive(Clone, Debug)]
 pub struct SoftWall {
     params: SoftWallParams,
-    inner_radius: f64,
     rings: Vec<Ring>,
     /// Arc length between rings (m).
     ring_ds: f64,
@@ -106,7 +105,6 @@ impl SoftWall {
         let compliance = problem.solver()?.compliance_at(&x, &rows)?.w;
         Ok(Self {
             params: params.clone(),
-            inner_radius,
             rings,
             ring_ds,
             mesh,
@@ -165,11 +163,6 @@ impl SoftWall {
             }
             c
         })
-    }
-
-    /// The inner radius (m).
-    pub fn inner_radius(&self) -> f64 {
-        self.inner_radius
     }
 }
 
