@@ -11,6 +11,8 @@ mod calibrate;
 mod cameras;
 #[path = "acceptance/catheter.rs"]
 mod catheter;
+#[path = "acceptance/catheter_tet.rs"]
+mod catheter_tet;
 #[path = "acceptance/control.rs"]
 mod control;
 #[path = "acceptance/explain_any_robot.rs"]

@@ -128,6 +128,8 @@ mod catheter;
 mod catheter_rig;
 #[path = "unit/catheter_soft.rs"]
 mod catheter_soft;
+#[path = "unit/catheter_tet.rs"]
+mod catheter_tet;
 #[path = "unit/layers.rs"]
 mod layers;
 

@@ -2,7 +2,8 @@
 //! the tube it is inserted through with node-based collision detection ([`tube`]), the
 //! mapping onto the bending plane (Algorithm 5.1, [`mapping`]) and the robot controller's
 //! PD law with its Jacobian-rotation check (5.18-5.22, [`law`]); the coupled baseline that
-//! shows that rotation ([`coupled`], 5.3.1).
+//! shows that rotation ([`coupled`], 5.3.1); the catheter as a tetrahedral solid, the
+//! beam's cross-check ([`tetra`]).
 //!
 //! The FE model of the catheter is [`crate::fem::beam`]; the contact LCP and the FEM
 //! controller's QPCC (5.6-5.15) are [`crate::inverse::qpcc`].
@@ -19,6 +20,7 @@ pub mod run;
 pub mod scenario;
 pub mod soft_wall;
 pub mod statics;
+pub mod tetra;
 pub mod tracker;
 pub mod tube;
 

@@ -367,7 +367,6 @@ impl TetMesh {
                 "box {lo:?}..{hi:?} with {n:?} cells"
             )));
         }
-        let id = |i: usize, j: usize, k: usize| i + (n[0] + 1) * (j + (n[1] + 1) * k);
         let mut nodes = Vec::with_capacity((n[0] + 1) * (n[1] + 1) * (n[2] + 1));
         for k in 0..=n[2] {
             for j in 0..=n[1] {
@@ -379,40 +378,46 @@ impl TetMesh {
                 }
             }
         }
-        const PERMS: [[usize; 3]; 6] = [
-            [0, 1, 2],
-            [0, 2, 1],
-            [1, 0, 2],
-            [1, 2, 0],
-            [2, 0, 1],
-            [2, 1, 0],
-        ];
-        let mut tets = Vec::with_capacity(6 * n[0] * n[1] * n[2]);
-        for k in 0..n[2] {
-            for j in 0..n[1] {
-                for i in 0..n[0] {
-                    // Local corner offsets (0/1 per axis), mirrored per axis on odd cubes.
-                    let flip = [
-                        i % 2 == 1 && mirrored,
-                        j % 2 == 1 && mirrored,
-                        k % 2 == 1 && mirrored,
-                    ];
-                    let corner = |o: [usize; 3]| {
-                        let o = [0, 1, 2].map(|a| if flip[a] { 1 - o[a] } else { o[a] });
-                        id(i + o[0], j + o[1], k + o[2])
-                    };
-                    for perm in PERMS {
-                        let mut o = [0usize; 3];
-                        let mut t = [corner(o); 4];
-                        for (s, ax) in perm.iter().enumerate() {
-                            o[*ax] = 1;
-                            t[s + 1] = corner(o);
-                        }
-                        tets.push(t);
-                    }
+        let tets = kuhn_tets(n, |c| c.map(|i| i % 2 == 1 && mirrored));
+        let mut mesh = Self::new(nodes, tets)?;
+        mesh.orient_positive();
+        Ok(mesh)
+    }
+
+    /// A solid circular cylinder along +x from the origin: `length` (m) in `along` slices,
+    /// radius (m) with `across` cells over the diameter. Each slice is a square grid mapped
+    /// onto the disc (x' = x √(1 − y²/2), y' = y √(1 − x²/2) on [−1, 1]²), and each cube is
+    /// split into six Kuhn tetrahedra whose shared diagonal runs outward, so that no
+    /// tetrahedron has its face on the three nearly collinear rim points of a corner cell.
+    /// Nodes are numbered as [`TetMesh::structured_box`]'s, x (along the axis) fastest.
+    pub fn cylinder(radius: f64, length: f64, across: usize, along: usize) -> FemResult<Self> {
+        let ok = |k: usize| (1..=1000).contains(&k);
+        if !(radius > 0.0 && length > 0.0 && radius.is_finite() && length.is_finite())
+            || !ok(across)
+            || !ok(along)
+        {
+            return Err(FemError::InvalidMesh(format!(
+                "cylinder of radius {radius} m, length {length} m, {across} cells across, {along} along"
+            )));
+        }
+        let unit = |j: usize| 2.0 * j as f64 / across as f64 - 1.0;
+        let mut nodes = Vec::with_capacity((along + 1) * (across + 1) * (across + 1));
+        for k in 0..=across {
+            for j in 0..=across {
+                for i in 0..=along {
+                    let (u, v) = (unit(j), unit(k));
+                    let y = radius * u * (1.0 - 0.5 * v * v).sqrt();
+                    let z = radius * v * (1.0 - 0.5 * u * u).sqrt();
+                    nodes.push([length * i as f64 / along as f64, y, z]);
                 }
             }
         }
+        // Mirror the cells on the negative side of each transverse axis, so the diagonal
+        // of every cell points away from the axis (mirror images stay conforming).
+        let negative = |j: usize| 2 * j + 1 < across;
+        let tets = kuhn_tets([along, across, across], |c| {
+            [false, negative(c[1]), negative(c[2])]
+        });
         let mut mesh = Self::new(nodes, tets)?;
         mesh.orient_positive();
         Ok(mesh)
@@ -427,4 +432,41 @@ impl TetMesh {
             })
             .collect()
     }
+}
+
+/// The six Kuhn tetrahedra of every cube of an n[0] × n[1] × n[2] grid of nodes numbered
+/// x fastest; `flip` says per cube which local axes are mirrored.
+fn kuhn_tets(n: [usize; 3], flip: impl Fn([usize; 3]) -> [bool; 3]) -> Vec<[usize; 4]> {
+    let id = |i: usize, j: usize, k: usize| i + (n[0] + 1) * (j + (n[1] + 1) * k);
+    const PERMS: [[usize; 3]; 6] = [
+        [0, 1, 2],
+        [0, 2, 1],
+        [1, 0, 2],
+        [1, 2, 0],
+        [2, 0, 1],
+        [2, 1, 0],
+    ];
+    let mut tets = Vec::with_capacity(6 * n[0] * n[1] * n[2]);
+    for k in 0..n[2] {
+        for j in 0..n[1] {
+            for i in 0..n[0] {
+                let flip = flip([i, j, k]);
+                // Local corner offsets (0/1 per axis), mirrored per axis as asked.
+                let corner = |o: [usize; 3]| {
+                    let o = [0, 1, 2].map(|a| if flip[a] { 1 - o[a] } else { o[a] });
+                    id(i + o[0], j + o[1], k + o[2])
+                };
+                for perm in PERMS {
+                    let mut o = [0usize; 3];
+                    let mut t = [corner(o); 4];
+                    for (s, ax) in perm.iter().enumerate() {
+                        o[*ax] = 1;
+                        t[s + 1] = corner(o);
+                    }
+                    tets.push(t);
+                }
+            }
+        }
+    }
+    tets
 }

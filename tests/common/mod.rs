@@ -3,6 +3,7 @@
 
 pub mod bags;
 pub mod batch;
+pub mod catheter_tet;
 pub mod corpus;
 pub mod docs;
 pub mod fem;
