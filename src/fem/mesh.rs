@@ -392,10 +392,8 @@ impl TetMesh {
     /// Nodes are numbered as [`TetMesh::structured_box`]'s, x (along the axis) fastest.
     pub fn cylinder(radius: f64, length: f64, across: usize, along: usize) -> FemResult<Self> {
         let ok = |k: usize| (1..=1000).contains(&k);
-        if !(radius > 0.0 && length > 0.0 && radius.is_finite() && length.is_finite())
-            || !ok(across)
-            || !ok(along)
-        {
+        let sizes = radius > 0.0 && length > 0.0 && radius.is_finite() && length.is_finite();
+        if !(sizes && ok(across) && ok(along)) {
             return Err(FemError::InvalidMesh(format!(
                 "cylinder of radius {radius} m, length {length} m, {across} cells across, {along} along"
             )));
