@@ -8,7 +8,7 @@ use crate::common::catheter_tet::{bends, compliance_ratios};
 
 #[test]
 fn tetrahedra_refined_to_16_across_extrapolate_onto_the_beam_compliance_within_3_percent() {
-    let sizes = [8.0, 12.0, 16.0];
+    let sizes: [f64; 3] = [8.0, 12.0, 16.0];
     let ratios = sizes.map(|n| compliance_ratios(n as usize, 2.0));
     for k in 0..3 {
         let r = ratios.map(|m| m[k]);
