@@ -41,8 +41,12 @@ fn tetrahedra_refined_to_16_across_extrapolate_onto_the_beam_compliance_within_3
 fn a_cable_bends_the_tetrahedral_catheter_along_the_beam_to_ninety_degrees() {
     let across = 6;
     let stiffer = 1.0 / compliance_ratios(across, 2.0)[2];
-    bends(across, 1.0, &[20.0]);
-    for bend in bends(across, stiffer, &[5.0, 10.0, 20.0]) {
-        assert!(bend.gap <= 0.05 * bend.travel, "{bend:?}");
+    // The beam of the catheter's own modulus is shown, not judged: the tetrahedra at 6
+    // across are about a third stiffer in bending.
+    for bend in bends(across, &[1.0, stiffer], &[5.0, 10.0, 20.0]) {
+        assert!(
+            bend.young_factor == 1.0 || bend.gap <= 0.05 * bend.travel,
+            "{bend:?}"
+        );
     }
 }

@@ -24,7 +24,7 @@ fn refined_tetrahedra_approach_the_beam_compliance_from_the_stiff_side() {
 fn a_cable_bends_coarse_tetrahedra_along_a_beam_of_their_bending_stiffness() {
     let across = 4;
     let stiffer = 1.0 / compliance_ratios(across, 2.0)[2];
-    let bend = bends(across, stiffer, &[5.0])[0];
+    let bend = bends(across, &[stiffer], &[5.0])[0];
     assert!(
         bend.gap <= 0.05 * bend.travel,
         "gap {} m, travel {} m",
