@@ -14,25 +14,47 @@ use crate::math::{cross, dot, sub, unit};
 
 /// Ray-triangle intersection (Möller-Trumbore), both sides; returns t > `t_min`.
 pub fn ray_triangle(o: [f64; 3], d: [f64; 3], tri: [[f64; 3]; 3], t_min: f64) -> Option<f64> {
-    let e1 = sub(tri[1], tri[0]);
-    let e2 = sub(tri[2], tri[0]);
-    let p = cross(d, e2);
-    let det = dot(e1, p);
+    ray_triangle_edges(o, d, &Edges::of(tri), t_min)
+}
+
+/// A triangle as its first vertex and the two edges from it: what every ray test needs,
+/// computed once per triangle instead of once per test (the same values, so the same hits).
+#[derive(Clone, Copy, Debug)]
+struct Edges {
+    v0: [f64; 3],
+    e1: [f64; 3],
+    e2: [f64; 3],
+}
+
+impl Edges {
+    fn of(tri: [[f64; 3]; 3]) -> Self {
+        Self {
+            v0: tri[0],
+            e1: sub(tri[1], tri[0]),
+            e2: sub(tri[2], tri[0]),
+        }
+    }
+}
+
+#[inline]
+fn ray_triangle_edges(o: [f64; 3], d: [f64; 3], tri: &Edges, t_min: f64) -> Option<f64> {
+    let p = cross(d, tri.e2);
+    let det = dot(tri.e1, p);
     if det.abs() < 1e-18 {
         return None;
     }
     let inv = 1.0 / det;
-    let s = sub(o, tri[0]);
+    let s = sub(o, tri.v0);
     let u = dot(s, p) * inv;
     if !(0.0..=1.0).contains(&u) {
         return None;
     }
-    let q = cross(s, e1);
+    let q = cross(s, tri.e1);
     let v = dot(d, q) * inv;
     if v < 0.0 || u + v > 1.0 {
         return None;
     }
-    let t = dot(e2, q) * inv;
+    let t = dot(tri.e2, q) * inv;
     (t > t_min).then_some(t)
 }
 
@@ -117,19 +139,21 @@ impl Aabb {
 #[derive(Clone, Debug)]
 struct Node {
     bbox: Aabb,
-    /// Leaf: start..end into `order`; inner: children indices.
-    start: usize,
-    end: usize,
-    children: Option<(usize, usize)>,
+    /// Leaf: start..end into the triangles; inner: children indices.
+    start: u32,
+    end: u32,
+    children: Option<(u32, u32)>,
 }
 
 /// A BVH over triangles given by vertex positions and index triples.
 #[derive(Clone, Debug)]
 pub struct Bvh {
-    tris: Vec<[[f64; 3]; 3]>,
+    /// The triangles in leaf order, so a leaf's are adjacent in memory.
+    tris: Vec<Edges>,
+    /// Their vertex indices, for [`Bvh::refit`].
+    indices: Vec<[usize; 3]>,
     /// Index of each of `tris` in the triangles given to [`Bvh::new`].
     source: Vec<usize>,
-    order: Vec<usize>,
     nodes: Vec<Node>,
 }
 
@@ -140,7 +164,7 @@ const LEAF: usize = 4;
 /// level, so a walk holds at most log2(triangles) + 2 entries, below 64 for any mesh that
 /// fits in memory.
 struct NodeStack {
-    items: [(usize, f64); 64],
+    items: [(u32, f64); 64],
     len: usize,
 }
 
@@ -154,14 +178,57 @@ impl Default for NodeStack {
 }
 
 impl NodeStack {
-    fn push(&mut self, item: (usize, f64)) {
+    fn push(&mut self, item: (u32, f64)) {
         self.items[self.len] = item;
         self.len += 1;
     }
 
-    fn pop(&mut self) -> Option<(usize, f64)> {
+    fn pop(&mut self) -> Option<(u32, f64)> {
         self.len = self.len.checked_sub(1)?;
         Some(self.items[self.len])
+    }
+}
+
+/// The hierarchy under construction: `order` is permuted in place by the median splits.
+struct Build<'a> {
+    tris: &'a [[[f64; 3]; 3]],
+    centroids: &'a [[f64; 3]],
+    order: Vec<usize>,
+    nodes: Vec<Node>,
+}
+
+impl Build<'_> {
+    fn node(&mut self, start: usize, end: usize) -> u32 {
+        let c = self.centroids;
+        let mut bbox = Aabb::empty();
+        let mut cbox = Aabb::empty();
+        for &i in &self.order[start..end] {
+            for p in self.tris[i] {
+                bbox.grow(p);
+            }
+            cbox.grow(c[i]);
+        }
+        let id = self.nodes.len();
+        self.nodes.push(Node {
+            bbox,
+            start: start as u32,
+            end: end as u32,
+            children: None,
+        });
+        if end - start > LEAF {
+            let ext = [0, 1, 2].map(|k| cbox.hi[k] - cbox.lo[k]);
+            let axis = (0..3).fold(0, |b, k| if ext[k] > ext[b] { k } else { b });
+            if ext[axis] > 0.0 {
+                let mid = (start + end) / 2;
+                self.order[start..end].select_nth_unstable_by(mid - start, |a, b| {
+                    c[*a][axis].total_cmp(&c[*b][axis])
+                });
+                let l = self.node(start, mid);
+                let r = self.node(mid, end);
+                self.nodes[id].children = Some((l, r));
+            }
+        }
+        id as u32
     }
 }
 
@@ -178,48 +245,59 @@ impl Bvh {
             .iter()
             .map(|t| [0, 1, 2].map(|k| (t[0][k] + t[1][k] + t[2][k]) / 3.0))
             .collect();
-        let mut bvh = Self {
+        let mut build = Build {
+            tris: &tris,
+            centroids: &centroids,
             order: (0..tris.len()).collect(),
-            tris,
-            source,
             nodes: Vec::new(),
         };
-        if !bvh.tris.is_empty() {
-            bvh.build(0, bvh.tris.len(), &centroids);
+        if !tris.is_empty() {
+            build.node(0, tris.len());
         }
-        bvh
+        Self {
+            tris: build.order.iter().map(|&i| Edges::of(tris[i])).collect(),
+            indices: build.order.iter().map(|&i| triangles[source[i]]).collect(),
+            source: build.order.iter().map(|&i| source[i]).collect(),
+            nodes: build.nodes,
+        }
     }
 
-    fn build(&mut self, start: usize, end: usize, c: &[[f64; 3]]) -> usize {
-        let mut bbox = Aabb::empty();
-        let mut cbox = Aabb::empty();
-        for &i in &self.order[start..end] {
-            for p in self.tris[i] {
-                bbox.grow(p);
-            }
-            cbox.grow(c[i]);
+    /// Moves the triangles to new vertex positions, keeping the hierarchy's grouping and
+    /// growing or shrinking each box to fit again: a fraction of [`Bvh::new`]'s cost (no
+    /// sorting), for a mesh that deforms between casts. Casts answer exactly as a new
+    /// hierarchy's would (the nearest hit, ties to the triangle given first); only their
+    /// speed depends on the grouping, which loosens as the mesh moves far from where it was
+    /// built. False, and nothing changed, if a triangle's vertex is not in `vertices`.
+    pub fn refit(&mut self, vertices: &[[f64; 3]]) -> bool {
+        if self.indices.iter().flatten().any(|&i| i >= vertices.len()) {
+            return false;
         }
-        let id = self.nodes.len();
-        self.nodes.push(Node {
-            bbox,
-            start,
-            end,
-            children: None,
-        });
-        if end - start > LEAF {
-            let ext = [0, 1, 2].map(|k| cbox.hi[k] - cbox.lo[k]);
-            let axis = (0..3).fold(0, |b, k| if ext[k] > ext[b] { k } else { b });
-            if ext[axis] > 0.0 {
-                let mid = (start + end) / 2;
-                self.order[start..end].select_nth_unstable_by(mid - start, |a, b| {
-                    c[*a][axis].total_cmp(&c[*b][axis])
-                });
-                let l = self.build(start, mid, c);
-                let r = self.build(mid, end, c);
-                self.nodes[id].children = Some((l, r));
-            }
+        for (tri, idx) in self.tris.iter_mut().zip(&self.indices) {
+            *tri = Edges::of(idx.map(|i| vertices[i]));
         }
-        id
+        // Children come after their parent, so a backward pass sees them refitted first.
+        for n in (0..self.nodes.len()).rev() {
+            let mut bbox = Aabb::empty();
+            match self.nodes[n].children {
+                Some((l, r)) => {
+                    for c in [l, r] {
+                        let child = self.nodes[c as usize].bbox;
+                        bbox.grow(child.lo);
+                        bbox.grow(child.hi);
+                    }
+                }
+                None => {
+                    let node = &self.nodes[n];
+                    for idx in &self.indices[node.start as usize..node.end as usize] {
+                        for &i in idx {
+                            bbox.grow(vertices[i]);
+                        }
+                    }
+                }
+            }
+            self.nodes[n].bbox = bbox;
+        }
+        true
     }
 
     /// Number of triangles.
@@ -260,12 +338,12 @@ impl Bvh {
             if best.is_some_and(|b| t_in > b.0) {
                 continue;
             }
-            let node = &self.nodes[n];
+            let node = &self.nodes[n as usize];
             match node.children {
                 Some((l, r)) => {
                     let t_max = best.map_or(f64::INFINITY, |b| b.0);
-                    let hl = self.nodes[l].bbox.hit(o, inv, t_max);
-                    let hr = self.nodes[r].bbox.hit(o, inv, t_max);
+                    let hl = self.nodes[l as usize].bbox.hit(o, inv, t_max);
+                    let hr = self.nodes[r as usize].bbox.hit(o, inv, t_max);
                     match (hl, hr) {
                         (Some(a), Some(b)) if a <= b => {
                             stack.push((r, b));
@@ -281,8 +359,8 @@ impl Bvh {
                     }
                 }
                 None => {
-                    for &i in &self.order[node.start..node.end] {
-                        if let Some(t) = ray_triangle(o, d, self.tris[i], 0.0) {
+                    for i in node.start as usize..node.end as usize {
+                        if let Some(t) = ray_triangle_edges(o, d, &self.tris[i], 0.0) {
                             if closer(t, i, best) {
                                 best = Some((t, i));
                             }
@@ -292,10 +370,10 @@ impl Bvh {
             }
         }
         best.map(|(t, i)| {
-            let tri = self.tris[i];
+            let tri = &self.tris[i];
             let hit = Hit {
                 t,
-                normal: unit(cross(sub(tri[1], tri[0]), sub(tri[2], tri[0]))),
+                normal: unit(cross(tri.e1, tri.e2)),
             };
             (hit, self.source[i])
         })

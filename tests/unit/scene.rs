@@ -35,6 +35,51 @@ proptest! {
     }
 }
 
+proptest! {
+    #[test]
+    fn a_refitted_bvh_finds_the_same_nearest_hit_as_brute_force_on_the_moved_mesh(
+        ox in -0.2f64..0.3, oy in -0.2f64..0.2, oz in 0.1f64..0.4,
+        tx in 0.0f64..0.1, ty in 0.0f64..0.05, tz in 0.0f64..0.03,
+        bend in -2.0f64..2.0, seed in 0u64..1000,
+    ) {
+        let (rest, t) = box_surface();
+        // A bend along x, plus a jitter per vertex: the groups built at rest no longer
+        // match the moved mesh's layout, and the boxes must regrow to stay correct.
+        let moved: Vec<[f64; 3]> = rest
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let j = ((i as u64 * 2654435761 + seed) % 1000) as f64 / 1000.0 - 0.5;
+                [p[0], p[1] + 0.01 * j, p[2] + bend * p[0] * p[0] + 0.005 * j]
+            })
+            .collect();
+        let mut bvh = Bvh::new(&rest, &t);
+        prop_assert!(bvh.refit(&moved));
+        let o = [ox, oy, oz + 0.05];
+        let d = [tx - ox, ty - oy, tz - oz - 0.05];
+        let brute = t
+            .iter()
+            .enumerate()
+            .filter_map(|(k, tri)| ray_triangle(o, d, tri.map(|i| moved[i]), 0.0).map(|t| (t, k)))
+            .fold(None, |b: Option<(f64, usize)>, h| match b {
+                Some(b) if b.0 <= h.0 => Some(b),
+                _ => Some(h),
+            });
+        let hit = bvh.cast_triangle(o, d).map(|(h, k)| (h.t, k));
+        prop_assert_eq!(hit, brute);
+        prop_assert_eq!(hit, Bvh::new(&moved, &t).cast_triangle(o, d).map(|(h, k)| (h.t, k)));
+    }
+}
+
+#[test]
+fn a_bvh_is_not_refitted_to_too_few_vertices() {
+    let (v, t) = box_surface();
+    let mut bvh = Bvh::new(&v, &t);
+    let before = bvh.cast([0.05, 0.025, 1.0], [0.0, 0.0, -1.0]);
+    assert!(!bvh.refit(&v[..v.len() - 1]));
+    assert_eq!(bvh.cast([0.05, 0.025, 1.0], [0.0, 0.0, -1.0]), before);
+}
+
 #[test]
 fn bvh_normal_points_outward_on_the_top_face() {
     let (v, t) = box_surface();
