@@ -237,29 +237,37 @@ impl Solver<'_> {
             z[(r, ko - 1)] = *v;
         }
         self.solve_in_place(&mut z)?;
-        // hz[(i, c)] = H_i Z_c.
-        let mut hz = DMatrix::<f64>::zeros(m, ko);
-        for (i, row) in rows.iter().enumerate() {
+        // Z by rows, so a row of H meets its nodes' `ko` values in adjacent memory: with
+        // thousands of rows this product, not the solve, is what strided reads would slow.
+        let mut z_rows = vec![0.0; self.ndof() * ko];
+        for (d, z_d) in z_rows.chunks_exact_mut(ko).enumerate() {
+            for (c, v) in z_d.iter_mut().enumerate() {
+                *v = z[(d, c)];
+            }
+        }
+        // hz[(i, c)] = H_i Z_c, row i at hz[i * ko..].
+        let mut hz = vec![0.0; m * ko];
+        for (row, hz_i) in rows.iter().zip(hz.chunks_exact_mut(ko)) {
             for (n, v) in &row.entries {
                 if let Some(d) = dof(*n) {
+                    let z3 = &z_rows[d * ko..(d + 3) * ko];
+                    let (z0, rest) = z3.split_at(ko);
+                    let (z1, z2) = rest.split_at(ko);
                     for c in 0..ko {
-                        hz[(i, c)] +=
-                            v[0] * z[(d, c)] + v[1] * z[(d + 1, c)] + v[2] * z[(d + 2, c)];
+                        hz_i[c] += v[0] * z0[c] + v[1] * z1[c] + v[2] * z2[c];
                     }
                 }
             }
         }
-        let mut cols = DMatrix::<f64>::zeros(m, ko - 1);
-        for c in 0..ko - 1 {
-            for i in 0..m {
-                cols[(i, c)] = if i >= skip {
-                    0.5 * (hz[(i, c)] + hz[(skip + c, i - skip)])
-                } else {
-                    hz[(i, c)]
-                };
+        let hz = |i: usize, c: usize| hz[i * ko + c];
+        let cols = DMatrix::<f64>::from_fn(m, ko - 1, |i, c| {
+            if i >= skip {
+                0.5 * (hz(i, c) + hz(skip + c, i - skip))
+            } else {
+                hz(i, c)
             }
-        }
-        let delta_free = (0..m).map(|i| rows[i].value(x) + hz[(i, ko - 1)]).collect();
+        });
+        let delta_free = (0..m).map(|i| rows[i].value(x) + hz(i, ko - 1)).collect();
         Ok((cols, delta_free))
     }
 
