@@ -11,6 +11,7 @@ use crate::fem::FemResult;
 use crate::geometry::raycast::Bvh;
 use crate::geometry::triangle::closest_point_on_triangle_weights;
 use crate::math::{dot, sub, unit};
+use std::sync::OnceLock;
 
 /// Tunables of the dense rows.
 #[derive(Clone, Copy, Debug)]
@@ -68,12 +69,16 @@ pub struct DenseView {
 }
 
 /// What the dense rows need: each camera's robot points and pose, and the model's surface.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct DenseInputs<'a> {
     /// The cameras' points, one view per camera that saw the frame.
     pub views: &'a [DenseView],
     /// Surface triangles (volume node indices, oriented outward).
     pub triangles: &'a [[usize; 3]],
+    /// The hierarchy over `triangles` for the ray casts: built at the first state the rows
+    /// are taken at, and refitted to each later one ([`Bvh::refit`]) instead of rebuilt
+    /// (a rebuild per linearisation was a fifth of the ray casting). Start it empty.
+    pub surface: OnceLock<Bvh>,
     /// Tunables.
     pub params: DenseParams,
 }
@@ -99,7 +104,20 @@ pub(crate) fn dense_rows(
     dense: &DenseInputs<'_>,
     x: &[[f64; 3]],
 ) -> FemResult<(Vec<ConstraintRow>, Vec<f64>, RowNoise)> {
-    let bvh = Bvh::new(x, dense.triangles);
+    let mut built = None;
+    let first = dense
+        .surface
+        .get_or_init(|| built.insert(Bvh::new(x, dense.triangles)).clone());
+    let bvh = match built {
+        Some(bvh) => bvh,
+        None => {
+            let mut bvh = first.clone();
+            if !bvh.refit(x) {
+                bvh = Bvh::new(x, dense.triangles);
+            }
+            bvh
+        }
+    };
     let params = dense.params;
     let rays: Vec<(&DenseView, [f64; 3])> = (dense.views.iter())
         .flat_map(|v| v.points.iter().map(move |&q| (v, q)))

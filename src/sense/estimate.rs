@@ -157,6 +157,7 @@ impl Sensor {
         let dense = DenseInputs {
             views: &views,
             triangles: &self.surface.triangles,
+            surface: Default::default(),
             params: self.params.dense_rows,
         };
         report.timings.register += ms(clock.elapsed());
