@@ -11,6 +11,7 @@ use crate::fem::FemResult;
 use crate::geometry::raycast::Bvh;
 use crate::geometry::triangle::closest_point_on_triangle_weights;
 use crate::math::{dot, sub, unit};
+use std::borrow::Cow;
 use std::sync::OnceLock;
 
 /// Tunables of the dense rows.
@@ -104,19 +105,19 @@ pub(crate) fn dense_rows(
     dense: &DenseInputs<'_>,
     x: &[[f64; 3]],
 ) -> FemResult<(Vec<ConstraintRow>, Vec<f64>, RowNoise)> {
-    let mut built = None;
-    let first = dense
-        .surface
-        .get_or_init(|| built.insert(Bvh::new(x, dense.triangles)).clone());
-    let bvh = match built {
-        Some(bvh) => bvh,
-        None => {
-            let mut bvh = first.clone();
-            if !bvh.refit(x) {
-                bvh = Bvh::new(x, dense.triangles);
-            }
-            bvh
+    let mut built_here = false;
+    let first = dense.surface.get_or_init(|| {
+        built_here = true;
+        Bvh::new(x, dense.triangles)
+    });
+    let bvh = if built_here {
+        Cow::Borrowed(first)
+    } else {
+        let mut bvh = first.clone();
+        if !bvh.refit(x) {
+            bvh = Bvh::new(x, dense.triangles);
         }
+        Cow::Owned(bvh)
     };
     let params = dense.params;
     let rays: Vec<(&DenseView, [f64; 3])> = (dense.views.iter())
