@@ -10,7 +10,7 @@
 //! entry to `tools/bench/stages.json`. The `sense` stage is special: INPUT is a recording
 //! folder, there is one timing per frame and pass, and the line also has `stage_ms`, the
 //! median milliseconds of each stage of the chain as `[name, ms]` pairs in chain order (see
-//! [`run_sense`]).
+//! [`run_sense`]); its PARAMS_JSON may set `dense_points` (`sense --dense-points`).
 //!
 //! Like the oracles' timing loops (PCL's `filter(kept)` / `filter(out)` reuse the caller's
 //! `kept` / `out` across repetitions), the selecting filters write into one output reused
@@ -208,14 +208,24 @@ fn run_stage(
 /// with one [`Sensor`](softsense::sense::Sensor) (a stream: its caches persist, the
 /// first frame pays the free FE solve). One timing per frame and pass, plus the median
 /// milliseconds of each stage over them (`stage_ms`, `[name, ms]` pairs in chain order).
-fn run_sense(dir: &Path, repeat: usize) -> Result<(Vec<f64>, Value, usize), String> {
+fn run_sense(
+    dir: &Path,
+    repeat: usize,
+    params: &Value,
+) -> Result<(Vec<f64>, Value, usize), String> {
     use softsense::sense::{median_timings, CameraFrames, FrameStatus, Rig, SenseParams, Sensor};
     let rec = Rig::open(dir).map_err(|e| e.to_string())?;
     let model_path = (rec.shared().model_path())
         .ok_or_else(|| format!("{}: no truth.json naming the model", dir.display()))?;
     let model = softsense::fem::model::Model::load(&model_path, None).map_err(|e| e.to_string())?;
+    let mut sense_params = SenseParams::default();
+    if let Some(n) = params.get("dense_points") {
+        sense_params.dense_rows.max_points = (n.as_u64().filter(|&n| n > 0))
+            .ok_or_else(|| format!("dense_points must be a positive integer, got {n}"))?
+            as usize;
+    }
     let sensor_of = |rig: &Rig| {
-        Sensor::for_rig(model.clone(), rig, SenseParams::default()).map_err(|e| e.to_string())
+        Sensor::for_rig(model.clone(), rig, sense_params.clone()).map_err(|e| e.to_string())
     };
     let sensor = sensor_of(&rec)?;
     // With several cameras, the first camera alone on the same frames, alternated frame by
@@ -337,7 +347,7 @@ fn main() -> ExitCode {
         }
     };
     if stage == "sense" {
-        let (ok, line) = match run_sense(input, repeat) {
+        let (ok, line) = match run_sense(input, repeat, &params) {
             Ok((timings, stage_ms, sensed)) => (
                 true,
                 json!({"stage": stage, "input": input, "ok": true, "error": null,

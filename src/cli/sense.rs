@@ -132,6 +132,14 @@ pub struct SenseArgs {
     /// 85 ms per frame; docs/dense-registration.md has the sweeps behind the rule.
     #[arg(long, value_enum, default_value_t = RegistrationArg::Auto)]
     pub registration: RegistrationArg,
+    /// Dense registration takes at most N robot points per camera (every k-th of those it
+    /// sees). Fewer save little and lose accuracy: at 2000 and 1000 a probe frame took 0.85
+    /// and 0.90 of the default's instructions, and a one-probe sweep had 49 and 37 of 100
+    /// loads within 5% against 52 (docs/performance.md, "Fewer dense rows"). The sigma of
+    /// the forces comes from the rows used, and grows as they get fewer.
+    #[arg(long, value_name = "N", value_parser = super::parse_positive,
+          default_value_t = softsense::inverse::DenseParams::default().max_points)]
+    pub dense_points: usize,
     /// In a folder of several cameras (one sub-folder each), sense with these cameras only
     /// (their folder names), e.g. to compare one camera against all on the same frames.
     #[arg(long, value_name = "NAME,...", value_delimiter = ',')]
@@ -204,12 +212,13 @@ pub fn run(args: &SenseArgs) -> CliResult {
     }
     let model_path = model_path(args, rec)?;
     let model = Model::load(&model_path, None).map_err(|e| CliError::Lib(e.into()))?;
-    let params = SenseParams::with_options(
+    let mut params = SenseParams::with_options(
         args.registration.into(),
         args.robot_color,
         Some(args.max_contacts),
         Some(args.features),
     );
+    params.dense_rows.max_points = args.dense_points;
     let mut sensor = Sensor::for_rig(model, &rig, params).map_err(|e| match e {
         SenseError::NoPose { .. } => CliError::Usage(format!(
             "{e}: give --pose POSE.json, or find it with `softsense calibrate`"

@@ -631,3 +631,30 @@ fn sense_finds_the_models_own_modulus_from_the_sag_of_its_own_body() {
     // The bundled scene is rendered from the model: its sag is the model's.
     assert!((factor - 1.0).abs() < 0.01, "{factor}");
 }
+
+/// `--dense-points` reaches the dense rows: a probe frame registered from fewer robot
+/// points gets other forces and σ, still near the truth; 0 is a usage error.
+#[test]
+fn fewer_dense_points_change_a_probe_frames_answer_and_zero_is_refused() {
+    let all = answers_of(&["clouds/scenes/probe_side", "--json", "--window", "1"]);
+    let few = answers_of(&[
+        "clouds/scenes/probe_side",
+        "--json",
+        "--window",
+        "1",
+        "--dense-points",
+        "1000",
+    ]);
+    assert_eq!(all.len(), few.len());
+    for (a, f) in all.iter().zip(&few) {
+        assert_eq!(f["status"], "sensed", "{f}");
+        assert_ne!(a["forces"][0]["sigma"], f["forces"][0]["sigma"], "{f}");
+        for e in f["errors"].as_array().unwrap() {
+            assert!(e["force_error"].as_f64().unwrap() < 0.2, "{e}");
+        }
+    }
+    let out = sense(&["clouds/scenes/probe_side", "--dense-points", "0"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--dense-points"), "{err}");
+}

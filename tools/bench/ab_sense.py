@@ -3,6 +3,9 @@
 
     tools/bench/ab_sense.py OLD_BENCH_STAGES NEW_BENCH_STAGES [ROUNDS] [DIR]...
 
+A build may carry sense parameters as BINARY@JSON, e.g. the same binary twice as
+`B@{}` and `B@{"dense_points":1000}`: the default against fewer dense rows.
+
 Each argument is a release `examples/bench_stages` binary (e.g. one built from a clone at
 the old commit with `cargo build --release --example bench_stages`). Each round runs every
 bundled scene (and each extra DIR, e.g. a generated two-camera scene) 3 times per build,
@@ -20,10 +23,16 @@ SCENES = ["clouds/scenes/tip_weight", "clouds/scenes/probe_side",
           "clouds/scenes/two_probes", "clouds/scenes/probe_press"]
 
 
+def split_params(arg):
+    """BINARY or BINARY@JSON -> (binary, params JSON)."""
+    binary, _, params = arg.partition("@")
+    return binary, params or "{}"
+
+
 def main():
     if len(sys.argv) < 3:
         sys.exit(__doc__)
-    builds = {"old": sys.argv[1], "new": sys.argv[2]}
+    builds = {b: split_params(a) for b, a in (("old", sys.argv[1]), ("new", sys.argv[2]))}
     rounds = int(sys.argv[3]) if len(sys.argv) >= 4 else 4
     scenes = SCENES + sys.argv[4:]
     times = {(b, s): [] for b in builds for s in scenes}
@@ -32,7 +41,7 @@ def main():
         order = ["old", "new"] if rnd % 2 == 0 else ["new", "old"]
         for scene in scenes:
             for b in order:
-                p = subprocess.run([builds[b], "sense", scene, "3", "{}"],
+                p = subprocess.run([builds[b][0], "sense", scene, "3", builds[b][1]],
                                    capture_output=True, text=True, check=True)
                 r = json.loads(p.stdout.strip().splitlines()[-1])
                 if not r["ok"]:
